@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs every Debian package camlab builds, tests and benchmarks with.
+# Idempotent: when everything is already installed it prints one line and exits 0.
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config git
+  libopencv-dev          # image I/O, chessboard detection, filtering
+  libmrcal-dev mrcal python3-mrcal   # lens models (C API) and mrcal's own tools for interop tests
+  libboost-dev           # Beast / Asio (header-only parts)
+  nlohmann-json3-dev libcli11-dev libspdlog-dev libsqlite3-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages already installed"
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}"
+SUDO=""
+[ "$(id -u)" -eq 0 ] || SUDO="sudo"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "install-deps: done"
