@@ -1,0 +1,16 @@
+// Registration of the `camlab` subcommands. Each subcommand lives in its own file, parses
+// its options with CLI11, calls the libraries and prints (text, or JSON with --json).
+// The CLI stays thin: no physics or image processing here.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+namespace camlab::cli {
+
+// `camlab optics fov|dof|coc|exposure|lens|stops` (cli/optics_command.cpp).
+void register_optics_command(CLI::App& app);
+
+// `camlab render` (cli/render_command.cpp).
+void register_render_command(CLI::App& app);
+
+}  // namespace camlab::cli
