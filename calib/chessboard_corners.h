@@ -1,0 +1,32 @@
+// Chessboard corner detection with OpenCV: findChessboardCornersSB (the sector-based
+// detector) finds the board, cornerSubPix refines each corner.
+//
+// Corners are returned in mrcal's order: row-major over the inner corners, corner (i, j)
+// being target point (i * spacing, j * spacing, 0). OpenCV may find the board rotated by
+// 180 degrees (a chessboard with an even/odd layout is symmetric); the caller that knows
+// the truth or the previous view disambiguates.
+//
+// Reentrant.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "base/result.h"
+
+namespace camlab::calib {
+
+struct ChessboardCorners {
+  int cols = 0;  // inner corners per row
+  int rows = 0;
+  std::vector<cv::Point2d> corners_px;  // cols * rows, pixel centres at integers
+};
+
+// Finds a cols x rows inner-corner chessboard in a single-channel 8- or 16-bit image.
+// 16-bit input is scaled to 8 bits using its own 0.1%..99.9% range (raw sensor DN of
+// any bit depth works). Errors: "bad_image" for empty or multi-channel input,
+// "board_not_found" when the whole board is not visible.
+Result<ChessboardCorners> find_chessboard_corners(const cv::Mat& image, int cols, int rows);
+
+}  // namespace camlab::calib

@@ -1,0 +1,99 @@
+// The virtual camera's specification: sensor, lens, timing and V4L2-style controls,
+// read from JSON (docs/virtual-camera.md documents every field with its unit).
+//
+// Reentrant: plain values. Validation happens once, in parse_camera_spec; everything
+// downstream trusts a CameraSpec.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "base/result.h"
+
+namespace camlab::mock {
+
+struct SensorSpec {
+  int width_px = 0;
+  int height_px = 0;
+  double pixel_pitch_um = 0;
+  int bit_depth = 0;                // 8..16; frames store raw DN of this many bits
+  int black_level_dn = 0;
+  double full_well_e = 0;           // electrons at which a pixel saturates
+  double read_noise_e = 0;          // temporal read noise, electrons RMS
+  bool shot_noise = true;           // Poisson photon noise; off for noise-free truth renders
+  double quantum_efficiency = 0;    // electrons per photon at 555 nm, 0..1
+  double conversion_gain_dn_per_e = 0;  // DN per electron at unity gain (K)
+};
+
+struct IrisSpec {
+  // f-number for each iris_absolute position 0..n-1 (V4L2: larger value = wider open),
+  // so the list runs from the smallest aperture to the widest.
+  std::vector<double> f_numbers;
+};
+
+struct FocusSpec {
+  // focus_absolute position p puts the lens at f + p * extension_mm_per_step from the
+  // sensor: p = 0 focuses at infinity, larger p focuses closer.
+  int position_min = 0;
+  int position_max = 0;
+  double extension_mm_per_step = 0;
+};
+
+struct LensSpec {
+  double focal_mm = 0;
+  std::string model = "LENSMODEL_PINHOLE";  // any mrcal lens model name (configured)
+  std::vector<double> distortion;           // the model's parameters after fx, fy, cx, cy
+  double principal_point_px[2] = {0, 0};    // cx, cy; default: the imager centre
+  double f_number_min = 0;                  // widest aperture
+  double f_number_max = 0;                  // smallest aperture
+  IrisSpec iris;
+  FocusSpec focus;
+  // In-focus blur of a real lens (aberrations), as a Gaussian sigma in pixels added to
+  // every frame; 0 renders a perfect thin lens.
+  double baseline_blur_sigma_px = 0;
+};
+
+struct TimingSpec {
+  double frame_interval_us = 33333.3;
+  int control_latency_frames = 0;  // frames until a new control value takes effect
+};
+
+// One integer V4L2 control's range (in the control's own units).
+struct ControlRange {
+  int min = 0;
+  int max = 0;
+  int step = 1;
+  int default_value = 0;
+};
+
+struct ControlsSpec {
+  ControlRange exposure_time_absolute;  // 100 us units; max also capped by the frame interval
+  ControlRange gain;                    // linear gain = value / gain_unity
+  int gain_unity = 100;
+  ControlRange focus_absolute;          // = lens.focus range
+  ControlRange iris_absolute;           // = 0 .. lens.iris.f_numbers.size() - 1
+  bool exposure_auto = false;           // defaults of the auto modes
+  bool focus_auto = false;
+};
+
+struct CameraSpec {
+  std::string name;
+  SensorSpec sensor;
+  LensSpec lens;
+  TimingSpec timing;
+  ControlsSpec controls;
+  nlohmann::json source;  // the JSON it was read from, for provenance in manifests
+};
+
+Result<CameraSpec> parse_camera_spec(const nlohmann::json& json);
+Result<CameraSpec> load_camera_spec(const std::filesystem::path& path);
+
+// The mrcal intrinsics vector (fx, fy, cx, cy, distortion...) for the lens at a given
+// lens-to-sensor distance: fx = fy = lens_to_sensor_mm / pitch_mm, because the thin lens's
+// chief ray through the lens centre meets the sensor at that distance (focus breathing).
+std::vector<double> intrinsics_at(const CameraSpec& spec, double lens_to_sensor_mm);
+
+}  // namespace camlab::mock

@@ -1,0 +1,91 @@
+// The virtual camera's scene: planar targets with poses, under uniform illumination,
+// read from JSON (docs/virtual-camera.md documents every field with its unit).
+//
+// Target coordinates: x right, y down, in the target's plane z = 0, in metres. A pose is
+// mrcal's rt_cam_target (rotation vector in radians, translation in metres) mapping a
+// target point into the camera frame (x right, y down, z forward along the optical axis).
+// A chessboard's origin is its first inner corner (mrcal's convention); every other
+// target's origin is its centre.
+//
+// A target may list several poses: the scene then has that many views (a calibration set
+// is one scene with many views of one board).
+//
+// Reentrant: plain values, validated once in parse_scene_spec.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "base/result.h"
+
+namespace camlab::mock {
+
+enum class TargetType { kChessboard, kSlantedEdge, kBars, kTexture, kUniform };
+
+const char* target_type_name(TargetType type);
+
+using RtCamTarget = std::array<double, 6>;  // r (rad, rotation vector), t (m)
+
+struct TargetSpec {
+  std::string name;
+  TargetType type = TargetType::kUniform;
+  std::vector<RtCamTarget> poses;  // one, or one per view
+
+  // Lambertian reflectances of the dark and light parts (0..1).
+  double dark_reflectance = 0.05;
+  double light_reflectance = 0.85;
+
+  // Chessboard: inner corners cols x rows, square size, and a light quiet zone around
+  // the outer squares (in squares) so detectors find the outer corners.
+  int corners_cols = 0;
+  int corners_rows = 0;
+  double square_m = 0;
+  double margin_squares = 1.0;
+
+  // Every other target: its extent, centred on its origin.
+  double width_m = 0;
+  double height_m = 0;
+
+  // Slanted edge: the edge passes through the origin at angle_deg from the target's
+  // y axis (clockwise in the image); dark on the -x side, light on the +x side.
+  double angle_deg = 5.0;
+
+  // Bars: `bar_count` dark vertical bars of bar_width_m with bar_gap_m of light between.
+  double bar_width_m = 0;
+  double bar_gap_m = 0;
+  int bar_count = 0;
+
+  // Texture: band-limited random reflectance with features of about feature_m.
+  double feature_m = 0;
+  uint64_t texture_seed = 1;
+
+  // Extent in target coordinates (m): [x_min, x_max] x [y_min, y_max].
+  double x_min_m() const;
+  double x_max_m() const;
+  double y_min_m() const;
+  double y_max_m() const;
+};
+
+struct SceneSpec {
+  std::string name;
+  double illuminance_lux = 500;       // uniform illumination of every target
+  double background_reflectance = 0.18;  // what rays that hit no target see (at infinity)
+  std::vector<TargetSpec> targets;
+  int view_count = 1;                 // max number of poses over the targets
+  nlohmann::json source;
+
+  // The pose of a target in a view (a single-pose target is static across views).
+  const RtCamTarget& pose(const TargetSpec& target, int view) const {
+    return target.poses.size() == 1 ? target.poses[0] : target.poses[view];
+  }
+};
+
+Result<SceneSpec> parse_scene_spec(const nlohmann::json& json);
+Result<SceneSpec> load_scene_spec(const std::filesystem::path& path);
+
+}  // namespace camlab::mock
