@@ -153,7 +153,7 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
       camera_, scene_.illuminance_lux, settings.exposure_us, settings.f_number, lens_to_sensor_mm);
   RenderedFrame frame;
   frame.image = expose(reflectance, camera_, electrons_per_reflectance, settings.gain,
-                       options.noise, mix_seed(options.seed, options.frame_number * 2 + 2));
+                       options.noise, mix_seed(options.seed, options.frame_number * 2 + 2), setup.threads);
 
   TruthInputs truth;
   truth.camera = &camera_;

@@ -24,8 +24,10 @@ double electrons_per_unit_reflectance(const CameraSpec& camera, double illuminan
                                       double lens_to_sensor_mm);
 
 // Converts a CV_32F image of mean reflectance to DN (CV_8U for 8-bit sensors, else
-// CV_16U). `gain` is linear. With noise off the expected signal is rounded.
+// CV_16U). `gain` is linear. With noise off the expected signal is rounded. The result
+// does not depend on `threads` (each row has its own random stream).
 cv::Mat expose(const cv::Mat& mean_reflectance, const CameraSpec& camera,
-               double electrons_per_reflectance, double gain, bool noise, uint64_t seed);
+               double electrons_per_reflectance, double gain, bool noise, uint64_t seed,
+               int threads);
 
 }  // namespace camlab::mock

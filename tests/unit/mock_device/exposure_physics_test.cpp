@@ -146,6 +146,22 @@ TEST_F(ExposurePhysics, SameSeedSameFrameDifferentSeedDifferentNoise) {
   EXPECT_GT(cv::norm(a->image, c->image, cv::NORM_INF), 0);
 }
 
+TEST_F(ExposurePhysics, TheThreadCountDoesNotChangeTheFrame) {
+  // A defocused edge, so the lens and the pixel area are both sampled at random.
+  nlohmann::json scene = uniform_scene_json();
+  scene["targets"][0]["type"] = "slanted_edge";
+  scene["targets"][0]["size_m"] = {1.0, 1.0};
+  Renderer edge = make_renderer(pinhole_camera_json(64, 48), scene);
+  RenderSettings s = base();  // focused at infinity: the edge at 1 m is a 4 px disk
+  options.threads = 1;
+  auto one = edge.render(s, 0, options);
+  options.threads = 3;
+  auto three = edge.render(s, 0, options);
+  ASSERT_TRUE(one.ok() && three.ok());
+  EXPECT_GT(one->stats.aperture_samples, 0);
+  EXPECT_EQ(cv::norm(one->image, three->image, cv::NORM_INF), 0);
+}
+
 TEST_F(ExposurePhysics, OutOfRangeSettingsAreRejectedWithTheAllowedRange) {
   RenderSettings s = base();
   s.exposure_us = 200000;  // the spec's max is 1000 x 100 us
