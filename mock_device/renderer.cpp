@@ -102,6 +102,18 @@ const ChiefRayTable& Renderer::rays_for(int focus_position) {
   return *rays_by_focus_.emplace(focus_position, std::move(table)).first->second;
 }
 
+cv::Mat Renderer::cached_reflectance(const IntegrationKey& key) const {
+  for (const auto& [k, image] : reflectance_cache_)
+    if (k == key) return image;  // shared, never written after insertion
+  return {};
+}
+
+void Renderer::remember_reflectance(const IntegrationKey& key, const cv::Mat& reflectance) {
+  // Bounded: a long focus sweep must not hold every frame's integral in memory.
+  if (reflectance_cache_.size() >= kReflectanceCacheSize) reflectance_cache_.erase(reflectance_cache_.begin());
+  reflectance_cache_.emplace_back(key, reflectance);
+}
+
 Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
                                        const RenderOptions& options) {
   if (Status ok = validate(settings); !ok) return ok.error();
@@ -138,16 +150,28 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
   setup.pixel_grid = options.pixel_samples > 0
                          ? std::max(1, static_cast<int>(std::lround(std::sqrt(options.pixel_samples))))
                          : 4;
-  setup.seed = mix_seed(options.seed, options.frame_number * 2 + 1);
+  // The scene integral depends on the seed but not on the frame: repeated frames of one
+  // setting differ by sensor noise only, as a static scene's frames do (a frame-varying
+  // sampling pattern would add rendering noise to photon-transfer measurements).
+  setup.seed = mix_seed(options.seed, 1);
   setup.threads = options.threads > 0 ? options.threads
                                       : std::max(1u, std::thread::hardware_concurrency());
   stats.aperture_samples = setup.lens_grid * setup.lens_grid;
   stats.pixel_samples = setup.lens_grid > 0 ? stats.aperture_samples : setup.pixel_grid * setup.pixel_grid;
 
-  cv::Mat reflectance = integrate_reflectance(setup);
-  if (lens.baseline_blur_sigma_px > 0)
-    cv::GaussianBlur(reflectance, reflectance, cv::Size(), lens.baseline_blur_sigma_px,
-                     lens.baseline_blur_sigma_px, cv::BORDER_REFLECT);
+  const IntegrationKey key{view, settings.focus_position, settings.f_number, setup.lens_grid,
+                           setup.pixel_grid, setup.seed};
+  cv::Mat reflectance = cached_reflectance(key);
+  if (reflectance.empty()) {
+    reflectance = integrate_reflectance(setup);
+    if (lens.baseline_blur_sigma_px > 0)
+      cv::GaussianBlur(reflectance, reflectance, cv::Size(), lens.baseline_blur_sigma_px,
+                       lens.baseline_blur_sigma_px, cv::BORDER_REFLECT);
+    remember_reflectance(key, reflectance);
+    stats.cached = false;
+  } else {
+    stats.cached = true;
+  }
 
   const double electrons_per_reflectance = electrons_per_unit_reflectance(
       camera_, scene_.illuminance_lux, settings.exposure_us, settings.f_number, lens_to_sensor_mm);
@@ -170,6 +194,7 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
                            {"samples_per_pixel", stats.pixel_samples},
                            {"max_coc_px", stats.max_coc_px},
                            {"noise", options.noise},
+                           {"integral_reused", stats.cached},
                            {"seed", options.seed},
                            {"frame_number", options.frame_number}};
 

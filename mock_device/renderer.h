@@ -24,6 +24,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -49,7 +50,7 @@ struct RenderOptions {
   int pixel_samples = -1;     // area samples per pixel when the lens is not sampled; -1 = 16
   bool noise = true;          // false renders the expected signal (still quantised)
   uint64_t seed = 1;
-  uint64_t frame_number = 0;  // mixed into the seed: every frame has its own noise
+  uint64_t frame_number = 0;  // mixed into the noise seed: every frame has its own noise
   int threads = 0;            // 0 = hardware concurrency
 };
 
@@ -58,6 +59,7 @@ struct RenderStats {
   int pixel_samples = 0;     // samples per pixel in total
   double max_coc_px = 0;     // largest predicted CoC over the visible targets
   double seconds = 0;
+  bool cached = false;       // the scene integral was reused from an earlier frame
 };
 
 struct RenderedFrame {
@@ -69,6 +71,18 @@ struct RenderedFrame {
 
 class Renderer {
  public:
+  // What the (expensive) scene integral depends on; exposure, gain and noise do not
+  // change it, so brackets and repeats reuse it.
+  struct IntegrationKey {
+    int view;
+    int focus_position;
+    double f_number;
+    int lens_grid;
+    int pixel_grid;
+    uint64_t seed;
+    bool operator==(const IntegrationKey&) const = default;
+  };
+
   // Unprojects the lens once (about a second for a megapixel) and builds the textures.
   static Result<Renderer> create(CameraSpec camera, SceneSpec scene);
 
@@ -88,12 +102,17 @@ class Renderer {
  private:
   Renderer() = default;
   const ChiefRayTable& rays_for(int focus_position);
+  cv::Mat cached_reflectance(const IntegrationKey& key) const;
+  void remember_reflectance(const IntegrationKey& key, const cv::Mat& reflectance);
+
+  static constexpr size_t kReflectanceCacheSize = 8;
 
   CameraSpec camera_;
   SceneSpec scene_;
   std::shared_ptr<const ChiefRayTable> reference_rays_;        // focused at infinity
   std::map<int, std::shared_ptr<const ChiefRayTable>> rays_by_focus_;  // small LRU-less cache
   std::vector<std::shared_ptr<const cv::Mat>> textures_;       // one per target (or null)
+  std::vector<std::pair<IntegrationKey, cv::Mat>> reflectance_cache_;  // oldest first
 };
 
 }  // namespace camlab::mock

@@ -162,6 +162,27 @@ TEST_F(ExposurePhysics, TheThreadCountDoesNotChangeTheFrame) {
   EXPECT_EQ(cv::norm(one->image, three->image, cv::NORM_INF), 0);
 }
 
+TEST_F(ExposurePhysics, ABracketReusesTheSceneIntegralAndMatchesAFreshRender) {
+  nlohmann::json scene = uniform_scene_json();
+  scene["targets"][0]["type"] = "slanted_edge";
+  scene["targets"][0]["size_m"] = {1.0, 1.0};
+  Renderer first = make_renderer(pinhole_camera_json(64, 48), scene);
+  Renderer fresh = make_renderer(pinhole_camera_json(64, 48), scene);
+  RenderSettings s = base();
+  options.frame_number = 3;
+  ASSERT_FALSE(first.render(s, 0, options)->stats.cached);
+  s.exposure_us = 3000;  // exposure does not change the scene integral
+  auto reused = first.render(s, 0, options);
+  ASSERT_TRUE(reused.ok());
+  EXPECT_TRUE(reused->stats.cached);
+  auto recomputed = fresh.render(s, 0, options);
+  ASSERT_TRUE(recomputed.ok());
+  EXPECT_FALSE(recomputed->stats.cached);
+  EXPECT_EQ(cv::norm(reused->image, recomputed->image, cv::NORM_INF), 0);
+  s.f_number = 5.6;  // the aperture does
+  EXPECT_FALSE(first.render(s, 0, options)->stats.cached);
+}
+
 TEST_F(ExposurePhysics, OutOfRangeSettingsAreRejectedWithTheAllowedRange) {
   RenderSettings s = base();
   s.exposure_us = 200000;  // the spec's max is 1000 x 100 us
