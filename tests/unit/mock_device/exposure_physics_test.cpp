@@ -43,7 +43,9 @@ TEST_F(ExposurePhysics, DoublingExposureTimeDoublesTheSignalBelowSaturation) {
     ASSERT_TRUE(frame.ok()) << frame.error().message;
     const double signal = mean_above_black(*frame, 64);
     ASSERT_LT(cv::mean(frame->image)[0], 0.8 * 4095) << "test must stay below saturation";
-    if (previous > 0) EXPECT_NEAR(signal / previous, 2.0, 0.02) << "at " << t_us << " us";
+    if (previous > 0) {
+      EXPECT_NEAR(signal / previous, 2.0, 0.02) << "at " << t_us << " us";
+    }
     previous = signal;
   }
 }
@@ -58,7 +60,9 @@ TEST_F(ExposurePhysics, OneStopOfFNumberHalvesTheSignal) {
     auto frame = renderer.render(s, 0, options);
     ASSERT_TRUE(frame.ok()) << frame.error().message;
     const double signal = mean_above_black(*frame, 64);
-    if (previous > 0) EXPECT_NEAR(signal / previous, 0.5, 0.005) << "at f/" << n;
+    if (previous > 0) {
+      EXPECT_NEAR(signal / previous, 0.5, 0.005) << "at f/" << n;
+    }
     previous = signal;
   }
 }
