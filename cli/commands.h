@@ -13,4 +13,7 @@ void register_optics_command(CLI::App& app);
 // `camlab render` (cli/render_command.cpp).
 void register_render_command(CLI::App& app);
 
+// `camlab devices` (cli/devices_command.cpp).
+void register_devices_command(CLI::App& app);
+
 }  // namespace camlab::cli

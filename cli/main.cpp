@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "camlab 0.1.0");
   camlab::cli::register_optics_command(app);
   camlab::cli::register_render_command(app);
+  camlab::cli::register_devices_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,113 @@
+// `camlab devices`: every camera with its backend, path, formats and controls.
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.h"
+#include "device/camera_json.h"
+#include "device/device_registry.h"
+#include "mock_device/virtual_v4l2_io.h"
+
+namespace camlab::cli {
+
+namespace {
+
+struct DevicesArgs {
+  std::string virtual_camera;
+  std::string virtual_scene;
+  bool json = false;
+};
+
+[[noreturn]] void fail(const std::string& message) {
+  std::fprintf(stderr, "camlab devices: %s\n", message.c_str());
+  throw CLI::RuntimeError(2);
+}
+
+void print_text(const nlohmann::json& camera, const std::string& transport) {
+  std::printf("%s  %s  (%s, %s, %s)\n", camera["id"].get<std::string>().c_str(),
+              camera["path"].get<std::string>().c_str(), camera["name"].get<std::string>().c_str(),
+              camera["driver"].get<std::string>().c_str(), transport.c_str());
+  for (const auto& format : camera["formats"]) {
+    std::printf("  format %s (%s):", format["fourcc"].get<std::string>().c_str(),
+                format["description"].get<std::string>().c_str());
+    for (const auto& size : format["sizes"]) {
+      std::printf(" %ux%u", size["width_px"].get<unsigned>(), size["height_px"].get<unsigned>());
+      for (const auto& interval : size["intervals"])
+        std::printf(" @%.3g", interval["frames_per_second"].get<double>());
+    }
+    std::printf(" fps\n");
+  }
+  for (const auto& c : camera["controls"]) {
+    std::printf("  %-28s %-8s [%lld, %lld] step %lld default %lld current %lld%s%s%s\n",
+                c["name"].get<std::string>().c_str(), c["type"].get<std::string>().c_str(),
+                c["min"].get<long long>(), c["max"].get<long long>(), c["step"].get<long long>(),
+                c["default"].get<long long>(), c["current"].get<long long>(),
+                c["unit"].get<std::string>().empty() ? "" : ("  " + c["unit"].get<std::string>()).c_str(),
+                c["inactive"].get<bool>() ? "  (inactive)" : "", c["read_only"].get<bool>() ? "  (read-only)" : "");
+    if (c.contains("menu"))
+      for (const auto& item : c["menu"])
+        std::printf("  %28s %lld: %s\n", "", item["value"].get<long long>(), item["name"].get<std::string>().c_str());
+  }
+}
+
+void run_devices(const DevicesArgs& args) {
+  device::DeviceRegistry registry;
+  registry.add_v4l2(device::system_v4l2_io(), "kernel");
+  std::shared_ptr<mock::VirtualV4l2Io> virtual_io;
+  if (!args.virtual_camera.empty()) {
+    auto camera = mock::load_camera_spec(args.virtual_camera);
+    if (!camera) fail(camera.error().message);
+    nlohmann::json default_scene = {{"targets", {{{"type", "chessboard"}, {"inner_corners", {9, 6}}, {"square_m", 0.03},
+                                                 {"pose", {{"position_m", {-0.12, -0.075, 0.6}}}}}}}};
+    auto scene = args.virtual_scene.empty() ? mock::parse_scene_spec(default_scene)
+                                            : mock::load_scene_spec(args.virtual_scene);
+    if (!scene) fail(scene.error().message);
+    mock::VirtualDeviceOptions options;
+    options.index = static_cast<int>(registry.devices().size());
+    auto device = mock::VirtualV4l2Device::create(std::move(*camera), std::move(*scene), options);
+    if (!device) fail(device.error().message);
+    virtual_io = std::make_shared<mock::VirtualV4l2Io>(
+        std::vector<std::shared_ptr<mock::VirtualV4l2Device>>{std::move(*device)});
+    registry.add_v4l2(virtual_io, "in-process virtual camera", {"/dev/video" + std::to_string(options.index)});
+  }
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& entry : registry.devices()) {
+    auto camera = registry.open(entry.identity.id);
+    nlohmann::json description = camera ? device::describe_camera(**camera) : device::to_json(entry.identity);
+    if (!camera) description["errors"] = {camera.error().message};
+    description["transport"] = entry.transport;
+    out.push_back(description);
+  }
+  if (args.json) {
+    std::cout << out.dump(2) << "\n";
+    return;
+  }
+  if (out.empty()) {
+    std::printf("no cameras found (no /dev/video* capture device answered); "
+                "--virtual CAM.json adds the virtual camera\n");
+    return;
+  }
+  for (const auto& camera : out) print_text(camera, camera["transport"].get<std::string>());
+}
+
+}  // namespace
+
+void register_devices_command(CLI::App& app) {
+  auto args = std::make_shared<DevicesArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "devices",
+      "List cameras: every V4L2 capture device (/dev/video*) with its id, formats, frame sizes\n"
+      "and rates, and controls with ranges, defaults, current values and units.");
+  cmd->add_option("--virtual", args->virtual_camera,
+                  "also list an in-process virtual camera with this camera spec (docs/virtual-camera.md)")
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--scene", args->virtual_scene, "scene spec for the virtual camera (default: a chessboard)")
+      ->check(CLI::ExistingFile);
+  cmd->add_flag("--json", args->json, "print JSON");
+  cmd->callback([args] { run_devices(*args); });
+}
+
+}  // namespace camlab::cli

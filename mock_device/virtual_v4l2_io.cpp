@@ -1,0 +1,154 @@
+#include "mock_device/virtual_v4l2_io.h"
+
+#include <fcntl.h>
+#include <sys/eventfd.h>
+#include <sys/ioctl.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <cstring>
+#include <string>
+#include <thread>
+
+namespace camlab::mock {
+
+VirtualV4l2Io::VirtualV4l2Io(std::vector<std::shared_ptr<VirtualV4l2Device>> devices)
+    : devices_(std::move(devices)) {}
+
+VirtualV4l2Io::~VirtualV4l2Io() {
+  for (auto& [address, mapping] : mappings_) ::munmap(address, mapping.length);
+  for (auto& [fd, file] : files_) {
+    file.device->close_file(file.file);
+    ::close(fd);
+  }
+}
+
+bool VirtualV4l2Io::find(int fd, OpenFile* out) const {
+  std::lock_guard lock(mutex_);
+  auto it = files_.find(fd);
+  if (it == files_.end()) return false;
+  *out = it->second;
+  return true;
+}
+
+int VirtualV4l2Io::open(const char* path, int flags) {
+  const std::string p = path ? path : "";
+  for (const auto& device : devices_) {
+    if (p != "/dev/video" + std::to_string(device->index())) continue;
+    const int file = device->open_file((flags & O_NONBLOCK) != 0);
+    if (file < 0) {
+      errno = -file;
+      return -1;
+    }
+    const int fd = ::eventfd(0, EFD_CLOEXEC);
+    if (fd < 0) {
+      device->close_file(file);
+      return -1;
+    }
+    std::lock_guard lock(mutex_);
+    files_[fd] = {device, file};
+    return fd;
+  }
+  return ::open(path, flags | O_CLOEXEC);
+}
+
+int VirtualV4l2Io::close(int fd) {
+  OpenFile file;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = files_.find(fd);
+    if (it == files_.end()) return ::close(fd);
+    file = it->second;
+    files_.erase(it);
+  }
+  file.device->close_file(file.file);
+  return ::close(fd);
+}
+
+int VirtualV4l2Io::ioctl(int fd, unsigned long request, void* arg) {
+  OpenFile file;
+  if (!find(fd, &file)) return ::ioctl(fd, request, arg);
+  const int result = file.device->ioctl(file.file, request, arg);
+  if (result < 0) {
+    errno = -result;
+    return -1;
+  }
+  return result;
+}
+
+void* VirtualV4l2Io::mmap(size_t length, int prot, int flags, int fd, off_t offset) {
+  OpenFile file;
+  if (!find(fd, &file)) return ::mmap(nullptr, length, prot, flags, fd, offset);
+  if (!(flags & MAP_SHARED)) {
+    errno = EINVAL;  // V4L2 buffers must be mapped shared
+    return MAP_FAILED;
+  }
+  VirtualV4l2Device::BufferMemory memory{};
+  if (int error = file.device->buffer_for_mmap(offset, length, &memory); error < 0) {
+    errno = -error;
+    return MAP_FAILED;
+  }
+  void* address = ::mmap(nullptr, length, prot, flags, memory.memfd, 0);
+  if (address == MAP_FAILED) return MAP_FAILED;
+  file.device->note_mapping(offset, +1);
+  std::lock_guard lock(mutex_);
+  mappings_[address] = {file.device, offset, length};
+  return address;
+}
+
+int VirtualV4l2Io::munmap(void* address, size_t length) {
+  Mapping mapping;
+  {
+    std::lock_guard lock(mutex_);
+    auto it = mappings_.find(address);
+    if (it == mappings_.end()) return ::munmap(address, length);
+    mapping = it->second;
+    mappings_.erase(it);
+  }
+  mapping.device->note_mapping(mapping.offset, -1);
+  return ::munmap(address, length);
+}
+
+int VirtualV4l2Io::poll(struct pollfd* fds, nfds_t count, int timeout_ms) {
+  // One device fd alone (the backend's case) waits on the device; a mix of fds is
+  // polled in short steps until something is ready or the timeout passes.
+  if (count == 1) {
+    OpenFile file;
+    if (find(fds[0].fd, &file)) {
+      fds[0].revents = file.device->wait_events(file.file, fds[0].events, timeout_ms);
+      return fds[0].revents ? 1 : 0;
+    }
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+  for (;;) {
+    int ready = 0;
+    for (nfds_t i = 0; i < count; ++i) {
+      OpenFile file;
+      if (find(fds[i].fd, &file)) {
+        fds[i].revents = file.device->wait_events(file.file, fds[i].events, 0);
+      } else {
+        pollfd single = fds[i];
+        if (::poll(&single, 1, 0) < 0) return -1;
+        fds[i].revents = single.revents;
+      }
+      ready += fds[i].revents != 0;
+    }
+    if (ready > 0 || timeout_ms == 0 || (timeout_ms > 0 && std::chrono::steady_clock::now() >= deadline))
+      return ready;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
+size_t VirtualV4l2Io::open_fd_count() const {
+  std::lock_guard lock(mutex_);
+  return files_.size();
+}
+
+size_t VirtualV4l2Io::mapping_count() const {
+  std::lock_guard lock(mutex_);
+  return mappings_.size();
+}
+
+}  // namespace camlab::mock

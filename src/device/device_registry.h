@@ -1,0 +1,41 @@
+// The device registry: which cameras exist, under stable ids, and opening one by id.
+//
+// V4L2 devices are found as /dev/video* character devices that answer VIDIOC_QUERYCAP
+// as streaming capture devices (metadata and output nodes are skipped). Their id is
+// "v4l2:<bus_info>", which survives renumbering of /dev/video* across replugs; a second
+// capture node on the same bus gets ":<n>" appended.
+//
+// Thread-compatible.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "device/camera.h"
+#include "device/v4l2_io.h"
+
+namespace camlab::device {
+
+struct DeviceEntry {
+  CameraIdentity identity;
+  std::string transport;  // "kernel", or "in-process" for the virtual camera's seam
+};
+
+class DeviceRegistry {
+ public:
+  // Scans `paths` (default: every /dev/video*) through `io`.
+  void add_v4l2(std::shared_ptr<V4l2Io> io, const std::string& transport,
+                std::vector<std::string> paths = {});
+  const std::vector<DeviceEntry>& devices() const { return entries_; }
+  Result<std::unique_ptr<Camera>> open(const std::string& id) const;
+
+ private:
+  std::vector<DeviceEntry> entries_;
+  std::vector<std::shared_ptr<V4l2Io>> ios_;  // parallel to entries_
+};
+
+// /dev/video* paths, sorted by number.
+std::vector<std::string> list_video_device_paths();
+
+}  // namespace camlab::device
