@@ -16,4 +16,7 @@ void register_render_command(CLI::App& app);
 // `camlab devices` (cli/devices_command.cpp).
 void register_devices_command(CLI::App& app);
 
+// `camlab vcam run` (cli/vcam_command.cpp).
+void register_vcam_command(CLI::App& app);
+
 }  // namespace camlab::cli

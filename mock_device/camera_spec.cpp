@@ -96,8 +96,10 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
                                          "widest (iris_absolute: larger value = wider open)");
   } else {
     // Full stops from the smallest aperture down to the widest.
+    // Full stops from the smallest aperture down to the widest, clamped onto the range so
+    // that rounding (16 / sqrt(2)^6 = 1.9999...) never falls outside it.
     for (double n = lens.f_number_max; n >= lens.f_number_min * 0.999; n /= std::sqrt(2.0))
-      lens.iris.f_numbers.push_back(n);
+      lens.iris.f_numbers.push_back(std::clamp(n, lens.f_number_min, lens.f_number_max));
   }
 
   JsonFields focus = f.child("focus");

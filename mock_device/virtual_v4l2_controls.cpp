@@ -59,7 +59,7 @@ void VirtualV4l2Device::add_controls() {
   add(make_query(V4L2_CID_CAMERA_CLASS, V4L2_CTRL_TYPE_CTRL_CLASS, "Camera Controls", 0, 0, 0, 0, class_flags), 0);
   const int exposure_mode = c.exposure_auto ? V4L2_EXPOSURE_APERTURE_PRIORITY : V4L2_EXPOSURE_MANUAL;
   add(make_query(V4L2_CID_EXPOSURE_AUTO, V4L2_CTRL_TYPE_MENU, "Auto Exposure", V4L2_EXPOSURE_MANUAL,
-                 V4L2_EXPOSURE_APERTURE_PRIORITY, 0, exposure_mode, V4L2_CTRL_FLAG_UPDATE),
+                 V4L2_EXPOSURE_APERTURE_PRIORITY, 1, exposure_mode, V4L2_CTRL_FLAG_UPDATE),
       exposure_mode);
   controls_[V4L2_CID_EXPOSURE_AUTO].menu.assign(std::begin(kExposureMenu), std::end(kExposureMenu));
   const ControlRange& e = c.exposure_time_absolute;
@@ -87,6 +87,8 @@ VirtualV4l2Device::Control* VirtualV4l2Device::control(uint32_t id) {
 int VirtualV4l2Device::query_ext_ctrl(v4l2_query_ext_ctrl* query) {
   const uint32_t id = query->id & ~kIdFlags;
   const Control* found = nullptr;
+  // Every control here is a plain (non-compound) one: NEXT_COMPOUND alone finds none.
+  if ((query->id & kIdFlags) == V4L2_CTRL_FLAG_NEXT_COMPOUND) return -EINVAL;
   if (query->id & kIdFlags) {
     auto it = controls_.upper_bound(id);
     if (it != controls_.end()) found = &it->second;
@@ -148,7 +150,7 @@ int VirtualV4l2Device::set_control_value(int file, Control& c, int64_t value) {
     case V4L2_CTRL_TYPE_MENU:
       if (value < c.query.minimum || value > c.query.maximum ||
           c.menu[static_cast<size_t>(value)] == nullptr)
-        return -ERANGE;
+        return -EINVAL;
       break;
     default:
       return -EACCES;
@@ -191,19 +193,20 @@ int VirtualV4l2Device::ext_ctrls(int file, unsigned long request, v4l2_ext_contr
     Control* c = control(ext.id);
     const bool wrong_class = (which == V4L2_CTRL_CLASS_USER || which == V4L2_CTRL_CLASS_CAMERA) &&
                              V4L2_CTRL_ID2WHICH(ext.id) != which;
-    if (!c || c->query.type == V4L2_CTRL_TYPE_CTRL_CLASS || wrong_class) {
+    if (!c || wrong_class) {
       controls->error_idx = i;
       return -EINVAL;
     }
     if ((get && (c->query.flags & V4L2_CTRL_FLAG_WRITE_ONLY)) || (!get && (c->query.flags & V4L2_CTRL_FLAG_READ_ONLY))) {
-      controls->error_idx = i;
+      // An access error found while checking, before anything was read or written.
+      controls->error_idx = controls->count;
       return -EACCES;
     }
     if (!get && c->query.type == V4L2_CTRL_TYPE_MENU &&
         (ext.value < c->query.minimum || ext.value > c->query.maximum ||
          c->menu[static_cast<size_t>(ext.value)] == nullptr)) {
       controls->error_idx = set ? controls->count : i;
-      return -ERANGE;
+      return -EINVAL;
     }
   }
   for (uint32_t i = 0; i < controls->count; ++i) {
@@ -287,10 +290,10 @@ int VirtualV4l2Device::control_ioctl(int file, unsigned long request, void* arg)
         return 0;
       }
       if (sub->type != V4L2_EVENT_CTRL) return -EINVAL;
-      const Control* c = control(sub->id);
-      if (!c || c->query.type == V4L2_CTRL_TYPE_CTRL_CLASS) return -EINVAL;
+      if (!control(sub->id)) return -EINVAL;
       f.subscriptions[sub->id] = sub->flags;
-      if (sub->flags & V4L2_EVENT_SUB_FL_SEND_INITIAL)
+      // A control class has no value to report.
+      if ((sub->flags & V4L2_EVENT_SUB_FL_SEND_INITIAL) && control(sub->id)->query.type != V4L2_CTRL_TYPE_CTRL_CLASS)
         queue_control_event(sub->id, V4L2_EVENT_CTRL_CH_VALUE | V4L2_EVENT_CTRL_CH_FLAGS, 0, file);
       return 0;
     }

@@ -126,10 +126,27 @@ int VirtualV4l2Device::set_format(v4l2_format* format, bool apply) {
   return 0;
 }
 
+bool VirtualV4l2Device::is_supported_ioctl(unsigned long request) {
+  switch (request) {
+    case VIDIOC_QUERYCAP: case VIDIOC_ENUM_FMT: case VIDIOC_ENUM_FRAMESIZES: case VIDIOC_ENUM_FRAMEINTERVALS:
+    case VIDIOC_G_FMT: case VIDIOC_TRY_FMT: case VIDIOC_S_FMT: case VIDIOC_G_PARM: case VIDIOC_S_PARM:
+    case VIDIOC_ENUMINPUT: case VIDIOC_G_INPUT: case VIDIOC_S_INPUT: case VIDIOC_G_PRIORITY:
+    case VIDIOC_S_PRIORITY: case VIDIOC_QUERYCTRL: case VIDIOC_QUERY_EXT_CTRL: case VIDIOC_QUERYMENU:
+    case VIDIOC_G_CTRL: case VIDIOC_S_CTRL: case VIDIOC_G_EXT_CTRLS: case VIDIOC_S_EXT_CTRLS:
+    case VIDIOC_TRY_EXT_CTRLS: case VIDIOC_SUBSCRIBE_EVENT: case VIDIOC_UNSUBSCRIBE_EVENT:
+    case VIDIOC_DQEVENT: case VIDIOC_REQBUFS: case VIDIOC_QUERYBUF: case VIDIOC_QBUF: case VIDIOC_DQBUF:
+    case VIDIOC_STREAMON: case VIDIOC_STREAMOFF:
+      return true;
+    default:
+      return false;
+  }
+}
+
 int VirtualV4l2Device::ioctl(int file, unsigned long request, void* arg) {
   std::unique_lock lock(mutex_);
   if (unplugged_) return -ENODEV;
   if (files_.find(file) == files_.end()) return -EBADF;
+  if (!is_supported_ioctl(request)) return -ENOTTY;
   if (arg == nullptr) return -EFAULT;
   const CameraSpec& camera = renderer_.camera();
   switch (request) {
@@ -172,6 +189,7 @@ int VirtualV4l2Device::ioctl(int file, unsigned long request, void* arg) {
     }
     case VIDIOC_ENUM_FRAMEINTERVALS: {
       auto* interval = static_cast<v4l2_frmivalenum*>(arg);
+      std::memset(interval->reserved, 0, sizeof interval->reserved);
       bool size_ok = false;
       for (uint32_t shift = 0; shift < 2; ++shift) {
         uint32_t w = static_cast<uint32_t>(camera.sensor.width_px) >> shift;
@@ -235,14 +253,14 @@ int VirtualV4l2Device::ioctl(int file, unsigned long request, void* arg) {
       if (int busy = check_priority(file)) return busy;
       return *static_cast<int*>(arg) == 0 ? 0 : -EINVAL;
     case VIDIOC_G_PRIORITY:
-      *static_cast<uint32_t*>(arg) = files_[file].priority;
+      // The priority of the device: the highest of any open file (v4l2_prio_max).
+      *static_cast<uint32_t*>(arg) = max_priority();
       return 0;
     case VIDIOC_S_PRIORITY: {
       const uint32_t asked = *static_cast<uint32_t*>(arg);
       if (asked > V4L2_PRIORITY_RECORD || asked == V4L2_PRIORITY_UNSET) return -EINVAL;
-      // Another file already holding RECORD keeps it.
-      for (const auto& [id, f] : files_)
-        if (id != file && f.priority == V4L2_PRIORITY_RECORD && asked == V4L2_PRIORITY_RECORD) return -EBUSY;
+      // Only a file at the device's highest priority may change priorities.
+      if (int busy = check_priority(file)) return busy;
       files_[file].priority = static_cast<v4l2_priority>(asked);
       return 0;
     }

@@ -51,6 +51,10 @@ class VirtualV4l2Device {
   int open_file(bool nonblocking);
   void close_file(int file);
 
+  // Whether the device implements an ioctl (others are ENOTTY, checked before the
+  // argument, as the kernel does).
+  static bool is_supported_ioctl(unsigned long request);
+
   // A V4L2 ioctl on an open file: 0 or -errno. `arg` points to the ioctl's struct.
   int ioctl(int file, unsigned long request, void* arg);
 
@@ -130,7 +134,8 @@ class VirtualV4l2Device {
   void produce_frames();
   // Renders frame `sequence` into buffer `index` (unlocking while rendering); false when
   // the stream stopped or the buffers changed meanwhile.
-  bool render_into(int index, uint64_t sequence, std::unique_lock<std::mutex>& lock);
+  // A frame that cannot be rendered sets *failed and is returned flagged with an error.
+  bool render_into(int index, uint64_t sequence, std::unique_lock<std::mutex>& lock, bool* failed);
   RenderSettings settings_in_effect() const;
 
   Renderer renderer_;
@@ -156,6 +161,7 @@ class VirtualV4l2Device {
   int fail_dequeues_ = 0;
   int drop_frames_ = 0;
   bool stalled_ = false;
+  bool render_error_reported_ = false;
   std::thread producer_;
   bool stop_producer_ = false;
 };

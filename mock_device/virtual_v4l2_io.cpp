@@ -141,6 +141,22 @@ int VirtualV4l2Io::poll(struct pollfd* fds, nfds_t count, int timeout_ms) {
   }
 }
 
+bool VirtualV4l2Io::owns(int fd) const {
+  std::lock_guard lock(mutex_);
+  return files_.count(fd) != 0;
+}
+
+bool VirtualV4l2Io::owns_mapping(void* address) const {
+  std::lock_guard lock(mutex_);
+  return mappings_.count(address) != 0;
+}
+
+int VirtualV4l2Io::device_index_of(int fd) const {
+  std::lock_guard lock(mutex_);
+  auto it = files_.find(fd);
+  return it == files_.end() ? -1 : it->second.device->index();
+}
+
 size_t VirtualV4l2Io::open_fd_count() const {
   std::lock_guard lock(mutex_);
   return files_.size();

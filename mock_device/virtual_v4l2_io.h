@@ -30,6 +30,13 @@ class VirtualV4l2Io final : public device::V4l2Io {
   int munmap(void* address, size_t length) override;
   int poll(struct pollfd* fds, nfds_t count, int timeout_ms) override;
 
+  // Whether an fd is an open virtual device, or an address one of its buffer mappings
+  // (a transport routes only those here).
+  bool owns(int fd) const;
+  bool owns_mapping(void* address) const;
+  // The /dev/videoN number of an open device fd, -1 if it is none.
+  int device_index_of(int fd) const;
+
   // Open device fds and live buffer mappings (for leak checks in tests).
   size_t open_fd_count() const;
   size_t mapping_count() const;

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 
 #include <opencv2/imgproc.hpp>
@@ -45,6 +46,7 @@ void VirtualV4l2Device::free_buffers() {
 int VirtualV4l2Device::reqbufs(int file, v4l2_requestbuffers* request) {
   if (request->type != V4L2_BUF_TYPE_VIDEO_CAPTURE) return -EINVAL;
   request->capabilities = V4L2_BUF_CAP_SUPPORTS_MMAP;
+  request->flags = 0;  // no cache hints: V4L2_MEMORY_FLAG_NON_COHERENT is not supported
   std::memset(request->reserved, 0, sizeof request->reserved);
   if (request->memory != V4L2_MEMORY_MMAP) return -EINVAL;
   if (queue_owner_ != 0 && queue_owner_ != file) return -EBUSY;
@@ -116,6 +118,7 @@ int VirtualV4l2Device::qbuf(int file, v4l2_buffer* buffer) {
   if (b.state != Buffer::State::kDequeued) return -EINVAL;
   b.state = Buffer::State::kQueued;
   queued_order_.push_back(static_cast<int>(buffer->index));
+  buffer->flags &= ~(V4L2_BUF_FLAG_NO_CACHE_INVALIDATE | V4L2_BUF_FLAG_NO_CACHE_CLEAN);
   return querybuf(buffer);
 }
 
@@ -156,7 +159,7 @@ int VirtualV4l2Device::streamon(int file) {
 }
 
 int VirtualV4l2Device::streamoff(int file) {
-  if (queue_owner_ != file) return queue_owner_ == 0 ? -EINVAL : -EBUSY;
+  if (queue_owner_ != 0 && queue_owner_ != file) return -EBUSY;
   if (int busy = check_priority(file)) return busy;
   streaming_ = false;
   // vb2 returns every buffer to the application, done or not.
@@ -217,7 +220,9 @@ RenderSettings VirtualV4l2Device::settings_in_effect() const {
   return s;
 }
 
-bool VirtualV4l2Device::render_into(int index, uint64_t sequence, std::unique_lock<std::mutex>& lock) {
+bool VirtualV4l2Device::render_into(int index, uint64_t sequence, std::unique_lock<std::mutex>& lock,
+                                    bool* failed) {
+  *failed = false;
   const RenderSettings settings = settings_in_effect();
   const v4l2_pix_format format = format_;
   RenderOptions options;
@@ -237,9 +242,21 @@ bool VirtualV4l2Device::render_into(int index, uint64_t sequence, std::unique_lo
   }
   lock.lock();
   // The stream may have stopped, or the buffers been freed, while the frame rendered.
-  if (!frame || generation != buffers_generation_ || !streaming_) return false;
+  if (generation != buffers_generation_ || !streaming_) return false;
   Buffer& buffer = buffers_[static_cast<size_t>(index)];
   if (buffer.state != Buffer::State::kFilling) return false;
+  if (!frame) {
+    // A driver that cannot fill a buffer returns it flagged, never keeps it: the client
+    // sees V4L2_BUF_FLAG_ERROR instead of waiting forever.
+    if (!render_error_reported_) {
+      std::fprintf(stderr, "camlab vcam: cannot render frame %llu: %s\n",
+                   static_cast<unsigned long long>(sequence), frame.error().message.c_str());
+      render_error_reported_ = true;  // a repeating error is logged once
+    }
+    std::memset(buffer.address, 0, format.sizeimage);
+    *failed = true;
+    return true;
+  }
   uint8_t* out = buffer.address;
   for (uint32_t y = 0; y < format.height; ++y) {
     const float* row = dn.ptr<float>(static_cast<int>(y));
@@ -279,8 +296,17 @@ void VirtualV4l2Device::produce_frames() {
     const auto interval = std::chrono::microseconds(
         static_cast<int64_t>(1e6 * time_per_frame_.numerator / std::max<uint32_t>(time_per_frame_.denominator, 1)));
     if (!was_streaming) {
+      // The scene integral for the settings in effect is the slow part of a first frame;
+      // computing it before the clock starts keeps it from costing the first ticks.
+      const RenderSettings settings = settings_in_effect();
+      RenderOptions options;
+      options.seed = options_.seed;
+      lock.unlock();
+      (void)renderer_.render(settings, options_.view, options);
+      lock.lock();
       next_tick = clock::now();
       was_streaming = true;
+      continue;  // re-check the stream state after the unlocked render
     }
     if (!options_.realtime && queued_order_.empty() && drop_frames_ == 0) {
       // As fast as rendered, but a frame is only started when a buffer waits for it.
@@ -317,14 +343,16 @@ void VirtualV4l2Device::produce_frames() {
     buffers_[static_cast<size_t>(index)].state = Buffer::State::kFilling;
     timespec start{};
     clock_gettime(CLOCK_MONOTONIC, &start);
-    if (!render_into(index, sequence, lock)) continue;  // stream stopped meanwhile
+    bool failed = false;
+    if (!render_into(index, sequence, lock, &failed)) continue;  // stream stopped meanwhile
     Buffer& buffer = buffers_[static_cast<size_t>(index)];
     v4l2_buffer& done = buffer.done;
     std::memset(&done, 0, sizeof done);
     done.index = static_cast<uint32_t>(index);
     done.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
     done.bytesused = format_.sizeimage;
-    done.flags = V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | V4L2_BUF_FLAG_TSTAMP_SRC_SOE;
+    done.flags = V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | V4L2_BUF_FLAG_TSTAMP_SRC_SOE |
+                 (failed ? V4L2_BUF_FLAG_ERROR : 0u);
     done.field = V4L2_FIELD_NONE;
     done.timestamp.tv_sec = start.tv_sec;
     done.timestamp.tv_usec = start.tv_nsec / 1000;

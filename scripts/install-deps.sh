@@ -10,6 +10,7 @@ packages=(
   libboost-dev           # Beast / Asio (header-only parts)
   nlohmann-json3-dev libcli11-dev libspdlog-dev libsqlite3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  v4l-utils              # v4l2-ctl and v4l2-compliance: unmodified clients of the virtual camera
 )
 
 missing=()

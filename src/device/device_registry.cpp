@@ -8,15 +8,23 @@
 namespace camlab::device {
 
 std::vector<std::string> list_video_device_paths() {
+  // Video nodes are listed by the kernel in /sys/class/video4linux (also where a
+  // user-space device such as camlab's virtual camera announces itself), and appear in
+  // /dev; both are read, so a node missing from one is still found.
   std::vector<std::pair<int, std::string>> found;
-  std::error_code ec;
-  for (const auto& entry : std::filesystem::directory_iterator("/dev", ec)) {
-    const std::string name = entry.path().filename().string();
-    if (name.rfind("video", 0) != 0 || name.size() == 5) continue;
+  auto add = [&](const std::string& name) {
+    if (name.rfind("video", 0) != 0 || name.size() == 5) return;
     const std::string number = name.substr(5);
-    if (!std::all_of(number.begin(), number.end(), ::isdigit)) continue;
-    found.emplace_back(std::stoi(number), entry.path().string());
-  }
+    if (!std::all_of(number.begin(), number.end(), ::isdigit)) return;
+    const std::string path = "/dev/" + name;
+    if (std::none_of(found.begin(), found.end(), [&](const auto& f) { return f.second == path; }))
+      found.emplace_back(std::stoi(number), path);
+  };
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator("/sys/class/video4linux", ec))
+    add(entry.path().filename().string());
+  ec.clear();
+  for (const auto& entry : std::filesystem::directory_iterator("/dev", ec)) add(entry.path().filename().string());
   std::sort(found.begin(), found.end());
   std::vector<std::string> paths;
   for (auto& [n, path] : found) paths.push_back(std::move(path));
