@@ -19,4 +19,7 @@ void register_devices_command(CLI::App& app);
 // `camlab vcam run` (cli/vcam_command.cpp).
 void register_vcam_command(CLI::App& app);
 
+// `camlab calibrate` (cli/calibrate_command.cpp).
+void register_calibrate_command(CLI::App& app);
+
 }  // namespace camlab::cli

@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   camlab::cli::register_render_command(app);
   camlab::cli::register_devices_command(app);
   camlab::cli::register_vcam_command(app);
+  camlab::cli::register_calibrate_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

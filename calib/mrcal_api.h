@@ -1,0 +1,7 @@
+// mrcal 2.2's C header has no extern "C" guard: every C++ file in calib/ includes it
+// through here.
+#pragma once
+
+extern "C" {
+#include <mrcal/mrcal.h>
+}

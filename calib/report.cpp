@@ -1,0 +1,237 @@
+#include "calib/report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include <opencv2/calib3d.hpp>
+
+#include "optics/optics.h"
+
+namespace camlab::calib {
+
+namespace {
+
+constexpr double kDeg = 180.0 / M_PI;
+
+std::string fmt(const char* f, double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+}  // namespace
+
+CalibrationReport make_report(const CalibrationData& data, const Solution& s,
+                              double pixel_pitch_um) {
+  CalibrationReport r;
+  r.solution = s;
+  r.views_total = static_cast<int>(data.views.size());
+  const int total = s.inliers + s.outliers;
+  r.outlier_share = total > 0 ? double(s.outliers) / total : 0.0;
+  auto fov = field_of_view(s.model);
+  if (fov) r.fov = *fov;
+
+  if (pixel_pitch_um > 0) {
+    r.pixel_pitch_um = pixel_pitch_um;
+    r.focal_mm = 0.5 * (s.model.intrinsics[0] + s.model.intrinsics[1]) * pixel_pitch_um / 1000;
+    const double w_mm = data.imager_width_px * pixel_pitch_um / 1000;
+    const double h_mm = data.imager_height_px * pixel_pitch_um / 1000;
+    if (auto crop = optics::crop_factor(w_mm, h_mm); crop.ok()) {
+      r.crop_factor = *crop;
+      r.focal_35mm_equiv_mm = r.focal_mm * *crop;
+    }
+  }
+
+  // Coverage of the imager by inlier corners, on a 16 x 10 grid.
+  constexpr int kGx = 16, kGy = 10;
+  std::vector<int> cells(kGx * kGy, 0);
+  for (const auto& res : s.residuals) {
+    if (res.outlier) continue;
+    const auto& c = data.views[res.view].corners[res.corner];
+    const int gx = std::clamp(static_cast<int>(c.x_px / data.imager_width_px * kGx), 0, kGx - 1);
+    const int gy = std::clamp(static_cast<int>(c.y_px / data.imager_height_px * kGy), 0, kGy - 1);
+    cells[gy * kGx + gx] = 1;
+  }
+  int covered = 0, edge = 0, edge_covered = 0;
+  for (int gy = 0; gy < kGy; ++gy)
+    for (int gx = 0; gx < kGx; ++gx) {
+      covered += cells[gy * kGx + gx];
+      if (gx == 0 || gy == 0 || gx == kGx - 1 || gy == kGy - 1) {
+        ++edge;
+        edge_covered += cells[gy * kGx + gx];
+      }
+    }
+  r.coverage = double(covered) / (kGx * kGy);
+  r.edge_coverage = double(edge_covered) / edge;
+
+  // Tilt: angle between the board normal and the line of sight to the board centre.
+  std::vector<double> spans;
+  r.tilt_min_deg = 180;
+  r.tilt_max_deg = 0;
+  const double diag = std::hypot(data.imager_width_px, data.imager_height_px);
+  for (size_t i = 0; i < s.rt_cam_board.size(); ++i) {
+    const auto& rt = s.rt_cam_board[i];
+    cv::Matx33d R;
+    cv::Rodrigues(cv::Vec3d(rt[0], rt[1], rt[2]), R);
+    const cv::Vec3d n(R(0, 2), R(1, 2), R(2, 2));
+    const cv::Vec3d half(0.5 * (data.board.cols - 1) * data.board.spacing_m,
+                         0.5 * (data.board.rows - 1) * data.board.spacing_m, 0);
+    cv::Vec3d centre = R * half + cv::Vec3d(rt[3], rt[4], rt[5]);
+    centre /= cv::norm(centre);
+    const double tilt = std::acos(std::min(1.0, std::fabs(n.dot(centre)))) * kDeg;
+    r.tilt_min_deg = std::min(r.tilt_min_deg, tilt);
+    r.tilt_max_deg = std::max(r.tilt_max_deg, tilt);
+    // Apparent size: the diagonal of the present corners' bounding box.
+    double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
+    for (const auto& c : data.views[s.views_used[i]].corners) {
+      if (!c.present) continue;
+      x0 = std::min(x0, c.x_px); x1 = std::max(x1, c.x_px);
+      y0 = std::min(y0, c.y_px); y1 = std::max(y1, c.y_px);
+    }
+    spans.push_back(std::hypot(x1 - x0, y1 - y0) / diag);
+  }
+  if (!spans.empty()) {
+    std::nth_element(spans.begin(), spans.begin() + spans.size() / 2, spans.end());
+    r.board_span_median = spans[spans.size() / 2];
+  }
+
+  const int used = static_cast<int>(s.views_used.size());
+  if (used < 8)
+    r.warnings.push_back({"too_few_views", "only " + std::to_string(used) +
+                                               " views were solved; capture 15-30 views of the board "
+                                               "at varied positions, distances and tilts"});
+  if (r.tilt_max_deg < 12)
+    r.warnings.push_back({"fronto_parallel",
+                          "every board faces the camera within " + fmt("%.1f", r.tilt_max_deg) +
+                              " deg, so focal length and distance cannot be told apart; capture "
+                              "views with the board tilted 20-45 deg in different directions"});
+  if (r.edge_coverage < 1.0 / 3)
+    r.warnings.push_back({"centre_only",
+                          "corners cover only " + fmt("%.0f", 100 * r.edge_coverage) +
+                              "% of the imager's border; distortion near the edges is extrapolated. "
+                              "Capture views with the board reaching into the corners and edges"});
+  if (r.board_span_median < 0.25)
+    r.warnings.push_back({"far_boards",
+                          "the boards span a median " + fmt("%.0f", 100 * r.board_span_median) +
+                              "% of the imager diagonal; capture views closer to the camera so the "
+                              "board fills a third or more of the image"});
+  if (r.outlier_share > 0.05)
+    r.warnings.push_back({"many_outliers",
+                          fmt("%.1f", 100 * r.outlier_share) +
+                              "% of the corners were rejected as outliers; check the board size and "
+                              "flatness, focus and motion blur, and recapture the worst views"});
+  if (s.rms_px > 1.0)
+    r.warnings.push_back({"high_residuals",
+                          "the residual RMS is " + fmt("%.2f", s.rms_px) +
+                              " px: the lens model cannot describe this lens or the corners are "
+                              "poor; try a richer model (OPENCV8, SPLINED_STEREOGRAPHIC)"});
+  if (!r.fov)
+    r.warnings.push_back({"fov_undefined", fov.error().message +
+                                               "; capture boards near the image edges or use a "
+                                               "simpler model"});
+  return r;
+}
+
+bool has_warning(const CalibrationReport& report, const std::string& code) {
+  return std::any_of(report.warnings.begin(), report.warnings.end(),
+                     [&](const Warning& w) { return w.code == code; });
+}
+
+nlohmann::json to_json(const CalibrationReport& r) {
+  const auto& s = r.solution;
+  nlohmann::json j;
+  j["lensmodel"] = s.model.lensmodel;
+  j["intrinsics"] = s.model.intrinsics;
+  j["imagersize"] = {s.model.width_px, s.model.height_px};
+  j["fx_px"] = s.model.intrinsics[0];
+  j["fy_px"] = s.model.intrinsics[1];
+  j["cx_px"] = s.model.intrinsics[2];
+  j["cy_px"] = s.model.intrinsics[3];
+  if (r.fov)
+    j["fov_deg"] = {{"horizontal", r.fov->horizontal_deg},
+                    {"vertical", r.fov->vertical_deg},
+                    {"diagonal", r.fov->diagonal_deg}};
+  else
+    j["fov_deg"] = nullptr;
+  if (r.pixel_pitch_um > 0) {
+    j["pixel_pitch_um"] = r.pixel_pitch_um;
+    j["focal_mm"] = r.focal_mm;
+    j["crop_factor"] = r.crop_factor;
+    j["focal_35mm_equiv_mm"] = r.focal_35mm_equiv_mm;
+  }
+  j["residuals"] = {{"rms_px", s.rms_px}, {"worst_px", s.worst_px}, {"inliers", s.inliers}};
+  j["outliers"] = {{"count", s.outliers}, {"share", r.outlier_share}};
+  j["views"] = {{"total", r.views_total}, {"used", s.views_used.size()}};
+  j["coverage"] = {{"imager", r.coverage}, {"border", r.edge_coverage}};
+  j["tilt_deg"] = {{"min", r.tilt_min_deg}, {"max", r.tilt_max_deg}};
+  j["board_span_median"] = r.board_span_median;
+  j["calobject_warp_m"] = s.calobject_warp;
+  j["seed"] = {{"focal_px", s.seed_focal_px}, {"projection", s.seed_projection}};
+  j["solve_s"] = s.solve_s;
+  nlohmann::json ev = nlohmann::json::array();
+  for (const auto& e : r.evidence) {
+    nlohmann::json row = {{"lensmodel", e.lensmodel}, {"params", e.params}, {"ok", e.ok}};
+    if (e.ok) {
+      row["rms_px"] = e.rms_px;
+      row["heldout_px"] = e.heldout_px;
+      row["solve_s"] = e.solve_s;
+    } else {
+      row["error"] = e.error;
+    }
+    ev.push_back(row);
+  }
+  j["model_selection"] = ev;
+  nlohmann::json w = nlohmann::json::array();
+  for (const auto& x : r.warnings) w.push_back({{"code", x.code}, {"message", x.message}});
+  j["warnings"] = w;
+  return j;
+}
+
+std::string to_text(const CalibrationReport& r) {
+  const auto& s = r.solution;
+  std::string t;
+  char buf[256];
+  if (!r.evidence.empty()) {
+    t += "model selection (held-out: views left out of the fit, poses refitted):\n";
+    t += "  model                      params   rms_px  heldout_px  solve_s\n";
+    for (const auto& e : r.evidence) {
+      if (e.ok)
+        std::snprintf(buf, sizeof buf, "  %-26s %6d %8.4f %11.4f %8.3f%s\n", e.lensmodel.c_str(),
+                      e.params, e.rms_px, e.heldout_px, e.solve_s,
+                      e.lensmodel == s.model.lensmodel ? "  <- chosen" : "");
+      else
+        std::snprintf(buf, sizeof buf, "  %-26s %6d  failed: %s\n", e.lensmodel.c_str(), e.params,
+                      e.error.c_str());
+      t += buf;
+    }
+  }
+  t += "lensmodel: " + s.model.lensmodel + "\n";
+  std::snprintf(buf, sizeof buf, "fx %.3f px  fy %.3f px  cx %.3f px  cy %.3f px\n",
+                s.model.intrinsics[0], s.model.intrinsics[1], s.model.intrinsics[2],
+                s.model.intrinsics[3]);
+  t += buf;
+  if (r.fov) {
+    std::snprintf(buf, sizeof buf, "FOV (unprojected image edges): %.3f x %.3f deg, diagonal %.3f deg\n",
+                  r.fov->horizontal_deg, r.fov->vertical_deg, r.fov->diagonal_deg);
+    t += buf;
+  }
+  if (r.pixel_pitch_um > 0) {
+    std::snprintf(buf, sizeof buf, "focal length %.4f mm (pixel %.3f um), 35-mm equivalent %.2f mm (crop %.3f)\n",
+                  r.focal_mm, r.pixel_pitch_um, r.focal_35mm_equiv_mm, r.crop_factor);
+    t += buf;
+  }
+  std::snprintf(buf, sizeof buf,
+                "residuals: rms %.4f px, worst %.3f px over %d corners; outliers %d (%.2f%%)\n",
+                s.rms_px, s.worst_px, s.inliers, s.outliers, 100 * r.outlier_share);
+  t += buf;
+  std::snprintf(buf, sizeof buf,
+                "views %zu of %d; coverage %.0f%% of the imager, %.0f%% of its border; tilt %.1f-%.1f deg\n",
+                s.views_used.size(), r.views_total, 100 * r.coverage, 100 * r.edge_coverage,
+                r.tilt_min_deg, r.tilt_max_deg);
+  t += buf;
+  for (const auto& w : r.warnings) t += "warning [" + w.code + "]: " + w.message + "\n";
+  return t;
+}
+
+}  // namespace camlab::calib

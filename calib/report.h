@@ -1,0 +1,70 @@
+// The calibration report: what the solution says (intrinsics, FOV by unprojecting the
+// image edges, focal length in mm and its 35-mm equivalent when the pixel pitch is known,
+// residuals, outliers) and how far the data supports it (coverage of the imager, range of
+// board tilts, board sizes), with warnings that have stable codes:
+//
+//   too_few_views     fewer than 8 views solved
+//   fronto_parallel   every board within 12 deg of facing the camera: focal length and
+//                     distance trade off, the focal length is poorly constrained
+//   centre_only       corners cover less than a third of the imager's outer ring
+//   far_boards        boards span under a quarter of the imager's diagonal (median)
+//   many_outliers     more than 5% of the corners were rejected
+//   high_residuals    inlier RMS above 1 px: the model cannot describe the lens
+//   fov_undefined     the model does not invert at the image edges
+//
+// Reentrant.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "calib/calibration_data.h"
+#include "calib/lens_model.h"
+#include "calib/solver.h"
+
+namespace camlab::calib {
+
+struct Warning {
+  std::string code;
+  std::string message;  // what is wrong and what to capture next
+};
+
+// One row of the model-selection evidence table.
+struct ModelEvidence {
+  std::string lensmodel;
+  int params = 0;
+  double rms_px = 0;
+  double heldout_px = 0;  // trimmed RMS on held-out views (poses refitted, lens fixed)
+  double solve_s = 0;
+  bool ok = false;
+  std::string error;
+};
+
+struct CalibrationReport {
+  Solution solution;
+  std::optional<FieldOfView> fov;
+  double pixel_pitch_um = 0;  // 0: unknown
+  double focal_mm = 0, focal_35mm_equiv_mm = 0, crop_factor = 0;
+  int views_total = 0;
+  double outlier_share = 0;
+  double coverage = 0;        // share of a 16 x 10 grid of imager cells holding an inlier
+  double edge_coverage = 0;   // the same over the outer ring of cells
+  double tilt_min_deg = 0, tilt_max_deg = 0;
+  double board_span_median = 0;  // board extent / imager diagonal, median over views
+  std::vector<ModelEvidence> evidence;
+  std::vector<Warning> warnings;
+};
+
+// Builds the report. pixel_pitch_um <= 0: no mm figures.
+CalibrationReport make_report(const CalibrationData& data, const Solution& solution,
+                              double pixel_pitch_um);
+
+bool has_warning(const CalibrationReport& report, const std::string& code);
+
+nlohmann::json to_json(const CalibrationReport& report);
+std::string to_text(const CalibrationReport& report);
+
+}  // namespace camlab::calib

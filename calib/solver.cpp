@@ -1,0 +1,473 @@
+#include "calib/solver.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cmath>
+#include <numeric>
+
+#include <opencv2/core.hpp>
+
+#include "calib/mrcal_api.h"
+
+inline bool operator==(const mrcal_point3_t& a, const mrcal_point3_t& b) {
+  return a.x == b.x && a.y == b.y && a.z == b.z;
+}
+#include "calib/seed.h"
+
+namespace camlab::calib {
+
+namespace {
+
+// The mrcal problem of one camera at the reference frame observing a board in N views.
+// Owns the observation pool (shape (N, rows, cols), z = weight, z < 0 = outlier/missing).
+struct Problem {
+  mrcal_lensmodel_t lensmodel{};
+  std::vector<double> intrinsics;
+  std::vector<mrcal_pose_t> frames;  // rt_cam_board per view
+  std::vector<mrcal_observation_board_t> observations;
+  std::vector<mrcal_point3_t> pool;
+  std::vector<uint8_t> missing;  // per pool entry: not detected (never an inlier)
+  mrcal_calobject_warp_t warp{};
+  std::vector<double> x;  // measurements after the last solve
+  int imagersize[2] = {0, 0};
+};
+
+Problem make_problem(const CalibrationData& data, const std::vector<int>& views) {
+  Problem p;
+  p.imagersize[0] = data.imager_width_px;
+  p.imagersize[1] = data.imager_height_px;
+  for (int i = 0; i < static_cast<int>(views.size()); ++i) {
+    mrcal_observation_board_t o{};
+    o.icam.intrinsics = 0;
+    o.icam.extrinsics = -1;
+    o.iframe = i;
+    p.observations.push_back(o);
+    for (const auto& c : data.views[views[i]].corners) {
+      mrcal_point3_t q;
+      q.x = c.present ? c.x_px : 0.0;
+      q.y = c.present ? c.y_px : 0.0;
+      q.z = c.present ? c.weight : -1.0;
+      p.pool.push_back(q);
+      p.missing.push_back(c.present ? 0 : 1);
+    }
+  }
+  p.frames.resize(views.size());
+  return p;
+}
+
+// One mrcal_optimize call. Returns false when mrcal fails or leaves non-finite values.
+bool optimize(Problem* p, const BoardSpec& board, mrcal_problem_selections_t sel) {
+  const int nobs = static_cast<int>(p->observations.size());
+  const int nframes = static_cast<int>(p->frames.size());
+  const int nx = mrcal_num_measurements(nobs, 0, board.cols, board.rows, 1, 0, nframes, 0, 0,
+                                        sel, &p->lensmodel);
+  p->x.assign(nx, 0.0);
+  const mrcal_problem_constants_t constants = {-1.0, -1.0};
+  const auto t0 = std::chrono::steady_clock::now();
+  const mrcal_stats_t stats = mrcal_optimize(
+      nullptr, 0, p->x.data(), nx * static_cast<int>(sizeof(double)), p->intrinsics.data(), nullptr, p->frames.data(), nullptr,
+      &p->warp, 1, 0, nframes, 0, 0, p->observations.data(), nullptr, nobs, 0, p->pool.data(),
+      &p->lensmodel, p->imagersize, sel, &constants, board.spacing_m, board.cols, board.rows,
+      false, false);
+  if (!(stats.rms_reproj_error__pixels >= 0) || !std::isfinite(stats.rms_reproj_error__pixels))
+    return false;
+  for (double v : p->intrinsics)
+    if (!std::isfinite(v)) return false;
+  for (const auto& f : p->frames)
+    for (int k = 0; k < 3; ++k)
+      if (!std::isfinite(f.r.xyz[k]) || !std::isfinite(f.t.xyz[k])) return false;
+  // CAMLAB_CALIB_DEBUG=1: one line per mrcal_optimize call (time, RMS, intrinsics).
+  if (std::getenv("CAMLAB_CALIB_DEBUG")) {
+    std::fprintf(stderr, "[calib] stage %.3f s rms %.4f outliers %d intrinsics",
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+                 stats.rms_reproj_error__pixels, stats.Noutliers);
+    for (double v : p->intrinsics) std::fprintf(stderr, " %.5g", v);
+    std::fprintf(stderr, "\n");
+  }
+  return std::isfinite(p->warp.x2) && std::isfinite(p->warp.y2);
+}
+
+mrcal_problem_selections_t selections(bool core, bool distortions, bool warp, bool regularize,
+                                      bool outliers) {
+  mrcal_problem_selections_t s{};
+  s.do_optimize_intrinsics_core = core;
+  s.do_optimize_intrinsics_distortions = distortions;
+  s.do_optimize_extrinsics = false;
+  s.do_optimize_frames = true;
+  s.do_optimize_calobject_warp = warp;
+  s.do_apply_regularization = regularize;
+  s.do_apply_outlier_rejection = outliers;
+  return s;
+}
+
+// Per-view RMS of the unweighted residuals (px) of the corners that are in the solve.
+std::vector<double> view_rms_px(const Problem& p, int per_view) {
+  const size_t nviews = p.frames.size();
+  std::vector<double> rms(nviews, 0.0);
+  for (size_t i = 0; i < nviews; ++i) {
+    double s2 = 0;
+    int n = 0;
+    for (int k = 0; k < per_view; ++k) {
+      const size_t j = i * per_view + k;
+      if (p.pool[j].z <= 0) continue;
+      const double w = p.pool[j].z;
+      s2 += (p.x[2 * j] * p.x[2 * j] + p.x[2 * j + 1] * p.x[2 * j + 1]) / (w * w);
+      ++n;
+    }
+    rms[i] = std::sqrt(s2 / std::max(1, n));
+  }
+  return rms;
+}
+
+// Suspect views: a planar PnP on a partial edge view through a core-only projection can
+// land far off, and such a view would drag the lens with it. Suspects keep a weight of
+// 1e-3 (their pose stays determined; they no longer pull the lens) until a pose through a
+// better model brings them in line with the rest.
+struct ViewWeights {
+  std::vector<mrcal_point3_t> full_pool;  // the observations at their true weights
+  std::vector<char> suspect;              // per view
+  double radial_r0 = 0;                   // > 0: down-weight corners far from the centre
+  double cx = 0, cy = 0;
+};
+
+void apply_weights(Problem* p, const ViewWeights& w, int per_view) {
+  p->pool = w.full_pool;
+  for (size_t j = 0; j < p->pool.size(); ++j) {
+    auto& q = p->pool[j];
+    if (q.z <= 0) continue;
+    if (w.suspect[j / per_view]) q.z *= 1e-3;
+    if (w.radial_r0 > 0) {
+      const double r = std::hypot(q.x - w.cx, q.y - w.cy) / w.radial_r0;
+      q.z *= 1.0 / (1.0 + r * r * r * r);
+    }
+  }
+}
+
+std::vector<char> find_stragglers(const Problem& p, int per_view) {
+  const auto rms = view_rms_px(p, per_view);
+  std::vector<double> sorted = rms;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double limit = std::max(5 * sorted[sorted.size() / 2], 2.0);
+  std::vector<char> out(rms.size());
+  for (size_t i = 0; i < rms.size(); ++i) out[i] = rms[i] > limit;
+  return out;
+}
+
+// After a stage: re-pose the stragglers and suspects through the current model, refit
+// all poses with the lens fixed, and reclassify. Returns true when the suspect set
+// changed (the caller re-solves the stage), and sets *failed when mrcal fails.
+bool update_suspects(Problem* p, const CalibrationData& data, const std::vector<int>& views,
+                     ViewWeights* w, bool* failed) {
+  const int per = data.board.cols * data.board.rows;
+  auto bad = find_stragglers(*p, per);
+  bool any = false;
+  for (size_t i = 0; i < views.size(); ++i) any |= bad[i] || w->suspect[i];
+  if (!any) return false;
+  char name[128];
+  mrcal_lensmodel_name(name, sizeof name, &p->lensmodel);
+  const LensModel current{name, p->intrinsics, data.imager_width_px, data.imager_height_px};
+  const std::vector<mrcal_pose_t> before = p->frames;
+  for (size_t i = 0; i < views.size(); ++i) {
+    if (!bad[i] && !w->suspect[i]) continue;
+    auto pose = pose_from_corners(data, views[i], current);
+    if (!pose) continue;
+    for (int k = 0; k < 3; ++k) {
+      p->frames[i].r.xyz[k] = (*pose)[k];
+      p->frames[i].t.xyz[k] = (*pose)[3 + k];
+    }
+  }
+  // Judge every view at its full weight with the lens fixed.
+  const auto saved_pool = p->pool;
+  const auto saved_suspect = w->suspect;
+  std::fill(w->suspect.begin(), w->suspect.end(), 0);
+  apply_weights(p, *w, per);
+  if (!optimize(p, data.board, selections(false, false, false, false, false))) {
+    *failed = true;
+    return false;
+  }
+  w->suspect = find_stragglers(*p, per);
+  apply_weights(p, *w, per);
+  return w->suspect != saved_suspect || std::any_of(bad.begin(), bad.end(), [](char c) { return c; });
+}
+
+// k1, k2 of a radial polynomial that mimics the stereographic core over the field the
+// corners cover: r_p (1 + k1 r_p^2 + k2 r_p^4) = 2 tan(theta / 2) with r_p = tan(theta),
+// least squares over theta. Starting OPENCV4 there instead of at zero distortion keeps a
+// wide lens's edge corners near their observations.
+void seed_k1_k2_from_stereographic(const Problem& p, std::vector<double>* intrinsics) {
+  const double f = 0.5 * (p.intrinsics[0] + p.intrinsics[1]);
+  double u_max = 0;
+  for (const auto& q : p.pool)
+    if (q.z > 0)
+      u_max = std::max(u_max, std::hypot(q.x - p.intrinsics[2], q.y - p.intrinsics[3]) / f);
+  const double theta_max = std::min(2 * std::atan(u_max / 2), 75.0 * M_PI / 180);
+  double a11 = 0, a12 = 0, a22 = 0, b1 = 0, b2 = 0;
+  for (int i = 1; i <= 50; ++i) {
+    const double th = theta_max * i / 50, rp = std::tan(th), rs = 2 * std::tan(th / 2);
+    const double g1 = rp * rp * rp, g2 = g1 * rp * rp, y = rs - rp;
+    a11 += g1 * g1; a12 += g1 * g2; a22 += g2 * g2; b1 += g1 * y; b2 += g2 * y;
+  }
+  const double det = a11 * a22 - a12 * a12;
+  if (!(std::fabs(det) > 1e-300)) return;
+  (*intrinsics)[4] = (a22 * b1 - a12 * b2) / det;
+  (*intrinsics)[5] = (a11 * b2 - a12 * b1) / det;
+}
+
+void fill_solution(const Problem& p, const CalibrationData& data, const std::vector<int>& views,
+                   const std::vector<char>& suspect, Solution* s) {
+  s->views_used = views;
+  s->rt_cam_board.clear();
+  for (const auto& f : p.frames)
+    s->rt_cam_board.push_back({f.r.x, f.r.y, f.r.z, f.t.x, f.t.y, f.t.z});
+  s->calobject_warp = {p.warp.x2, p.warp.y2};
+  s->residuals.clear();
+  const int per_view = data.board.cols * data.board.rows;
+  double sum = 0;
+  s->inliers = s->outliers = 0;
+  s->worst_px = 0;
+  for (int i = 0; i < static_cast<int>(views.size()); ++i)
+    for (int k = 0; k < per_view; ++k) {
+      const size_t j = static_cast<size_t>(i) * per_view + k;
+      if (p.missing[j]) continue;
+      const double w = data.views[views[i]].corners[k].weight;
+      CornerResidual r;
+      r.view = views[i];
+      r.corner = k;
+      r.outlier = p.pool[j].z < 0 || suspect[i];
+      const double wz = suspect[i] ? p.pool[j].z : w;
+      r.dx_px = p.x[2 * j] / wz;
+      r.dy_px = p.x[2 * j + 1] / wz;
+      if (r.outlier) {
+        ++s->outliers;
+      } else {
+        ++s->inliers;
+        const double e2 = r.dx_px * r.dx_px + r.dy_px * r.dy_px;
+        sum += e2;
+        s->worst_px = std::max(s->worst_px, std::sqrt(e2));
+      }
+      s->residuals.push_back(r);
+    }
+  s->rms_px = std::sqrt(sum / std::max(1, s->inliers));
+}
+
+// Residuals of outliers are 0 in mrcal's x: recompute them by projecting the board.
+void fill_outlier_residuals(const Problem& p, const CalibrationData& data, Solution* s) {
+  const LensModel& m = s->model;
+  const double W = data.board.cols - 1, H = data.board.rows - 1;
+  for (auto& r : s->residuals) {
+    if (!r.outlier || r.dx_px != 0 || r.dy_px != 0) continue;
+    const int i = static_cast<int>(std::find(s->views_used.begin(), s->views_used.end(), r.view) -
+                                   s->views_used.begin());
+    const int ci = r.corner % data.board.cols, cj = r.corner / data.board.cols;
+    // mrcal's board warp: z += x2 (1 - (2 ci/W - 1)^2) + y2 (1 - (2 cj/H - 1)^2).
+    const double xr = 2 * ci / W - 1, yr = 2 * cj / H - 1;
+    const double pb[3] = {ci * data.board.spacing_m, cj * data.board.spacing_m,
+                          p.warp.x2 * (1 - xr * xr) + p.warp.y2 * (1 - yr * yr)};
+    const auto& f = p.frames[i];
+    cv::Vec3d rv(f.r.x, f.r.y, f.r.z);
+    const double th = cv::norm(rv);
+    double pc[3];
+    // Rodrigues' formula.
+    if (th < 1e-12) {
+      for (int k = 0; k < 3; ++k) pc[k] = pb[k];
+    } else {
+      const double kx = rv[0] / th, ky = rv[1] / th, kz = rv[2] / th;
+      const double c = std::cos(th), sn = std::sin(th);
+      const double dot = kx * pb[0] + ky * pb[1] + kz * pb[2];
+      const double cr[3] = {ky * pb[2] - kz * pb[1], kz * pb[0] - kx * pb[2], kx * pb[1] - ky * pb[0]};
+      const double kk[3] = {kx, ky, kz};
+      for (int k = 0; k < 3; ++k) pc[k] = pb[k] * c + cr[k] * sn + kk[k] * dot * (1 - c);
+    }
+    pc[0] += f.t.x;
+    pc[1] += f.t.y;
+    pc[2] += f.t.z;
+    auto q = project(m, {pc[0], pc[1], pc[2]});
+    if (!q) continue;
+    const auto& obs = data.views[r.view].corners[r.corner];
+    r.dx_px = (*q)[0] - obs.x_px;
+    r.dy_px = (*q)[1] - obs.y_px;
+  }
+}
+
+}  // namespace
+
+double trimmed_rms_px(const std::vector<CornerResidual>& residuals, double keep) {
+  std::vector<double> e2;
+  for (const auto& r : residuals) e2.push_back(r.dx_px * r.dx_px + r.dy_px * r.dy_px);
+  if (e2.empty()) return 0;
+  std::sort(e2.begin(), e2.end());
+  const size_t n = std::max<size_t>(1, static_cast<size_t>(std::ceil(keep * e2.size())));
+  return std::sqrt(std::accumulate(e2.begin(), e2.begin() + std::min(n, e2.size()), 0.0) /
+                   std::min(n, e2.size()));
+}
+
+Result<Solution> solve(const CalibrationData& data, const SolveOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const BoardSpec& board = data.board;
+  if (board.cols < 2 || board.rows < 2 || !(board.spacing_m > 0))
+    return make_error("invalid_argument", "the board needs 2 x 2 or more inner corners and a positive spacing");
+  if (data.imager_width_px <= 0 || data.imager_height_px <= 0)
+    return make_error("invalid_argument", "the imager size is unknown");
+  mrcal_lensmodel_t target;
+  if (!mrcal_lensmodel_from_name(&target, options.lensmodel.c_str()) || target.type < 0 ||
+      !mrcal_lensmodel_metadata(&target).has_core || target.type == MRCAL_LENSMODEL_CAHVORE)
+    return make_error("bad_lensmodel", "unsupported lens model '" + options.lensmodel + "'");
+
+  auto seed = seed_focal(data, options.focal_guess_px);
+  if (std::getenv("CAMLAB_CALIB_DEBUG"))
+    std::fprintf(stderr, "[calib] seed %.3f s\n",
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  if (!seed) return make_error("seed_failed", "no view gave a board pose: check the board size and the corners");
+  const double cx = (data.imager_width_px - 1) / 2.0, cy = (data.imager_height_px - 1) / 2.0;
+  LensModel seed_model;
+  seed_model.lensmodel = seed->projection == SeedProjection::kPinhole ? "LENSMODEL_PINHOLE"
+                                                                        : "LENSMODEL_STEREOGRAPHIC";
+  seed_model.intrinsics = {seed->focal_px, seed->focal_px, cx, cy};
+  seed_model.width_px = data.imager_width_px;
+  seed_model.height_px = data.imager_height_px;
+
+  // Per-view poses from the present corners only; views without a pose are left out.
+  std::vector<int> views;
+  std::vector<std::array<double, 6>> poses;
+  for (int v = 0; v < static_cast<int>(data.views.size()); ++v) {
+    if (static_cast<int>(data.views[v].corners.size()) != board.cols * board.rows) continue;
+    if (data.views[v].present_count() < 8) continue;
+    auto pose = pose_from_corners(data, v, seed_model);
+    if (!pose) continue;
+    views.push_back(v);
+    poses.push_back(*pose);
+  }
+  if (views.size() < 2)
+    return make_error("too_few_views", "fewer than 2 views have a usable board (8+ corners and a pose)");
+
+  Problem p = make_problem(data, views);
+  mrcal_lensmodel_from_name(&p.lensmodel, seed_model.lensmodel.c_str());
+  p.intrinsics = seed_model.intrinsics;
+  for (size_t i = 0; i < poses.size(); ++i) {
+    for (int k = 0; k < 3; ++k) {
+      p.frames[i].r.xyz[k] = poses[i][k];
+      p.frames[i].t.xyz[k] = poses[i][3 + k];
+    }
+  }
+  // Stage 1: poses alone, then the seed projection's core with them. Corners far from
+  // the centre are down-weighted here: a core-only projection cannot describe a wide
+  // lens's edges, and letting them pull would bias the core every later stage starts from.
+  const int per_view = board.cols * board.rows;
+  ViewWeights weights;
+  weights.full_pool = p.pool;
+  weights.suspect.assign(views.size(), 0);
+  weights.radial_r0 = 0.35 * std::hypot(data.imager_width_px, data.imager_height_px);
+  weights.cx = cx;
+  weights.cy = cy;
+  apply_weights(&p, weights, per_view);
+  bool failed = false;
+  if (!optimize(&p, board, selections(false, false, false, false, false)))
+    return make_error("solve_failed", "the pose solve did not converge");
+  weights.suspect = find_stragglers(p, per_view);
+  apply_weights(&p, weights, per_view);
+  if (!optimize(&p, board, selections(true, false, false, false, false)))
+    return make_error("solve_failed", "the core solve did not converge");
+  const bool stereographic_core = p.lensmodel.type == MRCAL_LENSMODEL_STEREOGRAPHIC;
+  weights.radial_r0 = 0;
+
+  // Stage 2: the requested model. OpenCV models grow through the chain OPENCV4 -> 8 ->
+  // 12 (OPENCV5 from OPENCV4), each starting from the previous one's solution with its new terms at zero:
+  // a rational model started from zero distortion on a wide lens falls into a local
+  // minimum, a chain does not.
+  std::vector<std::string> chain;
+  switch (target.type) {
+    case MRCAL_LENSMODEL_OPENCV12: chain = {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV8", "LENSMODEL_OPENCV12"}; break;
+    case MRCAL_LENSMODEL_OPENCV8: chain = {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV8"}; break;
+    case MRCAL_LENSMODEL_OPENCV5: chain = {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV5"}; break;
+    default: chain = {options.lensmodel}; break;
+  }
+  for (const auto& name : chain) {
+    mrcal_lensmodel_t m;
+    mrcal_lensmodel_from_name(&m, name.c_str());
+    std::vector<double> next(mrcal_lensmodel_num_params(&m), 0.0);
+    // OpenCV models share their leading parameters (fx fy cx cy k1 k2 p1 p2 k3 ...).
+    const bool opencv_to_opencv = p.lensmodel.type >= MRCAL_LENSMODEL_OPENCV4 &&
+                                  p.lensmodel.type <= MRCAL_LENSMODEL_OPENCV12;
+    const size_t keep = opencv_to_opencv ? std::min(next.size(), p.intrinsics.size()) : 4;
+    std::copy(p.intrinsics.begin(), p.intrinsics.begin() + keep, next.begin());
+    if (stereographic_core && m.type == MRCAL_LENSMODEL_OPENCV4 &&
+        p.lensmodel.type == MRCAL_LENSMODEL_STEREOGRAPHIC)
+      seed_k1_k2_from_stereographic(p, &next);
+    p.lensmodel = m;
+    p.intrinsics = next;
+    apply_weights(&p, weights, per_view);
+    const bool distort = p.intrinsics.size() > 4;
+    const auto sel = selections(true, distort, false, distort, false);
+    if (!optimize(&p, board, sel))
+      return make_error("solve_failed", "the " + name + " solve did not converge");
+    for (int round = 0; round < 2 && update_suspects(&p, data, views, &weights, &failed); ++round)
+      if (failed || !optimize(&p, board, sel))
+        return make_error("solve_failed", "the " + name + " solve did not converge");
+    if (failed) return make_error("solve_failed", "the " + name + " pose refit did not converge");
+  }
+  const bool has_distortions = p.intrinsics.size() > 4;
+  // Views still far off after the full model are mis-observed (or not this board): they
+  // keep their 1e-3 weight (a pose with no observations would make the problem
+  // singular), and the report counts their corners as outliers.
+
+  // Stage 3: outlier rejection, now that the model can describe the lens.
+  if (options.reject_outliers &&
+      !optimize(&p, board, selections(true, has_distortions, false, has_distortions, true)))
+    return make_error("solve_failed", "the solve with outlier rejection did not converge");
+  // Stage 4: the board's warp.
+  if (options.board_warp &&
+      !optimize(&p, board, selections(true, has_distortions, true, has_distortions,
+                                      options.reject_outliers)))
+    return make_error("solve_failed", "the solve with board warp did not converge");
+
+  Solution s;
+  s.model.lensmodel = options.lensmodel;
+  s.model.intrinsics = p.intrinsics;
+  s.model.width_px = data.imager_width_px;
+  s.model.height_px = data.imager_height_px;
+  s.seed_focal_px = seed->focal_px;
+  s.seed_projection = seed->projection == SeedProjection::kPinhole ? "pinhole" : "stereographic";
+  fill_solution(p, data, views, weights.suspect, &s);
+  fill_outlier_residuals(p, data, &s);
+  s.solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return s;
+}
+
+Result<Solution> fit_poses(const CalibrationData& data, const LensModel& model,
+                           const std::array<double, 2>& calobject_warp,
+                           const std::vector<int>& views_in) {
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<int> views;
+  std::vector<std::array<double, 6>> poses;
+  for (int v : views_in) {
+    if (v < 0 || v >= static_cast<int>(data.views.size())) continue;
+    if (data.views[v].present_count() < 8) continue;
+    auto pose = pose_from_corners(data, v, model);
+    if (!pose) continue;
+    views.push_back(v);
+    poses.push_back(*pose);
+  }
+  if (views.empty()) return make_error("too_few_views", "no held-out view gave a pose");
+  Problem p = make_problem(data, views);
+  if (!mrcal_lensmodel_from_name(&p.lensmodel, model.lensmodel.c_str()))
+    return make_error("bad_lensmodel", "unknown lens model '" + model.lensmodel + "'");
+  p.intrinsics = model.intrinsics;
+  p.warp.x2 = calobject_warp[0];
+  p.warp.y2 = calobject_warp[1];
+  for (size_t i = 0; i < poses.size(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      p.frames[i].r.xyz[k] = poses[i][k];
+      p.frames[i].t.xyz[k] = poses[i][3 + k];
+    }
+  if (!optimize(&p, data.board, selections(false, false, false, false, false)))
+    return make_error("solve_failed", "the pose fit did not converge");
+  Solution s;
+  s.model = model;
+  fill_solution(p, data, views, std::vector<char>(views.size(), 0), &s);
+  s.solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return s;
+}
+
+}  // namespace camlab::calib

@@ -1,0 +1,72 @@
+// The calibration solve: a safe seed without a user guess, then a staged mrcal_optimize.
+//
+//   seed       focal length from a sweep over focal lengths and two projections (pinhole,
+//              stereographic): for each candidate, every sampled view's pose by planar PnP
+//              (IPPE) on its present corners only, scored by a robust reprojection cost.
+//              No homography-only formula: those fail silently on fronto-parallel boards.
+//   stage 1    the seed projection's core (fx, fy, cx, cy) and the board poses
+//   stage 2    the requested model: core + distortions + poses, with mrcal's regularization
+//   stage 3    the same with mrcal's outlier rejection (only now: with a model that cannot
+//              yet describe the lens, rejection would throw away good edge corners)
+//   stage 4    the board's warp (a paraboloid of two coefficients) joins the solve
+//
+// The camera sits at the reference frame; board poses are rt_cam_board (rotation vector,
+// translation in m), mapping board points into the camera frame.
+//
+// Reentrant: every call owns its buffers.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "base/result.h"
+#include "calib/calibration_data.h"
+#include "calib/lens_model.h"
+
+namespace camlab::calib {
+
+struct SolveOptions {
+  std::string lensmodel = "LENSMODEL_OPENCV8";  // configured mrcal name (see configured_lensmodel)
+  double focal_guess_px = 0;  // > 0: searched around as well; never trusted blindly
+  bool reject_outliers = true;
+  bool board_warp = true;
+};
+
+struct CornerResidual {
+  int view = 0;    // index into CalibrationData::views
+  int corner = 0;  // row-major corner index
+  double dx_px = 0, dy_px = 0;  // predicted - observed
+  bool outlier = false;          // rejected by the solve
+};
+
+struct Solution {
+  LensModel model;
+  std::vector<int> views_used;                     // indices into CalibrationData::views
+  std::vector<std::array<double, 6>> rt_cam_board;  // per used view
+  std::array<double, 2> calobject_warp{};           // mrcal's x2, y2 (m)
+  std::vector<CornerResidual> residuals;           // every present corner of the used views
+  double rms_px = 0;    // over inliers, sqrt(mean(dx^2 + dy^2))
+  double worst_px = 0;  // largest inlier residual
+  int inliers = 0;
+  int outliers = 0;
+  double seed_focal_px = 0;
+  std::string seed_projection;  // "pinhole" or "stereographic"
+  double solve_s = 0;           // wall time of the whole solve, seeding included
+};
+
+// Calibrates one camera. Errors: "too_few_views" (fewer than 2 views with 8+ corners),
+// "seed_failed", "solve_failed" (mrcal did not converge to finite values).
+Result<Solution> solve(const CalibrationData& data, const SolveOptions& options);
+
+// With `model` fixed, fits the poses of `views` (indices into data.views) and returns
+// their residuals (outlier rejection off). Used to score a model on held-out views.
+Result<Solution> fit_poses(const CalibrationData& data, const LensModel& model,
+                           const std::array<double, 2>& calobject_warp,
+                           const std::vector<int>& views);
+
+// Root mean square of the smallest `keep` share of the residual lengths (keep = 0.98
+// ignores up to 2% gross outliers when comparing models on held-out views).
+double trimmed_rms_px(const std::vector<CornerResidual>& residuals, double keep);
+
+}  // namespace camlab::calib

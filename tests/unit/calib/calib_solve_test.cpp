@@ -1,0 +1,47 @@
+// The staged mrcal solve against synthetic truth (mrcal's testing style: known model,
+// fixed-seed poses and noise).
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "calib/lens_model.h"
+#include "calib/solver.h"
+#include "synthetic_views.h"
+
+namespace camlab::calib {
+namespace {
+
+const BoardSpec kBoard{14, 10, 0.04};
+
+TEST(CalibSolve, WideOpencv8RecoversTheTruthByProjection) {
+  const LensModel truth = testing::wide_opencv8_truth();
+  testing::ViewSetSpec spec;
+  spec.views = 30;
+  spec.noise_px = 0.1;
+  const CalibrationData data = testing::make_views(truth, kBoard, spec);
+  ASSERT_EQ(data.views.size(), 30u);
+  SolveOptions options;
+  options.lensmodel = "LENSMODEL_OPENCV8";
+  auto s = solve(data, options);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  EXPECT_EQ(s->views_used.size(), 30u);
+  // Residuals at the noise level: sqrt(2) * 0.2 px for 2-D Gaussian noise.
+  EXPECT_NEAR(s->rms_px, 0.1 * std::sqrt(2.0), 0.015);
+  EXPECT_LT(s->outliers, s->inliers / 100);
+  auto diff = projection_difference(truth, s->model, 0.8);
+  ASSERT_TRUE(diff.ok());
+  EXPECT_LT(diff->rms_px, 0.15);
+  auto fov_truth = field_of_view(truth);
+  auto fov = field_of_view(s->model);
+  ASSERT_TRUE(fov_truth.ok() && fov.ok());
+  EXPECT_NEAR(fov->horizontal_deg, fov_truth->horizontal_deg, 0.2);
+  EXPECT_NEAR(fov->vertical_deg, fov_truth->vertical_deg, 0.2);
+  EXPECT_NEAR(fov->diagonal_deg, fov_truth->diagonal_deg, 0.3);
+  std::printf("seed %s f=%.1f  fx=%.3f fy=%.3f cx=%.3f cy=%.3f rms=%.4f diff=%.4f (max %.4f) hfov %.3f/%.3f time %.3f s\n",
+              s->seed_projection.c_str(), s->seed_focal_px, s->model.intrinsics[0],
+              s->model.intrinsics[1], s->model.intrinsics[2], s->model.intrinsics[3], s->rms_px,
+              diff->rms_px, diff->max_px, fov->horizontal_deg, fov_truth->horizontal_deg, s->solve_s);
+}
+
+}  // namespace
+}  // namespace camlab::calib
