@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   camlab::cli::register_devices_command(app);
   camlab::cli::register_vcam_command(app);
   camlab::cli::register_calibrate_command(app);
+  camlab::cli::register_analyze_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,0 +1,366 @@
+// Capture-folder defocus analysis: measurement per frame, fits per target.
+#include "analysis/defocus_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <set>
+#include <thread>
+
+#include <opencv2/core.hpp>
+
+#include "analysis/edge_finder.h"
+#include "image/capture_folder.h"
+#include "optics/optics.h"
+
+namespace camlab::analysis {
+namespace {
+
+using nlohmann::json;
+
+double number_or(const json& j, const char* key, double fallback) {
+  if (!j.is_object() || !j.contains(key) || !j[key].is_number()) return fallback;
+  return j[key].get<double>();
+}
+
+json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+bool point_of(const json& j, double* x, double* y) {
+  if (!j.is_array() || j.size() < 2 || !j[0].is_number() || !j[1].is_number()) return false;
+  *x = j[0].get<double>();
+  *y = j[1].get<double>();
+  return std::isfinite(*x) && std::isfinite(*y);
+}
+
+// The target's size from the scene spec in the manifest, by name.
+const json* scene_target(const json& manifest, const std::string& name) {
+  const json* scene = nullptr;
+  if (manifest.contains("source") && manifest["source"].contains("scene_spec"))
+    scene = &manifest["source"]["scene_spec"];
+  if (!scene || !scene->contains("targets") || !(*scene)["targets"].is_array()) return nullptr;
+  for (const json& t : (*scene)["targets"])
+    if (t.value("name", std::string()) == name) return &t;
+  return nullptr;
+}
+
+// Edges of slanted-edge targets from a frame's truth. The half-width across the edge is
+// bounded by the target's sides (from the scene spec's size when present, else half the
+// edge's length, right for a square target).
+std::vector<EdgeSegment> edges_from_truth(const json& truth, const json& manifest,
+                                          std::vector<const json*>* targets) {
+  std::vector<EdgeSegment> edges;
+  if (!truth.is_object() || !truth.contains("targets")) return edges;
+  for (const json& t : truth["targets"]) {
+    if (!t.contains("edge_px") || !t["edge_px"].is_object()) continue;
+    const json& e = t["edge_px"];
+    EdgeSegment s;
+    s.name = t.value("name", std::string("edge"));
+    double mx, my, lx, ly;
+    if (!point_of(e["start"], &s.start_x_px, &s.start_y_px) ||
+        !point_of(e["end"], &s.end_x_px, &s.end_y_px) || !point_of(e["middle"], &mx, &my) ||
+        !point_of(e["light_side_point"], &lx, &ly))
+      continue;
+    const double length = std::hypot(s.end_x_px - s.start_x_px, s.end_y_px - s.start_y_px);
+    s.max_half_width_px = 0.5 * length;
+    const json* spec = scene_target(manifest, s.name);
+    const double px_per_m = std::hypot(lx - mx, ly - my) / 1e-3;
+    if (spec && spec->contains("size_m") && (*spec)["size_m"].size() == 2) {
+      const double a = number_or(t, "angle_deg", 5.0) * std::numbers::pi / 180.0;
+      const double w = (*spec)["size_m"][0].get<double>(), h = (*spec)["size_m"][1].get<double>();
+      s.max_half_width_px =
+          std::max(0.0, px_per_m * (0.5 * w * std::cos(a) - 0.5 * h * std::fabs(std::sin(a))));
+    }
+    edges.push_back(s);
+    targets->push_back(&t);
+  }
+  return edges;
+}
+
+struct FrameResult {
+  Status status;
+  std::vector<FrameEdge> edges;
+  std::vector<std::optional<double>> distances;
+  double pitch_um = 0, focal_mm = 0, baseline = 0;
+};
+
+// `detected`: edges found automatically (used when the frame's truth has none).
+FrameResult measure_frame(const image::CaptureFolder& folder, int index,
+                          const DefocusOptions& options, const std::vector<EdgeSegment>& detected) {
+  FrameResult out;
+  auto image = folder.load_image(index);
+  auto side = folder.load_sidecar(index);
+  if (!image || !side) {
+    out.status = !image ? image.error() : side.error();
+    return out;
+  }
+  const json& camera = folder.manifest().contains("source")
+                           ? folder.manifest()["source"].value("camera_spec", json::object())
+                           : json::object();
+  const json& truth = side->truth;
+  out.pitch_um = number_or(truth, "pixel_pitch_um",
+                           number_or(camera.value("sensor", json::object()), "pixel_pitch_um", 0));
+  out.focal_mm = number_or(truth, "focal_mm",
+                           number_or(camera.value("lens", json::object()), "focal_mm", 0));
+  out.baseline = options.baseline_sigma_px >= 0
+                     ? options.baseline_sigma_px
+                     : number_or(truth, "baseline_blur_sigma_px",
+                                 number_or(camera.value("lens", json::object()),
+                                           "baseline_blur_sigma_px", 0.0));
+  std::vector<const json*> targets;
+  std::vector<EdgeSegment> edges = edges_from_truth(truth, folder.manifest(), &targets);
+  if (edges.empty()) {
+    edges = detected;
+    targets.assign(edges.size(), nullptr);
+  }
+  if (edges.empty()) {
+    out.status = make_error("no_edge_geometry",
+                            "frame " + std::to_string(index) +
+                                " has no slanted-edge geometry in its truth and no straight edge "
+                                "was found in the capture");
+    return out;
+  }
+  cv::Mat signal;
+  image->convertTo(signal, CV_32F, 1.0, -side->black_level_dn);
+  const json& settings = side->settings;
+  const double f_number = number_or(settings, "f_number", number_or(truth, "f_number", 0));
+  EdgeMeasureOptions mo;
+  mo.baseline_sigma_px = out.baseline;
+  mo.saturation_level = std::ldexp(1.0, side->bit_depth) - 1.0 - side->black_level_dn;
+  if (out.pitch_um > 0 && f_number > 0)
+    mo.airy_diameter_px = 2.44 * 0.55 * f_number / out.pitch_um;
+  for (size_t i = 0; i < edges.size(); ++i) {
+    auto m = measure_edge(signal, edges[i], edges, mo);
+    if (!m) {
+      out.status = m.error();
+      return out;
+    }
+    FrameEdge fe;
+    fe.frame = index;
+    fe.f_number = f_number;
+    fe.focus_position = number_or(settings, "focus_position", 0);
+    fe.lens_to_sensor_mm = number_or(settings, "lens_to_sensor_mm", 0);
+    const json* t = targets[i];
+    if (t && t->contains("coc_px")) fe.truth_coc_px = number_or((*t)["coc_px"], "at_origin", 0);
+    fe.edge = std::move(*m);
+    out.edges.push_back(std::move(fe));
+    out.distances.push_back(t && t->contains("distance_m") && (*t)["distance_m"].is_number()
+                                ? std::optional<double>((*t)["distance_m"].get<double>())
+                                : std::nullopt);
+  }
+  return out;
+}
+
+BlurSample sample_of(const FrameEdge& fe, double x) {
+  BlurSample s;
+  s.x = x;
+  s.diameter_px = fe.edge.diameter_px;
+  s.sigma_px = fe.edge.measured() ? fe.edge.diameter_sigma_px : 0.0;  // others skipped
+  return s;
+}
+
+void fit_aperture(TargetDefocus* t, const DefocusReport& r, const DefocusOptions& options,
+                  double focus_distance_mm) {
+  std::vector<BlurSample> samples;
+  for (const FrameEdge& fe : t->frames) samples.push_back(sample_of(fe, fe.f_number));
+  auto fit = fit_coc_vs_aperture(samples, options.min_diameter_px);
+  if (!fit) {
+    t->aperture_error = fit.error().code + ": " + fit.error().message;
+    return;
+  }
+  t->aperture = *fit;
+  if (r.focal_mm > 0 && r.pixel_pitch_um > 0) {
+    // C / A = (k / N) pitch / (f / N) = k pitch / f.
+    t->implied_defocus = fit->k_px * r.pixel_pitch_um * 1e-3 / r.focal_mm;
+    t->implied_defocus_sigma = fit->k_sigma_px * r.pixel_pitch_um * 1e-3 / r.focal_mm;
+    if (t->distance_m && focus_distance_mm > 0) {
+      auto c = optics::circle_of_confusion_mm(r.focal_mm, 1.0, focus_distance_mm,
+                                              *t->distance_m * 1e3);
+      if (c) t->thin_lens_k_px = *c / (r.pixel_pitch_um * 1e-3);
+    }
+  }
+}
+
+void fit_focus(TargetDefocus* t, const DefocusReport& r, const DefocusOptions& options) {
+  std::vector<BlurSample> samples;
+  for (const FrameEdge& fe : t->frames) samples.push_back(sample_of(fe, fe.focus_position));
+  auto fit = fit_v_curve(samples, options.min_diameter_px);
+  if (!fit) {
+    t->v_curve_error = fit.error().code + ": " + fit.error().message;
+    return;
+  }
+  t->v_curve = *fit;
+  t->depth_of_focus_steps = 2.0 * options.acceptable_coc_px / fit->slope_px_per_step;
+  // Lens-to-sensor distance against position: a line through the frames' settings.
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  const double n = static_cast<double>(t->frames.size());
+  for (const FrameEdge& fe : t->frames) {
+    sx += fe.focus_position;
+    sy += fe.lens_to_sensor_mm;
+    sxx += fe.focus_position * fe.focus_position;
+    sxy += fe.focus_position * fe.lens_to_sensor_mm;
+  }
+  const double det = n * sxx - sx * sx;
+  if (!(det > 0) || r.pixel_pitch_um <= 0 || r.focal_mm <= 0) return;
+  const double mm_per_step = (n * sxy - sx * sy) / det, intercept = (sy - mm_per_step * sx) / n;
+  if (!(mm_per_step > 0)) return;
+  t->aperture_over_zi = fit->slope_px_per_step * r.pixel_pitch_um * 1e-3 / mm_per_step;
+  const double zs = intercept + mm_per_step * fit->best_position;
+  t->best_lens_to_sensor_mm = zs;
+  auto s_mm = optics::focus_distance_mm(r.focal_mm, zs);
+  if (!s_mm) return;
+  t->best_focus_distance_m = *s_mm * 1e-3;
+  const double f_number = t->frames.front().f_number;
+  auto dof = optics::depth_of_field(r.focal_mm, f_number, *s_mm,
+                                    options.acceptable_coc_px * r.pixel_pitch_um * 1e-3);
+  if (dof) {
+    t->dof_near_m = dof->near_mm * 1e-3;
+    t->dof_far_m = dof->far_mm * 1e-3;  // +infinity beyond the hyperfocal distance
+  }
+}
+
+}  // namespace
+
+Result<DefocusReport> analyze_defocus(const std::filesystem::path& capture_dir,
+                                      const DefocusOptions& options) {
+  image::CaptureFolder folder;
+  CAMLAB_ASSIGN(folder, image::CaptureFolder::open(capture_dir));
+  const int count = static_cast<int>(folder.frames().size());
+  if (count == 0) return make_error("empty_capture", "the capture folder holds no frames");
+  // Without truth geometry, edges are found automatically: on every frame, keeping the
+  // frame where most are found (the sharpest, usually), and used for all frames (the
+  // fit refines each edge's position and angle per frame).
+  std::vector<EdgeSegment> detected;
+  {
+    auto side = folder.load_sidecar(0);
+    std::vector<const json*> unused;
+    if (!side) return side.error();
+    if (edges_from_truth(side->truth, folder.manifest(), &unused).empty()) {
+      for (int i = 0; i < count; ++i) {
+        auto image = folder.load_image(i);
+        if (!image) return image.error();
+        std::vector<EdgeSegment> found = find_edges(*image, options.edge_finder);
+        if (found.size() > detected.size()) detected = std::move(found);
+      }
+    }
+  }
+  std::vector<FrameResult> results(count);
+  const int threads = std::clamp(options.threads, 1, 16);
+  std::vector<std::thread> pool;
+  for (int w = 0; w < threads; ++w)
+    pool.emplace_back([&, w] {
+      for (int i = w; i < count; i += threads) results[i] = measure_frame(folder, i, options, detected);
+    });
+  for (auto& th : pool) th.join();
+
+  DefocusReport report;
+  report.acceptable_coc_px = options.acceptable_coc_px;
+  std::map<std::string, size_t> by_name;
+  std::set<double> f_numbers, positions;
+  double focus_distance_mm = 0;
+  for (int i = 0; i < count; ++i) {
+    const FrameResult& fr = results[i];
+    if (!fr.status) return fr.status.error();
+    report.pixel_pitch_um = fr.pitch_um;
+    report.focal_mm = fr.focal_mm;
+    report.baseline_sigma_px = fr.baseline;
+    for (size_t e = 0; e < fr.edges.size(); ++e) {
+      const FrameEdge& fe = fr.edges[e];
+      auto [it, inserted] = by_name.emplace(fe.edge.name, report.targets.size());
+      if (inserted) {
+        report.targets.push_back({});
+        report.targets.back().name = fe.edge.name;
+        report.targets.back().distance_m = fr.distances[e];
+      }
+      report.targets[it->second].frames.push_back(fe);
+      f_numbers.insert(fe.f_number);
+      positions.insert(fe.focus_position);
+    }
+    auto side = folder.load_sidecar(i);
+    if (side && side->settings.contains("focus_distance_m")) {
+      const json& d = side->settings["focus_distance_m"];
+      focus_distance_mm = d.is_number() ? d.get<double>() * 1e3 : optics::kInfinity;
+    }
+  }
+  report.sweep = f_numbers.size() > 1 && positions.size() <= 1   ? "f_number"
+                 : positions.size() > 1 && f_numbers.size() <= 1 ? "focus_position"
+                 : f_numbers.size() > 1                          ? "mixed"
+                                                                 : "none";
+  for (TargetDefocus& t : report.targets) {
+    if (report.sweep == "f_number") fit_aperture(&t, report, options, focus_distance_mm);
+    if (report.sweep == "focus_position") fit_focus(&t, report, options);
+  }
+  return report;
+}
+
+json to_json(const DefocusReport& r) {
+  json targets = json::array();
+  for (const TargetDefocus& t : r.targets) {
+    json frames = json::array();
+    for (size_t i = 0; i < t.frames.size(); ++i) {
+      const FrameEdge& fe = t.frames[i];
+      const EdgeMeasurement& m = fe.edge;
+      json f = {{"frame", fe.frame},
+                {"f_number", fe.f_number},
+                {"focus_position", fe.focus_position},
+                {"status", m.status},
+                {"diameter_px", num(m.diameter_px)},
+                {"diameter_sigma_px", num(m.diameter_sigma_px)},
+                {"ci95_px", {num(m.ci_low_px), num(m.ci_high_px)}},
+                {"apparent_diameter_px", num(m.apparent_diameter_px)},
+                {"rms_residual", num(m.rms_residual)},
+                {"contrast_to_noise", num(m.contrast_to_noise)},
+                {"window_px", {num(2 * m.half_length_px), num(2 * m.half_width_px)}}};
+      if (!m.message.empty()) f["message"] = m.message;
+      if (fe.truth_coc_px) f["truth_coc_px"] = *fe.truth_coc_px;
+      if (t.aperture && t.aperture->used[i]) f["cn_deviation"] = t.aperture->cn_deviation[i];
+      frames.push_back(f);
+    }
+    json jt = {{"name", t.name}, {"frames", frames}};
+    if (t.distance_m) jt["distance_m"] = *t.distance_m;
+    if (t.aperture) {
+      jt["coc_vs_aperture"] = {
+          {"k_px", t.aperture->k_px},
+          {"k_sigma_px", t.aperture->k_sigma_px},
+          {"chi2_per_dof", t.aperture->chi2_per_dof},
+          {"frames_used", t.aperture->used_count},
+          {"max_abs_cn_deviation", t.aperture->max_abs_cn_deviation},
+          {"implied_defocus", t.implied_defocus},
+          {"implied_defocus_sigma", t.implied_defocus_sigma}};
+      if (t.thin_lens_k_px) {
+        jt["coc_vs_aperture"]["thin_lens_k_px"] = *t.thin_lens_k_px;
+        jt["coc_vs_aperture"]["k_relative_to_thin_lens"] = t.aperture->k_px / *t.thin_lens_k_px - 1;
+      }
+    } else if (!t.aperture_error.empty()) {
+      jt["coc_vs_aperture"] = {{"error", t.aperture_error}};
+    }
+    if (t.v_curve) {
+      json v = {{"best_position", t.v_curve->best_position},
+                {"best_position_sigma", t.v_curve->best_position_sigma},
+                {"slope_px_per_step", t.v_curve->slope_px_per_step},
+                {"slope_sigma", t.v_curve->slope_sigma},
+                {"chi2_per_dof", t.v_curve->chi2_per_dof},
+                {"frames_used", t.v_curve->used_count},
+                {"minimum_outside_sweep", t.v_curve->p0_at_end},
+                {"depth_of_focus_steps", t.depth_of_focus_steps}};
+      if (t.aperture_over_zi) v["aperture_over_zi"] = *t.aperture_over_zi;
+      if (t.best_lens_to_sensor_mm) v["best_lens_to_sensor_mm"] = *t.best_lens_to_sensor_mm;
+      if (t.best_focus_distance_m) v["best_focus_distance_m"] = num(*t.best_focus_distance_m);
+      if (t.dof_near_m) v["dof_near_m"] = num(*t.dof_near_m);
+      if (t.dof_far_m) v["dof_far_m"] = num(*t.dof_far_m);  // null: infinity
+      jt["coc_vs_focus"] = v;
+    } else if (!t.v_curve_error.empty()) {
+      jt["coc_vs_focus"] = {{"error", t.v_curve_error}};
+    }
+    targets.push_back(jt);
+  }
+  return {{"kind", "defocus"},
+          {"sweep", r.sweep},
+          {"pixel_pitch_um", r.pixel_pitch_um},
+          {"focal_mm", r.focal_mm},
+          {"baseline_sigma_px", r.baseline_sigma_px},
+          {"acceptable_coc_px", r.acceptable_coc_px},
+          {"targets", targets}};
+}
+
+}  // namespace camlab::analysis

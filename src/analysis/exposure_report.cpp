@@ -1,0 +1,192 @@
+// Capture-folder exposure analysis: grouping, pairs, linearity, photon transfer, HDR.
+#include "analysis/exposure_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <utility>
+
+#include "image/capture_folder.h"
+
+namespace camlab::analysis {
+namespace {
+
+using nlohmann::json;
+
+json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+double spec_number(const json& j, const char* section, const char* key, double fallback) {
+  if (!j.is_object() || !j.contains(section) || !j[section].is_object()) return fallback;
+  const json& s = j[section];
+  return s.contains(key) && s[key].is_number() ? s[key].get<double>() : fallback;
+}
+
+}  // namespace
+
+Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir,
+                                        const ExposureOptions& options) {
+  image::CaptureFolder folder;
+  CAMLAB_ASSIGN(folder, image::CaptureFolder::open(capture_dir));
+  ExposureReport report;
+  report.frame_count = static_cast<int>(folder.frames().size());
+  if (report.frame_count == 0) return make_error("empty_capture", "the capture folder holds no frames");
+  if (!(options.roi_fraction > 0 && options.roi_fraction <= 1))
+    return make_error("invalid_argument", "roi_fraction must be in (0, 1]");
+
+  // Group by setting; keep up to two frames per group (the pair).
+  struct Group {
+    double exposure_us, gain;
+    std::vector<cv::Mat> frames;
+    int black = 0, bits = 8;
+  };
+  std::map<std::pair<double, double>, Group> groups;
+  for (int i = 0; i < report.frame_count; ++i) {
+    image::FrameSidecar side;
+    CAMLAB_ASSIGN(side, folder.load_sidecar(i));
+    const double t = side.settings.value("exposure_us", 0.0), g = side.settings.value("gain", 1.0);
+    if (!(t > 0) || !(g > 0))
+      return make_error("missing_settings", "frame " + std::to_string(i) +
+                                                " has no positive exposure_us and gain in its settings");
+    Group& grp = groups.try_emplace({t, g}, Group{t, g, {}, side.black_level_dn, side.bit_depth}).first->second;
+    if (grp.frames.size() >= 2) continue;
+    cv::Mat image;
+    CAMLAB_ASSIGN(image, folder.load_image(i));
+    grp.frames.push_back(image);
+  }
+  const json camera = folder.manifest().contains("source")
+                          ? folder.manifest()["source"].value("camera_spec", json::object())
+                          : json::object();
+
+  // Statistics over the central region.
+  const cv::Mat& first = groups.begin()->second.frames[0];
+  const int w = std::max(2, static_cast<int>(first.cols * options.roi_fraction));
+  const int h = std::max(2, static_cast<int>(first.rows * options.roi_fraction));
+  const cv::Rect roi((first.cols - w) / 2, (first.rows - h) / 2, w, h);
+  std::vector<PairStats> pairs;
+  std::vector<LinearityPoint> lin_points;
+  double max_dn = 0;
+  double gain_sum = 0;
+  for (auto& [key, grp] : groups) {
+    max_dn = std::ldexp(1.0, grp.bits) - 1.0 - grp.black;
+    gain_sum += grp.gain;
+    LinearityPoint lp;
+    lp.exposure_gain_us = grp.exposure_us * grp.gain;
+    double mean = 0;
+    for (const cv::Mat& f : grp.frames) mean += cv::mean(f(roi))[0] - grp.black;
+    lp.mean_dn = mean / static_cast<double>(grp.frames.size());
+    lin_points.push_back(lp);
+    if (grp.frames.size() == 2) {
+      auto ps = pair_stats(grp.frames[0], grp.frames[1], grp.black, roi);
+      if (!ps) return ps.error();
+      ps->exposure_us = grp.exposure_us;
+      ps->gain = grp.gain;
+      pairs.push_back(*ps);
+    }
+  }
+  const double mean_gain = gain_sum / static_cast<double>(groups.size());
+
+  // Expected K from the spec.
+  const double full_well = spec_number(camera, "sensor", "full_well_e", 0);
+  double k0 = spec_number(camera, "sensor", "conversion_gain_dn_per_e", 0);
+  if (k0 <= 0 && full_well > 0) k0 = max_dn / full_well;
+
+  if (pairs.size() >= 3) {
+    auto pt = fit_photon_transfer(pairs);
+    if (pt) {
+      report.photon_transfer = *pt;
+      if (k0 > 0) report.photon_transfer->expected_gain_dn_per_e = k0 * mean_gain;
+    } else {
+      report.photon_transfer_error = pt.error().code + ": " + pt.error().message;
+    }
+  } else {
+    report.photon_transfer_error = "too_few_samples: photon transfer needs frame pairs "
+                                   "(--repeats 2) at 3 or more settings";
+  }
+
+  const double saturation = report.photon_transfer ? report.photon_transfer->saturation_mean_dn
+                                                   : (k0 > 0 && full_well > 0 ? std::min(max_dn, k0 * full_well * mean_gain) : max_dn);
+  auto lin = fit_linearity(lin_points, saturation);
+  if (lin) {
+    report.linearity = lin->points;
+    report.linearity_slope_dn_per_us = lin->slope_dn_per_us;
+    report.max_linearity_error_pct = lin->max_abs_error_pct;
+    report.linearity_used = lin->used_count;
+  } else {
+    report.linearity = lin_points;
+    report.linearity_error = lin.error().code + ": " + lin.error().message;
+  }
+
+  // HDR: one frame per setting, noise from the photon transfer (else the spec).
+  if (groups.size() >= 2) {
+    HdrNoise noise;
+    if (report.photon_transfer) {
+      noise.k_dn_per_e = report.photon_transfer->system_gain_dn_per_e / mean_gain;
+      noise.read_variance_dn2 = report.photon_transfer->dark_variance_dn2 / (mean_gain * mean_gain);
+    } else if (k0 > 0) {
+      noise.k_dn_per_e = k0;
+      const double read_e = spec_number(camera, "sensor", "read_noise_e", 0);
+      noise.read_variance_dn2 = k0 * k0 * read_e * read_e;
+    }
+    std::vector<HdrFrame> frames;
+    for (auto& [key, grp] : groups) {
+      HdrFrame f;
+      grp.frames[0].convertTo(f.signal_dn, CV_32F, 1.0, -grp.black);
+      f.exposure_us = grp.exposure_us;
+      f.gain = grp.gain;
+      f.clip_dn = max_dn;
+      if (k0 > 0 && full_well > 0) f.clip_dn = std::min(max_dn, k0 * grp.gain * full_well);
+      frames.push_back(std::move(f));
+    }
+    auto hdr = merge_hdr(frames, noise);
+    if (hdr)
+      report.hdr = std::move(*hdr);
+    else
+      report.hdr_error = hdr.error().code + ": " + hdr.error().message;
+  } else {
+    report.hdr_error = "too_few_samples: an HDR merge needs 2 or more exposures";
+  }
+  return report;
+}
+
+json to_json(const ExposureReport& r) {
+  json j = {{"kind", "exposure"}, {"frames", r.frame_count}};
+  json lin = json::array();
+  for (const auto& p : r.linearity)
+    lin.push_back({{"exposure_gain_us", p.exposure_gain_us}, {"mean_dn", p.mean_dn},
+                   {"error_pct", p.error_pct}, {"used", p.used}});
+  j["linearity"] = {{"points", lin}, {"slope_dn_per_us", r.linearity_slope_dn_per_us},
+                    {"max_abs_error_pct", r.max_linearity_error_pct}, {"used", r.linearity_used}};
+  if (!r.linearity_error.empty()) j["linearity"]["error"] = r.linearity_error;
+  if (r.photon_transfer) {
+    const auto& pt = *r.photon_transfer;
+    json pts = json::array();
+    for (const auto& p : pt.points)
+      pts.push_back({{"exposure_us", p.exposure_us}, {"gain", p.gain}, {"mean_dn", p.mean_dn},
+                     {"variance_dn2", p.variance_dn2}, {"used", p.used}});
+    j["photon_transfer"] = {{"system_gain_dn_per_e", pt.system_gain_dn_per_e},
+                            {"system_gain_sigma", pt.system_gain_sigma},
+                            {"expected_gain_dn_per_e", num(pt.expected_gain_dn_per_e > 0 ? pt.expected_gain_dn_per_e : NAN)},
+                            {"dark_variance_dn2", pt.dark_variance_dn2},
+                            {"dark_noise_e", pt.dark_noise_e},
+                            {"saturation_mean_dn", pt.saturation_mean_dn},
+                            {"saturation_capacity_e", pt.saturation_capacity_e},
+                            {"snr_max", pt.snr_max},
+                            {"dynamic_range", pt.dynamic_range},
+                            {"pairs_used", pt.used_count},
+                            {"points", pts}};
+  } else {
+    j["photon_transfer"] = {{"error", r.photon_transfer_error}};
+  }
+  if (r.hdr) {
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(r.hdr->radiance, &lo, &hi);
+    j["hdr"] = {{"clipped_everywhere", r.hdr->clipped_everywhere},
+                {"radiance_min_dn_per_us", lo}, {"radiance_max_dn_per_us", hi}};
+    if (r.hdr_median_relative_error) j["hdr"]["median_relative_error"] = *r.hdr_median_relative_error;
+  } else {
+    j["hdr"] = {{"error", r.hdr_error}};
+  }
+  return j;
+}
+
+}  // namespace camlab::analysis

@@ -1,0 +1,46 @@
+// Exposure analysis of a capture folder (an exposure or gain sweep with repeats >= 2):
+// frames grouped by (exposure_us, gain); the first two of a group form the pair for
+// photon transfer; the groups' means give the linearity; one frame per group feeds the
+// HDR merge (exposure.h). The expected K (spec K x gain) comes from the manifest's camera
+// spec when present (conversion_gain_dn_per_e, or its default (2^bits - 1 - black) /
+// full well).
+//
+// Reentrant.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "analysis/exposure.h"
+#include "base/result.h"
+
+namespace camlab::analysis {
+
+struct ExposureOptions {
+  double roi_fraction = 0.5;  // central part of the frame used for statistics
+};
+
+struct ExposureReport {
+  int frame_count = 0;
+  std::vector<LinearityPoint> linearity;
+  double linearity_slope_dn_per_us = 0;
+  double max_linearity_error_pct = 0;
+  int linearity_used = 0;
+  std::string linearity_error;
+  std::optional<PhotonTransfer> photon_transfer;
+  std::string photon_transfer_error;
+  std::optional<HdrResult> hdr;
+  std::string hdr_error;
+  std::optional<double> hdr_median_relative_error;  // set by callers that know the truth
+};
+
+Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir,
+                                        const ExposureOptions& options);
+
+nlohmann::json to_json(const ExposureReport& report);
+
+}  // namespace camlab::analysis

@@ -1,0 +1,98 @@
+// `camlab analyze` end to end: the built CLI on virtual-camera captures (JSON output
+// checked against the truth, report and plot files written) and its error contract
+// ("camlab analyze: <message>" on stderr, exit status 2).
+#include <filesystem>
+#include <fstream>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "../../integration/cli_runner.h"
+#include "capture_fixture.h"
+#include "mock_device/render_capture.h"
+
+namespace camlab::analysis {
+namespace {
+
+nlohmann::json camera_json() {
+  return {{"name", "cli test"},
+          {"sensor", {{"width_px", 160}, {"height_px", 160}, {"pixel_pitch_um", 6.0}, {"bit_depth", 12},
+                      {"black_level_dn", 64}, {"full_well_e", 20000}, {"read_noise_e", 2.0}}},
+          {"lens", {{"focal_mm", 8.0}, {"model", "LENSMODEL_PINHOLE"}, {"f_number_min", 1.4},
+                    {"focus", {{"position_min", 0}, {"position_max", 2000}, {"extension_mm_per_step", 0.001}}}}},
+          {"timing", {{"frame_interval_us", 100000}}},
+          {"controls", {{"exposure_time_absolute", {{"min", 1}, {"max", 1000}, {"default", 30}}}}}};
+}
+
+TEST(AnalyzeCli, DefocusJsonReportAndPlots) {
+  auto renderer = testing::make_renderer(
+      camera_json(), {{"illuminance_lux", 1000},
+                      {"targets", {{{"type", "slanted_edge"}, {"name", "edge"}, {"size_m", {0.03, 0.03}},
+                                    {"angle_deg", 5}, {"pose", {{"position_m", {0.0, 0.0, 0.35}}}}}}}});
+  const auto dir = testing::fresh_dir("cli_defocus");
+  std::vector<mock::RenderSettings> settings;
+  for (double n : {2.0, 4.0, 8.0}) settings.push_back({std::round(27.0 * n * n / 4) * 100.0, 1.0, n, 0});
+  testing::render_frames(renderer, dir, settings, 5);
+  const auto plots = dir.string() + "_plots", report = dir.string() + "_report.json";
+  const auto run = camlab::testing::run_cli("analyze defocus " + dir.string() + " --json --plots " + plots +
+                                            " --report " + report);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto j = nlohmann::json::parse(run.out);
+  EXPECT_EQ(j["sweep"], "f_number");
+  const auto& aperture = j["targets"][0]["coc_vs_aperture"];
+  // Thin lens, focused at infinity: k = f^2 / z_o / pitch = 30.48 px.
+  EXPECT_NEAR(aperture["k_px"].get<double>(), 64.0 / 350.0 / 6e-3, 0.02 * 30.48);
+  EXPECT_NEAR(aperture["k_relative_to_thin_lens"].get<double>(), 0.0, 0.02);
+  std::ifstream file(report);
+  EXPECT_EQ(nlohmann::json::parse(file), j);
+  EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(plots) / "edge_coc_vs_n.png"));
+  // Text output names the fit.
+  const auto text = camlab::testing::run_cli("analyze defocus " + dir.string());
+  EXPECT_NE(text.out.find("C x N = k"), std::string::npos);
+  std::filesystem::remove_all(dir);
+  std::filesystem::remove_all(plots);
+  std::filesystem::remove(report);
+}
+
+TEST(AnalyzeCli, ExposureAndFocusRunOnTheirCaptures) {
+  auto renderer = testing::make_renderer(
+      camera_json(), {{"illuminance_lux", 1000},
+                      {"targets", {{{"type", "texture"}, {"size_m", {0.5, 0.5}}, {"feature_m", 0.0006},
+                                    {"pose", {{"position_m", {0.0, 0.0, 0.5}}}}}}}});
+  const auto dir = testing::fresh_dir("cli_focus");
+  mock::RenderCaptureRequest req;
+  req.out_dir = dir;
+  req.base = renderer.default_settings();
+  req.base.f_number = 2.0;
+  req.sweep = mock::Sweep{"focus_position", {100, 110, 120, 130, 140, 150, 160}};
+  ASSERT_TRUE(mock::render_capture(renderer, req).ok());
+  const auto focus = camlab::testing::run_cli("analyze focus " + dir.string() + " --json --region 80");
+  ASSERT_EQ(focus.exit_code, 0) << focus.err;
+  const auto j = nlohmann::json::parse(focus.out);
+  // z_i - f for 0.5 m: 8 * 500 / 492 - 8 mm = 130.08 steps.
+  ASSERT_EQ(j["regions"].size(), 4u);
+  for (const auto& r : j["regions"]) {
+    EXPECT_EQ(r["status"], "ok");
+    EXPECT_NEAR(r["best_position"].get<double>(), 130.08, 1.0);
+  }
+  // The same folder has one exposure: photon transfer needs pairs, and says so.
+  const auto exposure = camlab::testing::run_cli("analyze exposure " + dir.string() + " --json");
+  ASSERT_EQ(exposure.exit_code, 0) << exposure.err;
+  EXPECT_NE(nlohmann::json::parse(exposure.out)["photon_transfer"]["error"].get<std::string>().find("too_few"),
+            std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(AnalyzeCli, ErrorsGoToStderrWithStatus2) {
+  const auto missing = camlab::testing::run_cli("analyze defocus /nonexistent/capture");
+  EXPECT_NE(missing.exit_code, 0);
+  const auto dir = testing::fresh_dir("cli_empty");
+  std::filesystem::create_directories(dir);
+  const auto empty = camlab::testing::run_cli("analyze focus " + dir.string());
+  EXPECT_EQ(empty.exit_code, 2);
+  EXPECT_EQ(empty.err.rfind("camlab analyze: ", 0), 0u) << empty.err;
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace camlab::analysis
