@@ -131,6 +131,7 @@ void VirtualV4l2Device::queue_control_event(uint32_t id, uint32_t changes, int o
     }
     file.events.push_back(event);
   }
+  signal_readiness();
   changed_.notify_all();
 }
 
@@ -148,9 +149,9 @@ int VirtualV4l2Device::set_control_value(int file, Control& c, int64_t value) {
       value = value != 0;
       break;
     case V4L2_CTRL_TYPE_MENU:
-      if (value < c.query.minimum || value > c.query.maximum ||
-          c.menu[static_cast<size_t>(value)] == nullptr)
-        return -EINVAL;
+      // Outside the range is ERANGE; a hole in the menu inside it is EINVAL (as the kernel).
+      if (value < c.query.minimum || value > c.query.maximum) return -ERANGE;
+      if (c.menu[static_cast<size_t>(value)] == nullptr) return -EINVAL;
       break;
     default:
       return -EACCES;
@@ -193,20 +194,23 @@ int VirtualV4l2Device::ext_ctrls(int file, unsigned long request, v4l2_ext_contr
     Control* c = control(ext.id);
     const bool wrong_class = (which == V4L2_CTRL_CLASS_USER || which == V4L2_CTRL_CLASS_CAMERA) &&
                              V4L2_CTRL_ID2WHICH(ext.id) != which;
+    // error_idx as the kernel reports it: S_EXT_CTRLS says count for any failure found
+    // while checking (nothing was applied), TRY and G name the failing control.
     if (!c || wrong_class) {
-      controls->error_idx = i;
+      controls->error_idx = set ? controls->count : i;
       return -EINVAL;
     }
     if ((get && (c->query.flags & V4L2_CTRL_FLAG_WRITE_ONLY)) || (!get && (c->query.flags & V4L2_CTRL_FLAG_READ_ONLY))) {
-      // An access error found while checking, before anything was read or written.
-      controls->error_idx = controls->count;
+      // For G_EXT_CTRLS the kernel reports count (nothing was read); for TRY/S the index.
+      controls->error_idx = get || set ? controls->count : i;
       return -EACCES;
     }
-    if (!get && c->query.type == V4L2_CTRL_TYPE_MENU &&
-        (ext.value < c->query.minimum || ext.value > c->query.maximum ||
-         c->menu[static_cast<size_t>(ext.value)] == nullptr)) {
-      controls->error_idx = set ? controls->count : i;
-      return -EINVAL;
+    if (!get && c->query.type == V4L2_CTRL_TYPE_MENU) {
+      const bool outside = ext.value < c->query.minimum || ext.value > c->query.maximum;
+      if (outside || c->menu[static_cast<size_t>(ext.value)] == nullptr) {
+        controls->error_idx = set ? controls->count : i;
+        return outside ? -ERANGE : -EINVAL;
+      }
     }
   }
   for (uint32_t i = 0; i < controls->count; ++i) {

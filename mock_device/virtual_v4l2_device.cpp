@@ -4,6 +4,7 @@
 #include "mock_device/virtual_v4l2_device.h"
 
 #include <poll.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
@@ -69,6 +70,27 @@ int VirtualV4l2Device::open_file(bool nonblocking) {
   return id;
 }
 
+void VirtualV4l2Device::attach_eventfd(int file, int eventfd) {
+  std::lock_guard lock(mutex_);
+  auto it = files_.find(file);
+  if (it == files_.end()) return;
+  it->second.eventfd = eventfd;
+  it->second.signalled = false;
+  signal_readiness();
+}
+
+void VirtualV4l2Device::signal_readiness() {
+  for (auto& [id, f] : files_) {
+    if (f.eventfd < 0) continue;
+    const bool ready = (poll_events(id, POLLIN | POLLRDNORM) & (POLLIN | POLLERR)) != 0;
+    if (ready == f.signalled) continue;
+    uint64_t count = 1;
+    // The eventfd is non-blocking: write sets it readable, read drains it.
+    const ssize_t n = ready ? ::write(f.eventfd, &count, sizeof count) : ::read(f.eventfd, &count, sizeof count);
+    if (n == sizeof count) f.signalled = ready;
+  }
+}
+
 void VirtualV4l2Device::close_file(int file) {
   std::lock_guard lock(mutex_);
   // The queue's owner closing the device stops the stream and frees unmapped buffers,
@@ -82,6 +104,7 @@ void VirtualV4l2Device::close_file(int file) {
     queue_owner_ = 0;
   }
   files_.erase(file);
+  signal_readiness();
   changed_.notify_all();
 }
 
@@ -283,7 +306,8 @@ int VirtualV4l2Device::ioctl(int file, unsigned long request, void* arg) {
     case VIDIOC_QBUF:
     {
       const int result = qbuf(file, static_cast<v4l2_buffer*>(arg));
-      changed_.notify_all();  // the frame clock may be waiting for a buffer
+      signal_readiness();
+  changed_.notify_all();  // the frame clock may be waiting for a buffer
       return result;
     }
     case VIDIOC_DQBUF:
@@ -330,6 +354,7 @@ void VirtualV4l2Device::unplug() {
   std::lock_guard lock(mutex_);
   unplugged_ = true;
   streaming_ = false;
+  signal_readiness();
   changed_.notify_all();
 }
 
@@ -346,6 +371,7 @@ void VirtualV4l2Device::drop_next_frames(int count) {
 void VirtualV4l2Device::stall(bool stalled) {
   std::lock_guard lock(mutex_);
   stalled_ = stalled;
+  signal_readiness();
   changed_.notify_all();
 }
 

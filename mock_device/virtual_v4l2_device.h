@@ -49,6 +49,10 @@ class VirtualV4l2Device {
 
   // Open files: each has its own priority and event subscriptions.
   int open_file(bool nonblocking);
+  // Ties an eventfd to an open file: it is kept readable exactly while poll() would
+  // report POLLIN (a filled buffer) or POLLERR, so select, poll and epoll on the fd work
+  // without interposition.
+  void attach_eventfd(int file, int eventfd);
   void close_file(int file);
 
   // Whether the device implements an ioctl (others are ENOTTY, checked before the
@@ -95,6 +99,8 @@ class VirtualV4l2Device {
     std::map<uint32_t, uint32_t> subscriptions;  // control id -> V4L2_EVENT_SUB_FL_* flags
     std::deque<v4l2_event> events;
     uint32_t event_sequence = 0;
+    int eventfd = -1;
+    bool signalled = false;
   };
   struct Buffer {
     int memfd = -1;
@@ -135,6 +141,7 @@ class VirtualV4l2Device {
   // Renders frame `sequence` into buffer `index` (unlocking while rendering); false when
   // the stream stopped or the buffers changed meanwhile.
   // A frame that cannot be rendered sets *failed and is returned flagged with an error.
+  void signal_readiness();  // updates every attached eventfd; call with the mutex held
   bool render_into(int index, uint64_t sequence, std::unique_lock<std::mutex>& lock, bool* failed);
   RenderSettings settings_in_effect() const;
 

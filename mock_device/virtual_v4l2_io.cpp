@@ -42,11 +42,12 @@ int VirtualV4l2Io::open(const char* path, int flags) {
       errno = -file;
       return -1;
     }
-    const int fd = ::eventfd(0, EFD_CLOEXEC);
+    const int fd = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
     if (fd < 0) {
       device->close_file(file);
       return -1;
     }
+    device->attach_eventfd(file, fd);
     std::lock_guard lock(mutex_);
     files_[fd] = {device, file};
     return fd;

@@ -140,6 +140,7 @@ int VirtualV4l2Device::dqbuf(int file, v4l2_buffer* buffer, std::unique_lock<std
   Buffer& b = buffers_[static_cast<size_t>(index)];
   *buffer = b.done;
   b.state = Buffer::State::kDequeued;
+  signal_readiness();
   buffer->memory = V4L2_MEMORY_MMAP;
   buffer->m.offset = static_cast<uint32_t>(static_cast<size_t>(index) * buffer_stride_);
   buffer->flags &= ~(V4L2_BUF_FLAG_QUEUED | V4L2_BUF_FLAG_DONE);
@@ -154,6 +155,7 @@ int VirtualV4l2Device::streamon(int file) {
   if (streaming_) return 0;
   streaming_ = true;
   next_sequence_ = 0;
+  signal_readiness();
   changed_.notify_all();
   return 0;
 }
@@ -168,6 +170,7 @@ int VirtualV4l2Device::streamoff(int file) {
   done_order_.clear();
   for (const auto& p : pending_) in_effect_[p.id] = p.value;  // no frame in flight any more
   pending_.clear();
+  signal_readiness();
   changed_.notify_all();
   return 0;
 }
@@ -361,7 +364,8 @@ void VirtualV4l2Device::produce_frames() {
     done.length = format_.sizeimage;
     buffer.state = Buffer::State::kDone;
     done_order_.push_back(index);
-    changed_.notify_all();
+    signal_readiness();
+  changed_.notify_all();
   }
 }
 

@@ -91,6 +91,17 @@ TEST_F(Vcam, CamlabDevicesSeesTheDeviceThroughItsOwnV4l2Backend) {
   EXPECT_TRUE(found);
 }
 
+TEST_F(Vcam, V4l2ComplianceReportsNoFailures) {
+  if (!fs::exists("/usr/bin/v4l2-compliance")) GTEST_SKIP() << "v4l2-compliance (v4l-utils) is not installed";
+  // -s streams (MMAP with poll, select and epoll), -f streams every format.
+  auto run = run_cli(vcam() + "v4l2-compliance -d /dev/video0 -s -f");
+  const auto total = run.out.find("Total for camlab-vcam device /dev/video0:");
+  ASSERT_NE(total, std::string::npos) << run.out << run.err;
+  const std::string summary = run.out.substr(total, run.out.find('\n', total) - total);
+  EXPECT_NE(summary.find("Failed: 0,"), std::string::npos) << summary << "\n" << run.out;
+  EXPECT_EQ(run.exit_code, 0) << summary;
+}
+
 TEST_F(Vcam, ReturnsTheCommandsExitStatusAndRefusesBadSpecs) {
   EXPECT_EQ(run_cli(vcam() + "sh -c 'exit 7'").exit_code, 7);
   auto bad = run_cli("vcam run --camera " + (dir / "scene.json").string() + " -- true");
