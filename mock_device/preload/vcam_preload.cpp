@@ -268,30 +268,44 @@ void fill_device_stat(int index, struct stat* st) {
 
 int fd_device_index(int fd) { return Devices::get().io()->device_index_of(fd); }
 
+// Calls `call` with the path the client's path stands for: paths under the fake sysfs
+// roots are redirected into it, every other path passes unchanged.
+template <class Call>
+auto on_real_path(const char* path, Call call) {
+  std::string storage;
+  const char* redirected = FakeSysfs::get().rewrite(path, &storage);
+  return call(redirected ? redirected : path);
+}
+
+// The stat family: a virtual device node is a character device 81:N; other paths go to
+// `call` (redirected when they are fake sysfs paths).
+template <class Call>
+int stat_path(const char* path, struct stat* st, Call call) {
+  if (const int index = device_index(path); index >= 0) {
+    fill_device_stat(index, st);
+    return 0;
+  }
+  return on_real_path(path, call);
+}
+
 }  // namespace
 
 extern "C" {
 
 FILE* fopen(const char* path, const char* mode) {
   static auto real_fopen = next<FILE* (*)(const char*, const char*)>("fopen");
-  std::string storage;
-  if (const char* redirected = FakeSysfs::get().rewrite(path, &storage)) return real_fopen(redirected, mode);
-  return real_fopen(path, mode);
+  return on_real_path(path, [&](const char* p) { return real_fopen(p, mode); });
 }
 FILE* fopen64(const char* path, const char* mode) { return fopen(path, mode); }
 
 DIR* opendir(const char* path) {
   static auto real_opendir = next<DIR* (*)(const char*)>("opendir");
-  std::string storage;
-  if (const char* redirected = FakeSysfs::get().rewrite(path, &storage)) return real_opendir(redirected);
-  return real_opendir(path);
+  return on_real_path(path, [&](const char* p) { return real_opendir(p); });
 }
 
 ssize_t readlink(const char* path, char* buffer, size_t size) {
   static auto real_readlink = next<ssize_t (*)(const char*, char*, size_t)>("readlink");
-  std::string storage;
-  if (const char* redirected = FakeSysfs::get().rewrite(path, &storage)) return real_readlink(redirected, buffer, size);
-  return real_readlink(path, buffer, size);
+  return on_real_path(path, [&](const char* p) { return real_readlink(p, buffer, size); });
 }
 
 int open(const char* path, int flags, ...) {
@@ -303,9 +317,7 @@ int open(const char* path, int flags, ...) {
     va_end(args);
   }
   if (device_index(path) >= 0) return open_device(path, flags);
-  std::string storage;
-  if (const char* redirected = FakeSysfs::get().rewrite(path, &storage)) return real().open(redirected, flags, mode);
-  return real().open(path, flags, mode);
+  return on_real_path(path, [&](const char* p) { return real().open(p, flags, mode); });
 }
 int open64(const char* path, int flags, ...) __attribute__((alias("open")));
 int __open_2(const char* path, int flags) { return open(path, flags); }
@@ -320,9 +332,7 @@ int openat(int dirfd, const char* path, int flags, ...) {
     va_end(args);
   }
   if (device_index(path) >= 0) return open_device(path, flags);
-  std::string storage;
-  if (const char* redirected = FakeSysfs::get().rewrite(path, &storage)) return real().openat(dirfd, redirected, flags, mode);
-  return real().openat(dirfd, path, flags, mode);
+  return on_real_path(path, [&](const char* p) { return real().openat(dirfd, p, flags, mode); });
 }
 int openat64(int dirfd, const char* path, int flags, ...) __attribute__((alias("openat")));
 int __openat_2(int dirfd, const char* path, int flags) { return openat(dirfd, path, flags); }
@@ -402,35 +412,17 @@ int fstat(int fd, struct stat* st) {
 int fstat64(int fd, struct stat64* st) { return fstat(fd, reinterpret_cast<struct stat*>(st)); }
 
 int stat(const char* path, struct stat* st) {
-  if (const int index = device_index(path); index >= 0) {
-    fill_device_stat(index, st);
-    return 0;
-  }
-  std::string storage;
-  if (const char* redirected = FakeSysfs::get().rewrite(path, &storage)) return real().stat(redirected, st);
-  return real().stat(path, st);
+  return stat_path(path, st, [&](const char* p) { return real().stat(p, st); });
 }
 int stat64(const char* path, struct stat64* st) { return stat(path, reinterpret_cast<struct stat*>(st)); }
 
 int lstat(const char* path, struct stat* st) {
-  if (const int index = device_index(path); index >= 0) {
-    fill_device_stat(index, st);
-    return 0;
-  }
-  std::string storage;
-  if (const char* redirected = FakeSysfs::get().rewrite(path, &storage)) return real().lstat(redirected, st);
-  return real().lstat(path, st);
+  return stat_path(path, st, [&](const char* p) { return real().lstat(p, st); });
 }
 int lstat64(const char* path, struct stat64* st) { return lstat(path, reinterpret_cast<struct stat*>(st)); }
 
 int fstatat(int dirfd, const char* path, struct stat* st, int flags) {
-  if (const int index = device_index(path); index >= 0) {
-    fill_device_stat(index, st);
-    return 0;
-  }
-  std::string storage;
-  if (const char* redirected = FakeSysfs::get().rewrite(path, &storage)) return real().fstatat(dirfd, redirected, st, flags);
-  return real().fstatat(dirfd, path, st, flags);
+  return stat_path(path, st, [&](const char* p) { return real().fstatat(dirfd, p, st, flags); });
 }
 int fstatat64(int dirfd, const char* path, struct stat64* st, int flags) {
   return fstatat(dirfd, path, reinterpret_cast<struct stat*>(st), flags);
@@ -438,9 +430,7 @@ int fstatat64(int dirfd, const char* path, struct stat64* st, int flags) {
 
 int access(const char* path, int mode) {
   if (device_index(path) >= 0) return 0;
-  std::string storage;
-  if (const char* redirected = FakeSysfs::get().rewrite(path, &storage)) return real().access(redirected, mode);
-  return real().access(path, mode);
+  return on_real_path(path, [&](const char* p) { return real().access(p, mode); });
 }
 
 }  // extern "C"
