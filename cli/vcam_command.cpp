@@ -1,5 +1,6 @@
 // `camlab vcam run`: run a command with virtual cameras present as /dev/video0.. .
-#include <spawn.h>
+#include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -14,9 +15,9 @@
 #include <vector>
 
 #include "commands.h"
-#include "mock_device/camera_spec.h"
+#include "mock_device/broker/vcam_broker.h"
+#include "mock_device/broker/vcam_devices.h"
 #include "mock_device/fake_sysfs.h"
-#include "mock_device/scene_spec.h"
 
 extern char** environ;
 
@@ -32,6 +33,8 @@ struct VcamArgs {
   int count = 1;
   std::vector<std::string> command;
 };
+
+volatile pid_t forwarded_child = 0;  // for the signal handler
 
 [[noreturn]] void fail(const std::string& message) {
   std::fprintf(stderr, "camlab vcam run: %s\n", message.c_str());
@@ -69,48 +72,85 @@ std::string find_preload_library() {
   return {};
 }
 
-int run_vcam(const VcamArgs& args) {
-  if (args.command.empty()) fail("give the command to run after --, e.g. camlab vcam run -- v4l2-ctl --all");
+// The devices of a run and everything that points to them: a temporary folder with the
+// broker's socket and the fake sysfs, removed when the session ends (after the broker).
+struct VcamSession {
+  struct Folder {
+    fs::path path;
+    ~Folder() {
+      std::error_code ec;
+      if (!path.empty()) fs::remove_all(path, ec);
+    }
+  } folder;
+  std::unique_ptr<mock::VcamBroker> broker;
+  // What a client process needs in its environment.
+  std::vector<std::pair<std::string, std::string>> environment;
+};
+
+std::unique_ptr<VcamSession> start_session(const VcamArgs& args) {
   const std::string preload = find_preload_library();
   if (preload.empty())
     fail("libcamlab_vcam_preload.so not found beside camlab; set CAMLAB_VCAM_PRELOAD to its path");
-
+  auto session = std::make_unique<VcamSession>();
   char dir_template[] = "/tmp/camlab-vcam-XXXXXX";
   if (!mkdtemp(dir_template)) fail(std::string("cannot create a temporary folder: ") + std::strerror(errno));
   const fs::path work(dir_template);
-  struct Cleanup {
-    fs::path dir;
-    ~Cleanup() {
-      std::error_code ec;
-      fs::remove_all(dir, ec);
-    }
-  } cleanup{work};
+  session->folder.path = work;
 
-  // Check the specs here, where an error can be printed clearly, not in every process.
   std::string camera_path = args.camera;
   if (camera_path.empty()) {
     camera_path = (work / "camera.json").string();
     std::ofstream(camera_path) << kDefaultCamera;
   }
-  if (auto camera = mock::load_camera_spec(camera_path); !camera) fail(camera.error().message);
-  if (!args.scene.empty())
-    if (auto scene = mock::load_scene_spec(args.scene); !scene) fail(scene.error().message);
+  // The devices live here, in the broker, for every process of the run.
+  auto devices = mock::create_vcam_devices(camera_path, args.scene, args.count);
+  if (!devices) fail(devices.error().message);
+  auto broker = mock::VcamBroker::start(std::move(*devices), (work / "broker.sock").string());
+  if (!broker) fail(broker.error().message);
+  session->broker = std::move(*broker);
   const fs::path sysfs = work / "sys";
   fs::create_directories(sysfs);
   if (!mock::write_sysfs_tree(sysfs.string(), args.count)) fail("cannot write the fake sysfs in " + sysfs.string());
 
+  const char* existing_preload = std::getenv("LD_PRELOAD");
+  session->environment = {
+      {"LD_PRELOAD", preload + (existing_preload ? std::string(" ") + existing_preload : "")},
+      {"CAMLAB_VCAM_BROKER", session->broker->socket_path()},
+      {"CAMLAB_VCAM_COUNT", std::to_string(args.count)},
+      {"CAMLAB_VCAM_SYSFS", sysfs.string()},
+  };
+  return session;
+}
+
+volatile sig_atomic_t stop_serving = 0;
+
+int serve_vcam(const VcamArgs& args) {
+  auto session = start_session(args);
+  std::printf("# %d virtual camera(s) served as /dev/video0..%d until this process ends (Ctrl-C).\n"
+              "# In another shell, for any V4L2 program:\n",
+              args.count, args.count - 1);
+  for (const auto& [name, value] : session->environment) std::printf("export %s='%s'\n", name.c_str(), value.c_str());
+  std::fflush(stdout);
+  struct sigaction stop{};
+  stop.sa_handler = [](int) { stop_serving = 1; };
+  sigemptyset(&stop.sa_mask);
+  sigaction(SIGTERM, &stop, nullptr);
+  sigaction(SIGINT, &stop, nullptr);
+  sigaction(SIGHUP, &stop, nullptr);
+  while (!stop_serving) pause();
+  return 0;
+}
+
+int run_vcam(const VcamArgs& args) {
+  if (args.command.empty()) fail("give the command to run after --, e.g. camlab vcam run -- v4l2-ctl --all");
+  auto session = start_session(args);
   std::vector<std::string> env_strings;
   for (char** e = environ; *e; ++e) {
     const std::string entry = *e;
     if (entry.rfind("LD_PRELOAD=", 0) == 0 || entry.rfind("CAMLAB_VCAM_", 0) == 0) continue;
     env_strings.push_back(entry);
   }
-  const char* existing_preload = std::getenv("LD_PRELOAD");
-  env_strings.push_back("LD_PRELOAD=" + preload + (existing_preload ? std::string(" ") + existing_preload : ""));
-  env_strings.push_back("CAMLAB_VCAM_CAMERA=" + fs::absolute(camera_path).string());
-  if (!args.scene.empty()) env_strings.push_back("CAMLAB_VCAM_SCENE=" + fs::absolute(args.scene).string());
-  env_strings.push_back("CAMLAB_VCAM_COUNT=" + std::to_string(args.count));
-  env_strings.push_back("CAMLAB_VCAM_SYSFS=" + sysfs.string());
+  for (const auto& [name, value] : session->environment) env_strings.push_back(name + "=" + value);
   std::vector<char*> envp;
   for (auto& e : env_strings) envp.push_back(e.data());
   envp.push_back(nullptr);
@@ -119,9 +159,27 @@ int run_vcam(const VcamArgs& args) {
   for (auto& a : argv_strings) argv.push_back(a.data());
   argv.push_back(nullptr);
 
-  pid_t child;
-  if (int error = posix_spawnp(&child, argv[0], nullptr, nullptr, argv.data(), envp.data()); error != 0)
-    fail("cannot run " + args.command[0] + ": " + std::strerror(error));
+  // The command must not outlive its devices: it dies with this process (PDEATHSIG)
+  // and gets the SIGTERM/SIGHUP sent to it; SIGINT/SIGQUIT reach it from the terminal
+  // directly, so this process ignores them while it waits (as system(3) does).
+  const pid_t parent = getpid();
+  const pid_t child = fork();
+  if (child < 0) fail(std::string("cannot fork: ") + std::strerror(errno));
+  if (child == 0) {
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (getppid() != parent) _exit(127);
+    execvpe(argv[0], argv.data(), envp.data());
+    std::fprintf(stderr, "camlab vcam run: cannot run %s: %s\n", argv[0], std::strerror(errno));
+    _exit(127);
+  }
+  forwarded_child = child;
+  struct sigaction forward{};
+  forward.sa_handler = [](int signal) { kill(forwarded_child, signal); };
+  sigemptyset(&forward.sa_mask);
+  sigaction(SIGTERM, &forward, nullptr);
+  sigaction(SIGHUP, &forward, nullptr);
+  signal(SIGINT, SIG_IGN);
+  signal(SIGQUIT, SIG_IGN);
   int status = 0;
   while (waitpid(child, &status, 0) < 0 && errno == EINTR) {
   }
@@ -141,13 +199,27 @@ void register_vcam_command(CLI::App& app) {
       "Run COMMAND with N virtual cameras present as /dev/video0.. (user space: an LD_PRELOAD\n"
       "library answers the V4L2 calls; no kernel module). Returns COMMAND's exit status.\n"
       "Example: camlab vcam run -- v4l2-ctl -d /dev/video0 --stream-mmap --stream-count=30 --stream-to=f.raw\n"
-      "Each process gets its own instance of the devices (cross-process sharing: to come).");
+      "All processes of COMMAND (it may be a shell running several) share the same devices:\n"
+      "a control one process sets is what the next one reads, as with a kernel driver.");
   run->add_option("--camera", args->camera, "camera spec JSON (default: a 640x480 10-bit camera)")
       ->check(CLI::ExistingFile);
   run->add_option("--scene", args->scene, "scene spec JSON (default: a chessboard at 0.6 m)")->check(CLI::ExistingFile);
   run->add_option("--count", args->count, "number of virtual cameras")->check(CLI::Range(1, 8));
   run->add_option("command", args->command, "the command and its arguments (after --)")->required();
   run->callback([args] { throw CLI::RuntimeError(run_vcam(*args)); });
+
+  auto serve_args = std::make_shared<VcamArgs>();
+  CLI::App* serve = vcam->add_subcommand(
+      "serve",
+      "Serve N virtual cameras until interrupted, and print the environment (LD_PRELOAD and\n"
+      "CAMLAB_VCAM_*) under which any program in any shell sees them as /dev/video0.. .\n"
+      "Keep it running in one shell and paste the export lines into another.");
+  serve->add_option("--camera", serve_args->camera, "camera spec JSON (default: a 640x480 10-bit camera)")
+      ->check(CLI::ExistingFile);
+  serve->add_option("--scene", serve_args->scene, "scene spec JSON (default: a chessboard at 0.6 m)")
+      ->check(CLI::ExistingFile);
+  serve->add_option("--count", serve_args->count, "number of virtual cameras")->check(CLI::Range(1, 8));
+  serve->callback([serve_args] { throw CLI::RuntimeError(serve_vcam(*serve_args)); });
 }
 
 }  // namespace camlab::cli

@@ -1,0 +1,287 @@
+#include "mock_device/broker/vcam_broker.h"
+
+#include <fcntl.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <map>
+
+#include "mock_device/broker/broker_protocol.h"
+
+namespace camlab::mock {
+
+namespace {
+
+using broker::Op;
+using broker::ReplyHeader;
+using broker::RequestHeader;
+using broker::UserBuffer;
+
+void close_all(std::vector<int>& fds) {
+  for (int fd : fds) ::close(fd);
+  fds.clear();
+}
+
+int reply(int socket, const ReplyHeader& header, const std::vector<uint8_t>& body = {}, int fd = -1) {
+  std::vector<uint8_t> message(sizeof header + body.size());
+  std::memcpy(message.data(), &header, sizeof header);
+  if (!body.empty()) std::memcpy(message.data() + sizeof header, body.data(), body.size());
+  return broker::send_message(socket, message.data(), message.size(), &fd, fd >= 0 ? 1 : 0);
+}
+
+int reply_result(int socket, int result) {
+  ReplyHeader header;
+  header.result = result;
+  return reply(socket, header);
+}
+
+// One open file of one device, as seen by the connection that opened it.
+class OpenFile {
+ public:
+  OpenFile(std::shared_ptr<VirtualV4l2Device> device, int file) : device_(std::move(device)), file_(file) {}
+  ~OpenFile() {
+    // A client that dies with buffers mapped leaves the device's mapping counts as if it
+    // had unmapped them: its address space is gone.
+    for (const auto& [offset, count] : mappings_) device_->note_mapping(offset, -count);
+    device_->close_file(file_);
+  }
+
+  // Answers one request; returns false when the connection must end.
+  bool handle(int socket, const std::vector<uint8_t>& message, std::vector<int>& fds) {
+    RequestHeader header;
+    std::memcpy(&header, message.data(), sizeof header);
+    switch (header.op) {
+      case Op::kIoctl: return ioctl(socket, header, message, fds) == 0;
+      case Op::kMmap: return mmap(socket, header) == 0;
+      case Op::kMunmap: {
+        auto it = mappings_.find(header.offset);
+        if (it != mappings_.end() && it->second > 0) {
+          device_->note_mapping(header.offset, -1);
+          if (--it->second == 0) mappings_.erase(it);
+        }
+        return reply_result(socket, 0) == 0;
+      }
+      case Op::kPoll: {
+        ReplyHeader out;
+        out.revents = device_->poll_events(file_, static_cast<short>(header.flags));
+        return reply(socket, out) == 0;
+      }
+      default:
+        return reply_result(socket, -EINVAL) == 0;
+    }
+  }
+
+ private:
+  int ioctl(int socket, const RequestHeader& header, const std::vector<uint8_t>& message, std::vector<int>& fds) {
+    const unsigned long request = header.ioctl_request;
+    // Unknown ioctls are ENOTTY before the argument is looked at, as in the kernel.
+    if (!VirtualV4l2Device::is_supported_ioctl(request)) return reply_result(socket, -ENOTTY);
+    if (header.arg_unreadable) return reply_result(socket, -EFAULT);
+    const size_t arg_size = header.arg_size;
+    if (arg_size != _IOC_SIZE(request) || arg_size > broker::kMaxArgBytes ||
+        header.user_buffer_count > broker::kMaxUserBuffers)
+      return reply_result(socket, -EINVAL);
+    size_t at = sizeof header;
+    if (message.size() < at + arg_size + header.user_buffer_count * sizeof(UserBuffer))
+      return reply_result(socket, -EINVAL);
+    // 8-byte aligned copies: the device reads the struct and the arrays in place.
+    std::vector<uint64_t> arg((arg_size + 7) / 8 + 1);
+    std::memcpy(arg.data(), message.data() + at, arg_size);
+    at += arg_size;
+    std::vector<UserBuffer> specs(header.user_buffer_count);
+    if (!specs.empty()) std::memcpy(specs.data(), message.data() + at, specs.size() * sizeof(UserBuffer));
+    at += specs.size() * sizeof(UserBuffer);
+    // The arrays must be the ones this request implies, so a client cannot make the
+    // device write through a pointer of its choosing.
+    std::vector<UserBuffer> expected;
+    if (int error = broker::user_buffers_of(request, arg.data(), &expected); error < 0)
+      return reply_result(socket, error);
+    if (expected.size() != specs.size()) return reply_result(socket, -EINVAL);
+    std::vector<std::vector<uint64_t>> buffers(specs.size());
+    std::vector<void*> client_pointers(specs.size());
+    for (size_t i = 0; i < specs.size(); ++i) {
+      if (specs[i].pointer_offset != expected[i].pointer_offset || specs[i].size_bytes != expected[i].size_bytes ||
+          message.size() < at + specs[i].size_bytes)
+        return reply_result(socket, -EINVAL);
+      buffers[i].resize((specs[i].size_bytes + 7) / 8 + 1);
+      std::memcpy(buffers[i].data(), message.data() + at, specs[i].size_bytes);
+      at += specs[i].size_bytes;
+      auto* field = reinterpret_cast<uint8_t*>(arg.data()) + specs[i].pointer_offset;
+      std::memcpy(&client_pointers[i], field, sizeof(void*));
+      void* local = buffers[i].data();
+      std::memcpy(field, &local, sizeof(void*));
+    }
+    // A DMABUF being queued: the fd arrived with the message; the device sees ours.
+    const uint32_t fd_in = broker::fd_in_field(request, arg.data());
+    if (fd_in != broker::kNoField) {
+      if (fds.size() != 1) return reply_result(socket, -EBADF);
+      std::memcpy(reinterpret_cast<uint8_t*>(arg.data()) + fd_in, &fds[0], sizeof(int));
+    }
+
+    const int result = device_->ioctl(file_, request, arg.data());
+
+    for (size_t i = 0; i < specs.size(); ++i)
+      std::memcpy(reinterpret_cast<uint8_t*>(arg.data()) + specs[i].pointer_offset, &client_pointers[i], sizeof(void*));
+    int fd_out = -1;
+    ReplyHeader out;
+    out.result = result;
+    out.arg_size = static_cast<uint32_t>(arg_size);
+    out.user_buffer_count = static_cast<uint32_t>(specs.size());
+    if (result >= 0 && broker::fd_out_field(request) != broker::kNoField) {
+      out.fd_field_offset = broker::fd_out_field(request);
+      std::memcpy(&fd_out, reinterpret_cast<uint8_t*>(arg.data()) + out.fd_field_offset, sizeof(int));
+    }
+    std::vector<uint8_t> body(arg_size);
+    std::memcpy(body.data(), arg.data(), arg_size);
+    for (size_t i = 0; i < specs.size(); ++i) {
+      const auto* bytes = reinterpret_cast<const uint8_t*>(buffers[i].data());
+      body.insert(body.end(), bytes, bytes + specs[i].size_bytes);
+    }
+    const int sent = reply(socket, out, body, fd_out);
+    if (fd_out >= 0) ::close(fd_out);  // the client has its own copy now
+    return sent;
+  }
+
+  int mmap(int socket, const RequestHeader& header) {
+    VirtualV4l2Device::BufferMemory memory{};
+    const int error = device_->buffer_for_mmap(header.offset, header.length, &memory);
+    if (error < 0) return reply_result(socket, error);
+    device_->note_mapping(header.offset, +1);
+    ++mappings_[header.offset];
+    ReplyHeader out;
+    return reply(socket, out, {}, memory.memfd);
+  }
+
+  std::shared_ptr<VirtualV4l2Device> device_;
+  int file_;
+  std::map<off_t, int> mappings_;  // mmap offset -> mappings this client holds
+};
+
+}  // namespace
+
+Result<std::unique_ptr<VcamBroker>> VcamBroker::start(std::vector<std::shared_ptr<VirtualV4l2Device>> devices,
+                                                      const std::string& socket_path) {
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  if (socket_path.size() >= sizeof address.sun_path)
+    return make_error("invalid_path", "broker socket path too long (max " +
+                                          std::to_string(sizeof address.sun_path - 1) + " bytes): " + socket_path);
+  std::memcpy(address.sun_path, socket_path.c_str(), socket_path.size() + 1);
+  const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+  if (fd < 0) return make_error("io_error", std::string("broker socket: ") + std::strerror(errno));
+  if (::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) < 0 || ::listen(fd, 64) < 0) {
+    const int error = errno;
+    ::close(fd);
+    return make_error("io_error", "broker cannot listen on " + socket_path + ": " + std::strerror(error));
+  }
+  std::unique_ptr<VcamBroker> broker(new VcamBroker(std::move(devices), socket_path, fd));
+  broker->acceptor_ = std::thread([b = broker.get()] { b->accept_loop(); });
+  return broker;
+}
+
+VcamBroker::VcamBroker(std::vector<std::shared_ptr<VirtualV4l2Device>> devices, std::string socket_path, int listen_fd)
+    : devices_(std::move(devices)), socket_path_(std::move(socket_path)), listen_fd_(listen_fd) {}
+
+VcamBroker::~VcamBroker() {
+  stopping_ = true;
+  ::shutdown(listen_fd_, SHUT_RDWR);  // wakes accept()
+  if (acceptor_.joinable()) acceptor_.join();
+  ::close(listen_fd_);
+  ::unlink(socket_path_.c_str());
+  std::lock_guard lock(mutex_);
+  // Sockets stay open until their thread is joined, so these fds are still ours.
+  for (auto& c : connections_) ::shutdown(c.socket, SHUT_RDWR);  // wakes each recv()
+  for (auto& c : connections_) {
+    c.thread.join();
+    ::close(c.socket);
+  }
+}
+
+size_t VcamBroker::open_file_count() const {
+  std::lock_guard lock(mutex_);
+  size_t count = 0;
+  for (const auto& c : connections_) count += !c.finished;
+  return count;
+}
+
+void VcamBroker::reap_finished() {
+  for (auto it = connections_.begin(); it != connections_.end();) {
+    if (!it->finished) {
+      ++it;
+      continue;
+    }
+    it->thread.join();
+    ::close(it->socket);
+    it = connections_.erase(it);
+  }
+}
+
+void VcamBroker::accept_loop() {
+  while (!stopping_) {
+    const int socket = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
+    if (socket < 0) {
+      if (errno == EINTR || errno == ECONNABORTED) continue;
+      return;  // shut down
+    }
+    std::lock_guard lock(mutex_);
+    reap_finished();
+    if (stopping_) {
+      ::close(socket);
+      return;
+    }
+    Connection& c = connections_.emplace_back();
+    c.socket = socket;
+    c.thread = std::thread([this, &c] { serve(&c); });
+  }
+}
+
+void VcamBroker::serve(Connection* connection) {
+  const int socket = connection->socket;
+  std::vector<uint8_t> message;
+  std::vector<int> fds;
+  std::unique_ptr<OpenFile> open_file;
+  int readiness_fd = -1;
+  ssize_t n = broker::receive_message(socket, &message, &fds);
+  RequestHeader header;
+  if (n >= static_cast<ssize_t>(sizeof header)) {
+    std::memcpy(&header, message.data(), sizeof header);
+    std::shared_ptr<VirtualV4l2Device> device;
+    for (const auto& d : devices_)
+      if (d->index() == header.offset) device = d;
+    if (header.op != Op::kOpen || header.length != static_cast<uint64_t>(broker::NodeKind::kVideo) || !device) {
+      reply_result(socket, -ENODEV);
+    } else {
+      // The broker's side of every file is non-blocking; the client emulates blocking
+      // DQBUF on the readiness fd, so no request ever waits here.
+      const int file = device->open_file(true);
+      readiness_fd = file < 0 ? -1 : ::eventfd(0, EFD_CLOEXEC | ((header.flags & O_NONBLOCK) ? EFD_NONBLOCK : 0));
+      if (file < 0 || readiness_fd < 0) {
+        if (file >= 0) device->close_file(file);
+        reply_result(socket, file < 0 ? file : -errno);
+      } else {
+        device->attach_eventfd(file, readiness_fd);
+        open_file = std::make_unique<OpenFile>(device, file);
+        ReplyHeader out;
+        if (reply(socket, out, {}, readiness_fd) != 0) open_file.reset();
+      }
+    }
+  }
+  close_all(fds);
+  while (open_file) {
+    n = broker::receive_message(socket, &message, &fds);
+    if (n < static_cast<ssize_t>(sizeof(RequestHeader))) break;  // the client closed the file (or died)
+    const bool keep = open_file->handle(socket, message, fds);
+    close_all(fds);
+    if (!keep) break;
+  }
+  open_file.reset();
+  if (readiness_fd >= 0) ::close(readiness_fd);
+  ::shutdown(socket, SHUT_RDWR);  // the client sees EOF now; the fd is closed when reaped
+  connection->finished = true;
+}
+
+}  // namespace camlab::mock

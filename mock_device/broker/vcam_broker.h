@@ -1,0 +1,65 @@
+// The vcam broker: owns the virtual devices of one `camlab vcam run` and serves them to
+// every process of it over an AF_UNIX socket (protocol: broker_protocol.h), so that all
+// processes see one device: a control set by one v4l2-ctl is read by the next, and one
+// process streaming makes the queue busy for the others, as with a kernel driver.
+//
+// One thread accepts; one thread per connection (= per open file) serves its requests.
+// No request blocks in the broker: blocking DQBUF and poll waits happen in the client on
+// the file's readiness eventfd, so a slow client never holds up another.
+//
+// Buffers are the devices' memfds, passed to clients by SCM_RIGHTS and mapped there:
+// frames reach a client without a copy.
+//
+// Thread-safe. Destruction stops accepting, closes every connection (releasing its open
+// file and mappings) and joins the threads.
+#pragma once
+
+#include <atomic>
+#include <list>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "base/result.h"
+#include "mock_device/virtual_v4l2_device.h"
+
+namespace camlab::mock {
+
+class VcamBroker {
+ public:
+  // Listens on `socket_path` (created; must not exist). devices[i] is served as
+  // /dev/video<devices[i]->index()>.
+  static Result<std::unique_ptr<VcamBroker>> start(std::vector<std::shared_ptr<VirtualV4l2Device>> devices,
+                                                   const std::string& socket_path);
+  ~VcamBroker();
+  VcamBroker(const VcamBroker&) = delete;
+  VcamBroker& operator=(const VcamBroker&) = delete;
+
+  const std::string& socket_path() const { return socket_path_; }
+  // Connections (open files) now served, for leak checks.
+  size_t open_file_count() const;
+  const std::vector<std::shared_ptr<VirtualV4l2Device>>& devices() const { return devices_; }
+
+ private:
+  struct Connection {
+    int socket = -1;
+    std::thread thread;
+    std::atomic<bool> finished{false};
+  };
+  VcamBroker(std::vector<std::shared_ptr<VirtualV4l2Device>> devices, std::string socket_path, int listen_fd);
+  void accept_loop();
+  void serve(Connection* connection);
+  void reap_finished();  // joins connections whose client went away; call with mutex_ held
+
+  std::vector<std::shared_ptr<VirtualV4l2Device>> devices_;
+  std::string socket_path_;
+  int listen_fd_ = -1;
+  std::atomic<bool> stopping_{false};
+  mutable std::mutex mutex_;
+  std::list<Connection> connections_;
+  std::thread acceptor_;
+};
+
+}  // namespace camlab::mock

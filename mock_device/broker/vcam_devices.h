@@ -1,0 +1,23 @@
+// The devices of one `camlab vcam run`: `count` virtual cameras from one camera spec and
+// one scene (each device its own noise seed), as the broker serves them.
+//
+// Reentrant.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "base/result.h"
+#include "mock_device/virtual_v4l2_device.h"
+
+namespace camlab::mock {
+
+// The scene when none is given: a 9x6 chessboard of 30 mm squares 0.6 m in front.
+SceneSpec default_vcam_scene();
+
+// `scene_path` empty: default_vcam_scene(). Device i is /dev/video<i>.
+Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_devices(const std::string& camera_path,
+                                                                           const std::string& scene_path, int count);
+
+}  // namespace camlab::mock

@@ -1,0 +1,157 @@
+// A V4L2 client that reaches the virtual device through every libc entry point the
+// preload library interposes, including syscall() (as libv4l2 and libcamera do), the dup
+// family, read, ppoll/pselect/select and the stat family. Run under `camlab vcam run`;
+// prints one line per failed check and exits with the number of failures.
+#include <fcntl.h>
+#include <linux/videodev2.h>
+#include <poll.h>
+#include <sys/ioctl.h>
+#include <sys/mman.h>
+#include <sys/select.h>
+#include <sys/stat.h>
+#include <sys/syscall.h>
+#include <sys/sysmacros.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <climits>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+namespace {
+
+int failures = 0;
+
+void check(bool ok, const char* what) {
+  if (ok) return;
+  ++failures;
+  std::printf("FAIL: %s (errno %d: %s)\n", what, errno, std::strerror(errno));
+}
+
+bool querycap(int fd) {
+  v4l2_capability cap{};
+  return ioctl(fd, VIDIOC_QUERYCAP, &cap) == 0 && cap.driver[0] != '\0';
+}
+
+}  // namespace
+
+int main() {
+  // syscall() directly, as libv4l2 and libcamera call it.
+  const int fd = static_cast<int>(syscall(SYS_openat, AT_FDCWD, "/dev/video0", O_RDWR));
+  check(fd >= 0, "syscall(SYS_openat) opens /dev/video0");
+  if (fd < 0) return failures;
+  v4l2_capability cap{};
+  check(syscall(SYS_ioctl, fd, VIDIOC_QUERYCAP, &cap) == 0 && cap.driver[0], "syscall(SYS_ioctl) QUERYCAP");
+  errno = 0;
+  check(ioctl(fd, VIDIOC_QUERYCAP, reinterpret_cast<void*>(16)) == -1 && errno == EFAULT, "bad pointer is EFAULT");
+  errno = 0;
+  check(ioctl(fd, _IOR('V', 250, int), reinterpret_cast<void*>(16)) == -1 && errno == ENOTTY,
+        "unknown ioctl is ENOTTY before the pointer is looked at");
+
+  // The dup family: more names for one open file, which lives until the last is closed.
+  const int d1 = dup(fd);
+  check(d1 >= 0 && querycap(d1), "dup");
+  check(close(fd) == 0, "close the original");
+  check(querycap(d1), "the file outlives the closed original");
+  const int d2 = fcntl(d1, F_DUPFD_CLOEXEC, 100);
+  check(d2 >= 100 && querycap(d2), "fcntl(F_DUPFD_CLOEXEC)");
+  check(dup2(d1, 200) == 200 && querycap(200), "dup2");
+  check(dup3(d1, 201, O_CLOEXEC) == 201 && querycap(201), "dup3");
+  const int d3 = static_cast<int>(syscall(SYS_dup, d1));
+  check(d3 >= 0 && querycap(d3), "syscall(SYS_dup)");
+  close(d3);
+  close(d2);
+  close(200);
+  syscall(SYS_close, 201);
+
+  // No read() I/O on this device; a read must not touch the readiness signal.
+  char byte[8];
+  errno = 0;
+  check(read(d1, byte, sizeof byte) == -1 && errno == EINVAL, "read is EINVAL");
+  errno = 0;
+  check(syscall(SYS_read, d1, byte, sizeof byte) == -1 && errno == EINVAL, "syscall(SYS_read) is EINVAL");
+
+  // The stat family reports a character device 81:0.
+  struct stat st{};
+  check(fstat(d1, &st) == 0 && S_ISCHR(st.st_mode) && major(st.st_rdev) == 81, "fstat");
+  check(stat("/dev/video0", &st) == 0 && S_ISCHR(st.st_mode) && minor(st.st_rdev) == 0, "stat");
+  check(syscall(SYS_newfstatat, AT_FDCWD, "/dev/video0", &st, 0) == 0 && S_ISCHR(st.st_mode), "syscall(SYS_newfstatat)");
+  struct statx sx{};
+  check(statx(AT_FDCWD, "/dev/video0", 0, STATX_BASIC_STATS, &sx) == 0 && S_ISCHR(sx.stx_mode) && sx.stx_rdev_major == 81,
+        "statx");
+  check(access("/dev/video0", R_OK | W_OK) == 0, "access");
+  char resolved[PATH_MAX];
+  check(realpath("/dev/video0", resolved) && std::string(resolved) == "/dev/video0", "realpath of the node");
+  check(realpath("/sys/class/video4linux/video0", resolved) && std::strncmp(resolved, "/sys/", 5) == 0,
+        "realpath in the fake sysfs stays under /sys");
+  errno = 0;
+  check(stat("/dev/video7", &st) == -1 && errno == ENOENT, "a node beyond the count does not exist");
+
+  // Stream on the dup'ed fd: mmap through syscall(), wait with ppoll, pselect and
+  // select, and a blocking DQBUF.
+  v4l2_format format{};
+  format.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  format.fmt.pix.pixelformat = V4L2_PIX_FMT_GREY;
+  format.fmt.pix.width = 160;
+  format.fmt.pix.height = 120;
+  check(ioctl(d1, VIDIOC_S_FMT, &format) == 0, "S_FMT");
+  v4l2_requestbuffers request{};
+  request.count = 2;
+  request.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  request.memory = V4L2_MEMORY_MMAP;
+  check(ioctl(d1, VIDIOC_REQBUFS, &request) == 0 && request.count >= 2, "REQBUFS");
+  void* mapped[2] = {};
+  size_t lengths[2] = {};
+  for (unsigned i = 0; i < 2; ++i) {
+    v4l2_buffer buffer{};
+    buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    buffer.memory = V4L2_MEMORY_MMAP;
+    buffer.index = i;
+    check(ioctl(d1, VIDIOC_QUERYBUF, &buffer) == 0, "QUERYBUF");
+    lengths[i] = buffer.length;
+    mapped[i] = reinterpret_cast<void*>(
+        syscall(SYS_mmap, nullptr, buffer.length, PROT_READ, MAP_SHARED, d1, static_cast<long>(buffer.m.offset)));
+    check(mapped[i] != MAP_FAILED, "syscall(SYS_mmap)");
+    check(ioctl(d1, VIDIOC_QBUF, &buffer) == 0, "QBUF");
+  }
+  int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  check(ioctl(d1, VIDIOC_STREAMON, &type) == 0, "STREAMON");
+  pollfd p{d1, POLLIN, 0};
+  // Generous: the first frame waits for the renderer, on a machine that may be loaded.
+  const timespec wait_limit{10, 0};
+  check(ppoll(&p, 1, &wait_limit, nullptr) == 1 && (p.revents & POLLIN), "ppoll sees a done buffer");
+  fd_set readable;
+  FD_ZERO(&readable);
+  FD_SET(d1, &readable);
+  check(pselect(d1 + 1, &readable, nullptr, nullptr, &wait_limit, nullptr) == 1 && FD_ISSET(d1, &readable), "pselect");
+  FD_ZERO(&readable);
+  FD_SET(d1, &readable);
+  timeval wait_limit_tv{10, 0};
+  check(select(d1 + 1, &readable, nullptr, nullptr, &wait_limit_tv) == 1, "select");
+  for (int frame = 0; frame < 4; ++frame) {
+    // The fd is blocking: DQBUF waits for the next frame.
+    v4l2_buffer buffer{};
+    buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    buffer.memory = V4L2_MEMORY_MMAP;
+    check(ioctl(d1, VIDIOC_DQBUF, &buffer) == 0 && buffer.bytesused == format.fmt.pix.sizeimage, "blocking DQBUF");
+    if (buffer.index < 2 && mapped[buffer.index] != MAP_FAILED) {
+      const auto* pixels = static_cast<const unsigned char*>(mapped[buffer.index]);
+      unsigned long sum = 0;
+      for (size_t i = 0; i < buffer.bytesused; ++i) sum += pixels[i];
+      check(sum > 0, "the mapped frame has an image");
+    }
+    check(ioctl(d1, VIDIOC_QBUF, &buffer) == 0, "requeue");
+  }
+  check(ioctl(d1, VIDIOC_STREAMOFF, &type) == 0, "STREAMOFF");
+  for (unsigned i = 0; i < 2; ++i)
+    if (mapped[i] != MAP_FAILED) check(syscall(SYS_munmap, mapped[i], lengths[i]) == 0, "syscall(SYS_munmap)");
+  request.count = 0;
+  check(ioctl(d1, VIDIOC_REQBUFS, &request) == 0, "REQBUFS 0 frees the buffers once unmapped");
+  check(close(d1) == 0, "close");
+  errno = 0;
+  check(ioctl(d1, VIDIOC_QUERYCAP, &cap) == -1 && errno == EBADF, "a closed fd is EBADF");
+  if (failures == 0) std::printf("all entry points ok\n");
+  return failures;
+}
