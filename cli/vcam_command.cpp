@@ -10,11 +10,13 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "commands.h"
+#include "mock_device/broker/broker_protocol.h"
 #include "mock_device/broker/vcam_broker.h"
 #include "mock_device/broker/vcam_devices.h"
 #include "mock_device/fake_sysfs.h"
@@ -31,6 +33,7 @@ struct VcamArgs {
   std::string camera;
   std::string scene;
   int count = 1;
+  bool unpaced = false;
   std::vector<std::string> command;
 };
 
@@ -103,7 +106,7 @@ std::unique_ptr<VcamSession> start_session(const VcamArgs& args) {
     std::ofstream(camera_path) << kDefaultCamera;
   }
   // The devices live here, in the broker, for every process of the run.
-  auto devices = mock::create_vcam_devices(camera_path, args.scene, args.count);
+  auto devices = mock::create_vcam_devices(camera_path, args.scene, args.count, !args.unpaced);
   if (!devices) fail(devices.error().message);
   auto broker = mock::VcamBroker::start(std::move(*devices), (work / "broker.sock").string());
   if (!broker) fail(broker.error().message);
@@ -120,6 +123,26 @@ std::unique_ptr<VcamSession> start_session(const VcamArgs& args) {
       {"CAMLAB_VCAM_SYSFS", sysfs.string()},
   };
   return session;
+}
+
+struct FaultArgs {
+  int device = 0;
+  std::string fault;
+  int count = 1;
+};
+
+int inject_vcam_fault(const FaultArgs& args) {
+  const char* socket = std::getenv("CAMLAB_VCAM_BROKER");
+  if (!socket) fail("no virtual cameras here: run this inside `camlab vcam run` or with `camlab vcam serve`'s environment");
+  static const std::map<std::string, mock::broker::Fault> kFaults = {
+      {"unplug", mock::broker::Fault::kUnplug},   {"eio", mock::broker::Fault::kDequeueEio},
+      {"drop", mock::broker::Fault::kDropFrames}, {"stall", mock::broker::Fault::kStall},
+      {"resume", mock::broker::Fault::kResume}};
+  const int result = mock::broker::inject_fault(socket, args.device, kFaults.at(args.fault), args.count);
+  if (result < 0)
+    fail("cannot inject '" + args.fault + "' into /dev/video" + std::to_string(args.device) + ": " +
+         std::strerror(-result));
+  return 0;
 }
 
 volatile sig_atomic_t stop_serving = 0;
@@ -205,6 +228,8 @@ void register_vcam_command(CLI::App& app) {
       ->check(CLI::ExistingFile);
   run->add_option("--scene", args->scene, "scene spec JSON (default: a chessboard at 0.6 m)")->check(CLI::ExistingFile);
   run->add_option("--count", args->count, "number of virtual cameras")->check(CLI::Range(1, 8));
+  run->add_flag("--unpaced", args->unpaced,
+                "no frame clock: a frame is made as soon as a buffer is queued (fast tests; no dropped frames)");
   run->add_option("command", args->command, "the command and its arguments (after --)")->required();
   run->callback([args] { throw CLI::RuntimeError(run_vcam(*args)); });
 
@@ -220,6 +245,21 @@ void register_vcam_command(CLI::App& app) {
       ->check(CLI::ExistingFile);
   serve->add_option("--count", serve_args->count, "number of virtual cameras")->check(CLI::Range(1, 8));
   serve->callback([serve_args] { throw CLI::RuntimeError(serve_vcam(*serve_args)); });
+
+  auto fault_args = std::make_shared<FaultArgs>();
+  CLI::App* fault = vcam->add_subcommand(
+      "fault",
+      "Inject a fault into a virtual camera of the surrounding `camlab vcam run` (or serve), to\n"
+      "test how a program copes: unplug (ENODEV from then on), eio (the next COUNT dequeues\n"
+      "fail with EIO), drop (the next COUNT frames are lost: sequence gaps), stall (no frames\n"
+      "until resume), resume.\n"
+      "Example: camlab vcam run -- sh -c 'my_capture & sleep 2; camlab vcam fault unplug; wait'");
+  fault->add_option("fault", fault_args->fault, "unplug | eio | drop | stall | resume")
+      ->required()
+      ->check(CLI::IsMember({"unplug", "eio", "drop", "stall", "resume"}));
+  fault->add_option("--device", fault_args->device, "which /dev/videoN (default 0)")->check(CLI::Range(0, 7));
+  fault->add_option("--count", fault_args->count, "for eio and drop: how many (default 1)")->check(CLI::Range(1, 100000));
+  fault->callback([fault_args] { throw CLI::RuntimeError(inject_vcam_fault(*fault_args)); });
 }
 
 }  // namespace camlab::cli

@@ -2,6 +2,8 @@
 
 #include <linux/videodev2.h>
 #include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <cstring>
@@ -91,6 +93,41 @@ ssize_t receive_message(int socket, std::vector<uint8_t>* data, std::vector<int>
   }
   data->resize(static_cast<size_t>(received));
   return received;
+}
+
+int inject_fault(const char* socket_path, int index, Fault fault, int count) {
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  if (!socket_path || std::strlen(socket_path) >= sizeof address.sun_path) return -EINVAL;
+  std::strcpy(address.sun_path, socket_path);
+  const int socket = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
+  if (socket < 0) return -errno;
+  int result = 0;
+  if (::connect(socket, reinterpret_cast<sockaddr*>(&address), sizeof address) < 0) {
+    result = -errno;
+  } else {
+    RequestHeader header;
+    header.op = Op::kFault;
+    header.offset = index;
+    header.flags = static_cast<int32_t>(fault);
+    header.length = static_cast<uint64_t>(count);
+    result = send_message(socket, &header, sizeof header, nullptr, 0);
+    std::vector<uint8_t> reply;
+    std::vector<int> fds;
+    if (result == 0) {
+      const ssize_t n = receive_message(socket, &reply, &fds);
+      ReplyHeader out;
+      if (n >= static_cast<ssize_t>(sizeof out)) {
+        std::memcpy(&out, reply.data(), sizeof out);
+        result = out.result;
+      } else {
+        result = n < 0 ? static_cast<int>(n) : -EIO;
+      }
+    }
+    for (int fd : fds) ::close(fd);
+  }
+  ::close(socket);
+  return result;
 }
 
 }  // namespace camlab::mock::broker

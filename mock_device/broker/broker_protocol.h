@@ -31,6 +31,16 @@ enum class Op : uint32_t {
   kMmap = 3,    // offset, length: reply carries the buffer's memfd
   kMunmap = 4,  // offset: a mapping made through kMmap went away
   kPoll = 5,    // flags = requested poll events: reply.revents, never blocks
+  kFault = 6,   // instead of kOpen: offset = node index, flags = Fault, length = count
+};
+
+// Faults a test (or `camlab vcam fault`) can inject into a served device.
+enum class Fault : int32_t {
+  kUnplug = 1,     // ENODEV from then on
+  kDequeueEio = 2, // the next `count` DQBUFs fail with EIO
+  kDropFrames = 3, // the next `count` frames are dropped (sequence gaps)
+  kStall = 4,      // no frames until kResume
+  kResume = 5,
 };
 
 enum class NodeKind : uint32_t { kVideo = 0, kMedia = 1 };
@@ -73,6 +83,10 @@ int user_buffers_of(unsigned long request, const void* arg, std::vector<UserBuff
 uint32_t fd_in_field(unsigned long request, const void* arg);
 // Offset of an fd the device returns in the struct (VIDIOC_EXPBUF), or kNoField.
 uint32_t fd_out_field(unsigned long request);
+
+// Asks the broker at `socket_path` to inject `fault` into device `index`: 0 or -errno
+// (-ENODEV: no such device, -ECONNREFUSED: no broker).
+int inject_fault(const char* socket_path, int index, Fault fault, int count = 1);
 
 // One message with up to 4 fds. Returns 0 or -errno. Retries EINTR.
 int send_message(int socket, const void* data, size_t size, const int* fds, int fd_count);

@@ -161,6 +161,18 @@ class OpenFile {
   std::map<off_t, int> mappings_;  // mmap offset -> mappings this client holds
 };
 
+int inject(VirtualV4l2Device& device, broker::Fault fault, int count) {
+  if (count < 0 || count > 1000000) return -EINVAL;
+  switch (fault) {
+    case broker::Fault::kUnplug: device.unplug(); return 0;
+    case broker::Fault::kDequeueEio: device.fail_next_dequeues(count); return 0;
+    case broker::Fault::kDropFrames: device.drop_next_frames(count); return 0;
+    case broker::Fault::kStall: device.stall(true); return 0;
+    case broker::Fault::kResume: device.stall(false); return 0;
+  }
+  return -EINVAL;
+}
+
 }  // namespace
 
 Result<std::unique_ptr<VcamBroker>> VcamBroker::start(std::vector<std::shared_ptr<VirtualV4l2Device>> devices,
@@ -252,7 +264,12 @@ void VcamBroker::serve(Connection* connection) {
     std::shared_ptr<VirtualV4l2Device> device;
     for (const auto& d : devices_)
       if (d->index() == header.offset) device = d;
-    if (header.op != Op::kOpen || header.length != static_cast<uint64_t>(broker::NodeKind::kVideo) || !device) {
+    if (header.op == Op::kFault) {
+      reply_result(socket, device ? inject(*device, static_cast<broker::Fault>(header.flags),
+                                           static_cast<int>(header.length))
+                                  : -ENODEV);
+    } else if (header.op != Op::kOpen || header.length != static_cast<uint64_t>(broker::NodeKind::kVideo) ||
+               !device) {
       reply_result(socket, -ENODEV);
     } else {
       // The broker's side of every file is non-blocking; the client emulates blocking

@@ -13,7 +13,8 @@ SceneSpec default_vcam_scene() {
 }
 
 Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_devices(const std::string& camera_path,
-                                                                           const std::string& scene_path, int count) {
+                                                                           const std::string& scene_path, int count,
+                                                                           bool realtime) {
   std::vector<std::shared_ptr<VirtualV4l2Device>> devices;
   for (int i = 0; i < count; ++i) {
     CameraSpec camera;
@@ -23,6 +24,7 @@ Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_devices(cons
     VirtualDeviceOptions options;
     options.index = i;
     options.seed = static_cast<uint64_t>(i) + 1;
+    options.realtime = realtime;
     std::unique_ptr<VirtualV4l2Device> device;
     CAMLAB_ASSIGN(device, VirtualV4l2Device::create(std::move(camera), std::move(scene), options));
     devices.push_back(std::move(device));

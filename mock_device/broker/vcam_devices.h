@@ -16,8 +16,10 @@ namespace camlab::mock {
 // The scene when none is given: a 9x6 chessboard of 30 mm squares 0.6 m in front.
 SceneSpec default_vcam_scene();
 
-// `scene_path` empty: default_vcam_scene(). Device i is /dev/video<i>.
+// `scene_path` empty: default_vcam_scene(). Device i is /dev/video<i>. `realtime` false:
+// frames are made as fast as buffers are queued (no frame clock), for quick tests.
 Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_devices(const std::string& camera_path,
-                                                                           const std::string& scene_path, int count);
+                                                                           const std::string& scene_path, int count,
+                                                                           bool realtime = true);
 
 }  // namespace camlab::mock

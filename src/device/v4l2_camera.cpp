@@ -52,7 +52,8 @@ Result<std::unique_ptr<V4l2Camera>> V4l2Camera::open(std::shared_ptr<V4l2Io> io,
   const int fd = io->open(path.c_str(), O_RDWR | O_NONBLOCK);
   if (fd < 0) {
     const int err = errno;
-    if (err == ENOENT) return make_error("no_device", path + ": no such device");
+    // ENODEV/ENXIO: the node exists but its device is gone (unplugged).
+    if (err == ENOENT || err == ENODEV || err == ENXIO) return make_error("no_device", path + ": no such device");
     return make_error(err == EACCES ? "permission" : "io_error", path + ": cannot open: " + std::strerror(err));
   }
   std::unique_ptr<V4l2Camera> camera(new V4l2Camera(std::move(io), fd));
