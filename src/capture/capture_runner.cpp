@@ -1,0 +1,316 @@
+#include "capture/capture_runner.h"
+
+#include <time.h>
+
+#include <algorithm>
+#include <deque>
+#include <set>
+
+#include "capture/control_keeper.h"
+#include "capture/frame_convert.h"
+#include "capture/frame_writer.h"
+#include "capture/settings_json.h"
+#include "capture/settle_tracker.h"
+
+namespace camlab::capture {
+
+namespace {
+
+// Frames the writer may hold before the frame loop waits for the disk.
+constexpr size_t kMaxFramesQueuedForDisk = 8;
+// Without usable timestamps, the frames that may have started before a write are those in
+// the driver's buffers; drivers may grant more than asked (a minimum of their own), so
+// count at least this many.
+constexpr int kMinBuffersAssumed = 8;
+
+int64_t monotonic_ns() {
+  timespec now{};
+  clock_gettime(CLOCK_MONOTONIC, &now);  // the clock of V4L2's monotonic timestamps
+  return static_cast<int64_t>(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+class Runner {
+ public:
+  Runner(device::Camera& camera, const CapturePlan& plan, const CaptureOptions& options,
+         CaptureObserver* observer)
+      : camera_(camera),
+        plan_(plan),
+        options_(options),
+        observer_(observer),
+        tracker_(options.control_latency_frames, options.control_latency_min_frames < 0
+                                                     ? options.control_latency_frames
+                                                     : options.control_latency_min_frames) {}
+
+  Result<CaptureSummary> run(const std::filesystem::path& folder);
+
+ private:
+  // Frames still wanted of a step: repeats first_repeat .. first_repeat + count - 1.
+  struct Want {
+    int step = 0;
+    int first_repeat = 0;
+    int count = 0;
+  };
+  // One control change (a step written, or written again) and what it gave.
+  struct Change {
+    Want want;
+    int kept = 0;
+    nlohmann::json settings;
+  };
+
+  Status start_stream();
+  Status write_change(const Want& want, bool with_fixed, int buffers_in_driver);
+  Status process(const device::Frame& frame);
+  void close_windows(uint64_t last_sequence);
+  Status write_next_when_secured(uint64_t last_sequence);
+  void report_written();
+  void finish(const std::chrono::steady_clock::time_point& started);
+
+  device::Camera& camera_;
+  const CapturePlan& plan_;
+  const CaptureOptions& options_;
+  CaptureObserver* observer_;
+  SettleTracker tracker_;
+  std::optional<ControlKeeper> keeper_;
+  std::optional<FrameWriter> writer_;
+  device::StreamFormat format_;
+  std::deque<Want> to_write_;  // steps not yet begun, in plan order
+  std::deque<Want> retakes_;   // repeats lost to drops, written before the next new step
+  std::vector<Change> changes_;
+  size_t oldest_open_ = 0;
+  int kept_total_ = 0;
+  int written_total_ = 0;
+  std::optional<uint64_t> last_sequence_;
+  int not_kept_since_last_ = 0;  // discarded + dropped since the last kept frame
+  CaptureSummary summary_;
+};
+
+Status Runner::write_change(const Want& want, bool with_fixed, int buffers_in_driver) {
+  if (with_fixed)
+    for (const auto& [name, value] : plan_.fixed_controls)
+      if (auto applied = keeper_->write(camera_, name, value); !applied) return applied.error();
+  const CaptureStep& step = plan_.steps[static_cast<size_t>(want.step)];
+  for (const auto& [name, value] : step.controls)
+    if (auto applied = keeper_->write(camera_, name, value); !applied) return applied.error();
+  // After the read-back: a frame that started during the write counts as before it.
+  tracker_.on_change(monotonic_ns(), buffers_in_driver);
+  Change change;
+  change.want = want;
+  change.settings = settings_json(keeper_->values(), plan_.traits);
+  if (!step.requested.empty()) change.settings["requested"] = step.requested;
+  changes_.push_back(std::move(change));
+  return {};
+}
+
+void Runner::close_windows(uint64_t last_sequence) {
+  // A window that closed short (frames dropped or flagged) is written again later for the
+  // repeats it lacks, before the steps not yet begun.
+  while (oldest_open_ + 1 < changes_.size() &&
+         tracker_.window_closed(static_cast<int>(oldest_open_), last_sequence)) {
+    const Change& c = changes_[oldest_open_];
+    if (c.kept < c.want.count) {
+      retakes_.push_back({c.want.step, c.want.first_repeat + c.kept, c.want.count - c.kept});
+      ++summary_.steps_retaken;
+    }
+    ++oldest_open_;
+  }
+}
+
+Status Runner::write_next_when_secured(uint64_t last_sequence) {
+  if (to_write_.empty() && retakes_.empty()) return {};
+  const int latest = static_cast<int>(changes_.size()) - 1;
+  auto secured = tracker_.frames_secured_after(latest, last_sequence);
+  if (!secured) return {};  // the latest change has not reached a frame yet
+  const Change& c = changes_.back();
+  if (c.kept + *secured < c.want.count) return {};
+  std::deque<Want>& queue = retakes_.empty() ? to_write_ : retakes_;
+  const Want next = queue.front();
+  queue.pop_front();
+  // The frame in hand is not yet back in the driver.
+  return write_change(next, false, std::max(options_.buffer_count, kMinBuffersAssumed) - 1);
+}
+
+Status Runner::process(const device::Frame& frame) {
+  const uint64_t sequence = frame.meta.sequence;
+  if (last_sequence_ && sequence > *last_sequence_ + 1) {
+    const int dropped =
+        static_cast<int>(std::min<uint64_t>(sequence - *last_sequence_ - 1, 1u << 20));
+    summary_.frames_dropped += dropped;
+    not_kept_since_last_ += dropped;
+  }
+  last_sequence_ = sequence;
+  const int index =
+      tracker_.on_frame(sequence, frame.meta.timestamp_ns, frame.meta.clock == "monotonic");
+  // An index, not a pointer: writing the next change below grows changes_.
+  bool keep =
+      index >= 0 && !frame.meta.error && check_frame(frame, format_).ok() &&
+      changes_[static_cast<size_t>(index)].kept < changes_[static_cast<size_t>(index)].want.count;
+  int repeat = 0;
+  if (keep) {
+    Change& change = changes_[static_cast<size_t>(index)];
+    repeat = change.want.first_repeat + change.kept++;
+    ++kept_total_;
+  } else {
+    ++summary_.frames_discarded;
+    ++not_kept_since_last_;
+  }
+  close_windows(sequence);
+  // The next step's controls go out before anything slow, while the frame after this one
+  // has most likely not started yet.
+  Status written = write_next_when_secured(sequence);
+
+  std::optional<ConvertedFrame> converted;
+  if (keep) {
+    auto c =
+        convert_frame(frame, format_, plan_.traits.sensor_bit_depth, plan_.traits.black_level_dn);
+    if (!c) {  // cannot happen after check_frame; never write a wrong frame
+      (void)camera_.requeue(frame);
+      return c.error();
+    }
+    converted = std::move(*c);
+  }
+  Status requeued = camera_.requeue(frame);
+  if (keep) {
+    const Change& change = changes_[static_cast<size_t>(index)];
+    const CaptureStep& step = plan_.steps[static_cast<size_t>(change.want.step)];
+    image::FrameSidecar sidecar;
+    sidecar.sequence = sequence;
+    sidecar.timestamp_ns = frame.meta.timestamp_ns;
+    sidecar.clock = frame.meta.clock.empty() ? "monotonic" : frame.meta.clock;
+    sidecar.pixel_format = converted->pixel_format;
+    sidecar.bit_depth = converted->bit_depth;
+    sidecar.black_level_dn = converted->black_level_dn;
+    sidecar.frames_discarded = not_kept_since_last_;
+    sidecar.settings = change.settings;
+    sidecar.labels = step.labels;
+    sidecar.labels["repeat"] = repeat;
+    not_kept_since_last_ = 0;
+    if (Status pushed = writer_->push(std::move(converted->image), std::move(sidecar)); !pushed)
+      return pushed;
+  }
+  if (!written) return written;
+  return requeued;
+}
+
+void Runner::report_written() {
+  for (auto& w : writer_->take_written()) {
+    ++written_total_;
+    if (!observer_) continue;
+    CaptureProgress progress{written_total_, plan_.total_frames(), summary_.frames_discarded};
+    observer_->on_frame(w.entry, w.sidecar, progress);
+  }
+}
+
+Status Runner::start_stream() {
+  auto applied = camera_.configure(plan_.format);
+  if (!applied) return applied.error();
+  format_ = *applied;
+  if (format_.fourcc != plan_.format.fourcc || format_.width != plan_.format.width ||
+      format_.height != plan_.format.height)
+    return make_error("unsupported",
+                      "the camera chose " + format_.fourcc + " " + std::to_string(format_.width) +
+                          "x" + std::to_string(format_.height) + " when asked for " +
+                          plan_.format.fourcc + " " + std::to_string(plan_.format.width) + "x" +
+                          std::to_string(plan_.format.height));
+  if (!can_convert(format_.fourcc))
+    return make_error("unsupported", "pixel format '" + format_.fourcc +
+                                         "' cannot be captured (GREY, Y16, YUYV can)");
+  // Step 0 goes out before the stream starts: every frame is after it.
+  if (Status s = write_change(to_write_.front(), true, 0); !s) return s;
+  to_write_.pop_front();
+  return camera_.start(options_.buffer_count);
+}
+
+Result<CaptureSummary> Runner::run(const std::filesystem::path& folder) {
+  const auto started = std::chrono::steady_clock::now();
+  if (plan_.steps.empty() || plan_.repeats < 1)
+    return make_error("invalid_request", "the plan has no frames to take");
+  if (options_.control_latency_frames < 0 || options_.control_latency_frames > 64)
+    return make_error("invalid_argument", "control latency must be 0..64 frames");
+  summary_.folder = folder;
+  summary_.frames_minimum = plan_.total_frames() + tracker_.latency_max_frames();
+
+  std::set<std::string> to_change;
+  for (const auto& [name, value] : plan_.fixed_controls) to_change.insert(name);
+  for (const auto& step : plan_.steps)
+    for (const auto& [name, value] : step.controls) to_change.insert(name);
+  auto keeper = ControlKeeper::snapshot(camera_, to_change);
+  if (!keeper) return keeper.error();
+  keeper_ = std::move(*keeper);
+
+  auto created =
+      image::CaptureFolderWriter::create(folder, plan_.kind, options_.source, plan_.request);
+  if (!created) return created.error();
+  writer_.emplace(std::move(*created), kMaxFramesQueuedForDisk);
+
+  for (int i = 0; i < static_cast<int>(plan_.steps.size()); ++i)
+    to_write_.push_back({i, 0, plan_.repeats});
+  if (Status s = start_stream(); !s) {
+    (void)camera_.stop();
+    (void)keeper_->restore(camera_);
+    (void)writer_->close(false);
+    return s.error();
+  }
+
+  // Dropped or flagged frames are taken again, but not forever.
+  const int budget =
+      2 * (plan_.total_frames() + (static_cast<int>(plan_.steps.size()) + 1) *
+                                      (tracker_.latency_max_frames() +
+                                       std::max(options_.buffer_count, kMinBuffersAssumed) + 2)) +
+      100;
+  while (kept_total_ < plan_.total_frames()) {
+    if (options_.cancel && options_.cancel->load()) {
+      summary_.cancelled = true;
+      break;
+    }
+    const int consumed = kept_total_ + summary_.frames_discarded + summary_.frames_dropped;
+    if (consumed > budget) {
+      summary_.failure =
+          make_error("unstable_stream", std::to_string(consumed) + " frames consumed for " +
+                                            std::to_string(kept_total_) +
+                                            " kept: the camera drops or flags too many frames");
+      break;
+    }
+    auto frame = camera_.dequeue(options_.frame_timeout);
+    if (!frame) {
+      summary_.failure = frame.error();
+      break;
+    }
+    if (Status s = process(*frame); !s) {
+      summary_.failure = s.error();
+      break;
+    }
+    report_written();
+  }
+  finish(started);
+  return summary_;
+}
+
+void Runner::finish(const std::chrono::steady_clock::time_point& started) {
+  // The stream stops first: controls written while streaming would land mid-frame.
+  Status stopped = camera_.stop();
+  if (Status restored = keeper_->restore(camera_); !restored)
+    summary_.restore_error = restored.error();
+  if (!stopped && !summary_.failure) summary_.failure = stopped.error();
+  const bool complete =
+      kept_total_ == plan_.total_frames() && !summary_.failure && !summary_.cancelled;
+  if (Status closed = writer_->close(complete); !closed && !summary_.failure)
+    summary_.failure = closed.error();
+  report_written();
+  summary_.frames_kept = written_total_;
+  summary_.frames_consumed = kept_total_ + summary_.frames_discarded + summary_.frames_dropped;
+  summary_.wall_seconds = seconds_since(started);
+}
+
+}  // namespace
+
+Result<CaptureSummary> run_capture(device::Camera& camera, const CapturePlan& plan,
+                                   const std::filesystem::path& folder,
+                                   const CaptureOptions& options, CaptureObserver* observer) {
+  return Runner(camera, plan, options, observer).run(folder);
+}
+
+}  // namespace camlab::capture

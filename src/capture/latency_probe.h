@@ -1,0 +1,39 @@
+// The control-latency probe: measures how many frames a new exposure takes to show, by
+// stepping exposure_time_absolute (by a factor the signal can resolve without clipping)
+// and watching the mean signal frame by frame. The latency is the number of frames from
+// the first frame that started after the change to the first frame whose mean signal
+// reached the new level (midway between the two plateaus). Repeated over several steps
+// (up and down); the result is the most frequent value, and is only reported when the
+// repetitions agree (a strict majority of them). A step whose frames were dropped or
+// flagged around the change is measured again.
+//
+// It streams the smallest size of the camera's deepest greyscale format (the mean signal
+// needs no resolution) and leaves that format set; a capture configures its own.
+//
+// Thread-bound (the camera's worker thread). Restores the exposure it changed and the
+// auto-exposure mode that writing a manual exposure switched off.
+#pragma once
+
+#include <vector>
+
+#include "base/result.h"
+#include "device/camera.h"
+
+namespace camlab::capture {
+
+struct LatencyProbeResult {
+  int latency_frames = 0;
+  int repetitions = 0;  // steps measured
+  int agreeing = 0;     // steps that gave latency_frames
+  // The mean signal of every frame seen, in order, in the streamed format's units (Y16:
+  // the 16-bit values; GREY/YUYV: 8-bit); NaN for a frame the driver flagged.
+  std::vector<double> mean_dn_trace;
+  int frames_consumed = 0;
+};
+
+// Errors: "unsupported" (no exposure control), "inconclusive" (the signal does not
+// change with exposure, e.g. a dark scene, or the repetitions disagree), device errors.
+Result<LatencyProbeResult> probe_control_latency(device::Camera& camera, int repetitions = 3,
+                                                 int max_latency_frames = 8);
+
+}  // namespace camlab::capture
