@@ -19,6 +19,7 @@ struct DevicesArgs {
   std::string virtual_camera;
   std::string virtual_scene;
   bool json = false;
+  bool no_libcamera = false;
 };
 
 [[noreturn]] void fail(const std::string& message) {
@@ -56,6 +57,10 @@ void print_text(const nlohmann::json& camera, const std::string& transport) {
 void run_devices(const DevicesArgs& args) {
   device::DeviceRegistry registry;
   registry.add_v4l2(device::system_v4l2_io(), "kernel");
+  // libcamera's cameras too: a UVC webcam is listed once per backend that reaches it.
+  if (device::DeviceRegistry::libcamera_supported() && !args.no_libcamera)
+    if (Status status = registry.add_libcamera(); !status)
+      std::fprintf(stderr, "camlab devices: libcamera: %s\n", status.error().message.c_str());
   std::shared_ptr<mock::VirtualV4l2Io> virtual_io;
   if (!args.virtual_camera.empty()) {
     auto camera = mock::load_camera_spec(args.virtual_camera);
@@ -99,14 +104,19 @@ void register_devices_command(CLI::App& app) {
   auto args = std::make_shared<DevicesArgs>();
   CLI::App* cmd = app.add_subcommand(
       "devices",
-      "List cameras: every V4L2 capture device (/dev/video*) with its id, formats, frame sizes\n"
-      "and rates, and controls with ranges, defaults, current values and units.");
+      "List cameras: every V4L2 capture device (/dev/video*) and every camera libcamera finds,\n"
+      "with its id, formats, frame sizes and rates, and controls with ranges, defaults, current\n"
+      "values and units.");
   cmd->add_option("--virtual", args->virtual_camera,
                   "also list an in-process virtual camera with this camera spec (docs/virtual-camera.md)")
       ->check(CLI::ExistingFile);
   cmd->add_option("--scene", args->virtual_scene, "scene spec for the virtual camera (default: a chessboard)")
       ->check(CLI::ExistingFile);
   cmd->add_flag("--json", args->json, "print JSON");
+  cmd->add_flag("--no-libcamera", args->no_libcamera,
+                device::DeviceRegistry::libcamera_supported()
+                    ? "list V4L2 devices only, not also the cameras libcamera finds"
+                    : "(camlab was built without libcamera: V4L2 devices only anyway)");
   cmd->callback([args] { run_devices(*args); });
 }
 

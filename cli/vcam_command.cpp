@@ -1,4 +1,5 @@
-// `camlab vcam run`: run a command with virtual cameras present as /dev/video0.. .
+// `camlab vcam run`: run a command with virtual cameras present as /dev/video0.. (and
+// their media controller nodes /dev/media0..).
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
@@ -108,12 +109,17 @@ std::unique_ptr<VcamSession> start_session(const VcamArgs& args) {
   // The devices live here, in the broker, for every process of the run.
   auto devices = mock::create_vcam_devices(camera_path, args.scene, args.count, !args.unpaced);
   if (!devices) fail(devices.error().message);
+  // The sysfs names are the cameras' names as VIDIOC_QUERYCAP's card reports them (at
+  // most 31 bytes), so that the two agree as on a real uvcvideo device.
+  std::vector<std::string> camera_names;
+  for (const auto& device : *devices) camera_names.push_back(device->camera().name.substr(0, 31));
+  // The broker serves /dev/videoN and its media controller node /dev/mediaN.
   auto broker = mock::VcamBroker::start(std::move(*devices), (work / "broker.sock").string());
   if (!broker) fail(broker.error().message);
   session->broker = std::move(*broker);
   const fs::path sysfs = work / "sys";
   fs::create_directories(sysfs);
-  if (!mock::write_sysfs_tree(sysfs.string(), args.count)) fail("cannot write the fake sysfs in " + sysfs.string());
+  if (!mock::write_sysfs_tree(sysfs.string(), camera_names)) fail("cannot write the fake sysfs in " + sysfs.string());
 
   const char* existing_preload = std::getenv("LD_PRELOAD");
   session->environment = {

@@ -158,14 +158,16 @@ bool VirtualV4l2Device::is_supported_ioctl(unsigned long request) {
     case VIDIOC_G_CTRL: case VIDIOC_S_CTRL: case VIDIOC_G_EXT_CTRLS: case VIDIOC_S_EXT_CTRLS:
     case VIDIOC_TRY_EXT_CTRLS: case VIDIOC_SUBSCRIBE_EVENT: case VIDIOC_UNSUBSCRIBE_EVENT:
     case VIDIOC_DQEVENT: case VIDIOC_REQBUFS: case VIDIOC_QUERYBUF: case VIDIOC_QBUF: case VIDIOC_DQBUF:
-    case VIDIOC_STREAMON: case VIDIOC_STREAMOFF:
+    case VIDIOC_STREAMON: case VIDIOC_STREAMOFF: case VIDIOC_EXPBUF:
       return true;
     default:
       return false;
   }
 }
 
-int VirtualV4l2Device::ioctl(int file, unsigned long request, void* arg) {
+int VirtualV4l2Device::ioctl(int file, unsigned long request, void* arg) { return ioctl(file, request, arg, -1); }
+
+int VirtualV4l2Device::ioctl(int file, unsigned long request, void* arg, int dmabuf_fd) {
   std::unique_lock lock(mutex_);
   if (unplugged_) return -ENODEV;
   if (files_.find(file) == files_.end()) return -EBADF;
@@ -305,13 +307,16 @@ int VirtualV4l2Device::ioctl(int file, unsigned long request, void* arg) {
       return querybuf(static_cast<v4l2_buffer*>(arg));
     case VIDIOC_QBUF:
     {
-      const int result = qbuf(file, static_cast<v4l2_buffer*>(arg));
+      const int result = qbuf(file, static_cast<v4l2_buffer*>(arg), dmabuf_fd);
       signal_readiness();
   changed_.notify_all();  // the frame clock may be waiting for a buffer
       return result;
     }
     case VIDIOC_DQBUF:
       return dqbuf(file, static_cast<v4l2_buffer*>(arg), lock);
+    case VIDIOC_EXPBUF:
+      // Anyone may export, not only the queue's owner (vb2_ioctl_expbuf).
+      return expbuf(static_cast<v4l2_exportbuffer*>(arg));
     case VIDIOC_STREAMON:
       if (*static_cast<int*>(arg) != V4L2_BUF_TYPE_VIDEO_CAPTURE) return -EINVAL;
       return streamon(file);

@@ -60,7 +60,19 @@ class VirtualV4l2Device {
   static bool is_supported_ioctl(unsigned long request);
 
   // A V4L2 ioctl on an open file: 0 or -errno. `arg` points to the ioctl's struct.
+  //
+  // Buffer sharing (what libcamera uses): VIDIOC_EXPBUF returns in `fd` a new fd of this
+  // process for an MMAP buffer's memfd (its own open file description, with the access
+  // mode and O_CLOEXEC asked for); the caller owns it. REQBUFS/QBUF/DQBUF/QUERYBUF with
+  // V4L2_MEMORY_DMABUF import buffers: QBUF maps the fd in m.fd (a memfd, or any
+  // mappable regular file at least sizeimage long) and the device renders into it;
+  // m.fd is reported back unchanged, as vb2 does.
   int ioctl(int file, unsigned long request, void* arg);
+  // The same, for a transport serving another process: for QBUF with
+  // V4L2_MEMORY_DMABUF, `dmabuf_fd` is this process's fd for the buffer the client named
+  // in m.fd (received with SCM_RIGHTS; the device maps it and does not keep the fd),
+  // while m.fd stays the client's number. -1: m.fd is an fd of this process.
+  int ioctl(int file, unsigned long request, void* arg, int dmabuf_fd);
 
   // The buffer memory an mmap at `offset` of `length` bytes maps (a memfd and its
   // offset within it), or -errno.
@@ -103,9 +115,15 @@ class VirtualV4l2Device {
     bool signalled = false;
   };
   struct Buffer {
-    int memfd = -1;
-    uint8_t* address = nullptr;
-    size_t length = 0;
+    int memfd = -1;               // MMAP: the device's memory; DMABUF: -1
+    uint8_t* address = nullptr;   // the device's mapping (of the memfd, or of the import)
+    size_t length = 0;            // bytes mapped at address
+    // DMABUF: the client's fd number (reported back), the imported file (to map it once
+    // however often it is queued) and the plane length vb2 reports.
+    int user_fd = 0;
+    dev_t import_device = 0;
+    ino_t import_inode = 0;
+    uint32_t dmabuf_length = 0;
     enum class State { kDequeued, kQueued, kFilling, kDone } state = State::kDequeued;
     v4l2_buffer done{};  // filled when State::kDone
     int mappings = 0;
@@ -132,7 +150,9 @@ class VirtualV4l2Device {
   int set_format(v4l2_format* format, bool apply);
   int reqbufs(int file, v4l2_requestbuffers* request);
   int querybuf(v4l2_buffer* buffer) const;
-  int qbuf(int file, v4l2_buffer* buffer);
+  int qbuf(int file, v4l2_buffer* buffer, int dmabuf_fd);
+  int import_dmabuf(Buffer& buffer, int fd, uint32_t asked_length);
+  int expbuf(v4l2_exportbuffer* exported) const;
   int dqbuf(int file, v4l2_buffer* buffer, std::unique_lock<std::mutex>& lock);
   int streamon(int file);
   int streamoff(int file);
@@ -157,6 +177,7 @@ class VirtualV4l2Device {
   v4l2_pix_format format_{};
   v4l2_fract time_per_frame_{};
   std::vector<Buffer> buffers_;
+  v4l2_memory memory_ = V4L2_MEMORY_MMAP;  // of the allocated buffers
   size_t buffer_stride_ = 0;
   uint64_t buffers_generation_ = 0;        // mmap offset of buffer i is i * buffer_stride_
   std::deque<int> queued_order_;    // buffers waiting to be filled, oldest first

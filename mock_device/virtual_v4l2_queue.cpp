@@ -1,7 +1,10 @@
 // VirtualV4l2Device: the buffer queue (REQBUFS, QUERYBUF, QBUF, DQBUF, STREAMON,
-// STREAMOFF) with videobuf2's rules, MMAP buffers in memfds, and the frame clock that
-// renders into queued buffers.
+// STREAMOFF, EXPBUF) with videobuf2's rules, MMAP buffers in memfds (exported as new
+// fds of the memfd), DMABUF buffers imported by mapping the client's fd, and the frame
+// clock that renders into queued buffers.
+#include <fcntl.h>
 #include <sys/mman.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -11,6 +14,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <string>
 
 #include <opencv2/imgproc.hpp>
 
@@ -45,10 +49,11 @@ void VirtualV4l2Device::free_buffers() {
 
 int VirtualV4l2Device::reqbufs(int file, v4l2_requestbuffers* request) {
   if (request->type != V4L2_BUF_TYPE_VIDEO_CAPTURE) return -EINVAL;
-  request->capabilities = V4L2_BUF_CAP_SUPPORTS_MMAP;
+  // The same capabilities whatever memory is asked for (v4l2-compliance checks it).
+  request->capabilities = V4L2_BUF_CAP_SUPPORTS_MMAP | V4L2_BUF_CAP_SUPPORTS_DMABUF;
   request->flags = 0;  // no cache hints: V4L2_MEMORY_FLAG_NON_COHERENT is not supported
   std::memset(request->reserved, 0, sizeof request->reserved);
-  if (request->memory != V4L2_MEMORY_MMAP) return -EINVAL;
+  if (request->memory != V4L2_MEMORY_MMAP && request->memory != V4L2_MEMORY_DMABUF) return -EINVAL;
   if (queue_owner_ != 0 && queue_owner_ != file) return -EBUSY;
   if (int busy = check_priority(file)) return busy;
   if (streaming_) return -EBUSY;
@@ -60,6 +65,15 @@ int VirtualV4l2Device::reqbufs(int file, v4l2_requestbuffers* request) {
     return 0;
   }
   const uint32_t count = std::clamp<uint32_t>(request->count, 2, kMaxBuffers);
+  memory_ = static_cast<v4l2_memory>(request->memory);
+  if (memory_ == V4L2_MEMORY_DMABUF) {
+    // No memory of our own: each QBUF brings the buffer (import_dmabuf).
+    buffers_.assign(count, Buffer{});
+    for (auto& b : buffers_) b.dmabuf_length = format_.sizeimage;
+    request->count = count;
+    queue_owner_ = file;
+    return 0;
+  }
   const size_t length = page_align(format_.sizeimage);
   for (uint32_t i = 0; i < count; ++i) {
     Buffer b;
@@ -99,9 +113,14 @@ int VirtualV4l2Device::querybuf(v4l2_buffer* buffer) const {
     buffer->type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
     buffer->field = V4L2_FIELD_NONE;
   }
-  buffer->memory = V4L2_MEMORY_MMAP;
-  buffer->m.offset = static_cast<uint32_t>(index * buffer_stride_);
-  buffer->length = static_cast<uint32_t>(format_.sizeimage);
+  buffer->memory = memory_;
+  if (memory_ == V4L2_MEMORY_DMABUF) {
+    buffer->m.fd = b.user_fd;
+    buffer->length = b.dmabuf_length;
+  } else {
+    buffer->m.offset = static_cast<uint32_t>(index * buffer_stride_);
+    buffer->length = static_cast<uint32_t>(format_.sizeimage);
+  }
   buffer->flags = (buffer->flags & ~(V4L2_BUF_FLAG_QUEUED | V4L2_BUF_FLAG_DONE | V4L2_BUF_FLAG_MAPPED)) |
                   V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | V4L2_BUF_FLAG_TSTAMP_SRC_SOE;
   if (b.state == Buffer::State::kQueued || b.state == Buffer::State::kFilling) buffer->flags |= V4L2_BUF_FLAG_QUEUED;
@@ -110,12 +129,17 @@ int VirtualV4l2Device::querybuf(v4l2_buffer* buffer) const {
   return 0;
 }
 
-int VirtualV4l2Device::qbuf(int file, v4l2_buffer* buffer) {
-  if (buffer->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || buffer->memory != V4L2_MEMORY_MMAP) return -EINVAL;
+int VirtualV4l2Device::qbuf(int file, v4l2_buffer* buffer, int dmabuf_fd) {
+  if (buffer->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || buffer->memory != memory_) return -EINVAL;
   if (queue_owner_ != file) return queue_owner_ == 0 ? -EINVAL : -EBUSY;
   if (buffer->index >= buffers_.size()) return -EINVAL;
   Buffer& b = buffers_[buffer->index];
   if (b.state != Buffer::State::kDequeued) return -EINVAL;
+  if (memory_ == V4L2_MEMORY_DMABUF) {
+    if (int error = import_dmabuf(b, dmabuf_fd >= 0 ? dmabuf_fd : buffer->m.fd, buffer->length); error < 0)
+      return error;
+    b.user_fd = buffer->m.fd;
+  }
   b.state = Buffer::State::kQueued;
   queued_order_.push_back(static_cast<int>(buffer->index));
   buffer->flags &= ~(V4L2_BUF_FLAG_NO_CACHE_INVALIDATE | V4L2_BUF_FLAG_NO_CACHE_CLEAN);
@@ -123,7 +147,7 @@ int VirtualV4l2Device::qbuf(int file, v4l2_buffer* buffer) {
 }
 
 int VirtualV4l2Device::dqbuf(int file, v4l2_buffer* buffer, std::unique_lock<std::mutex>& lock) {
-  if (buffer->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || buffer->memory != V4L2_MEMORY_MMAP) return -EINVAL;
+  if (buffer->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || buffer->memory != memory_) return -EINVAL;
   if (queue_owner_ != file) return queue_owner_ == 0 ? -EINVAL : -EBUSY;
   if (fail_dequeues_ > 0) {
     --fail_dequeues_;
@@ -141,8 +165,13 @@ int VirtualV4l2Device::dqbuf(int file, v4l2_buffer* buffer, std::unique_lock<std
   *buffer = b.done;
   b.state = Buffer::State::kDequeued;
   signal_readiness();
-  buffer->memory = V4L2_MEMORY_MMAP;
-  buffer->m.offset = static_cast<uint32_t>(static_cast<size_t>(index) * buffer_stride_);
+  buffer->memory = memory_;
+  if (memory_ == V4L2_MEMORY_DMABUF) {
+    buffer->m.fd = b.user_fd;
+    buffer->length = b.dmabuf_length;
+  } else {
+    buffer->m.offset = static_cast<uint32_t>(static_cast<size_t>(index) * buffer_stride_);
+  }
   buffer->flags &= ~(V4L2_BUF_FLAG_QUEUED | V4L2_BUF_FLAG_DONE);
   if (b.mappings > 0) buffer->flags |= V4L2_BUF_FLAG_MAPPED;
   return 0;
@@ -175,9 +204,52 @@ int VirtualV4l2Device::streamoff(int file) {
   return 0;
 }
 
+int VirtualV4l2Device::import_dmabuf(Buffer& b, int fd, uint32_t asked_length) {
+  // As vb2's __prepare_dmabuf: a length of 0 means the whole buffer; less than the
+  // format's sizeimage is EINVAL, more than the buffer has is EFAULT (attach_dmabuf).
+  struct stat st {};
+  if (fd < 0 || fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) return -EINVAL;  // not a buffer fd
+  const auto size = static_cast<size_t>(st.st_size);
+  const size_t length = asked_length ? asked_length : size;
+  if (length < format_.sizeimage) return -EINVAL;
+  if (size < length) return -EFAULT;
+  // The same buffer queued again keeps its mapping (as vb2 keeps the attachment).
+  if (b.address && b.import_device == st.st_dev && b.import_inode == st.st_ino && b.length >= length) {
+    b.dmabuf_length = static_cast<uint32_t>(length);
+    return 0;
+  }
+  void* address = mmap(nullptr, length, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+  if (address == MAP_FAILED) return -EINVAL;
+  if (b.address) munmap(b.address, b.length);
+  b.address = static_cast<uint8_t*>(address);
+  b.length = length;
+  b.import_device = st.st_dev;
+  b.import_inode = st.st_ino;
+  b.dmabuf_length = static_cast<uint32_t>(length);
+  return 0;
+}
+
+int VirtualV4l2Device::expbuf(v4l2_exportbuffer* exported) const {
+  // vb2_core_expbuf's checks, in its order.
+  if (exported->flags & ~(O_CLOEXEC | O_ACCMODE)) return -EINVAL;
+  if (exported->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || memory_ != V4L2_MEMORY_MMAP) return -EINVAL;
+  if (exported->index >= buffers_.size() || exported->plane != 0) return -EINVAL;
+  const int memfd = buffers_[exported->index].memfd;
+  // A new open file description of the memfd, so the access mode asked for holds; a dup
+  // (same description) only if /proc is not mounted.
+  const std::string self = "/proc/self/fd/" + std::to_string(memfd);
+  int fd = open(self.c_str(), static_cast<int>(exported->flags & (O_CLOEXEC | O_ACCMODE)));
+  if (fd < 0) fd = fcntl(memfd, (exported->flags & O_CLOEXEC) ? F_DUPFD_CLOEXEC : F_DUPFD, 0);
+  if (fd < 0) return -errno;
+  exported->fd = fd;
+  std::memset(exported->reserved, 0, sizeof exported->reserved);
+  return 0;
+}
+
 int VirtualV4l2Device::buffer_for_mmap(off_t offset, size_t length, BufferMemory* out) {
   std::lock_guard lock(mutex_);
   if (unplugged_) return -ENODEV;
+  if (memory_ != V4L2_MEMORY_MMAP) return -EINVAL;  // imported buffers are mapped through their own fd
   if (buffer_stride_ == 0 || offset < 0 || static_cast<size_t>(offset) % buffer_stride_ != 0) return -EINVAL;
   const size_t index = static_cast<size_t>(offset) / buffer_stride_;
   if (index >= buffers_.size() || length == 0 || length > buffers_[index].length) return -EINVAL;
@@ -360,8 +432,8 @@ void VirtualV4l2Device::produce_frames() {
     done.timestamp.tv_sec = start.tv_sec;
     done.timestamp.tv_usec = start.tv_nsec / 1000;
     done.sequence = static_cast<uint32_t>(sequence);
-    done.memory = V4L2_MEMORY_MMAP;
-    done.length = format_.sizeimage;
+    done.memory = memory_;
+    done.length = memory_ == V4L2_MEMORY_DMABUF ? buffer.dmabuf_length : format_.sizeimage;
     buffer.state = Buffer::State::kDone;
     done_order_.push_back(index);
     signal_readiness();

@@ -11,8 +11,17 @@
 // user_buffer_count UserBuffer descriptors and their bytes: the arrays an ioctl struct
 // points to (v4l2_ext_controls::controls, media topology arrays), which the broker
 // rebuilds in its own memory and patches into the struct. File descriptors travel as
-// SCM_RIGHTS: the device's readiness eventfd on open, a buffer's memfd on mmap, the fd
-// of VIDIOC_EXPBUF (out) and of a DMABUF VIDIOC_QBUF (in).
+// SCM_RIGHTS: the device's readiness eventfd on open (a video node) or the node's memfd
+// (a media node: its own open file description of one memfd per node, so lockf(2)
+// between processes works as on the kernel's device inode), a buffer's memfd on mmap,
+// the fd of VIDIOC_EXPBUF (out) and of a DMABUF VIDIOC_QBUF (in).
+//
+// Arrays whose size only the device knows (the media topology arrays: MEDIA_IOC_ENUM_LINKS
+// carries no counts) are not sent; the broker fills them in its own memory and returns
+// them as copy-out regions: after the reply's body, copy_out_count CopyOut descriptors
+// each followed by its bytes, which the client writes at `address` in its own memory
+// (EFAULT if it cannot). A reply whose arg_size is 0 does not write the struct back (a
+// media ioctl that failed, as in the kernel).
 //
 // Reentrant.
 #pragma once
@@ -73,7 +82,15 @@ struct ReplyHeader {
   uint32_t arg_size = 0;
   uint32_t user_buffer_count = 0;
   uint32_t fd_field_offset = kNoField;  // where a passed-out fd goes in the struct
+  uint32_t copy_out_count = 0;          // CopyOut regions after the body
 };
+
+struct CopyOut {
+  uint64_t address = 0;  // in the client's memory (a pointer the client put in the struct)
+  uint32_t size_bytes = 0;
+  uint32_t reserved = 0;
+};
+inline constexpr size_t kMaxCopyOuts = 8;
 
 // The arrays `arg` (the ioctl struct, already copied from the caller) points to, that
 // the device reads or fills. An error (-EINVAL) when a count is beyond the limits.

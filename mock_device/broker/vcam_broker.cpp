@@ -1,7 +1,10 @@
 #include "mock_device/broker/vcam_broker.h"
 
 #include <fcntl.h>
+#include <poll.h>
 #include <sys/eventfd.h>
+#include <sys/ioctl.h>
+#include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -39,11 +42,17 @@ int reply_result(int socket, int result) {
   return reply(socket, header);
 }
 
-// One open file of one device, as seen by the connection that opened it.
+// One open file of one node (a video node, or a media node when `media` is set), as
+// seen by the connection that opened it.
 class OpenFile {
  public:
-  OpenFile(std::shared_ptr<VirtualV4l2Device> device, int file) : device_(std::move(device)), file_(file) {}
+  OpenFile(std::shared_ptr<VirtualV4l2Device> device, std::shared_ptr<VirtualMediaDevice> media, int file)
+      : device_(std::move(device)), media_(std::move(media)), file_(file) {}
   ~OpenFile() {
+    if (media_) {
+      media_->close_file(file_);
+      return;
+    }
     // A client that dies with buffers mapped leaves the device's mapping counts as if it
     // had unmapped them: its address space is gone.
     for (const auto& [offset, count] : mappings_) device_->note_mapping(offset, -count);
@@ -54,6 +63,7 @@ class OpenFile {
   bool handle(int socket, const std::vector<uint8_t>& message, std::vector<int>& fds) {
     RequestHeader header;
     std::memcpy(&header, message.data(), sizeof header);
+    if (media_) return handle_media(socket, header, message);
     switch (header.op) {
       case Op::kIoctl: return ioctl(socket, header, message, fds) == 0;
       case Op::kMmap: return mmap(socket, header) == 0;
@@ -76,6 +86,64 @@ class OpenFile {
   }
 
  private:
+  // A media node: ioctls only. It has no mmap (ENODEV) and, like the kernel's media
+  // devnode without a poll handler, is always "ready".
+  bool handle_media(int socket, const RequestHeader& header, const std::vector<uint8_t>& message) {
+    switch (header.op) {
+      case Op::kIoctl: return media_ioctl(socket, header, message) == 0;
+      case Op::kMmap: return reply_result(socket, -ENODEV) == 0;
+      case Op::kMunmap: return reply_result(socket, 0) == 0;
+      case Op::kPoll: {
+        ReplyHeader out;
+        out.revents = header.flags & (POLLIN | POLLOUT | POLLRDNORM | POLLWRNORM);
+        return reply(socket, out) == 0;
+      }
+      default: return reply_result(socket, -EINVAL) == 0;
+    }
+  }
+
+  // The media ioctls' arrays (G_TOPOLOGY's, ENUM_LINKS') are sized by the device, not
+  // sent by the client: they go back as copy-out regions at the client's addresses.
+  int media_ioctl(int socket, const RequestHeader& header, const std::vector<uint8_t>& message) {
+    const unsigned long request = header.ioctl_request;
+    if (!VirtualMediaDevice::is_supported_ioctl(request)) return reply_result(socket, -ENOTTY);
+    if (header.arg_unreadable) return reply_result(socket, -EFAULT);
+    const size_t arg_size = header.arg_size;
+    if (arg_size != _IOC_SIZE(request) || arg_size > broker::kMaxArgBytes || header.user_buffer_count != 0 ||
+        message.size() < sizeof header + arg_size)
+      return reply_result(socket, -EINVAL);
+    std::vector<uint64_t> arg((arg_size + 7) / 8 + 1);
+    std::memcpy(arg.data(), message.data() + sizeof header, arg_size);
+    std::vector<uint8_t> regions;
+    uint32_t region_count = 0;
+    auto copy_in = [](uint64_t, void*, size_t) { return -EFAULT; };  // no media ioctl reads an array
+    auto copy_out = [&](uint64_t address, const void* local, size_t bytes) {
+      if (bytes == 0) return 0;
+      if (region_count >= broker::kMaxCopyOuts || regions.size() + bytes > broker::kMaxUserBufferBytes) return -EFAULT;
+      broker::CopyOut region;
+      region.address = address;
+      region.size_bytes = static_cast<uint32_t>(bytes);
+      const auto* head = reinterpret_cast<const uint8_t*>(&region);
+      regions.insert(regions.end(), head, head + sizeof region);
+      regions.insert(regions.end(), static_cast<const uint8_t*>(local), static_cast<const uint8_t*>(local) + bytes);
+      ++region_count;
+      return 0;
+    };
+    const int result = media_->ioctl_marshalled(file_, request, arg.data(), copy_in, copy_out);
+    ReplyHeader out;
+    out.result = result;
+    out.copy_out_count = region_count;
+    std::vector<uint8_t> body;
+    // The struct goes back only on success (mc-device.c's arg_to_user); the arrays also
+    // on ENOSPC.
+    if (result == 0) {
+      out.arg_size = static_cast<uint32_t>(arg_size);
+      body.assign(reinterpret_cast<const uint8_t*>(arg.data()), reinterpret_cast<const uint8_t*>(arg.data()) + arg_size);
+    }
+    body.insert(body.end(), regions.begin(), regions.end());
+    return reply(socket, out, body);
+  }
+
   int ioctl(int socket, const RequestHeader& header, const std::vector<uint8_t>& message, std::vector<int>& fds) {
     const unsigned long request = header.ioctl_request;
     // Unknown ioctls are ENOTTY before the argument is looked at, as in the kernel.
@@ -115,14 +183,16 @@ class OpenFile {
       void* local = buffers[i].data();
       std::memcpy(field, &local, sizeof(void*));
     }
-    // A DMABUF being queued: the fd arrived with the message; the device sees ours.
-    const uint32_t fd_in = broker::fd_in_field(request, arg.data());
-    if (fd_in != broker::kNoField) {
+    // A DMABUF being queued: the fd arrived with the message. The device maps ours but
+    // m.fd stays the client's number, which QBUF, DQBUF and QUERYBUF report back (vb2
+    // keeps the number the caller gave). The caller closes the received fd.
+    int dmabuf_fd = -1;
+    if (broker::fd_in_field(request, arg.data()) != broker::kNoField) {
       if (fds.size() != 1) return reply_result(socket, -EBADF);
-      std::memcpy(reinterpret_cast<uint8_t*>(arg.data()) + fd_in, &fds[0], sizeof(int));
+      dmabuf_fd = fds[0];
     }
 
-    const int result = device_->ioctl(file_, request, arg.data());
+    const int result = device_->ioctl(file_, request, arg.data(), dmabuf_fd);
 
     for (size_t i = 0; i < specs.size(); ++i)
       std::memcpy(reinterpret_cast<uint8_t*>(arg.data()) + specs[i].pointer_offset, &client_pointers[i], sizeof(void*));
@@ -157,6 +227,7 @@ class OpenFile {
   }
 
   std::shared_ptr<VirtualV4l2Device> device_;
+  std::shared_ptr<VirtualMediaDevice> media_;
   int file_;
   std::map<off_t, int> mappings_;  // mmap offset -> mappings this client holds
 };
@@ -191,12 +262,26 @@ Result<std::unique_ptr<VcamBroker>> VcamBroker::start(std::vector<std::shared_pt
     return make_error("io_error", "broker cannot listen on " + socket_path + ": " + std::strerror(error));
   }
   std::unique_ptr<VcamBroker> broker(new VcamBroker(std::move(devices), socket_path, fd));
+  for (const auto& device : broker->devices_) {
+    auto media = make_media_device_for(*device);
+    if (!media) continue;
+    const std::string name = "camlab-media" + std::to_string(device->index());
+    const int memfd = ::memfd_create(name.c_str(), MFD_CLOEXEC);
+    if (memfd < 0) return make_error("io_error", std::string("broker memfd: ") + std::strerror(errno));
+    broker->media_.push_back({std::move(media), memfd});
+  }
   broker->acceptor_ = std::thread([b = broker.get()] { b->accept_loop(); });
   return broker;
 }
 
 VcamBroker::VcamBroker(std::vector<std::shared_ptr<VirtualV4l2Device>> devices, std::string socket_path, int listen_fd)
     : devices_(std::move(devices)), socket_path_(std::move(socket_path)), listen_fd_(listen_fd) {}
+
+std::shared_ptr<VirtualMediaDevice> VcamBroker::media_device(int index) const {
+  for (const auto& node : media_)
+    if (node.device->index() == index) return node.device;
+  return nullptr;
+}
 
 VcamBroker::~VcamBroker() {
   stopping_ = true;
@@ -211,6 +296,7 @@ VcamBroker::~VcamBroker() {
     c.thread.join();
     ::close(c.socket);
   }
+  for (auto& node : media_) ::close(node.memfd);
 }
 
 size_t VcamBroker::open_file_count() const {
@@ -264,12 +350,33 @@ void VcamBroker::serve(Connection* connection) {
     std::shared_ptr<VirtualV4l2Device> device;
     for (const auto& d : devices_)
       if (d->index() == header.offset) device = d;
+    const MediaNode* media = nullptr;
+    for (const auto& node : media_)
+      if (node.device->index() == header.offset) media = &node;
+    const auto kind = static_cast<broker::NodeKind>(header.length);
     if (header.op == Op::kFault) {
-      reply_result(socket, device ? inject(*device, static_cast<broker::Fault>(header.flags),
-                                           static_cast<int>(header.length))
-                                  : -ENODEV);
-    } else if (header.op != Op::kOpen || header.length != static_cast<uint64_t>(broker::NodeKind::kVideo) ||
-               !device) {
+      int result = device ? inject(*device, static_cast<broker::Fault>(header.flags), static_cast<int>(header.length))
+                          : -ENODEV;
+      if (result == 0 && media && static_cast<broker::Fault>(header.flags) == broker::Fault::kUnplug)
+        media->device->unplug();
+      reply_result(socket, result);
+    } else if (header.op == Op::kOpen && kind == broker::NodeKind::kMedia && media) {
+      // Each open is its own open file description of the node's memfd (one inode per
+      // node, as the kernel's device inode): lockf() by one process then excludes
+      // another, and O_NONBLOCK stays per open.
+      const int file = media->device->open_file(header.flags & O_NONBLOCK);
+      const std::string self = "/proc/self/fd/" + std::to_string(media->memfd);
+      const int fd = file < 0 ? -1 : ::open(self.c_str(), O_RDWR | O_CLOEXEC | (header.flags & O_NONBLOCK));
+      if (file < 0 || fd < 0) {
+        if (file >= 0) media->device->close_file(file);
+        reply_result(socket, file < 0 ? file : -errno);
+      } else {
+        open_file = std::make_unique<OpenFile>(nullptr, media->device, file);
+        ReplyHeader out;
+        if (reply(socket, out, {}, fd) != 0) open_file.reset();
+        ::close(fd);  // the client has its own copy now
+      }
+    } else if (header.op != Op::kOpen || kind != broker::NodeKind::kVideo || !device) {
       reply_result(socket, -ENODEV);
     } else {
       // The broker's side of every file is non-blocking; the client emulates blocking
@@ -281,7 +388,7 @@ void VcamBroker::serve(Connection* connection) {
         reply_result(socket, file < 0 ? file : -errno);
       } else {
         device->attach_eventfd(file, readiness_fd);
-        open_file = std::make_unique<OpenFile>(device, file);
+        open_file = std::make_unique<OpenFile>(device, nullptr, file);
         ReplyHeader out;
         if (reply(socket, out, {}, readiness_fd) != 0) open_file.reset();
       }

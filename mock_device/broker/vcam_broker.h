@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "base/result.h"
+#include "mock_device/virtual_media_device.h"
 #include "mock_device/virtual_v4l2_device.h"
 
 namespace camlab::mock {
@@ -30,7 +31,8 @@ namespace camlab::mock {
 class VcamBroker {
  public:
   // Listens on `socket_path` (created; must not exist). devices[i] is served as
-  // /dev/video<devices[i]->index()>.
+  // /dev/video<devices[i]->index()>, with its media controller node as
+  // /dev/media<index> (make_media_device_for()).
   static Result<std::unique_ptr<VcamBroker>> start(std::vector<std::shared_ptr<VirtualV4l2Device>> devices,
                                                    const std::string& socket_path);
   ~VcamBroker();
@@ -41,6 +43,8 @@ class VcamBroker {
   // Connections (open files) now served, for leak checks.
   size_t open_file_count() const;
   const std::vector<std::shared_ptr<VirtualV4l2Device>>& devices() const { return devices_; }
+  // The media node of /dev/video<index>, or null.
+  std::shared_ptr<VirtualMediaDevice> media_device(int index) const;
 
  private:
   struct Connection {
@@ -54,6 +58,13 @@ class VcamBroker {
   void reap_finished();  // joins connections whose client went away; call with mutex_ held
 
   std::vector<std::shared_ptr<VirtualV4l2Device>> devices_;
+  // One per media node: the device and the memfd whose open file descriptions are the
+  // clients' fds of it (one inode per node, so lockf() excludes across processes).
+  struct MediaNode {
+    std::shared_ptr<VirtualMediaDevice> device;
+    int memfd = -1;
+  };
+  std::vector<MediaNode> media_;
   std::string socket_path_;
   int listen_fd_ = -1;
   std::atomic<bool> stopping_{false};

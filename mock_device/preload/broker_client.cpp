@@ -61,11 +61,11 @@ void wait_readable(int fd, int timeout_ms) {
 RemoteFile::~RemoteFile() { real().close(socket_); }
 
 int RemoteFile::transact(const std::vector<uint8_t>& request, int fd_in, std::vector<uint8_t>* reply,
-                         std::vector<int>* fds_out) {
+                         std::vector<int>* fds_out, bool cloexec) {
   std::lock_guard lock(mutex_);
   if (int error = broker::send_message(socket_, request.data(), request.size(), &fd_in, fd_in >= 0 ? 1 : 0); error < 0)
     return error == -EPIPE || error == -ECONNRESET ? -ENODEV : error;
-  const ssize_t n = broker::receive_message(socket_, reply, fds_out);
+  const ssize_t n = broker::receive_message(socket_, reply, fds_out, cloexec);
   // A broker that went away is a device that went away.
   if (n < static_cast<ssize_t>(sizeof(ReplyHeader))) return n < 0 && n != -ECONNRESET ? static_cast<int>(n) : -ENODEV;
   ReplyHeader header;
@@ -120,9 +120,13 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
   if (const uint32_t field = broker::fd_in_field(request, arg.data()); field != broker::kNoField)
     std::memcpy(&fd_in, reinterpret_cast<uint8_t*>(arg.data()) + field, sizeof fd_in);
 
+  // An exported buffer's fd (EXPBUF) is close-on-exec only when asked for.
+  bool cloexec = true;
+  if (request == VIDIOC_EXPBUF) cloexec = (reinterpret_cast<const v4l2_exportbuffer*>(arg.data())->flags & O_CLOEXEC) != 0;
+
   std::vector<uint8_t> reply;
   std::vector<int> fds;
-  const int result = transact(message, fd_in, &reply, &fds);
+  const int result = transact(message, fd_in, &reply, &fds, cloexec);
   ReplyHeader out;
   if (reply.size() >= sizeof out) std::memcpy(&out, reply.data(), sizeof out);
   size_t at = sizeof out;
@@ -137,6 +141,21 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
       if (!copy_to_user(user_pointers[i], reply.data() + at, buffers[i].size_bytes)) error = EFAULT;
       at += buffers[i].size_bytes;
     }
+  }
+  // Arrays the broker sized and filled (media topology): each goes to the address the
+  // caller gave for it; also after a failure (ENOSPC), as the kernel copies them.
+  bool copied_out = true;
+  for (uint32_t i = 0; reply.size() >= sizeof out && i < out.copy_out_count && i < broker::kMaxCopyOuts; ++i) {
+    broker::CopyOut region;
+    if (reply.size() < at + sizeof region) break;
+    std::memcpy(&region, reply.data() + at, sizeof region);
+    at += sizeof region;
+    if (reply.size() < at + region.size_bytes) break;
+    if (!copy_to_user(reinterpret_cast<void*>(region.address), reply.data() + at, region.size_bytes)) copied_out = false;
+    at += region.size_bytes;
+  }
+  if (!copied_out) error = EFAULT;
+  if (has_body && copied_out) {
     // An fd the device handed out (EXPBUF) becomes one of ours.
     if (out.fd_field_offset != broker::kNoField && out.fd_field_offset + sizeof(int) <= size) {
       const int fd = fds.empty() ? -1 : fds[0];
@@ -153,6 +172,10 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
 }
 
 void* RemoteFile::mmap(void* address, size_t length, int prot, int flags, off_t offset) {
+  if (kind_ == broker::NodeKind::kMedia) {
+    errno = ENODEV;  // a media node has no memory to map
+    return MAP_FAILED;
+  }
   if (!(flags & MAP_SHARED)) {
     errno = EINVAL;  // V4L2 buffers must be mapped shared
     return MAP_FAILED;

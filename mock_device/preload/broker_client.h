@@ -1,9 +1,11 @@
 // The client side of the vcam broker (mock_device/broker/vcam_broker.h), inside the
 // preload library: every open of a virtual node becomes a connection to the broker, and
-// the fd the application gets is that file's readiness eventfd, so poll, select and
-// epoll on it work without interposition. ioctls are marshalled with the kernel's copy
+// the fd the application gets is, for a video node, that file's readiness eventfd, so
+// poll, select and epoll on it work without interposition; for a media node, an open
+// file description of the node's memfd (lockf works across processes; no mmap). ioctls are marshalled with the kernel's copy
 // semantics (EFAULT for a bad pointer, the struct written back for _IOR ioctls, the
-// arrays an ioctl points to copied both ways); mmap maps the buffer memfd the broker
+// arrays an ioctl points to copied both ways, the arrays the broker sizes (media
+// topology) written where the caller pointed); mmap maps the buffer memfd the broker
 // sends; blocking DQBUF waits here on the readiness fd, never in the broker.
 //
 // dup/dup2/dup3/F_DUPFD make another fd for the same open file; the file closes with
@@ -50,7 +52,9 @@ class RemoteFile {
  private:
   // Sends one request and waits for its reply (serialised per file: the broker answers
   // each connection in order). Returns the reply's result (>= 0 or -errno).
-  int transact(const std::vector<uint8_t>& request, int fd_in, std::vector<uint8_t>* reply, std::vector<int>* fds_out);
+  // `cloexec`: whether the fds received are close-on-exec.
+  int transact(const std::vector<uint8_t>& request, int fd_in, std::vector<uint8_t>* reply, std::vector<int>* fds_out,
+               bool cloexec = true);
   int header_only_request(const broker::RequestHeader& header, std::vector<uint8_t>* reply);
   int ioctl_once(unsigned long request, void* user_arg);
 

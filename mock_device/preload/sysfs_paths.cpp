@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "mock_device/fake_sysfs.h"
+
 namespace camlab::vcam {
 
 namespace {
@@ -32,9 +34,9 @@ int vcam_count() { return config().count; }
 const char* redirect_sysfs_path(const char* path, std::string* storage) {
   const Config& c = config();
   if (!path || c.root.empty() || !starts_with(path, "/sys/")) return nullptr;
-  bool ours = starts_with(path, "/sys/class/video4linux");
-  if (!ours && starts_with(path, "/sys/dev/char/81:")) ours = std::atoi(path + 17) < c.count;
-  if (!ours) return nullptr;
+  // Header-only and allocation-free (mock_device/fake_sysfs.h): the preload links none
+  // of the mock device library.
+  if (!camlab::mock::is_fake_sysfs_path(path, c.count)) return nullptr;
   *storage = c.root + (path + 4);  // keep everything after "/sys"
   return storage->c_str();
 }

@@ -1,6 +1,8 @@
 // Paths of the fake sysfs: clients such as v4l2-ctl read /sys/dev/char/81:N/uevent to
-// learn that a character device is a video node, and enumerators walk
-// /sys/class/video4linux. The tree is real files in a folder `camlab vcam run` writes
+// learn that a character device is a video node, enumerators walk
+// /sys/class/video4linux, and libcamera's sysfs enumerator walks /sys/bus/media, the
+// media and video nodes' /sys/dev/char links and the USB device folders above them
+// (camlab::mock::is_fake_sysfs_path says which paths). The tree is real files in a folder `camlab vcam run` writes
 // (CAMLAB_VCAM_SYSFS, mock_device/fake_sysfs.h); paths under those sysfs roots are
 // redirected into it, and paths resolved inside it are reported back under /sys.
 //

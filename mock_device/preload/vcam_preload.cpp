@@ -1,12 +1,14 @@
-// libcamlab_vcam_preload.so: the virtual camera as /dev/video0.. for an unmodified V4L2
-// client, in user space (the machines camlab is tested on have no kernel media support).
+// libcamlab_vcam_preload.so: the virtual camera as /dev/video0.. and its media
+// controller node /dev/media0.. for an unmodified V4L2 or libcamera client, in user space (the machines camlab is tested on have no kernel media support).
 //
 // Loaded with LD_PRELOAD by `camlab vcam run`, it interposes the libc entry points a
 // V4L2 client uses on a device: open/openat (and their 64 and fortified forms), close,
 // dup/dup2/dup3/fcntl(F_DUPFD), ioctl, mmap/munmap, read/write, poll/ppoll/select/
-// pselect (and _chk forms), the stat family (a character device, major 81), access,
-// realpath, fopen/opendir/readlink (a fake sysfs), and syscall() for the same calls,
-// because libv4l2 and libcamera make some of them through syscall() directly.
+// pselect (and _chk forms), the stat family (a character device, 81:N or 236:N),
+// access, realpath, fopen/opendir/readlink (a fake sysfs), and syscall() for the same
+// calls, because libv4l2 and libcamera make some of them through syscall() directly.
+// It also hides udev's monitor from libcamera (udev_monitor_new_from_netlink), so that
+// libcamera enumerates through the fake sysfs.
 //
 // The devices live in the broker (the `camlab vcam run` process, CAMLAB_VCAM_BROKER);
 // this library is its thin client (broker_client.h), so every process of the run sees
@@ -34,6 +36,7 @@
 #include <string>
 #include <vector>
 
+#include "mock_device/fake_sysfs.h"
 #include "mock_device/preload/broker_client.h"
 #include "mock_device/preload/real_libc.h"
 #include "mock_device/preload/sysfs_paths.h"
@@ -50,23 +53,36 @@ struct Node {
   int index;
 };
 
-// The virtual node a path names, if any: /dev/videoN for N below CAMLAB_VCAM_COUNT.
+// The virtual node a path names, if any: /dev/videoN or /dev/mediaN for N below
+// CAMLAB_VCAM_COUNT.
 bool virtual_node(const char* path, Node* node) {
-  if (!path || std::strncmp(path, "/dev/video", 10) != 0) return false;
+  if (!path) return false;
+  NodeKind kind;
+  if (std::strncmp(path, "/dev/video", 10) == 0)
+    kind = NodeKind::kVideo;
+  else if (std::strncmp(path, "/dev/media", 10) == 0)
+    kind = NodeKind::kMedia;
+  else
+    return false;
   const char* digits = path + 10;
-  if (!*digits) return false;
+  if (!*digits || std::strlen(digits) > 6) return false;
   for (const char* p = digits; *p; ++p)
     if (*p < '0' || *p > '9') return false;
   const int index = std::atoi(digits);
   if (index >= camlab::vcam::vcam_count()) return false;
-  *node = {NodeKind::kVideo, index};
+  *node = {kind, index};
   return true;
+}
+
+// The node's device number: 81:N (VIDEO_MAJOR) or kMediaMajor:N.
+unsigned node_major(const Node& node) {
+  return node.kind == NodeKind::kMedia ? camlab::mock::kMediaMajor : camlab::mock::kVideoMajor;
 }
 
 void fill_node_stat(const Node& node, struct stat* st) {
   std::memset(st, 0, sizeof *st);
   st->st_mode = S_IFCHR | 0660;
-  st->st_rdev = makedev(81, static_cast<unsigned>(node.index));
+  st->st_rdev = makedev(node_major(node), static_cast<unsigned>(node.index));
   st->st_nlink = 1;
   st->st_blksize = 4096;
 }
@@ -348,7 +364,7 @@ int statx(int dirfd, const char* path, int flags, unsigned mask, struct statx* o
     out->stx_mode = S_IFCHR | 0660;
     out->stx_nlink = 1;
     out->stx_blksize = 4096;
-    out->stx_rdev_major = 81;
+    out->stx_rdev_major = node_major(node);
     out->stx_rdev_minor = static_cast<uint32_t>(node.index);
     return 0;
   }
@@ -409,6 +425,16 @@ long syscall(long number, ...) {
     default:
       return real().syscall(number, a[0], a[1], a[2], a[3], a[4], a[5]);
   }
+}
+
+// libcamera enumerates through udev when it can, which needs the kernel's devices (and
+// a mount namespace to fake them). No udev monitor makes it fall back to its sysfs
+// enumerator, which reads the fake tree.
+struct udev;
+struct udev_monitor;
+udev_monitor* udev_monitor_new_from_netlink(udev*, const char*) {
+  errno = ENOSYS;
+  return nullptr;
 }
 
 }  // extern "C"

@@ -8,6 +8,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -76,6 +77,12 @@ struct FrameMetadata {
   uint32_t bytes_used = 0;
   bool error = false;          // the driver flagged the buffer (V4L2_BUF_FLAG_ERROR)
   uint64_t dropped_before = 0; // sequence numbers skipped since the previous frame
+  // Settings in effect for this frame as the camera reported them with it (libcamera's
+  // request metadata); empty when the backend or pipeline does not report them, never
+  // filled from what was asked.
+  std::optional<int64_t> exposure_us;
+  std::optional<double> analogue_gain;   // libcamera's AnalogueGain (1.0 = unity)
+  std::optional<double> lens_position;   // libcamera's LensPosition, dioptres
 };
 
 // A filled buffer, borrowed until requeue(): data points into the driver's mapping.

@@ -4,6 +4,9 @@
 #include <filesystem>
 
 #include "device/v4l2_camera.h"
+#ifdef CAMLAB_HAVE_LIBCAMERA
+#include "device/libcamera/libcamera_camera.h"
+#endif
 
 namespace camlab::device {
 
@@ -46,9 +49,35 @@ void DeviceRegistry::add_v4l2(std::shared_ptr<V4l2Io> io, const std::string& tra
   }
 }
 
+bool DeviceRegistry::libcamera_supported() {
+#ifdef CAMLAB_HAVE_LIBCAMERA
+  return true;
+#else
+  return false;
+#endif
+}
+
+Status DeviceRegistry::add_libcamera() {
+#ifdef CAMLAB_HAVE_LIBCAMERA
+  auto cameras = list_libcamera_cameras();
+  if (!cameras) return cameras.error();
+  for (auto& identity : *cameras) {
+    entries_.push_back({std::move(identity), "libcamera"});
+    ios_.push_back(nullptr);
+  }
+  return {};
+#else
+  return make_error("unsupported", "camlab was built without libcamera (CAMLAB_WITH_LIBCAMERA=OFF)");
+#endif
+}
+
 Result<std::unique_ptr<Camera>> DeviceRegistry::open(const std::string& id) const {
   std::string known;
   for (size_t i = 0; i < entries_.size(); ++i) {
+#ifdef CAMLAB_HAVE_LIBCAMERA
+    if (entries_[i].identity.backend == "libcamera" && (entries_[i].identity.id == id || entries_[i].identity.path == id))
+      return open_libcamera_camera(entries_[i].identity.id);
+#endif
     if (entries_[i].identity.id == id || entries_[i].identity.path == id) {
       auto camera = V4l2Camera::open(ios_[i], entries_[i].identity.path);
       if (!camera) return camera.error();

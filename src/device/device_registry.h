@@ -3,7 +3,8 @@
 // V4L2 devices are found as /dev/video* character devices that answer VIDIOC_QUERYCAP
 // as streaming capture devices (metadata and output nodes are skipped). Their id is
 // "v4l2:<bus_info>", which survives renumbering of /dev/video* across replugs; a second
-// capture node on the same bus gets ":<n>" appended.
+// capture node on the same bus gets ":<n>" appended. libcamera cameras (when camlab is
+// built with libcamera) are "libcamera:<libcamera id>".
 //
 // Thread-compatible.
 #pragma once
@@ -27,12 +28,17 @@ class DeviceRegistry {
   // Scans `paths` (default: every /dev/video*) through `io`.
   void add_v4l2(std::shared_ptr<V4l2Io> io, const std::string& transport,
                 std::vector<std::string> paths = {});
+  // Adds every camera libcamera enumerates (transport "libcamera"); a camera that is
+  // also a V4L2 node appears once per backend. "unsupported" when camlab was built
+  // without libcamera (libcamera_supported()), "io_error" when libcamera cannot start.
+  Status add_libcamera();
+  static bool libcamera_supported();
   const std::vector<DeviceEntry>& devices() const { return entries_; }
   Result<std::unique_ptr<Camera>> open(const std::string& id) const;
 
  private:
   std::vector<DeviceEntry> entries_;
-  std::vector<std::shared_ptr<V4l2Io>> ios_;  // parallel to entries_
+  std::vector<std::shared_ptr<V4l2Io>> ios_;  // parallel to entries_ (null for libcamera's)
 };
 
 // /dev/video* paths, sorted by number.

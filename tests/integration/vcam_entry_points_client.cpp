@@ -3,6 +3,7 @@
 // family, read, ppoll/pselect/select and the stat family. Run under `camlab vcam run`;
 // prints one line per failed check and exits with the number of failures.
 #include <fcntl.h>
+#include <linux/media.h>
 #include <linux/videodev2.h>
 #include <poll.h>
 #include <sys/ioctl.h>
@@ -35,9 +36,64 @@ bool querycap(int fd) {
   return ioctl(fd, VIDIOC_QUERYCAP, &cap) == 0 && cap.driver[0] != '\0';
 }
 
+// The media controller node /dev/media0 (libcamera's way to the camera): its device
+// number, the ioctls whose arrays the broker sizes, mmap and lockf.
+void check_media_node() {
+  const int fd = open("/dev/media0", O_RDWR | O_CLOEXEC);
+  check(fd >= 0, "open /dev/media0");
+  if (fd < 0) return;
+  struct stat st{};
+  check(fstat(fd, &st) == 0 && S_ISCHR(st.st_mode) && major(st.st_rdev) == 236 && minor(st.st_rdev) == 0,
+        "fstat of the media fd is 236:0");
+  check(stat("/dev/media0", &st) == 0 && major(st.st_rdev) == 236, "stat /dev/media0");
+  check(stat("/sys/dev/char/236:0", &st) == 0, "the media node's sysfs folder");
+  char resolved[PATH_MAX];
+  check(realpath("/sys/dev/char/81:0/device", resolved) && std::strncmp(resolved, "/sys/devices/", 13) == 0,
+        "realpath of the video node's device");
+  media_device_info info{};
+  check(ioctl(fd, MEDIA_IOC_DEVICE_INFO, &info) == 0 && std::strcmp(info.driver, "uvcvideo") == 0, "DEVICE_INFO");
+  // G_TOPOLOGY with room for one entity of three: ENOSPC, the first entity written.
+  media_v2_topology topology{};
+  check(ioctl(fd, MEDIA_IOC_G_TOPOLOGY, &topology) == 0 && topology.num_entities == 3, "G_TOPOLOGY counts");
+  media_v2_entity entities[3]{};
+  media_v2_topology small{};
+  small.num_entities = 1;
+  small.ptr_entities = reinterpret_cast<uintptr_t>(entities);
+  errno = 0;
+  check(ioctl(fd, MEDIA_IOC_G_TOPOLOGY, &small) == -1 && errno == ENOSPC && entities[0].id != 0 &&
+            small.num_entities == 1,
+        "G_TOPOLOGY too small: ENOSPC, partial array, struct not written back");
+  topology.ptr_entities = reinterpret_cast<uintptr_t>(entities);
+  topology.num_interfaces = topology.num_pads = topology.num_links = 0;
+  check(ioctl(fd, MEDIA_IOC_G_TOPOLOGY, &topology) == 0 && entities[2].name[0] != '\0', "G_TOPOLOGY entities");
+  // ENUM_LINKS carries no counts: the broker sizes the arrays (the sensor: one source
+  // pad, one link).
+  uint32_t sensor = 0;
+  for (const auto& e : entities)
+    if (e.function == MEDIA_ENT_F_CAM_SENSOR) sensor = e.id;
+  check(sensor != 0, "G_TOPOLOGY lists the sensor entity");
+  media_pad_desc pads[4]{};
+  media_link_desc links[4]{};
+  media_links_enum enum_links{};
+  enum_links.entity = sensor;
+  enum_links.pads = pads;
+  enum_links.links = links;
+  check(ioctl(fd, MEDIA_IOC_ENUM_LINKS, &enum_links) == 0 && links[0].source.entity == sensor &&
+            links[0].sink.entity != 0 && pads[1].entity == 0,
+        "ENUM_LINKS fills exactly the entity's pads and links");
+  enum_links.pads = reinterpret_cast<media_pad_desc*>(16);
+  errno = 0;
+  check(ioctl(fd, MEDIA_IOC_ENUM_LINKS, &enum_links) == -1 && errno == EFAULT, "ENUM_LINKS to a bad pointer: EFAULT");
+  errno = 0;
+  check(mmap(nullptr, 4096, PROT_READ, MAP_SHARED, fd, 0) == MAP_FAILED && errno == ENODEV, "mmap of media: ENODEV");
+  check(lockf(fd, F_TLOCK, 0) == 0 && lockf(fd, F_ULOCK, 0) == 0, "lockf on the media fd");
+  check(close(fd) == 0, "close /dev/media0");
+}
+
 }  // namespace
 
 int main() {
+  check_media_node();
   // syscall() directly, as libv4l2 and libcamera call it.
   const int fd = static_cast<int>(syscall(SYS_openat, AT_FDCWD, "/dev/video0", O_RDWR));
   check(fd >= 0, "syscall(SYS_openat) opens /dev/video0");
