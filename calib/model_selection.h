@@ -4,6 +4,9 @@
 // simplest model that a richer one does not beat by more than 5% (and 0.005 px) on
 // held-out views. Models are compared by their projections of held-out data, never by
 // coefficients. The search stops after two richer models in a row fail to improve.
+// With fewer than 6 usable views no view can be spared: a third of each view's corners
+// is held out per fold instead (cross_validation "corners"; weaker evidence, see
+// model_selection.cpp), and the report says so.
 //
 // Reentrant.
 #pragma once
@@ -21,6 +24,7 @@ namespace camlab::calib {
 struct ModelSelection {
   Solution chosen;
   std::vector<ModelEvidence> evidence;  // in the order tried
+  std::string cross_validation;         // "views" or "corners"
 };
 
 // PINHOLE, OPENCV4, OPENCV5, OPENCV8, OPENCV12.

@@ -96,6 +96,11 @@ CalibrationReport make_report(const CalibrationData& data, const Solution& s,
     r.board_span_median = spans[spans.size() / 2];
   }
 
+  if (auto u = summarize_uncertainty(s); u.ok())
+    r.uncertainty = std::move(*u);
+  else
+    r.uncertainty_error = u.error().message;
+
   const int used = static_cast<int>(s.views_used.size());
   if (used < 8)
     r.warnings.push_back({"too_few_views", "only " + std::to_string(used) +
@@ -182,6 +187,23 @@ nlohmann::json to_json(const CalibrationReport& r) {
     ev.push_back(row);
   }
   j["model_selection"] = ev;
+  if (!r.cross_validation.empty()) j["cross_validation"] = r.cross_validation;
+  if (r.uncertainty) {
+    nlohmann::json pts = nlohmann::json::array();
+    auto opt = [](const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(); };
+    for (const auto& p : r.uncertainty->points)
+      pts.push_back({{"where", p.where}, {"x_px", p.x_px}, {"y_px", p.y_px},
+                     {"at_infinity_px", opt(p.at_infinity_px)},
+                     {"at_working_distance_px", opt(p.at_working_distance_px)}});
+    j["projection_uncertainty"] = {
+        {"method", "mrcal mean-frames: observation noise through J to intrinsics and board poses; "
+                   "worst-direction 1-sigma"},
+        {"observed_sigma_px", r.uncertainty->observed_sigma_px},
+        {"working_distance_m", r.uncertainty->working_distance_m},
+        {"points", pts}};
+  } else {
+    j["projection_uncertainty"] = {{"error", r.uncertainty_error}};
+  }
   nlohmann::json w = nlohmann::json::array();
   for (const auto& x : r.warnings) w.push_back({{"code", x.code}, {"message", x.message}});
   j["warnings"] = w;
@@ -193,7 +215,9 @@ std::string to_text(const CalibrationReport& r) {
   std::string t;
   char buf[256];
   if (!r.evidence.empty()) {
-    t += "model selection (held-out: views left out of the fit, poses refitted):\n";
+    t += r.cross_validation == "corners"
+             ? "model selection (held-out: every third corner left out of the fit; fewer than 6 views):\n"
+             : "model selection (held-out: views left out of the fit, poses refitted):\n";
     t += "  model                      params   rms_px  heldout_px  solve_s\n";
     for (const auto& e : r.evidence) {
       if (e.ok)
@@ -230,6 +254,21 @@ std::string to_text(const CalibrationReport& r) {
                 s.views_used.size(), r.views_total, 100 * r.coverage, 100 * r.edge_coverage,
                 r.tilt_min_deg, r.tilt_max_deg);
   t += buf;
+  if (r.uncertainty) {
+    std::snprintf(buf, sizeof buf,
+                  "projection uncertainty (1 sigma, worst direction; corner noise %.3f px), px at "
+                  "infinity / at %.3g m:\n",
+                  r.uncertainty->observed_sigma_px, r.uncertainty->working_distance_m);
+    t += buf;
+    auto v = [](const std::optional<double>& x) { return x ? fmt("%.4f", *x) : std::string("n/a"); };
+    for (const auto& p : r.uncertainty->points) {
+      std::snprintf(buf, sizeof buf, "  %-13s (%7.1f, %7.1f)  %s / %s\n", p.where.c_str(), p.x_px,
+                    p.y_px, v(p.at_infinity_px).c_str(), v(p.at_working_distance_px).c_str());
+      t += buf;
+    }
+  } else if (!r.uncertainty_error.empty()) {
+    t += "projection uncertainty: " + r.uncertainty_error + "\n";
+  }
   for (const auto& w : r.warnings) t += "warning [" + w.code + "]: " + w.message + "\n";
   return t;
 }

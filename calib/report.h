@@ -1,7 +1,8 @@
 // The calibration report: what the solution says (intrinsics, FOV by unprojecting the
 // image edges, focal length in mm and its 35-mm equivalent when the pixel pitch is known,
 // residuals, outliers) and how far the data supports it (coverage of the imager, range of
-// board tilts, board sizes), with warnings that have stable codes:
+// board tilts, board sizes, the projection uncertainty at the centre and corners from
+// the solution's Jacobian: uncertainty.h), with warnings that have stable codes:
 //
 //   too_few_views     fewer than 8 views solved
 //   fronto_parallel   every board within 12 deg of facing the camera: focal length and
@@ -24,6 +25,7 @@
 #include "calib/calibration_data.h"
 #include "calib/lens_model.h"
 #include "calib/solver.h"
+#include "calib/uncertainty.h"
 
 namespace camlab::calib {
 
@@ -37,7 +39,7 @@ struct ModelEvidence {
   std::string lensmodel;
   int params = 0;
   double rms_px = 0;
-  double heldout_px = 0;  // trimmed RMS on held-out views (poses refitted, lens fixed)
+  double heldout_px = 0;  // trimmed RMS on held-out data (model_selection.h)
   double solve_s = 0;
   bool ok = false;
   std::string error;
@@ -54,7 +56,10 @@ struct CalibrationReport {
   double edge_coverage = 0;   // the same over the outer ring of cells
   double tilt_min_deg = 0, tilt_max_deg = 0;
   double board_span_median = 0;  // board extent / imager diagonal, median over views
+  std::optional<UncertaintySummary> uncertainty;  // empty: uncertainty_error says why
+  std::string uncertainty_error;
   std::vector<ModelEvidence> evidence;
+  std::string cross_validation;  // how held-out errors were found: "views", "corners" or ""
   std::vector<Warning> warnings;
 };
 

@@ -7,55 +7,16 @@
 #include <cmath>
 #include <numeric>
 
-#include <opencv2/core.hpp>
-
 #include "calib/mrcal_api.h"
-
-inline bool operator==(const mrcal_point3_t& a, const mrcal_point3_t& b) {
-  return a.x == b.x && a.y == b.y && a.z == b.z;
-}
+#include "calib/mrcal_problem.h"
 #include "calib/seed.h"
+#include "calib/uncertainty.h"
 
 namespace camlab::calib {
 
 namespace {
 
-// The mrcal problem of one camera at the reference frame observing a board in N views.
-// Owns the observation pool (shape (N, rows, cols), z = weight, z < 0 = outlier/missing).
-struct Problem {
-  mrcal_lensmodel_t lensmodel{};
-  std::vector<double> intrinsics;
-  std::vector<mrcal_pose_t> frames;  // rt_cam_board per view
-  std::vector<mrcal_observation_board_t> observations;
-  std::vector<mrcal_point3_t> pool;
-  std::vector<uint8_t> missing;  // per pool entry: not detected (never an inlier)
-  mrcal_calobject_warp_t warp{};
-  std::vector<double> x;  // measurements after the last solve
-  int imagersize[2] = {0, 0};
-};
-
-Problem make_problem(const CalibrationData& data, const std::vector<int>& views) {
-  Problem p;
-  p.imagersize[0] = data.imager_width_px;
-  p.imagersize[1] = data.imager_height_px;
-  for (int i = 0; i < static_cast<int>(views.size()); ++i) {
-    mrcal_observation_board_t o{};
-    o.icam.intrinsics = 0;
-    o.icam.extrinsics = -1;
-    o.iframe = i;
-    p.observations.push_back(o);
-    for (const auto& c : data.views[views[i]].corners) {
-      mrcal_point3_t q;
-      q.x = c.present ? c.x_px : 0.0;
-      q.y = c.present ? c.y_px : 0.0;
-      q.z = c.present ? c.weight : -1.0;
-      p.pool.push_back(q);
-      p.missing.push_back(c.present ? 0 : 1);
-    }
-  }
-  p.frames.resize(views.size());
-  return p;
-}
+using Problem = MrcalProblem;
 
 // One mrcal_optimize call. Returns false when mrcal fails or leaves non-finite values.
 bool optimize(Problem* p, const BoardSpec& board, mrcal_problem_selections_t sel) {
@@ -91,15 +52,7 @@ bool optimize(Problem* p, const BoardSpec& board, mrcal_problem_selections_t sel
 
 mrcal_problem_selections_t selections(bool core, bool distortions, bool warp, bool regularize,
                                       bool outliers) {
-  mrcal_problem_selections_t s{};
-  s.do_optimize_intrinsics_core = core;
-  s.do_optimize_intrinsics_distortions = distortions;
-  s.do_optimize_extrinsics = false;
-  s.do_optimize_frames = true;
-  s.do_optimize_calobject_warp = warp;
-  s.do_apply_regularization = regularize;
-  s.do_apply_outlier_rejection = outliers;
-  return s;
+  return mrcal_selections(core, distortions, warp, regularize, outliers);
 }
 
 // Per-view RMS of the unweighted residuals (px) of the corners that are in the solve.
@@ -179,7 +132,6 @@ bool update_suspects(Problem* p, const CalibrationData& data, const std::vector<
     }
   }
   // Judge every view at its full weight with the lens fixed.
-  const auto saved_pool = p->pool;
   const auto saved_suspect = w->suspect;
   std::fill(w->suspect.begin(), w->suspect.end(), 0);
   apply_weights(p, *w, per);
@@ -254,36 +206,13 @@ void fill_solution(const Problem& p, const CalibrationData& data, const std::vec
 
 // Residuals of outliers are 0 in mrcal's x: recompute them by projecting the board.
 void fill_outlier_residuals(const Problem& p, const CalibrationData& data, Solution* s) {
-  const LensModel& m = s->model;
-  const double W = data.board.cols - 1, H = data.board.rows - 1;
   for (auto& r : s->residuals) {
     if (!r.outlier || r.dx_px != 0 || r.dy_px != 0) continue;
-    const int i = static_cast<int>(std::find(s->views_used.begin(), s->views_used.end(), r.view) -
-                                   s->views_used.begin());
-    const int ci = r.corner % data.board.cols, cj = r.corner / data.board.cols;
-    // mrcal's board warp: z += x2 (1 - (2 ci/W - 1)^2) + y2 (1 - (2 cj/H - 1)^2).
-    const double xr = 2 * ci / W - 1, yr = 2 * cj / H - 1;
-    const double pb[3] = {ci * data.board.spacing_m, cj * data.board.spacing_m,
-                          p.warp.x2 * (1 - xr * xr) + p.warp.y2 * (1 - yr * yr)};
+    const size_t i = std::find(s->views_used.begin(), s->views_used.end(), r.view) - s->views_used.begin();
     const auto& f = p.frames[i];
-    cv::Vec3d rv(f.r.x, f.r.y, f.r.z);
-    const double th = cv::norm(rv);
-    double pc[3];
-    // Rodrigues' formula.
-    if (th < 1e-12) {
-      for (int k = 0; k < 3; ++k) pc[k] = pb[k];
-    } else {
-      const double kx = rv[0] / th, ky = rv[1] / th, kz = rv[2] / th;
-      const double c = std::cos(th), sn = std::sin(th);
-      const double dot = kx * pb[0] + ky * pb[1] + kz * pb[2];
-      const double cr[3] = {ky * pb[2] - kz * pb[1], kz * pb[0] - kx * pb[2], kx * pb[1] - ky * pb[0]};
-      const double kk[3] = {kx, ky, kz};
-      for (int k = 0; k < 3; ++k) pc[k] = pb[k] * c + cr[k] * sn + kk[k] * dot * (1 - c);
-    }
-    pc[0] += f.t.x;
-    pc[1] += f.t.y;
-    pc[2] += f.t.z;
-    auto q = project(m, {pc[0], pc[1], pc[2]});
+    auto q = project_board_corner(s->model, data.board,
+                                  {f.r.x, f.r.y, f.r.z, f.t.x, f.t.y, f.t.z}, {p.warp.x2, p.warp.y2},
+                                  r.corner);
     if (!q) continue;
     const auto& obs = data.views[r.view].corners[r.corner];
     r.dx_px = (*q)[0] - obs.x_px;
@@ -292,6 +221,60 @@ void fill_outlier_residuals(const Problem& p, const CalibrationData& data, Solut
 }
 
 }  // namespace
+
+MrcalProblem make_mrcal_problem(const CalibrationData& data, const std::vector<int>& views) {
+  MrcalProblem p;
+  p.imagersize[0] = data.imager_width_px;
+  p.imagersize[1] = data.imager_height_px;
+  for (int i = 0; i < static_cast<int>(views.size()); ++i) {
+    mrcal_observation_board_t o{};
+    o.icam.intrinsics = 0;
+    o.icam.extrinsics = -1;
+    o.iframe = i;
+    p.observations.push_back(o);
+    for (const auto& c : data.views[views[i]].corners) {
+      mrcal_point3_t q;
+      q.x = c.present ? c.x_px : 0.0;
+      q.y = c.present ? c.y_px : 0.0;
+      q.z = c.present ? c.weight : -1.0;
+      p.pool.push_back(q);
+      p.missing.push_back(c.present ? 0 : 1);
+    }
+  }
+  p.frames.resize(views.size());
+  return p;
+}
+
+mrcal_problem_selections_t mrcal_selections(bool core, bool distortions, bool warp,
+                                            bool regularize, bool outliers) {
+  mrcal_problem_selections_t s{};
+  s.do_optimize_intrinsics_core = core;
+  s.do_optimize_intrinsics_distortions = distortions;
+  s.do_optimize_extrinsics = false;
+  s.do_optimize_frames = true;
+  s.do_optimize_calobject_warp = warp;
+  s.do_apply_regularization = regularize;
+  s.do_apply_outlier_rejection = outliers;
+  return s;
+}
+
+Result<std::array<double, 2>> project_board_corner(const LensModel& model, const BoardSpec& board,
+                                                  const std::array<double, 6>& rt_cam_board,
+                                                  const std::array<double, 2>& calobject_warp,
+                                                  int corner) {
+  if (corner < 0 || corner >= board.cols * board.rows)
+    return make_error("invalid_argument", "corner index outside the board");
+  const int ci = corner % board.cols, cj = corner / board.cols;
+  // mrcal's board warp: z += x2 (1 - (2 ci/W - 1)^2) + y2 (1 - (2 cj/H - 1)^2).
+  const double xr = 2.0 * ci / (board.cols - 1) - 1, yr = 2.0 * cj / (board.rows - 1) - 1;
+  const double pb[3] = {ci * board.spacing_m, cj * board.spacing_m,
+                        calobject_warp[0] * (1 - xr * xr) + calobject_warp[1] * (1 - yr * yr)};
+  double pc[3];
+  mrcal_transform_point_rt(pc, nullptr, nullptr, rt_cam_board.data(), pb);
+  std::vector<double> q;
+  CAMLAB_ASSIGN(q, project(model, {pc[0], pc[1], pc[2]}));
+  return std::array<double, 2>{q[0], q[1]};
+}
 
 double trimmed_rms_px(const std::vector<CornerResidual>& residuals, double keep) {
   std::vector<double> e2;
@@ -342,7 +325,7 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
   if (views.size() < 2)
     return make_error("too_few_views", "fewer than 2 views have a usable board (8+ corners and a pose)");
 
-  Problem p = make_problem(data, views);
+  Problem p = make_mrcal_problem(data, views);
   mrcal_lensmodel_from_name(&p.lensmodel, seed_model.lensmodel.c_str());
   p.intrinsics = seed_model.intrinsics;
   for (size_t i = 0; i < poses.size(); ++i) {
@@ -431,6 +414,18 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
   s.seed_projection = seed->projection == SeedProjection::kPinhole ? "pinhole" : "stereographic";
   fill_solution(p, data, views, weights.suspect, &s);
   fill_outlier_residuals(p, data, &s);
+  s.board = board;
+  s.view_downweighted = weights.suspect;
+  if (options.compute_covariance) {
+    // The Jacobian of the last stage's problem, at its optimum (uncertainty.h).
+    auto cov = state_covariance(p, board, selections(true, has_distortions, options.board_warp,
+                                                     has_distortions, false),
+                                weights.suspect);
+    if (cov)
+      s.covariance = std::make_shared<const StateCovariance>(std::move(*cov));
+    else
+      s.covariance_error = cov.error().message;
+  }
   s.solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;
 }
@@ -450,7 +445,7 @@ Result<Solution> fit_poses(const CalibrationData& data, const LensModel& model,
     poses.push_back(*pose);
   }
   if (views.empty()) return make_error("too_few_views", "no held-out view gave a pose");
-  Problem p = make_problem(data, views);
+  Problem p = make_mrcal_problem(data, views);
   if (!mrcal_lensmodel_from_name(&p.lensmodel, model.lensmodel.c_str()))
     return make_error("bad_lensmodel", "unknown lens model '" + model.lensmodel + "'");
   p.intrinsics = model.intrinsics;

@@ -17,6 +17,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -31,7 +32,13 @@ struct SolveOptions {
   double focal_guess_px = 0;  // > 0: searched around as well; never trusted blindly
   bool reject_outliers = true;
   bool board_warp = true;
+  // Keep the state covariance for the projection uncertainty (uncertainty.h). Costs a
+  // dense inverse of J^T J (n = parameters + 6 per view; ~10-50 ms for 40 views);
+  // cross-validation folds turn it off.
+  bool compute_covariance = true;
 };
+
+struct StateCovariance;  // uncertainty.h
 
 struct CornerResidual {
   int view = 0;    // index into CalibrationData::views
@@ -53,6 +60,12 @@ struct Solution {
   double seed_focal_px = 0;
   std::string seed_projection;  // "pinhole" or "stereographic"
   double solve_s = 0;           // wall time of the whole solve, seeding included
+  BoardSpec board;
+  std::vector<char> view_downweighted;  // per used view: kept at weight 1e-3 (mis-observed)
+  // Var(state) / sigma^2 of the final solve (uncertainty.h); shared and immutable, so
+  // copies of a Solution stay cheap. Null when not computed; covariance_error says why.
+  std::shared_ptr<const StateCovariance> covariance;
+  std::string covariance_error;
 };
 
 // Calibrates one camera. Errors: "too_few_views" (fewer than 2 views with 8+ corners),
@@ -64,6 +77,13 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
 Result<Solution> fit_poses(const CalibrationData& data, const LensModel& model,
                            const std::array<double, 2>& calobject_warp,
                            const std::vector<int>& views);
+
+// The pixel of board corner `corner` (row-major index) for a board at rt_cam_board with
+// mrcal's warp, through `model`. Errors from the projection are passed on.
+Result<std::array<double, 2>> project_board_corner(const LensModel& model, const BoardSpec& board,
+                                                  const std::array<double, 6>& rt_cam_board,
+                                                  const std::array<double, 2>& calobject_warp,
+                                                  int corner);
 
 // Root mean square of the smallest `keep` share of the residual lengths (keep = 0.98
 // ignores up to 2% gross outliers when comparing models on held-out views).

@@ -33,7 +33,7 @@ inline constexpr std::string_view kEdgeOk = "ok";
 inline constexpr std::string_view kEdgeBelowDiffraction = "below_diffraction_floor";
 inline constexpr std::string_view kEdgeAtBaseline = "at_baseline";  // in focus within baseline
 inline constexpr std::string_view kEdgeWindowTooSmall = "window_too_small";
-inline constexpr std::string_view kEdgeNeighbourOverlap = "neighbour_overlap";
+inline constexpr std::string_view kEdgeNeighbourOverlap = "neighbour_overlap";  // even jointly
 inline constexpr std::string_view kEdgeClipped = "clipped";
 inline constexpr std::string_view kEdgeFitFailed = "fit_failed";
 
@@ -72,6 +72,10 @@ struct EdgeMeasurement {
   double contrast_to_noise = 0;
   double half_length_px = 0, half_width_px = 0;  // the window used (or last tried)
   EdgeFit fit;  // valid unless status is a rejection before any fit succeeded
+  // Set when a neighbouring edge's blur overlapped the window and both were fitted
+  // together with one diameter (edge_pair.h): the neighbour's name and their distance.
+  std::string joint_with;
+  double joint_separation_px = 0;
   bool measured() const { return status == kEdgeOk; }
 };
 

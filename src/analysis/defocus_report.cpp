@@ -312,6 +312,10 @@ json to_json(const DefocusReport& r) {
                 {"contrast_to_noise", num(m.contrast_to_noise)},
                 {"window_px", {num(2 * m.half_length_px), num(2 * m.half_width_px)}}};
       if (!m.message.empty()) f["message"] = m.message;
+      if (!m.joint_with.empty()) {
+        f["joint_fit_with"] = m.joint_with;  // fitted together with this overlapping neighbour
+        f["joint_separation_px"] = m.joint_separation_px;
+      }
       if (fe.truth_coc_px) f["truth_coc_px"] = *fe.truth_coc_px;
       if (t.aperture && t.aperture->used[i]) f["cn_deviation"] = t.aperture->cn_deviation[i];
       frames.push_back(f);

@@ -395,6 +395,14 @@ double pillbox_esf_pixel(double distance_px, double diameter_px, double normal_x
   return pixel_model(distance_px, radius_from(diameter_px), tz).p;
 }
 
+PixelEsf pillbox_esf_pixel_terms(double distance_px, double diameter_px, double angle_rad) {
+  if (std::isnan(distance_px) || !std::isfinite(diameter_px) || !std::isfinite(angle_rad))
+    return {0.5, 0.0, 0.0, 0.0};
+  const Normal nm = normal_for(angle_rad);
+  const PixelModel m = pixel_model(distance_px, radius_from(diameter_px), nm.tz);
+  return {m.p, m.dp_dd, 0.5 * m.dp_dr, m.dp_da * nm.da_dangle + m.dp_db * nm.db_dangle};
+}
+
 Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
                                  const EdgeFitOptions& options) {
   const std::string invalid(kErrInvalidArgument);

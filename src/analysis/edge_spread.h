@@ -64,6 +64,16 @@ double pillbox_esf(double x_px, double diameter_px);
 double pillbox_esf_pixel(double distance_px, double diameter_px, double normal_x,
                          double normal_y);
 
+// The pixel-integrated ESF of pillbox_esf_pixel() for an edge of direction `angle_rad`
+// (normal (-sin a, cos a)), with its derivatives, for fits that build on the model (the
+// joint fit of two edges, edge_pair.h): by the signed distance, by the diameter, and by
+// the angle through the pixel's footprint alone (the trapezoid's shape; the lever arm of
+// a pixel along the line is the caller's). Inputs sanitised as in pillbox_esf_pixel().
+struct PixelEsf {
+  double value = 0, d_distance = 0, d_diameter = 0, d_angle_footprint = 0;
+};
+PixelEsf pillbox_esf_pixel_terms(double distance_px, double diameter_px, double angle_rad);
+
 // ---- Fitting an edge ------------------------------------------------------------------
 
 // A straight edge: a point on it and the direction of the line (see Conventions above

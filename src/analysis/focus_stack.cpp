@@ -2,10 +2,10 @@
 #include "analysis/focus_stack.h"
 
 #include <algorithm>
-#include <cstring>
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <type_traits>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -13,115 +13,47 @@
 namespace camlab::analysis {
 namespace {
 
-// White-noise variance by Immerkaer's estimator (1996): the mask [1 -2 1; -2 4 -2; 1 -2 1]
-// cancels locally quadratic image content, so smooth texture adds little; sigma =
-// sqrt(pi/2) mean|image (x) mask| / 6. The Laplacian's floor is 20 sigma^2 (its kernel's
-// squared norm). Taken as the least over a stack, the most defocused frame sets it.
-// A global statistic: on large frames it is taken over bands of 32 rows every 128 rows
-// (a quarter of the pixels), which leaves its precision far beyond what the floor needs.
-double floor_of(const cv::Mat& image) {
-  const cv::Matx33f mask(1, -2, 1, -2, 4, -2, 1, -2, 1);
-  double sum = 0;
-  double count = 0;
-  const int band = image.rows > 512 ? 32 : image.rows, stride = image.rows > 512 ? 128 : image.rows;
-  for (int y = 0; y < image.rows; y += stride) {
-    const cv::Rect rows(0, y, image.cols, std::min(band, image.rows - y));
-    cv::Mat r;
-    cv::filter2D(image(rows), r, CV_32F, mask, cv::Point(-1, -1), 0.0, cv::BORDER_REFLECT);
-    sum += cv::sum(cv::abs(r))[0];
-    count += rows.area();
-  }
-  const double sigma = std::sqrt(std::numbers::pi / 2.0) * (sum / count) / 6.0;
-  return 20.0 * sigma * sigma;
-}
-
-}  // namespace
-
-namespace {
-
-// BORDER_REFLECT index (fedcba|abcdefgh|hgfedcb) for n >= 1.
-inline int reflect(int i, int n) {
-  while (i < 0 || i >= n) i = i < 0 ? -i - 1 : 2 * n - i - 1;
-  return i;
-}
-
-// One row of the squared Laplacian (reflected borders), then its horizontal box sum
-// over 2 r + 1 columns (reflected), into `hsum` (doubles: running sums must not drift).
+// Sums of `image` over each cell x cell region of a grid (whole cells from the top-left),
+// row-major: one pass, no converted copy of the frame. Integer pixels sum exactly in
+// 64 bits; floating ones in four interleaved double sums (independent additions).
 template <class T>
-void laplacian_row_box_sum(const cv::Mat& image, int y, int r, std::vector<double>* sq_pad,
-                           std::vector<double>* hsum) {
-  const int w = image.cols, h = image.rows;
-  const T* up = image.ptr<T>(reflect(y - 1, h));
-  const T* mid = image.ptr<T>(y);
-  const T* down = image.ptr<T>(reflect(y + 1, h));
-  double* pad = sq_pad->data() + r;  // pad[-r .. w - 1 + r]
-  auto at = [&](int x, int xl, int xr) {
-    const float v = static_cast<float>(up[x]) + static_cast<float>(down[x]) +
-                    static_cast<float>(mid[xl]) + static_cast<float>(mid[xr]) -
-                    4.0f * static_cast<float>(mid[x]);
-    return static_cast<double>(v * v);
-  };
-  pad[0] = at(0, 0, w > 1 ? 1 : 0);
-  for (int x = 1; x < w - 1; ++x) pad[x] = at(x, x - 1, x + 1);  // no clamps: vectorises
-  if (w > 1) pad[w - 1] = at(w - 1, w - 2, w - 1);
-  for (int k = 1; k <= r; ++k) {
-    pad[-k] = pad[reflect(-k, w)];
-    pad[w - 1 + k] = pad[reflect(w - 1 + k, w)];
+void region_sums(const cv::Mat& image, int cell, cv::Size grid, std::vector<double>* sums) {
+  using Acc = std::conditional_t<std::is_integral_v<T>, int64_t, double>;
+  sums->assign(static_cast<size_t>(grid.area()), 0.0);
+  for (int y = 0; y < grid.height * cell; ++y) {
+    const T* row = image.ptr<T>(y);
+    double* out = sums->data() + static_cast<size_t>(y / cell) * grid.width;
+    for (int gx = 0; gx < grid.width; ++gx) {
+      const T* p = row + gx * cell;
+      Acc s[4] = {0, 0, 0, 0};
+      int k = 0;
+      for (; k + 4 <= cell; k += 4) {
+        s[0] += p[k];
+        s[1] += p[k + 1];
+        s[2] += p[k + 2];
+        s[3] += p[k + 3];
+      }
+      for (; k < cell; ++k) s[0] += p[k];
+      out[gx] += static_cast<double>(s[0] + s[1]) + static_cast<double>(s[2] + s[3]);
+    }
   }
-  double run = 0;
-  for (int k = -r; k <= r; ++k) run += pad[k];
-  double* out = hsum->data();
-  for (int x = 0; x < w; ++x) {
-    out[x] = run;
-    run += pad[x + r + 1 < w + r ? x + r + 1 : w - 1 + r] - pad[x - r];
+}
+
+void region_means(const cv::Mat& image, int cell, cv::Size grid, std::vector<double>* means) {
+  switch (image.depth()) {
+    case CV_8U: region_sums<uint8_t>(image, cell, grid, means); break;
+    case CV_16U: region_sums<uint16_t>(image, cell, grid, means); break;
+    case CV_32F: region_sums<float>(image, cell, grid, means); break;
+    default: {
+      cv::Mat f;
+      image.convertTo(f, CV_64F);
+      region_sums<double>(f, cell, grid, means);
+    }
   }
+  for (double& m : *means) m /= static_cast<double>(cell) * cell;
 }
 
 }  // namespace
-
-// Fused: squared Laplacian, horizontal and vertical box sums in one pass over the rows,
-// with a ring of the 2 r + 1 rows' horizontal sums (one read of the image, one write of
-// the result; about 3x faster than three OpenCV passes on 12 MP).
-cv::Mat focus_measure(const cv::Mat& image, int window_px) {
-  const int w = std::max(1, window_px | 1), r = w / 2;
-  if (image.depth() != CV_8U && image.depth() != CV_16U && image.depth() != CV_32F) {
-    cv::Mat f;
-    image.convertTo(f, CV_32F);
-    return focus_measure(f, window_px);
-  }
-  const int cols = image.cols, rows = image.rows;
-  cv::Mat out(rows, cols, CV_32F);
-  const int ring = w + 1;
-  std::vector<std::vector<double>> hrows(ring, std::vector<double>(cols));
-  std::vector<int> tag(ring, -1);
-  std::vector<double> pad(cols + 2 * r + 1), acc(cols, 0.0);
-  auto row_sum = [&](int real) -> const std::vector<double>& {
-    const int slot = real % ring;
-    if (tag[slot] != real) {
-      if (image.depth() == CV_8U) laplacian_row_box_sum<uint8_t>(image, real, r, &pad, &hrows[slot]);
-      else if (image.depth() == CV_16U) laplacian_row_box_sum<uint16_t>(image, real, r, &pad, &hrows[slot]);
-      else laplacian_row_box_sum<float>(image, real, r, &pad, &hrows[slot]);
-      tag[slot] = real;
-    }
-    return hrows[slot];
-  };
-  for (int k = -r; k <= r; ++k) {
-    const std::vector<double>& h = row_sum(reflect(k, rows));
-    for (int x = 0; x < cols; ++x) acc[x] += h[x];
-  }
-  const double scale = 1.0 / (static_cast<double>(w) * w);
-  for (int y = 0; y < rows; ++y) {
-    float* o = out.ptr<float>(y);
-    for (int x = 0; x < cols; ++x) o[x] = static_cast<float>(acc[x] * scale);
-    if (y + 1 == rows) break;
-    const std::vector<double>& add = row_sum(reflect(y + r + 1, rows));
-    const std::vector<double>& sub = row_sum(reflect(y - r, rows));
-    for (int x = 0; x < cols; ++x) acc[x] += add[x] - sub[x];
-  }
-  return out;
-}
-
-double laplacian_noise_floor(const cv::Mat& image) { return floor_of(image); }
 
 double log_parabola_delta(double minus, double centre, double plus) {
   if (!(minus > 0 && centre > 0 && plus > 0)) return 0.0;
@@ -200,23 +132,22 @@ Status FocusStackAccumulator::add(const cv::Mat& frame, double magnification) {
     return make_error("invalid_argument", "magnification must be finite and > 0");
   if (count_ > 0 && (frame.size() != sharpest_.size() || frame.type() != sharpest_.type()))
     return make_error("invalid_argument", "focus-stack frames must share one size and type");
-  // Region curves use the windowed measure's area means: equal to the squared
-  // Laplacian's region means but for the window's r px at region borders, and it saves
-  // a pass over the frame.
-  const cv::Mat sq = focus_measure(frame, options_.window_px);
-  // Brightness normalisation (header): 1 / mean^2, guarded for dark frames.
+  // Brightness normalisation (header): 1 / mean^2, guarded for dark frames, applied
+  // while the measure is written (into a buffer reused from frame to frame).
   auto inv_mean2 = [&](double mean_dn) {
     const double mean = mean_dn - options_.black_level;
     return 1.0 / std::max(mean * mean, 1e-6);
   };
   const double m2 = magnification * magnification;
   const double norm = inv_mean2(cv::mean(frame)[0]) * m2 * m2;
-  const cv::Mat m = sq * norm;
-  const double raw_floor = floor_of(frame);
+  focus_measure(frame, options_.window_px, &scratch_, norm);
+  const cv::Mat& m = scratch_;
+  const double raw_floor = laplacian_noise_floor(frame);
   const double floor = raw_floor * norm;
 
   if (count_ == 0) {
     best_ = m.clone();
+    previous_.create(m.size(), CV_32F);
     best_minus_ = cv::Mat::zeros(m.size(), CV_32F);
     best_plus_ = cv::Mat::zeros(m.size(), CV_32F);
     best_index_ = cv::Mat::zeros(m.size(), CV_32S);
@@ -231,47 +162,56 @@ Status FocusStackAccumulator::add(const cv::Mat& frame, double magnification) {
   } else {
     // One fused pass: the frame right after a pixel's best is its "plus" neighbour; a new
     // maximum takes the previous frame as its "minus" neighbour and this frame's pixel.
-    const size_t elem = frame.elemSize();
-    for (int r = 0; r < m.rows; ++r) {
-      const float* mr = m.ptr<float>(r);
-      const float* pr = previous_.ptr<float>(r);
-      float* br = best_.ptr<float>(r);
-      float* bm = best_minus_.ptr<float>(r);
-      float* bp = best_plus_.ptr<float>(r);
-      int* bi = best_index_.ptr<int>(r);
-      const uint8_t* fr = frame.ptr<uint8_t>(r);
-      uint8_t* sr = sharpest_.ptr<uint8_t>(r);
-      for (int c = 0; c < m.cols; ++c) {
-        if (bi[c] == count_ - 1) bp[c] = mr[c];
-        if (mr[c] > br[c]) {
-          bm[c] = pr[c];
-          br[c] = mr[c];
-          bi[c] = count_;
-          std::memcpy(sr + c * elem, fr + c * elem, elem);
-        }
-      }
+    switch (frame.elemSize()) {
+      case 1: update_peaks<uint8_t>(m, frame); break;
+      case 2: update_peaks<uint16_t>(m, frame); break;
+      case 4: update_peaks<uint32_t>(m, frame); break;
+      default: update_peaks<uint64_t>(m, frame); break;  // CV_64F (8 bytes)
     }
     floor_ = std::min(floor_, floor);  // the quietest frame's floor
   }
-  // Region means of the squared Laplacian and of the signal, by area averaging over the
-  // grid (exact: whole cells).
+  // Region means of the (windowed) squared Laplacian and of the signal, over whole
+  // cells. The windowed measure's region means equal the squared Laplacian's but for the
+  // window's r px at region borders, and they save a pass over the frame.
   if (!region_rects_.empty()) {
     const int cell = region_rects_[0].width;
-    const cv::Rect cover(0, 0, grid_.width * cell, grid_.height * cell);
-    cv::Mat sq_means, signal, signal_means;
-    cv::resize(sq(cover), sq_means, grid_, 0, 0, cv::INTER_AREA);
-    frame(cover).convertTo(signal, CV_32F);
-    cv::resize(signal, signal_means, grid_, 0, 0, cv::INTER_AREA);
+    std::vector<double> measure_means, signal_means;
+    region_means(m, cell, grid_, &measure_means);
+    region_means(frame, cell, grid_, &signal_means);
     for (size_t k = 0; k < region_rects_.size(); ++k) {
-      const int gx = static_cast<int>(k) % grid_.width, gy = static_cast<int>(k) / grid_.width;
-      const double rn = inv_mean2(signal_means.at<float>(gy, gx)) * m2 * m2;
-      region_curves_[k].push_back(sq_means.at<float>(gy, gx) * rn);
+      const double rn = inv_mean2(signal_means[k]) * m2 * m2;
+      region_curves_[k].push_back(measure_means[k] / norm * rn);
       region_floors_[k] = std::min(region_floors_[k], raw_floor * rn);
     }
   }
-  previous_ = m;
+  std::swap(previous_, scratch_);  // this frame's measure is the next one's "previous"
   ++count_;
   return {};
+}
+
+// Pixels are copied as opaque words of the frame's element size (a typed copy, not a
+// memcpy call per pixel).
+template <class Word>
+void FocusStackAccumulator::update_peaks(const cv::Mat& m, const cv::Mat& frame) {
+  for (int r = 0; r < m.rows; ++r) {
+    const float* mr = m.ptr<float>(r);
+    const float* pr = previous_.ptr<float>(r);
+    float* br = best_.ptr<float>(r);
+    float* bm = best_minus_.ptr<float>(r);
+    float* bp = best_plus_.ptr<float>(r);
+    int* bi = best_index_.ptr<int>(r);
+    const Word* fr = frame.ptr<Word>(r);
+    Word* sr = sharpest_.ptr<Word>(r);
+    for (int c = 0; c < m.cols; ++c) {
+      if (bi[c] == count_ - 1) bp[c] = mr[c];
+      if (mr[c] > br[c]) {
+        bm[c] = pr[c];
+        br[c] = mr[c];
+        bi[c] = count_;
+        sr[c] = fr[c];
+      }
+    }
+  }
 }
 
 Result<FocusStackResult> FocusStackAccumulator::finish() {

@@ -48,9 +48,14 @@ inline constexpr std::string_view kFocusFlat = "flat_texture";
 
 // The per-pixel focus measure of one frame: the squared Laplacian averaged over a box of
 // window_px x window_px (made odd, >= 1), borders reflected; equal to OpenCV's Laplacian
-// (ksize 1), square and boxFilter to float rounding, in one fused pass. `image`: single
-// channel, any depth; CV_32F result.
+// (ksize 1), square and boxFilter to within 1e-6 of each value (float sums of
+// non-negative terms), in one streaming pass over the rows (focus_measure.cpp), on
+// horizontal stripes on OpenCV's threads (cv::getNumThreads(); 1 thread: one core).
+// `image`: single channel, any depth; CV_32F result.
 cv::Mat focus_measure(const cv::Mat& image, int window_px);
+// The same into *out, reallocated only when its size or type differs (a stack reuses one
+// buffer), every value multiplied by `scale` (e.g. a brightness normalisation).
+void focus_measure(const cv::Mat& image, int window_px, cv::Mat* out, double scale);
 
 // Noise floor of the per-pixel squared Laplacian (per pixel, before the window sum):
 // 20 sigma_n^2 with sigma_n by Immerkaer's estimator (sqrt(pi/2) mean |I (x) [1 -2 1;
@@ -115,10 +120,14 @@ class FocusStackAccumulator {
   Result<FocusStackResult> finish();
 
  private:
+  template <class Word>
+  void update_peaks(const cv::Mat& measure, const cv::Mat& frame);
+
   FocusStackOptions options_;
   int count_ = 0;
   bool finished_ = false;
   cv::Mat best_, best_minus_, best_plus_, previous_;  // CV_32F measures
+  cv::Mat scratch_;                                    // this frame's measure (reused)
   cv::Mat best_index_;                                 // CV_32S
   cv::Mat sharpest_;                                   // the input type
   double floor_ = 0;                                   // least normalised noise floor

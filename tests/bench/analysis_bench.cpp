@@ -4,13 +4,17 @@
 //  2. Baseline-blur removal: its cost per edge and the error it removes.
 //  3. Renderer sampling: diameter error on virtual-camera edges against the aperture
 //     samples per pixel (the rendering's own noise, which the measurement inherits).
-//  4. Focus measure: time per megapixel on one core, for a 12 MP frame, per-pixel measure
-//     and a full accumulator step (measure + running peak + regions).
-// Medians over repeats; one core (cv::setNumThreads(1)).
+//  5. Overlapping edges (--pairs): the joint fit's time per edge and its diameter error
+//     against the bar's width and the blur.
+//  4. Focus measure: time per megapixel for a 12 MP frame against the previous fused
+//     pass and OpenCV's three passes in the same run (with the largest relative
+//     difference from OpenCV's), one core and two, and a full accumulator step.
+// Medians over repeats; one core (cv::setNumThreads(1)) unless a row says otherwise.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <numbers>
 #include <vector>
 
@@ -20,6 +24,7 @@
 #include "analysis/defocus.h"
 #include "analysis/edge_spread.h"
 #include "analysis/focus_stack.h"
+#include "analysis_bench_previous_focus.h"
 #include "mock_device/camera_spec.h"
 #include "mock_device/renderer.h"
 #include "mock_device/scene_spec.h"
@@ -154,48 +159,115 @@ void sampling_table() {
 }
 
 void focus_table() {
-  std::printf("\n## Focus measure speed (one core)\n\n");
-  std::printf("| frame | step | ms per frame | ms per MP |\n|---|---|---:|---:|\n");
+  std::printf("\n## Focus measure speed (9x9 window; 12-bit data in 16-bit frames)\n\n");
+  std::printf("| frame | step | threads | ms per frame | ms per MP | max relative difference |\n"
+              "|---|---|---:|---:|---:|---:|\n");
   for (cv::Size size : {cv::Size(1000, 1000), cv::Size(4000, 3000)}) {
     cv::Mat frame(size, CV_16U);
     cv::randu(frame, 0, 4096);
     const double mp = size.area() / 1e6;
-    std::vector<double> t_measure, t_add;
-    for (int k = 0; k < 5; ++k) {
-      const auto t0 = Clock::now();
-      const cv::Mat m = focus_measure(frame, 9);
-      t_measure.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-    }
-    std::vector<double> t_opencv;
-    for (int k = 0; k < 5; ++k) {
-      const auto t0 = Clock::now();
-      cv::Mat lap, out;
+    auto time_ms = [](auto&& f) {
+      std::vector<double> t;
+      for (int k = 0; k < 7; ++k) {
+        const auto t0 = Clock::now();
+        f();
+        t.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+      }
+      return median(t);
+    };
+    // The reference: OpenCV's three passes; every other row is checked against it.
+    cv::Mat reference;
+    const double t_opencv = time_ms([&] {
+      cv::Mat lap;
       cv::Laplacian(frame, lap, CV_32F, 1, 1.0, 0.0, cv::BORDER_REFLECT);
       cv::multiply(lap, lap, lap);
-      cv::boxFilter(lap, out, CV_32F, cv::Size(9, 9), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-      t_opencv.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-    }
+      cv::boxFilter(lap, reference, CV_32F, cv::Size(9, 9), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+    });
+    auto max_rel = [&](const cv::Mat& m) {
+      cv::Mat diff = cv::abs(m - reference) / cv::max(reference, 1e-30);
+      double worst = 0;
+      cv::minMaxLoc(diff, nullptr, &worst);
+      return worst;
+    };
+    auto row = [&](const char* step, int threads, double ms, const cv::Mat& m) {
+      std::printf("| %dx%d | %s | %d | %.1f | %.1f | %.1e |\n", size.width, size.height, step, threads, ms,
+                  ms / mp, max_rel(m));
+    };
+    row("3 OpenCV passes (Laplacian, multiply, boxFilter)", 1, t_opencv, reference);
+    cv::Mat previous, fresh, reused;
+    row("previous fused pass (double running sums)", 1,
+        time_ms([&] { previous = bench::previous::previous_focus_measure(frame, 9); }), previous);
+    row("focus_measure, new output each call", 1, time_ms([&] { fresh = focus_measure(frame, 9); }), fresh);
+    row("focus_measure into a reused buffer", 1, time_ms([&] { focus_measure(frame, 9, &reused, 1.0); }), reused);
+    cv::setNumThreads(2);
+    row("focus_measure into a reused buffer", 2, time_ms([&] { focus_measure(frame, 9, &reused, 1.0); }), reused);
+    cv::setNumThreads(1);
     FocusStackAccumulator acc({});
-    for (int k = 0; k < 5; ++k) {
-      const auto t0 = Clock::now();
-      (void)acc.add(frame);
-      t_add.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-    }
-    std::printf("| %dx%d | focus_measure (9x9 window, fused) | %.1f | %.1f |\n", size.width, size.height,
-                median(t_measure), median(t_measure) / mp);
-    std::printf("| %dx%d | same with 3 OpenCV passes (Laplacian, multiply, boxFilter) | %.1f | %.1f |\n",
-                size.width, size.height, median(t_opencv), median(t_opencv) / mp);
-    std::printf("| %dx%d | accumulator add (measure, noise floor, running peak, 32 px regions) | %.1f | %.1f |\n",
-                size.width, size.height, median(t_add), median(t_add) / mp);
+    const double t_add = time_ms([&] { (void)acc.add(frame); });
+    std::printf("| %dx%d | accumulator add (measure, noise floor, running peak, 32 px regions) | 1 | %.1f | %.1f | - |\n",
+                size.width, size.height, t_add, t_add / mp);
   }
+}
+
+// Joint fit of two overlapping edges (edge_pair.h) through measure_edge: a bar of
+// `width` px (1800 on 1000) under a disk of D px, 3 degrees off the pixel grid, CNR 50.
+void pair_table() {
+  std::printf("\n## Overlapping edges: joint fit of a bar's two edges (CNR 50, 8 noise draws)\n\n");
+  std::printf("| D px | bar width px | ms per edge | accepted | bias px | spread px | mean sigma px |\n"
+              "|---:|---:|---:|---:|---:|---:|---:|\n");
+  const double a = 93.0 * std::numbers::pi / 180.0, c = 110.27;
+  for (double d : {2.0, 5.0, 10.0, 20.0})
+    for (double width : {2.0, 5.0, 10.0}) {
+      const double shift = width / std::sin(a);
+      const cv::Mat left = render_edge_model(220, 220, EdgeLine{c, c, a}, d, 0.0, 0.0, 1.0);
+      const cv::Mat right = render_edge_model(220, 220, EdgeLine{c + shift, c, a}, d, 0.0, 0.0, 1.0);
+      const cv::Mat clean = 1000.0 - 800.0 * (left - right);
+      const std::vector<EdgeSegment> edges = {
+          {"left", c - 80 * std::cos(a), c - 80 * std::sin(a), c + 80 * std::cos(a), c + 80 * std::sin(a), 0},
+          {"right", c + shift - 80 * std::cos(a), c - 80 * std::sin(a), c + shift + 80 * std::cos(a),
+           c + 80 * std::sin(a), 0}};
+      std::vector<double> values, times, sigmas;
+      constexpr int kDraws = 8;
+      for (int k = 0; k < kDraws; ++k) {
+        cv::Mat noise(clean.size(), CV_32F);
+        cv::RNG rng(500 + k);
+        rng.fill(noise, cv::RNG::NORMAL, 0.0, 800.0 / 50.0);
+        const cv::Mat image = clean + noise;
+        const auto t0 = Clock::now();
+        auto m = measure_edge(image, edges[k % 2], edges, {});
+        times.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        if (m && m->status == kEdgeOk) {
+          values.push_back(m->diameter_px);
+          sigmas.push_back(m->diameter_sigma_px);
+        }
+      }
+      double mean = 0, ss = 0, sig = 0;
+      for (double v : values) mean += v / std::max<size_t>(1, values.size());
+      for (double v : values) ss += (v - mean) * (v - mean);
+      for (double v : sigmas) sig += v / std::max<size_t>(1, sigmas.size());
+      if (values.empty())
+        std::printf("| %.0f | %.0f | %.0f | 0/%d | - | - | - |\n", d, width, median(times), kDraws);
+      else
+        std::printf("| %.0f | %.0f | %.0f | %zu/%d | %+.4f | %.4f | %.4f |\n", d, width, median(times), values.size(),
+                    kDraws, mean - d, values.size() > 1 ? std::sqrt(ss / (values.size() - 1)) : 0.0, sig);
+    }
 }
 
 }  // namespace
 
-int main() {
+// analysis_bench [--edges] [--sampling] [--focus] [--pairs]: the named tables (all
+// without arguments).
+int main(int argc, char** argv) {
   cv::setNumThreads(1);
-  edge_table();
-  sampling_table();
-  focus_table();
+  auto want = [&](const char* name) {
+    if (argc == 1) return true;
+    for (int i = 1; i < argc; ++i)
+      if (std::strcmp(argv[i], name) == 0) return true;
+    return false;
+  };
+  if (want("--edges")) edge_table();
+  if (want("--sampling")) sampling_table();
+  if (want("--focus")) focus_table();
+  if (want("--pairs")) pair_table();
   return 0;
 }

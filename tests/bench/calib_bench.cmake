@@ -2,3 +2,9 @@
 add_executable(calib_bench ${CMAKE_CURRENT_LIST_DIR}/calib_bench.cpp)
 target_link_libraries(calib_bench PRIVATE camlab_calib mrcal::mrcal opencv_calib3d)
 target_include_directories(calib_bench PRIVATE ${PROJECT_SOURCE_DIR}/tests/unit/calib)
+
+# Projection uncertainty against the truth and against mrcal's Python (prints tables).
+add_executable(calib_bench_uncertainty ${CMAKE_CURRENT_LIST_DIR}/calib_bench_uncertainty.cpp)
+target_link_libraries(calib_bench_uncertainty PRIVATE camlab_calib nlohmann_json::nlohmann_json opencv_calib3d)
+target_include_directories(calib_bench_uncertainty PRIVATE ${PROJECT_SOURCE_DIR}/tests/unit/calib)
+target_compile_definitions(calib_bench_uncertainty PRIVATE CAMLAB_SOURCE_DIR="${PROJECT_SOURCE_DIR}")

@@ -1,7 +1,10 @@
 // Hard calibration cases (MEASURING.md): each must give the right answer or a specific
 // warning, never NaN and never a silent wrong number. Synthetic corners from a known lens
 // (mrcal's testing style): fixed-seed poses and Gaussian noise.
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -78,6 +81,40 @@ TEST(CalibStability, TiltedBoardsDoNotWarnFrontoParallel) {
   EXPECT_FALSE(has_warning(report, "too_few_views"));
   EXPECT_FALSE(has_warning(report, "many_outliers"));
   expect_right(truth, *s, 0.2);
+}
+
+// The projection uncertainty (calib/uncertainty.h) says where the data cannot support the
+// model: corners that hold no board (centre-only views) are far less certain than with
+// boards reaching the edges, at the same noise; never NaN.
+TEST(CalibStability, UncertaintyGrowsWhereTheBoardsDidNotReach) {
+  const LensModel truth = testing::wide_opencv8_truth();
+  auto corner_uncertainty = [&](double centre_fraction, double distance_min_m) {
+    testing::ViewSetSpec spec;
+    spec.views = 20;
+    spec.noise_px = 0.1;
+    spec.centre_fraction = centre_fraction;
+    spec.distance_min_m = distance_min_m;
+    spec.distance_max_m = distance_min_m + 0.4;
+    const auto data = testing::make_views(truth, kBoard, spec);
+    auto s = solve(data, opencv8());
+    EXPECT_TRUE(s.ok());
+    const auto report = make_report(data, *s, 0);
+    EXPECT_TRUE(report.uncertainty.has_value()) << report.uncertainty_error;
+    if (!report.uncertainty) return std::pair<double, double>{0, 0};
+    double worst_corner = 0;
+    for (const auto& p : report.uncertainty->points) {
+      if (!p.at_infinity_px) continue;
+      EXPECT_TRUE(std::isfinite(*p.at_infinity_px));
+      if (p.where != "centre") worst_corner = std::max(worst_corner, *p.at_infinity_px);
+    }
+    return std::pair{*report.uncertainty->points[0].at_infinity_px, worst_corner};
+  };
+  const auto [good_centre, good_corner] = corner_uncertainty(0.9, 0.4);
+  const auto [centre_only_centre, centre_only_corner] = corner_uncertainty(0.1, 1.0);
+  std::printf("uncertainty at infinity: spread boards centre %.4f corner %.3f px; centre-only centre %.4f corner %.3f px\n",
+              good_centre, good_corner, centre_only_centre, centre_only_corner);
+  EXPECT_LT(good_centre, 0.1);
+  EXPECT_GT(centre_only_corner, 5 * good_corner);
 }
 
 class FewViews : public ::testing::TestWithParam<int> {};

@@ -125,8 +125,9 @@ TEST(MeasureEdge, ShortTargetIsRejectedAsWindowTooSmall) {
   EXPECT_FALSE(m->message.empty());
 }
 
-TEST(MeasureEdge, NeighbourWithinTheBlurIsRejected) {
-  // A bar 6 px wide blurred by 12 px: the two edges' blurs overlap.
+TEST(MeasureEdge, NeighbourWithinTheBlurIsFittedJointly) {
+  // A bar 6 px wide blurred by 12 px: the two edges' blurs overlap, so the two are
+  // fitted together with one diameter (edge_pair.h).
   const double a = 95.0 * kPi / 180.0, c = 100.31, size = 200;
   const cv::Mat left = render_edge_model(size, size, EdgeLine{c, c, a}, 12.0, 0.0, 0.0, 1.0);
   const cv::Mat right =
@@ -141,7 +142,27 @@ TEST(MeasureEdge, NeighbourWithinTheBlurIsRejected) {
   const std::vector<EdgeSegment> all = {e1, e2};
   auto m = measure_edge(image, all[0], all, {});
   ASSERT_TRUE(m.ok());
+  ASSERT_EQ(m->status, kEdgeOk) << m->message;
+  EXPECT_EQ(m->joint_with, "right");
+  EXPECT_NEAR(m->joint_separation_px, 6.0, 0.01);
+  EXPECT_NEAR(m->diameter_px, 12.0, 0.01);  // noise-free: the model is exact
+  EXPECT_NEAR(m->fit.light_level - m->fit.dark_level, 900.0, 1.0);
+}
+
+TEST(MeasureEdge, NeighbourWithinTheBlurButFarFromParallelIsRejected) {
+  const double a = 95.0 * kPi / 180.0, c = 100.31;
+  const cv::Mat image = render_edge_model(200, 200, EdgeLine{c, c, a}, 12.0, 0.0, 100.0, 1000.0);
+  const EdgeSegment e1{"edge", c - 80 * std::cos(a), c - 80 * std::sin(a), c + 80 * std::cos(a),
+                       c + 80 * std::sin(a), 0};
+  // A segment 8 px to the side, 25 degrees off: it passes alongside within the blur.
+  const double b = a + 25.0 * kPi / 180.0;
+  const EdgeSegment e2{"slanted", c - 8 - 10 * std::cos(b), c - 10 * std::sin(b), c - 8 + 10 * std::cos(b),
+                       c + 10 * std::sin(b), 0};
+  const std::vector<EdgeSegment> all = {e1, e2};
+  auto m = measure_edge(image, all[0], all, {});
+  ASSERT_TRUE(m.ok());
   EXPECT_EQ(m->status, kEdgeNeighbourOverlap) << m->message;
+  EXPECT_NE(m->message.find("from parallel"), std::string::npos) << m->message;
 }
 
 TEST(MeasureEdge, BelowDiffractionFloorIsFlaggedNotMeasured) {

@@ -1,0 +1,247 @@
+// The calibration run behind `camlab calibrate` and POST /v1/calibrations.
+#include "calib/calibrate.h"
+
+#include <algorithm>
+#include <atomic>
+#include <mutex>
+#include <thread>
+#include <utility>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "calib/chessboard_corners.h"
+#include "calib/corners_vnl.h"
+#include "calib/lens_model.h"
+#include "calib/model_io.h"
+#include "calib/model_selection.h"
+#include "calib/plots.h"
+#include "calib/solver.h"
+#include "image/atomic_file.h"
+#include "image/capture_folder.h"
+#include "optics/optics.h"
+
+namespace camlab::calib {
+namespace {
+
+namespace fs = std::filesystem;
+
+using NamedImage = std::pair<std::string, cv::Mat>;
+
+Result<std::vector<NamedImage>> load_images_dir(const fs::path& dir) {
+  std::vector<fs::path> files;
+  std::error_code ec;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    std::string ext = e.path().extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" ||
+        ext == ".pgm" || ext == ".bmp")
+      files.push_back(e.path());
+  }
+  if (ec) return make_error("io_error", "cannot list '" + dir.string() + "': " + ec.message());
+  std::sort(files.begin(), files.end());
+  if (files.empty()) return make_error("io_error", "no images (png, jpg, tif, pgm, bmp) in '" + dir.string() + "'");
+  std::vector<NamedImage> out;
+  for (const auto& f : files) {
+    cv::Mat m;
+    try {
+      m = cv::imread(f.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+    } catch (const cv::Exception& e) {
+      return make_error("io_error", "cannot read image '" + f.string() + "': " + e.what());
+    }
+    if (m.empty()) return make_error("io_error", "cannot read image '" + f.string() + "'");
+    out.emplace_back(f.filename().string(), m);
+  }
+  return out;
+}
+
+Result<std::vector<NamedImage>> load_job(const fs::path& dir) {
+  image::CaptureFolder folder;
+  CAMLAB_ASSIGN(folder, image::CaptureFolder::open(dir));
+  std::vector<NamedImage> out;
+  for (size_t i = 0; i < folder.frames().size(); ++i) {
+    cv::Mat m;
+    CAMLAB_ASSIGN(m, folder.load_image(static_cast<int>(i)));
+    out.emplace_back(folder.frames()[i].image_file, m);
+  }
+  if (out.empty()) return make_error("io_error", "the capture folder '" + dir.string() + "' holds no frames");
+  return out;
+}
+
+// Detects the board in each image on `threads` threads (images are independent); views
+// keep the images' order.
+Status detect(const std::vector<NamedImage>& images, const CalibrateOptions& options, CalibrationData* data) {
+  for (const auto& [name, image] : images) {
+    if (data->imager_width_px == 0) {
+      data->imager_width_px = image.cols;
+      data->imager_height_px = image.rows;
+    } else if (image.cols != data->imager_width_px || image.rows != data->imager_height_px) {
+      return make_error("imager_mismatch", "image '" + name + "' is " + std::to_string(image.cols) + "x" +
+                                               std::to_string(image.rows) + "; the first image was " +
+                                               std::to_string(data->imager_width_px) + "x" +
+                                               std::to_string(data->imager_height_px));
+    }
+  }
+  std::vector<std::optional<ChessboardCorners>> found(images.size());
+  std::atomic<size_t> next{0}, done{0};
+  std::atomic<int> boards{0};
+  std::mutex progress_mutex;
+  auto worker = [&] {
+    for (size_t i; (i = next++) < images.size();) {
+      auto corners = find_chessboard_corners(images[i].second, data->board.cols, data->board.rows);
+      if (corners) {
+        found[i] = std::move(*corners);
+        ++boards;
+      }
+      const size_t n = ++done;
+      if (options.progress) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        options.progress(n, images.size(), boards.load());
+      }
+    }
+  };
+  const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
+  const unsigned threads = std::clamp(options.detect_threads > 0 ? static_cast<unsigned>(options.detect_threads) : hw,
+                                      1u, 16u);
+  std::vector<std::thread> pool;
+  for (unsigned t = 1; t < threads && t < images.size(); ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+  for (size_t i = 0; i < images.size(); ++i) {
+    if (!found[i]) continue;
+    BoardView v;
+    v.name = images[i].first;
+    for (const auto& p : found[i]->corners_px) v.corners.push_back({p.x, p.y, 1.0, true});
+    data->views.push_back(std::move(v));
+  }
+  return {};
+}
+
+Result<std::string> model_name(const CalibrateOptions& options, const CalibrationData& data,
+                               const SolveOptions& solve_options) {
+  std::string name;
+  CAMLAB_ASSIGN(name, configured_lensmodel(options.model, data.imager_width_px, data.imager_height_px, 90));
+  // A bare splined model needs the field of view for its default grid: from a first
+  // OPENCV8 solve.
+  if (name.find("SPLINED") != std::string::npos && options.model.find("fov_x_deg") == std::string::npos) {
+    SolveOptions o = solve_options;
+    o.lensmodel = "LENSMODEL_OPENCV8";
+    o.compute_covariance = false;
+    if (auto s = solve(data, o); s.ok())
+      if (auto fov = field_of_view(s->model); fov.ok())
+        CAMLAB_ASSIGN(name, configured_lensmodel(options.model, data.imager_width_px, data.imager_height_px,
+                                                 fov->horizontal_deg));
+  }
+  return name;
+}
+
+// Outputs are written atomically (a reader, e.g. the daemon serving a job's files, never
+// sees half a file).
+Status write_text(const fs::path& path, const std::string& text) { return image::write_file_atomically(path, text); }
+
+}  // namespace
+
+Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
+  const int sources = !options.images_dir.empty() + !options.job_dir.empty() + !options.corners_vnl.empty();
+  if (sources != 1)
+    return make_error("invalid_argument", "give exactly one source: a folder of images, a capture folder, or corners.vnl");
+  if (options.board.cols < 2 || options.board.rows < 2)
+    return make_error("invalid_argument", "the board needs 2 x 2 or more inner corners (COLSxROWS)");
+  if (!(options.board.spacing_m > 0) || options.board.spacing_m > 10)
+    return make_error("invalid_argument", "the corner spacing must be in (0, 10] metres");
+  if (options.imager_width_px < 0 || options.imager_height_px < 0 ||
+      (options.imager_width_px > 0) != (options.imager_height_px > 0))
+    return make_error("invalid_argument", "the imager size must be given as both width and height in px");
+  if (!(options.pixel_pitch_um >= 0) || options.pixel_pitch_um > 100)
+    return make_error("invalid_argument", "the pixel pitch must be in (0, 100] um");
+
+  CalibrationRun run;
+  CalibrationData& data = run.data;
+  data.board = options.board;
+  if (!options.corners_vnl.empty()) {
+    if (options.imager_width_px == 0)
+      return make_error("invalid_argument", "corners.vnl needs the imager size (it does not record it)");
+    CAMLAB_ASSIGN(data.views, read_corners_vnl(options.corners_vnl.string(), data.board));
+  } else {
+    std::vector<NamedImage> images;
+    CAMLAB_ASSIGN(images, options.images_dir.empty() ? load_job(options.job_dir) : load_images_dir(options.images_dir));
+    run.images = static_cast<int>(images.size());
+    if (Status s = detect(images, options, &data); !s) return s.error();
+  }
+  // Written before the solve, so the corners survive a solve that fails.
+  if (!options.out_corners_vnl.empty())
+    if (Status s = write_text(options.out_corners_vnl, to_corners_vnl(data.views)); !s) return s.error();
+  if (options.imager_width_px > 0) {
+    data.imager_width_px = options.imager_width_px;
+    data.imager_height_px = options.imager_height_px;
+  }
+  double pitch_um = options.pixel_pitch_um;
+  if (!options.sensor.empty()) {
+    optics::SensorFormat format;
+    CAMLAB_ASSIGN(format, optics::find_sensor_format(options.sensor));
+    pitch_um = format.width_mm * 1000.0 / data.imager_width_px;
+  }
+
+  SolveOptions solve_options;
+  solve_options.focal_guess_px = options.focal_guess_px;
+  solve_options.board_warp = options.board_warp;
+  Solution solution;
+  std::vector<ModelEvidence> evidence;
+  std::string cross_validation;
+  if (options.model == "auto") {
+    ModelSelection sel;
+    CAMLAB_ASSIGN(sel, select_model(data, solve_options, default_candidate_models()));
+    solution = std::move(sel.chosen);
+    evidence = std::move(sel.evidence);
+    cross_validation = sel.cross_validation;
+  } else {
+    CAMLAB_ASSIGN(solve_options.lensmodel, model_name(options, data, solve_options));
+    CAMLAB_ASSIGN(solution, solve(data, solve_options));
+  }
+  run.report = make_report(data, solution, pitch_um);
+  run.report.evidence = std::move(evidence);
+  run.report.cross_validation = cross_validation;
+  run.report_json = to_json(run.report);
+  run.report_json["images"] = run.images;
+  run.cameramodel_text = cameramodel_text(solution.model, "camlab calibrate: " + solution.model.lensmodel);
+  if (has_opencv_equivalent(solution.model))
+    if (auto yaml = opencv_yaml_text(solution.model); yaml.ok()) run.opencv_yaml_text = std::move(*yaml);
+  return run;
+}
+
+Result<nlohmann::json> calibrate_folder(const CalibrateOptions& options) {
+  CalibrationRun run;
+  CAMLAB_ASSIGN(run, calibrate(options));
+  return write_calibration_outputs(&run, options);
+}
+
+Result<nlohmann::json> write_calibration_outputs(CalibrationRun* run_ptr, const CalibrateOptions& options) {
+  CalibrationRun& run = *run_ptr;
+  nlohmann::json& j = run.report_json;
+  nlohmann::json files = nlohmann::json::object();
+  auto write = [&](const fs::path& path, const std::string& text, const char* key) -> Status {
+    if (path.empty()) return {};
+    if (Status s = write_text(path, text); !s) return s;
+    files[key] = path.string();
+    return {};
+  };
+  if (Status s = write(options.out_cameramodel, run.cameramodel_text, "cameramodel"); !s) return s.error();
+  if (!options.out_opencv_yaml.empty()) {
+    if (!run.opencv_yaml_text)
+      return make_error("no_opencv_equivalent", run.report.solution.model.lensmodel +
+                                                    " has no OpenCV equivalent; OpenCV YAML needs PINHOLE or OPENCV4/5/8/12");
+    if (Status s = write(options.out_opencv_yaml, *run.opencv_yaml_text, "opencv_yaml"); !s) return s.error();
+  }
+  if (!options.out_corners_vnl.empty()) files["corners_vnl"] = options.out_corners_vnl.string();
+  if (!options.plots_dir.empty()) {
+    PlotFiles plots;
+    CAMLAB_ASSIGN(plots, write_calibration_plots(options.plots_dir, run.data, run.report));
+    for (const auto& p : plots.written) files["plots"].push_back(p.string());
+    if (!plots.skipped.empty()) j["plots_skipped"] = plots.skipped;
+  }
+  if (!options.out_report_json.empty()) files["report"] = options.out_report_json.string();
+  j["files"] = files;
+  if (Status s = write(options.out_report_json, j.dump(2) + "\n", "report"); !s) return s.error();
+  return j;
+}
+
+}  // namespace camlab::calib

@@ -1,0 +1,71 @@
+// A whole calibration run, as `camlab calibrate` and the daemon's POST /v1/calibrations
+// do it: corners from a folder of images, a capture folder, or a corners.vnl file; the
+// staged solve of one model or `--model auto` selection; the report; and, when paths are
+// given, the output files (.cameramodel, OpenCV YAML, JSON report, corners.vnl, plots).
+// The CLI only parses arguments and prints; the daemon calls the same functions.
+//
+// Reentrant; detection uses up to `detect_threads` threads per call.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "base/result.h"
+#include "calib/calibration_data.h"
+#include "calib/report.h"
+
+namespace camlab::calib {
+
+struct CalibrateOptions {
+  // Exactly one source.
+  std::filesystem::path images_dir;  // png/jpg/tif/pgm/bmp, 8- or 16-bit grey or colour
+  std::filesystem::path job_dir;     // a camlab capture folder (docs/capture-folder.md)
+  std::filesystem::path corners_vnl;  // mrcal corners.vnl; needs imager_width/height_px
+  BoardSpec board;                    // inner corners and spacing (required)
+  int imager_width_px = 0, imager_height_px = 0;  // 0: from the images
+  std::string model = "auto";  // "auto" or a mrcal LENSMODEL_... name (prefix optional)
+  double pixel_pitch_um = 0;   // > 0: focal length in mm and 35-mm equivalent
+  std::string sensor;          // a sensor format name instead of the pitch (optics)
+  double focal_guess_px = 0;   // searched around, never trusted
+  bool board_warp = true;
+  int detect_threads = 0;      // 0: hardware concurrency, at most 16
+  // Outputs written by calibrate_folder() when not empty.
+  std::filesystem::path out_cameramodel, out_report_json, out_opencv_yaml, out_corners_vnl, plots_dir;
+  // Called after each image's detection (done, total, boards found so far), from the
+  // detection threads one at a time. May be empty.
+  std::function<void(size_t done, size_t total, int boards)> progress;
+};
+
+struct CalibrationRun {
+  CalibrationData data;      // the corners used
+  int images = 0;            // images read (0 for corners.vnl)
+  CalibrationReport report;  // report.solution holds the model
+  nlohmann::json report_json;
+  std::string cameramodel_text;  // full precision (model_io.h)
+  std::optional<std::string> opencv_yaml_text;  // when the model has an OpenCV equivalent
+};
+
+// Detects, solves and reports; writes only options.out_corners_vnl (right after
+// detection, so the corners survive a solve that fails). Errors (stable codes): "invalid_argument"
+// (options), "io_error" (unreadable inputs), "imager_mismatch" (images of different
+// sizes), "too_few_views", "seed_failed", "solve_failed", "bad_lensmodel",
+// "unknown_sensor", and those of the corners.vnl reader.
+Result<CalibrationRun> calibrate(const CalibrateOptions& options);
+
+// Writes the outputs named in `options` (cameramodel, OpenCV YAML, plots, JSON report)
+// and returns the JSON report as written: run->report_json plus "files" (the paths
+// written) and "plots_skipped" (plots that could not be made, with the reason). Error
+// "no_opencv_equivalent" when OpenCV YAML is asked for a model OpenCV cannot represent,
+// "io_error".
+Result<nlohmann::json> write_calibration_outputs(CalibrationRun* run, const CalibrateOptions& options);
+
+// calibrate() then write_calibration_outputs(): the daemon's entry point for
+// POST /v1/calibrations. Returns the JSON report (what `--report` writes).
+Result<nlohmann::json> calibrate_folder(const CalibrateOptions& options);
+
+}  // namespace camlab::calib

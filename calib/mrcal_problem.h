@@ -1,0 +1,48 @@
+// The mrcal problem of one camera (internal to calib/): the camera at the reference frame
+// observing a chessboard in N views, in the arrays mrcal_optimize and
+// mrcal_optimizer_callback take. Shared by the solver and the uncertainty propagation,
+// which must evaluate the Jacobian of exactly the problem that was solved.
+//
+// Reentrant: plain values.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "base/result.h"
+#include "calib/calibration_data.h"
+#include "calib/mrcal_api.h"
+
+namespace camlab::calib {
+
+// Owns the observation pool: shape (N, rows, cols), z = weight, z < 0 = outlier/missing.
+struct MrcalProblem {
+  mrcal_lensmodel_t lensmodel{};
+  std::vector<double> intrinsics;
+  std::vector<mrcal_pose_t> frames;  // rt_cam_board per view (mrcal's frames_toref)
+  std::vector<mrcal_observation_board_t> observations;
+  std::vector<mrcal_point3_t> pool;
+  std::vector<uint8_t> missing;  // per pool entry: not detected (never an inlier)
+  mrcal_calobject_warp_t warp{};
+  std::vector<double> x;  // measurements after the last solve
+  int imagersize[2] = {0, 0};
+};
+
+// The problem of `views` (indices into data.views), poses zero, pool at the corners'
+// own weights.
+MrcalProblem make_mrcal_problem(const CalibrationData& data, const std::vector<int>& views);
+
+// What a stage optimises. The camera never moves (it is the reference frame).
+mrcal_problem_selections_t mrcal_selections(bool core, bool distortions, bool warp,
+                                            bool regularize, bool outliers);
+
+struct StateCovariance;
+// The state covariance of the solved problem `p` (uncertainty.h), from mrcal's Jacobian
+// at its current state with the stage selections `sel`. `downweighted`: per view, kept at
+// a weight of 1e-3 (left out of the mean of the boards). Errors: "singular" (J^T J cannot
+// be inverted: some state is not determined by the data), "mrcal_failed".
+Result<StateCovariance> state_covariance(const MrcalProblem& p, const BoardSpec& board,
+                                         mrcal_problem_selections_t sel,
+                                         const std::vector<char>& downweighted);
+
+}  // namespace camlab::calib

@@ -1,0 +1,191 @@
+// Plots of the analysis reports (analyze_folder.h), through plot.h.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <system_error>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "analysis/analyze_folder.h"
+#include "analysis/focus_report.h"
+#include "analysis/plot.h"
+
+namespace camlab::analysis {
+namespace {
+
+namespace fs = std::filesystem;
+using Paths = std::vector<fs::path>;
+
+std::string fmt(const char* format, double a, double b = 0) {
+  char buf[128];
+  std::snprintf(buf, sizeof buf, format, a, b);
+  return buf;
+}
+
+Status make_dir(const fs::path& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return make_error("io_error", "cannot create " + dir.string() + ": " + ec.message());
+  return {};
+}
+
+Status plot(const fs::path& path, const PlotSpec& spec, Paths* written) {
+  if (Status s = write_plot(path, spec); !s) return s;
+  written->push_back(path);
+  return {};
+}
+
+Status png(const fs::path& path, const cv::Mat& image, Paths* written) {
+  try {
+    if (!cv::imwrite(path.string(), image)) return make_error("io_error", "cannot write " + path.string());
+  } catch (const cv::Exception& e) {
+    return make_error("io_error", "cannot write " + path.string() + ": " + e.what());
+  }
+  written->push_back(path);
+  return {};
+}
+
+PlotSeries series(std::string label, bool line, int colour) {
+  PlotSeries s;
+  s.label = std::move(label);
+  s.line = line;
+  s.color_bgr = colour;
+  return s;
+}
+
+}  // namespace
+
+Result<Paths> write_defocus_plots(const fs::path& dir, const DefocusReport& r) {
+  if (Status s = make_dir(dir); !s) return s.error();
+  Paths written;
+  const bool aperture = r.sweep == "f_number";
+  for (const TargetDefocus& t : r.targets) {
+    PlotSpec spec;
+    PlotSeries measured = series("measured (+-1 sigma)", false, 0xc00000);
+    PlotSeries fit = series("", true, 0x0000c0);
+    for (const auto& fe : t.frames) {
+      if (!fe.edge.measured()) continue;
+      measured.x.push_back(aperture ? fe.f_number : fe.focus_position);
+      measured.y.push_back(fe.edge.diameter_px);
+      measured.y_error.push_back(fe.edge.diameter_sigma_px);
+    }
+    if (measured.x.empty()) continue;
+    const auto [lo_it, hi_it] = std::minmax_element(measured.x.begin(), measured.x.end());
+    if (aperture && t.aperture) {
+      spec.title = t.name + ": CoC vs f-number";
+      spec.x_label = "f-number N";
+      fit.label = fmt("fit C = %.3f / N", t.aperture->k_px);
+      for (double n = *lo_it; n <= *hi_it * 1.001; n *= 1.02) {
+        fit.x.push_back(n);
+        fit.y.push_back(t.aperture->k_px / n);
+      }
+    } else if (!aperture && t.v_curve) {
+      spec.title = t.name + ": V-curve";
+      spec.x_label = "focus position (steps)";
+      fit.label = fmt("fit: best %.2f, slope %.4f px/step", t.v_curve->best_position, t.v_curve->slope_px_per_step);
+      double lo = 1e300, hi = -1e300;
+      for (const auto& fe : t.frames) {
+        lo = std::min(lo, fe.focus_position);
+        hi = std::max(hi, fe.focus_position);
+      }
+      for (double p : {lo, t.v_curve->best_position, hi}) {
+        fit.x.push_back(p);
+        fit.y.push_back(t.v_curve->slope_px_per_step * std::fabs(p - t.v_curve->best_position));
+      }
+    } else {
+      continue;
+    }
+    spec.y_label = "blur diameter (px)";
+    spec.series = {measured, fit};
+    if (Status s = plot(dir / (t.name + (aperture ? "_coc_vs_n.png" : "_v_curve.png")), spec, &written); !s)
+      return s.error();
+  }
+  return written;
+}
+
+Result<Paths> write_exposure_plots(const fs::path& dir, const ExposureReport& r) {
+  if (Status s = make_dir(dir); !s) return s.error();
+  Paths written;
+  if (r.photon_transfer) {
+    const auto& pt = *r.photon_transfer;
+    PlotSpec spec;
+    spec.title = "photon transfer";
+    spec.x_label = "mean signal above dark (DN)";
+    spec.y_label = "temporal variance (DN^2)";
+    PlotSeries pts = series("frame pairs", false, 0xc00000), used = series("used in the fit", false, 0x008000);
+    for (const auto& p : pt.points) {
+      (p.used ? used : pts).x.push_back(p.mean_dn - pt.dark_mean_dn);
+      (p.used ? used : pts).y.push_back(p.variance_dn2);
+    }
+    PlotSeries fit = series(fmt("K = %.4f DN/e-", pt.system_gain_dn_per_e), true, 0x0000c0);
+    for (double m : {0.0, pt.saturation_mean_dn - pt.dark_mean_dn}) {
+      fit.x.push_back(m);
+      fit.y.push_back(pt.dark_variance_dn2 + pt.system_gain_dn_per_e * m);
+    }
+    spec.series = {pts, used, fit};
+    if (Status s = plot(dir / "photon_transfer.png", spec, &written); !s) return s.error();
+  }
+  if (!r.linearity.empty()) {
+    PlotSpec spec;
+    spec.title = "linearity";
+    spec.x_label = "exposure x gain (us)";
+    spec.y_label = "mean signal above dark (DN)";
+    PlotSeries pts = series("frames", false, 0xc00000);
+    PlotSeries fit = series(fmt("max error %.2f%%", r.max_linearity_error_pct), true, 0x0000c0);
+    for (const auto& l : r.linearity) {
+      pts.x.push_back(l.exposure_gain_us);
+      pts.y.push_back(l.mean_dn);
+      fit.x.push_back(l.exposure_gain_us);
+      fit.y.push_back(r.linearity_slope_dn_per_us * l.exposure_gain_us);
+    }
+    spec.series = {pts, fit};
+    if (Status s = plot(dir / "linearity.png", spec, &written); !s) return s.error();
+  }
+  return written;
+}
+
+Result<Paths> write_focus_plots(const fs::path& dir, const FocusReport& r) {
+  if (Status s = make_dir(dir); !s) return s.error();
+  Paths written;
+  // Depth map: nearer = brighter (inverse distance, scaled to the valid range); invalid
+  // pixels black.
+  cv::Mat inv = cv::Mat::zeros(r.depth_m.size(), CV_32F);
+  double lo = 1e300, hi = 0;
+  for (int y = 0; y < r.depth_m.rows; ++y)
+    for (int x = 0; x < r.depth_m.cols; ++x) {
+      const float d = r.depth_m.at<float>(y, x);
+      if (d <= 0) continue;
+      inv.at<float>(y, x) = 1.0f / d;
+      lo = std::min(lo, 1.0 / d);
+      hi = std::max(hi, 1.0 / d);
+    }
+  cv::Mat gray, colour;
+  const double span = hi > lo ? hi - lo : 1.0;
+  inv.convertTo(gray, CV_8U, 254.0 / span, 1.0 - 254.0 * lo / span);
+  gray.setTo(0, r.valid == 0);
+  cv::applyColorMap(gray, colour, cv::COLORMAP_VIRIDIS);
+  colour.setTo(cv::Scalar(0, 0, 0), r.valid == 0);
+  if (Status s = png(dir / "depth_map.png", colour, &written); !s) return s.error();
+  if (Status s = png(dir / "all_in_focus.png", r.all_in_focus, &written); !s) return s.error();
+  PlotSpec spec;
+  spec.title = "focus measure per region";
+  spec.x_label = "focus position (steps)";
+  spec.y_label = "normalised measure";
+  spec.log_y = true;
+  static const int colours[] = {0xc00000, 0x008000, 0x0000c0, 0x808000, 0x800080, 0x008080};
+  int colour_index = 0;
+  for (const auto& rr : r.regions) {
+    if (rr.focus.status != kFocusOk || colour_index >= 6) continue;
+    PlotSeries s = series(fmt("(%.0f,%.0f)", rr.focus.rect.x, rr.focus.rect.y) + fmt(" best %.2f", rr.best_position),
+                          true, colours[colour_index++]);
+    s.x = r.positions;
+    s.y = rr.focus.curve;
+    spec.series.push_back(s);
+  }
+  if (!spec.series.empty())
+    if (Status s = plot(dir / "focus_curves.png", spec, &written); !s) return s.error();
+  return written;
+}
+
+}  // namespace camlab::analysis
