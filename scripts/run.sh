@@ -1,16 +1,11 @@
 #!/usr/bin/env bash
-# The README's main job. Until camlabd lands (the daemon issue), the main job renders the
-# virtual camera's example calibration set into ./camlab-data (a capture folder of
-# chessboard views with their ground truth) and summarises what it wrote.
+# The README's main job: camlabd on its defaults. Installs what camlab needs, builds the
+# daemon if needed, then execs it: http://127.0.0.1:8080, data in ./camlab-data (the
+# SQLite database, capture folders, and the API token, printed on the first start),
+# every V4L2 camera found, or one in-process virtual camera when none is. Ctrl-C or
+# SIGTERM stop it cleanly. Extra arguments go to camlabd (see `camlabd --help`).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/build.sh --target camlab_cli
+bash scripts/build.sh --target camlabd
 build_dir="${CAMLAB_BUILD_DIR:-build}"
-out="camlab-data/render-$(date -u +%Y%m%dT%H%M%SZ)"
-mkdir -p camlab-data
-"$build_dir/cli/camlab" render \
-  --camera mock_device/examples/camera_wide_1280x800.json \
-  --scene mock_device/examples/scene_chessboard_calibration.json \
-  --view 1 --view 3 --view 4 --view 5 \
-  --out "$out" "$@"
-echo "frames, sidecars (settings in effect + truth) and truth.cameramodel are in $out"
+exec "$build_dir/service/camlabd" "$@"

@@ -1,0 +1,139 @@
+#include "service/daemon.h"
+
+#include <sys/stat.h>
+
+#include <csignal>
+#include <cstdio>
+#include <future>
+#include <thread>
+#include <vector>
+
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/signal_set.hpp>
+
+#include "service/auth.h"
+#include "service/compute_jobs.h"
+#include "service/job_store.h"
+#include "service/listener.h"
+#include "service/log.h"
+#include "service/metrics.h"
+#include "service/router.h"
+#include "service/service_context.h"
+
+namespace camlab::service {
+
+namespace net = boost::asio;
+namespace fs = std::filesystem;
+
+namespace {
+
+Result<fs::path> prepare_data_dir(const fs::path& dir) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) return make_error("io_error", "cannot create the data folder " + dir.string() + ": " + ec.message());
+  const fs::path canonical = fs::canonical(dir, ec);
+  if (ec) return make_error("io_error", "cannot resolve the data folder " + dir.string() + ": " + ec.message());
+  for (const char* sub : {"captures", "calibrations"}) {
+    fs::create_directories(canonical / sub, ec);
+    if (ec) return make_error("io_error", "cannot create " + (canonical / sub).string() + ": " + ec.message());
+  }
+  return canonical;
+}
+
+}  // namespace
+
+int run_daemon(const DaemonConfig& config) {
+  // Writes to a socket the peer closed must fail with EPIPE, not kill the daemon.
+  std::signal(SIGPIPE, SIG_IGN);
+
+  auto endpoint = parse_listen_address(config.listen);
+  if (!endpoint) {
+    log_error("%s", endpoint.error().message.c_str());
+    return 1;
+  }
+  auto data_dir = prepare_data_dir(config.data_dir);
+  if (!data_dir) {
+    log_error("%s", data_dir.error().message.c_str());
+    return 1;
+  }
+  auto token = load_or_create_token(*data_dir);
+  if (!token) {
+    log_error("%s", token.error().message.c_str());
+    return 1;
+  }
+  if (!token->warning.empty()) log_warning("%s", token->warning.c_str());
+  if (token->created) {
+    // Printed once, on the start that created it; later starts only name the file.
+    std::printf("camlabd: API token (also in %s, mode 0600): %s\n", (*data_dir / "token").c_str(), token->token.c_str());
+    std::fflush(stdout);
+  }
+
+  auto store = JobStore::open(*data_dir / "camlabd.sqlite");
+  if (!store) {
+    log_error("%s", store.error().message.c_str());
+    return 1;
+  }
+  auto interrupted = (*store)->interrupt_unfinished(
+      "camlabd stopped while this job was queued or running (crash or kill); the frames written are kept");
+  if (interrupted && *interrupted > 0) log_warning("%d unfinished job(s) from the last run marked interrupted", *interrupted);
+
+  Metrics metrics;
+  CameraSetOptions camera_options = config.cameras;
+  camera_options.worker.data_dir = *data_dir;
+  auto cameras = CameraSet::create(camera_options, **store, metrics);
+  if (!cameras) {
+    log_error("%s", cameras.error().message.c_str());
+    return 1;
+  }
+  ComputeWorker compute(*data_dir, **store, metrics, config.max_compute_jobs);
+
+  TokenAuth auth(token->token);
+  Router router(&auth, &metrics);
+  ServiceContext context{*data_dir, store->get(), cameras->get(), &compute, &metrics, config.test_faults};
+  add_all_routes(router, context);
+
+  net::io_context ioc(config.io_threads);
+  auto listener = Listener::create(ioc, *endpoint, router, config.limits);
+  if (!listener) {
+    log_error("%s", listener.error().message.c_str());
+    return 1;
+  }
+
+  (*cameras)->start();
+  compute.start();
+  for (const auto& worker : (*cameras)->workers()) {
+    const CameraSnapshot s = worker->snapshot();
+    log_info("camera %s: %s (%s, %s)%s%s", s.identity.id.c_str(), s.identity.name.c_str(), s.identity.path.c_str(),
+             s.transport.c_str(), s.available ? "" : " unavailable: ", s.available ? "" : s.unavailable_reason.c_str());
+  }
+  if ((*cameras)->workers().empty()) log_warning("no cameras (none found, and the virtual camera is off)");
+
+  std::promise<int> stop_signal;
+  net::signal_set signals(ioc, SIGINT, SIGTERM);
+  signals.async_wait([&stop_signal](const boost::system::error_code& ec, int signal_number) {
+    if (!ec) stop_signal.set_value(signal_number);
+  });
+
+  (*listener)->run();
+  const auto bound = (*listener)->local_endpoint();
+  log_info("listening on http://%s:%u (data %s, %zu camera(s), %d I/O threads%s)",
+           bound.address().to_string().c_str(), bound.port(), data_dir->c_str(), (*cameras)->workers().size(),
+           config.io_threads, config.test_faults ? ", TEST FAULT INJECTION ENABLED" : "");
+
+  std::vector<std::thread> pool;
+  for (int i = 0; i < config.io_threads; ++i) pool.emplace_back([&ioc] { ioc.run(); });
+
+  const int signal_number = stop_signal.get_future().get();
+  log_info("%s received: stopping (no new connections; running jobs are interrupted, frames kept)",
+           signal_number == SIGTERM ? "SIGTERM" : "SIGINT");
+  (*listener)->stop();
+  (*cameras)->stop();
+  compute.stop();
+  ioc.stop();
+  for (auto& t : pool) t.join();
+  log_info("stopped");
+  return 0;
+}
+
+}  // namespace camlab::service

@@ -1,0 +1,31 @@
+// camlabd's lifetime: data folder, token, job store (interrupting jobs a crash left
+// unfinished), cameras and their workers, compute worker, routes, listener, and the
+// io_context on a small thread pool. SIGTERM/SIGINT stop it cleanly: the listener closes
+// (no new connections), running captures are cancelled between frames and end
+// "interrupted" with their frames kept, queued jobs end "interrupted", the workers join,
+// and run_daemon returns 0.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "service/camera_set.h"
+#include "service/http_limits.h"
+
+namespace camlab::service {
+
+struct DaemonConfig {
+  std::string listen = "127.0.0.1:8080";
+  std::filesystem::path data_dir = "camlab-data";
+  CameraSetOptions cameras;
+  HttpLimits limits;
+  int io_threads = 2;
+  int max_compute_jobs = 16;
+  bool test_faults = false;
+};
+
+// Serves until SIGTERM or SIGINT; returns the process exit code (0 after a clean stop,
+// 1 when it could not start, with the reason logged).
+int run_daemon(const DaemonConfig& config);
+
+}  // namespace camlab::service

@@ -1,0 +1,109 @@
+// The job store: every job (capture, latency probe, calibration, analysis) and every
+// device's measured control latency, in SQLite (sqlite3 C API, WAL mode, prepared
+// statements, schema version in PRAGMA user_version).
+//
+// States: queued -> running -> succeeded | failed | cancelled | interrupted; a queued job
+// may also go straight to cancelled or interrupted. Transitions are conditional UPDATEs
+// (a job already finished is never overwritten), so a cancel racing a finish is safe.
+// After a crash (kill -9), the next start turns queued and running jobs into interrupted:
+// their folders stay as written (each frame file was renamed into place atomically).
+//
+// Thread-safe: one connection behind a mutex; every statement is short (no capture work
+// is done under it), so status requests never wait on a capture.
+#pragma once
+
+#include <sqlite3.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "base/result.h"
+
+namespace camlab::service {
+
+inline constexpr int kSchemaVersion = 1;
+
+enum class JobState { kQueued, kRunning, kSucceeded, kFailed, kCancelled, kInterrupted };
+const char* job_state_name(JobState state);
+std::optional<JobState> parse_job_state(const std::string& name);
+bool is_finished(JobState state);
+
+struct JobRecord {
+  int64_t id = 0;
+  std::string kind;       // "capture", "latency_probe", "calibration", "analysis"
+  std::string camera_id;  // capture and probe jobs; empty otherwise
+  JobState state = JobState::kQueued;
+  nlohmann::json request = nlohmann::json::object();
+  std::string folder;     // relative to the data folder; empty when the job writes none
+  int64_t created_ms = 0, started_ms = 0, finished_ms = 0;  // Unix time, 0 = not yet
+  int frames_done = 0, frames_total = 0, frames_discarded = 0;
+  std::string error_code, error_message;
+  nlohmann::json result;  // null until finished (the report, the capture summary)
+};
+
+// The job as the API shows it (times as ISO 8601 UTC, progress as a fraction).
+nlohmann::json to_json(const JobRecord& job);
+
+struct LatencyRecord {
+  std::string camera_id;
+  int latency_frames = 0;
+  std::string source;  // "probe", "spec" (the virtual camera's), "default"
+  int64_t measured_ms = 0;
+  nlohmann::json details;  // the probe's trace and agreement
+};
+
+class JobStore {
+ public:
+  // Opens (creating) the database at `path`, in WAL mode; refuses a newer schema.
+  static Result<std::unique_ptr<JobStore>> open(const std::filesystem::path& path);
+  ~JobStore();
+  JobStore(const JobStore&) = delete;
+  JobStore& operator=(const JobStore&) = delete;
+
+  // Inserts a queued job; `folder_prefix` (e.g. "captures/job-") + the zero-padded id
+  // becomes its folder when non-empty. Returns the stored record.
+  Result<JobRecord> create(const std::string& kind, const std::string& camera_id, const nlohmann::json& request,
+                           const std::string& folder_prefix, int frames_total);
+
+  Result<std::optional<JobRecord>> get(int64_t id);
+  // Newest first; `state` filters when set; at most `limit` from `offset`.
+  Result<std::vector<JobRecord>> list(std::optional<JobState> state, int limit, int offset);
+  Result<std::map<std::string, int64_t>> count_by_state();
+
+  // queued -> running; false when the job is no longer queued (cancelled meanwhile).
+  Result<bool> start(int64_t id);
+  Status progress(int64_t id, int frames_done, int frames_total, int frames_discarded);
+  // queued|running -> a final state; false when it had already finished.
+  Result<bool> finish(int64_t id, JobState state, const std::optional<Error>& error, const nlohmann::json& result);
+  // queued -> cancelled; false when the job is not queued.
+  Result<bool> cancel_queued(int64_t id);
+  // Every queued or running job -> interrupted with `message`; returns how many.
+  Result<int> interrupt_unfinished(const std::string& message);
+
+  Status put_latency(const LatencyRecord& record);
+  Result<std::optional<LatencyRecord>> latency(const std::string& camera_id);
+
+ private:
+  explicit JobStore(sqlite3* db) : db_(db) {}
+  // A cached prepared statement, reset and with its bindings cleared.
+  Result<sqlite3_stmt*> statement(const char* sql);
+  Error db_error(const std::string& what) const;
+  Status exec(const char* sql);
+  Result<std::vector<JobRecord>> query_jobs(sqlite3_stmt* stmt);
+
+  sqlite3* db_;
+  std::mutex mutex_;
+  std::map<const char*, sqlite3_stmt*> statements_;  // keyed by the SQL literal's address
+};
+
+int64_t unix_time_ms();
+
+}  // namespace camlab::service

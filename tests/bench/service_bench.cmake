@@ -1,0 +1,8 @@
+# service_bench: camlabd's frames consumed and wall time for exposure brackets against the
+# minimum, and status-request throughput and p99 latency with a capture running (wrk when
+# installed, else a bounded C++ load client). Prints; never passes or fails on a time.
+add_executable(service_bench ${CMAKE_CURRENT_SOURCE_DIR}/service_bench.cpp)
+target_include_directories(service_bench PRIVATE ${PROJECT_SOURCE_DIR}/tests/integration/service)
+target_link_libraries(service_bench PRIVATE nlohmann_json::nlohmann_json Threads::Threads)
+target_compile_definitions(service_bench PRIVATE CAMLABD_PATH="$<TARGET_FILE:camlabd>")
+add_dependencies(service_bench camlabd)

@@ -1,0 +1,80 @@
+// Frame downloads and the measurements the physics tests make on them (mean signal above
+// black, sharpness), shared by the in-process and the `vcam run` suites.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "daemon_harness.h"
+
+namespace camlab::testing {
+
+struct DownloadedFrame {
+  cv::Mat image;  // raw DN
+  nlohmann::json sidecar;
+};
+
+inline DownloadedFrame download_frame(const Daemon& daemon, int64_t job, int index) {
+  DownloadedFrame frame;
+  const std::string base = "/v1/jobs/" + std::to_string(job) + "/frames/" + std::to_string(index);
+  auto png = daemon.get(base);
+  EXPECT_EQ(png.status, 200) << base;
+  EXPECT_EQ(png.headers["content-type"], "image/png");
+  frame.image = cv::imdecode(std::vector<uchar>(png.body.begin(), png.body.end()), cv::IMREAD_UNCHANGED);
+  auto meta = daemon.get(base + "/meta");
+  EXPECT_EQ(meta.status, 200) << base;
+  frame.sidecar = meta.json();
+  return frame;
+}
+
+// Mean DN above the sidecar's black level over the central half of the frame, and
+// whether any pixel there is clipped.
+inline double mean_above_black(const DownloadedFrame& frame, bool* clipped = nullptr) {
+  const cv::Rect centre(frame.image.cols / 4, frame.image.rows / 4, frame.image.cols / 2, frame.image.rows / 2);
+  double max_value = 0;
+  cv::minMaxLoc(frame.image(centre), nullptr, &max_value);
+  const int bit_depth = frame.sidecar.value("bit_depth", 8);
+  if (clipped) *clipped = max_value >= (1 << bit_depth) - 1;
+  return cv::mean(frame.image(centre))[0] - frame.sidecar.value("black_level_dn", 0);
+}
+
+// Energy of the Laplacian: larger when sharper.
+inline double sharpness(const cv::Mat& image) {
+  cv::Mat f, lap;
+  image.convertTo(f, CV_64F);
+  cv::Laplacian(f, lap, CV_64F, 3);
+  cv::Scalar mean, stddev;
+  cv::meanStdDev(lap, mean, stddev);
+  return stddev[0] * stddev[0];
+}
+
+// Runs a 1, 2, 4, 8 ms bracket on `camera_path` and checks the mean signal above black is
+// proportional to exposure within 2%, with nothing clipped.
+inline void check_bracket_is_linear(const Daemon& daemon, const std::string& camera_path) {
+  auto r = daemon.post(camera_path + "/captures",
+                       {{"kind", "bracket"}, {"exposures_us", {1000, 2000, 4000, 8000}}, {"controls", {{"iris_absolute", 5}}}});
+  ASSERT_EQ(r.status, 202) << r.body;
+  const int64_t id = r.json()["id"];
+  const nlohmann::json job = daemon.wait_finished(id);
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  EXPECT_EQ(job["result"]["control_latency_frames"], 3) << job.dump();
+  std::vector<double> per_us;
+  for (int i = 0; i < 4; ++i) {
+    const DownloadedFrame frame = download_frame(daemon, id, i);
+    ASSERT_FALSE(frame.image.empty());
+    const double exposure_us = frame.sidecar["settings"]["exposure_us"].get<double>();
+    EXPECT_DOUBLE_EQ(exposure_us, 1000.0 * (1 << i)) << frame.sidecar.dump();
+    bool clipped = true;
+    const double signal = mean_above_black(frame, &clipped);
+    EXPECT_FALSE(clipped) << "frame " << i;
+    EXPECT_GT(signal, 5.0) << "frame " << i;
+    per_us.push_back(signal / exposure_us);
+  }
+  for (int i = 1; i < 4; ++i)
+    EXPECT_NEAR(per_us[i] / per_us[0], 1.0, 0.02) << "signal/exposure of " << (1 << i) << " ms vs 1 ms";
+}
+
+}  // namespace camlab::testing

@@ -1,0 +1,336 @@
+// camlabd end to end with in-process virtual cameras: every endpoint, auth, malformed and
+// oversized requests, out-of-range controls, cancel, the OpenAPI document against the
+// router, and each injected device fault. One daemon (started once) serves the suite;
+// each test uses its own camera where a fault could leave it broken.
+#include <gtest/gtest.h>
+
+#include <set>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "daemon_harness.h"
+#include "service/router.h"
+#include "service/service_context.h"
+
+namespace {
+
+using namespace camlab::testing;
+using nlohmann::json;
+
+class ServiceApi : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(fresh_test_dir("api"));
+    write_test_specs(*dir_);
+    daemon_ = new Daemon();
+    // 4 cameras: 0 for the API, 1 fail_next_dequeues, 2 drop/stall, 3 unplug.
+    started_ = daemon_->start(*dir_, {"--no-scan", "--camera-spec", (*dir_ / "camera.json").string(), "--scene",
+                                      (*dir_ / "scene.json").string(), "--virtual-count", "4", "--test-faults",
+                                      "--frame-timeout-ms", "1500", "--max-body-bytes", "65536",
+                                      "--max-header-bytes", "4096", "--max-queued-jobs", "4"});
+    if (started_) {
+      const json list = daemon_->get("/v1/cameras").json();
+      for (const auto& c : list["cameras"]) cameras_.push_back(c["id"]);
+    }
+  }
+  static void TearDownTestSuite() {
+    if (daemon_) {
+      EXPECT_EQ(daemon_->stop(SIGTERM), 0) << daemon_->log();
+    }
+    delete daemon_;
+    fs::remove_all(*dir_);
+    delete dir_;
+  }
+  void SetUp() override {
+    ASSERT_TRUE(started_) << (daemon_ ? daemon_->log() : "");
+    ASSERT_EQ(cameras_.size(), 4u) << daemon_->get("/v1/cameras").body << daemon_->log();
+  }
+  static std::string camera_path(int i) { return "/v1/cameras/" + url_segment(cameras_[i]); }
+  // Queues a capture and returns its job id (or -1).
+  static int64_t capture(int camera, const json& request) {
+    auto r = daemon_->post(camera_path(camera) + "/captures", request);
+    EXPECT_EQ(r.status, 202) << r.body;
+    return r.status == 202 ? r.json()["id"].get<int64_t>() : -1;
+  }
+  static json wait_frames(int64_t id, int frames) {
+    return daemon_->wait_job(id, [frames](const json& j) {
+      return j["progress"]["frames_done"].get<int>() >= frames || (j["state"] != "queued" && j["state"] != "running");
+    });
+  }
+
+  static inline fs::path* dir_ = nullptr;
+  static inline Daemon* daemon_ = nullptr;
+  static inline bool started_ = false;
+  static inline std::vector<std::string> cameras_;
+};
+
+TEST_F(ServiceApi, HealthIsPublicAndEverythingElseNeedsTheToken) {
+  auto health = http(daemon_->port(), "GET", "/v1/health");
+  EXPECT_EQ(health.status, 200);
+  EXPECT_EQ(health.json()["status"], "ok");
+  for (const auto& [method, path] : std::vector<std::pair<std::string, std::string>>{
+           {"GET", "/v1/cameras"}, {"GET", "/metrics"}, {"GET", "/v1/openapi.json"}, {"GET", "/v1/jobs"},
+           {"GET", "/v1/jobs/1"}, {"DELETE", "/v1/jobs/1"}, {"POST", "/v1/calibrations"}, {"GET", "/v1/nothing"}}) {
+    auto none = http(daemon_->port(), method, path);
+    EXPECT_EQ(none.status, 401) << method << " " << path;
+    EXPECT_EQ(none.error_code(), "unauthorized");
+    auto wrong = http(daemon_->port(), method, path, std::string(daemon_->token().size(), 'a'));
+    EXPECT_EQ(wrong.status, 401) << method << " " << path;
+  }
+  const auto mode = fs::status(*dir_ / "data" / "token").permissions();
+  EXPECT_EQ(mode & (fs::perms::group_all | fs::perms::others_all), fs::perms::none);
+}
+
+TEST_F(ServiceApi, ListsAndDescribesCamerasWithRangesAndUnits) {
+  auto list = daemon_->get("/v1/cameras");
+  ASSERT_EQ(list.status, 200);
+  EXPECT_EQ(list.json()["cameras"].size(), 4u);
+  auto one = daemon_->get(camera_path(0));
+  ASSERT_EQ(one.status, 200) << one.body;
+  const json camera = one.json();
+  EXPECT_EQ(camera["id"], cameras_[0]);
+  EXPECT_TRUE(camera["available"].get<bool>());
+  bool exposure = false;
+  for (const auto& c : camera["controls"])
+    if (c["name"] == "exposure_time_absolute") {
+      exposure = true;
+      EXPECT_EQ(c["min"], 1);
+      EXPECT_EQ(c["max"], 200);
+      EXPECT_EQ(c["unit"], "100 us");
+    }
+  EXPECT_TRUE(exposure) << camera.dump();
+  EXPECT_FALSE(camera["formats"].empty());
+  EXPECT_EQ(daemon_->get("/v1/cameras/v4l2%3Anope").status, 404);
+  EXPECT_EQ(daemon_->get("/v1/cameras/%2e%2e%2Fetc").status, 400);  // an encoded '/' never becomes a path
+}
+
+TEST_F(ServiceApi, ControlsAreSetAndOutOfRangeValuesGet422NamingTheRange) {
+  auto ok = daemon_->put(camera_path(0) + "/controls", {{"exposure_time_absolute", 40}});
+  ASSERT_EQ(ok.status, 200) << ok.body;
+  EXPECT_EQ(ok.json()["controls"]["exposure_time_absolute"]["applied"], 40);
+  auto high = daemon_->put(camera_path(0) + "/controls", {{"exposure_time_absolute", 5000}});
+  EXPECT_EQ(high.status, 422) << high.body;
+  EXPECT_EQ(high.error_code(), "out_of_range");
+  EXPECT_NE(high.json()["error"]["message"].get<std::string>().find("[1, 200]"), std::string::npos) << high.body;
+  auto unknown = daemon_->put(camera_path(0) + "/controls", {{"warp_drive", 1}});
+  EXPECT_EQ(unknown.status, 422);
+  auto typed = daemon_->put(camera_path(0) + "/controls", {{"gain", "loud"}});
+  EXPECT_EQ(typed.status, 400);
+  // The camera reports what was applied.
+  const json after = daemon_->get(camera_path(0)).json();
+  for (const auto& c : after["controls"]) {
+    if (c["name"] == "exposure_time_absolute") {
+      EXPECT_EQ(c["current"], 40);
+    }
+  }
+}
+
+TEST_F(ServiceApi, MalformedAndOversizedRequestsGet4xxAndTheDaemonKeepsServing) {
+  const int port = daemon_->port();
+  auto bad_json = http(port, "POST", camera_path(0) + "/captures", daemon_->token(), "{\"kind\": ");
+  EXPECT_EQ(bad_json.status, 400);
+  EXPECT_EQ(bad_json.error_code(), "bad_json");
+  auto not_object = http(port, "POST", camera_path(0) + "/captures", daemon_->token(), "[1, 2]");
+  EXPECT_EQ(not_object.status, 400);
+  auto bad_kind = daemon_->post(camera_path(0) + "/captures", {{"kind", "timelapse"}});
+  EXPECT_EQ(bad_kind.status, 400) << bad_kind.body;
+  auto out_of_range = daemon_->post(camera_path(0) + "/captures", {{"kind", "bracket"}, {"exposures_us", {1000, 900000}}});
+  EXPECT_EQ(out_of_range.status, 422) << out_of_range.body;
+  auto garbage = raw_exchange(port, "THIS IS NOT HTTP\r\n\r\n");
+  EXPECT_EQ(garbage.status, 400);
+  const std::string big_body(200000, ' ');
+  auto big = http(port, "POST", camera_path(0) + "/captures", daemon_->token(), big_body);
+  EXPECT_EQ(big.status, 413);
+  auto big_header = raw_exchange(port, "GET /v1/health HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(20000, 'x') +
+                                           "\r\n\r\n");
+  EXPECT_EQ(big_header.status, 431);
+  EXPECT_EQ(daemon_->get("/v1/jobs/abc").status, 400);
+  EXPECT_EQ(daemon_->get("/v1/jobs/99999999999999999999").status, 400);
+  EXPECT_EQ(daemon_->get("/v1/jobs/424242").status, 404);
+  EXPECT_EQ(daemon_->get("/v1/jobs?limit=0").status, 400);
+  EXPECT_EQ(daemon_->get("/v1/jobs?state=sleeping").status, 400);
+  EXPECT_EQ(http(port, "PATCH", "/v1/jobs", daemon_->token()).status, 405);
+  EXPECT_EQ(http(port, "GET", "/v1/health").status, 200) << "the daemon still serves";
+}
+
+TEST_F(ServiceApi, CaptureJobRunsAndItsFramesDownloadAsPngWithSidecars) {
+  const int64_t id = capture(0, {{"kind", "bracket"}, {"exposures_us", {1000, 2000}}, {"repeats", 2}});
+  ASSERT_GT(id, 0);
+  const json job = daemon_->wait_finished(id);
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  EXPECT_EQ(job["progress"]["frames_done"], 4);
+  EXPECT_GE(job["result"]["frames_consumed"].get<int>(), 4 + 3);
+  auto frames = daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames");
+  ASSERT_EQ(frames.status, 200);
+  EXPECT_TRUE(frames.json()["complete"].get<bool>());
+  ASSERT_EQ(frames.json()["frames"].size(), 4u);
+  auto png = daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/3");
+  ASSERT_EQ(png.status, 200);
+  EXPECT_EQ(png.headers["content-type"], "image/png");
+  cv::Mat image = cv::imdecode(std::vector<uchar>(png.body.begin(), png.body.end()), cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(image.cols, 160);
+  EXPECT_EQ(image.rows, 120);
+  auto meta = daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/3/meta");
+  ASSERT_EQ(meta.status, 200);
+  EXPECT_DOUBLE_EQ(meta.json()["settings"]["exposure_us"].get<double>(), 2000.0) << meta.body;
+  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/4").status, 404);
+  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/-1").status, 400);
+  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/..%2Fmanifest.json").status, 400);
+  auto list = daemon_->get("/v1/jobs?state=succeeded&limit=5");
+  ASSERT_EQ(list.status, 200);
+  EXPECT_FALSE(list.json()["jobs"].empty());
+  EXPECT_EQ(daemon_->del("/v1/jobs/" + std::to_string(id)).status, 409) << "finished jobs cannot be cancelled";
+}
+
+TEST_F(ServiceApi, CancelStopsARunningCaptureKeepingItsFramesAndCancelsAQueuedOne) {
+  const int64_t running = capture(0, {{"kind", "bracket"}, {"exposures_us", {1000, 2000}}, {"repeats", 50}});
+  const int64_t queued = capture(0, {{"kind", "single"}});
+  ASSERT_GT(running, 0);
+  ASSERT_GT(queued, 0);
+  EXPECT_GE(wait_frames(running, 2)["progress"]["frames_done"].get<int>(), 2);
+  auto cancel_queued = daemon_->del("/v1/jobs/" + std::to_string(queued));
+  EXPECT_EQ(cancel_queued.status, 200) << cancel_queued.body;
+  EXPECT_EQ(cancel_queued.json()["state"], "cancelled");
+  auto cancel = daemon_->del("/v1/jobs/" + std::to_string(running));
+  EXPECT_EQ(cancel.status, 202) << cancel.body;
+  const json job = daemon_->wait_finished(running);
+  EXPECT_EQ(job["state"], "cancelled") << job.dump();
+  auto frames = daemon_->get("/v1/jobs/" + std::to_string(running) + "/frames").json();
+  EXPECT_GE(frames["frames"].size(), 2u);
+  EXPECT_LT(frames["frames"].size(), 100u);
+  EXPECT_FALSE(frames["complete"].get<bool>());
+  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(running) + "/frames/1").status, 200);
+}
+
+TEST_F(ServiceApi, TooManyQueuedJobsGet429) {
+  std::vector<int64_t> ids;
+  int rejected = 0;
+  for (int i = 0; i < 8; ++i) {
+    auto r = daemon_->post(camera_path(0) + "/captures", {{"kind", "single"}, {"repeats", 20}});
+    if (r.status == 202) ids.push_back(r.json()["id"]);
+    if (r.status == 429) ++rejected;
+  }
+  EXPECT_GT(rejected, 0);
+  for (int64_t id : ids) daemon_->del("/v1/jobs/" + std::to_string(id));
+  for (int64_t id : ids) daemon_->wait_finished(id);
+}
+
+TEST_F(ServiceApi, LatencyProbeMeasuresTheSpecsThreeFramesAndStoresIt) {
+  auto r = daemon_->post(camera_path(0) + "/latency-probe", json::object());
+  ASSERT_EQ(r.status, 202) << r.body;
+  const json job = daemon_->wait_finished(r.json()["id"]);
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  EXPECT_EQ(job["result"]["details"]["probed_frames"], 3) << job.dump();
+  EXPECT_EQ(daemon_->get(camera_path(0)).json()["control_latency"]["frames"], 3);
+}
+
+TEST_F(ServiceApi, MetricsCountRequestsFramesAndJobs) {
+  ASSERT_EQ(daemon_->get(camera_path(0)).status, 200);
+  const int64_t id = capture(0, {{"kind", "single"}, {"repeats", 2}});
+  ASSERT_EQ(daemon_->wait_finished(id)["state"], "succeeded");
+  auto r = daemon_->get("/metrics");
+  ASSERT_EQ(r.status, 200);
+  EXPECT_EQ(r.headers["content-type"].rfind("text/plain", 0), 0u);
+  for (const char* name : {"camlabd_http_requests_total{", "camlabd_jobs{state=\"succeeded\"}",
+                           "camlabd_frames_captured_total ", "camlabd_frames_discarded_total "})
+    EXPECT_NE(r.body.find(name), std::string::npos) << name << "\n" << r.body;
+  EXPECT_NE(r.body.find("route=\"/v1/cameras/{id}\""), std::string::npos) << "counted by route pattern, not path";
+  EXPECT_EQ(r.body.find("camlabd_frames_captured_total 0\n"), std::string::npos) << r.body;
+}
+
+// The OpenAPI document lists exactly the router's routes, and every documented route
+// answers (no 404 "no_route" / 405).
+TEST_F(ServiceApi, OpenApiDocumentMatchesTheRoutes) {
+  auto r = daemon_->get("/v1/openapi.json");
+  ASSERT_EQ(r.status, 200);
+  const json doc = r.json();
+  EXPECT_EQ(doc["openapi"].get<std::string>().rfind("3.", 0), 0u);
+  std::set<std::string> documented;
+  for (const auto& [path, ops] : doc["paths"].items())
+    for (const auto& [method, op] : ops.items()) {
+      std::string m = method;
+      std::transform(m.begin(), m.end(), m.begin(), ::toupper);
+      documented.insert(m + " " + path);
+    }
+  camlab::service::ServiceContext context;
+  context.test_faults = true;
+  camlab::service::Router router(nullptr, nullptr);
+  camlab::service::add_all_routes(router, context);
+  std::set<std::string> routed;
+  for (const auto& route : router.routes()) routed.insert(route.method + " " + route.pattern);
+  EXPECT_EQ(documented, routed);
+  EXPECT_TRUE(doc["paths"]["/v1/test/cameras/{id}/faults"]["post"].value("x-test-only", false));
+  EXPECT_FALSE(camlab::service::openapi_document(false)["paths"].contains("/v1/test/cameras/{id}/faults"));
+  for (const auto& entry : documented) {
+    const std::string method = entry.substr(0, entry.find(' '));
+    std::string path = entry.substr(entry.find(' ') + 1);
+    for (auto [from, to] : {std::pair<std::string, std::string>{"{id}", "999999"}, {"{n}", "0"}})
+      for (size_t at; (at = path.find(from)) != std::string::npos;) path.replace(at, from.size(), to);
+    auto answer = http(daemon_->port(), method, path, daemon_->token(), method == "GET" || method == "DELETE" ? "" : "{}");
+    EXPECT_NE(answer.status, 0) << entry;
+    EXPECT_NE(answer.error_code(), "no_route") << entry;
+    EXPECT_NE(answer.status, 405) << entry;
+  }
+}
+
+TEST_F(ServiceApi, DequeueErrorsFailTheJobKeepingFramesAndTheCameraRecovers) {
+  const int64_t id = capture(1, {{"kind", "single"}, {"repeats", 40}});
+  ASSERT_GT(id, 0);
+  EXPECT_GE(wait_frames(id, 2)["progress"]["frames_done"].get<int>(), 2);
+  auto fault = daemon_->post("/v1/test/cameras/" + url_segment(cameras_[1]) + "/faults", {{"fail_next_dequeues", 1}});
+  ASSERT_EQ(fault.status, 200) << fault.body;
+  const json job = daemon_->wait_finished(id);
+  EXPECT_EQ(job["state"], "failed") << job.dump();
+  EXPECT_FALSE(job["error"]["message"].get<std::string>().empty());
+  const int kept = job["progress"]["frames_done"];
+  EXPECT_GE(kept, 2);
+  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames").json()["frames"].size(), static_cast<size_t>(kept));
+  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/0").status, 200);
+  // The next job on the same camera works.
+  const int64_t next = capture(1, {{"kind", "single"}});
+  EXPECT_EQ(daemon_->wait_finished(next)["state"], "succeeded");
+}
+
+TEST_F(ServiceApi, DroppedFramesAreCountedAndTheSettingsStayFrameAccurate) {
+  const int64_t id = capture(2, {{"kind", "bracket"}, {"exposures_us", {1000, 4000}}, {"repeats", 3}});
+  ASSERT_GT(id, 0);
+  daemon_->post("/v1/test/cameras/" + url_segment(cameras_[2]) + "/faults", {{"drop_next_frames", 4}});
+  const json job = daemon_->wait_finished(id);
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  for (int i = 0; i < 6; ++i) {
+    auto meta = daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/" + std::to_string(i) + "/meta").json();
+    EXPECT_DOUBLE_EQ(meta["settings"]["exposure_us"].get<double>(), i < 3 ? 1000.0 : 4000.0) << meta.dump();
+  }
+}
+
+TEST_F(ServiceApi, AStalledCameraTimesOutTheJobAndServesAgainWhenItResumes) {
+  daemon_->post("/v1/test/cameras/" + url_segment(cameras_[2]) + "/faults", {{"stall", true}});
+  const int64_t id = capture(2, {{"kind", "single"}});
+  const json job = daemon_->wait_finished(id);
+  EXPECT_EQ(job["state"], "failed") << job.dump();
+  EXPECT_EQ(job["error"]["code"], "timeout") << job.dump();
+  EXPECT_EQ(http(daemon_->port(), "GET", "/v1/health").status, 200);
+  daemon_->post("/v1/test/cameras/" + url_segment(cameras_[2]) + "/faults", {{"stall", false}});
+  const int64_t next = capture(2, {{"kind", "single"}});
+  EXPECT_EQ(daemon_->wait_finished(next)["state"], "succeeded");
+}
+
+TEST_F(ServiceApi, AnUnpluggedCameraFailsItsJobKeepsFramesAndTheOthersKeepCapturing) {
+  const int64_t id = capture(3, {{"kind", "single"}, {"repeats", 60}});
+  ASSERT_GT(id, 0);
+  const int64_t other = capture(0, {{"kind", "single"}, {"repeats", 3}});  // in parallel on camera 0
+  EXPECT_GE(wait_frames(id, 2)["progress"]["frames_done"].get<int>(), 2);
+  ASSERT_EQ(daemon_->post("/v1/test/cameras/" + url_segment(cameras_[3]) + "/faults", {{"unplug", true}}).status, 200);
+  const json job = daemon_->wait_finished(id);
+  EXPECT_EQ(job["state"], "failed") << job.dump();
+  EXPECT_EQ(job["error"]["code"], "no_device") << job.dump();
+  EXPECT_GE(job["progress"]["frames_done"].get<int>(), 2);
+  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/1").status, 200);
+  EXPECT_EQ(daemon_->wait_finished(other)["state"], "succeeded");
+  EXPECT_FALSE(daemon_->get(camera_path(3)).json()["available"].get<bool>());
+  auto refused = daemon_->post(camera_path(3) + "/captures", {{"kind", "single"}});
+  EXPECT_EQ(refused.status, 503) << refused.body;
+  EXPECT_EQ(daemon_->post("/v1/test/cameras/" + url_segment(cameras_[3]) + "/faults", {{"warp", 1}}).status, 400);
+}
+
+}  // namespace

@@ -1,0 +1,99 @@
+// POST /v1/analyses and POST /v1/calibrations: jobs running the analysis and calibration
+// libraries on capture folders (a daemon capture, and a rendered calibration set placed
+// under the data folder), with their sources validated.
+#include <gtest/gtest.h>
+
+#include "tests/integration/cli_runner.h"
+#include "daemon_harness.h"
+
+namespace {
+
+using namespace camlab::testing;
+using nlohmann::json;
+
+// The first value stored under `key` anywhere in `j`, or null.
+json find_key(const json& j, const std::string& key) {
+  if (j.is_object()) {
+    if (j.contains(key)) return j[key];
+    for (const auto& [k, v] : j.items())
+      if (auto found = find_key(v, key); !found.is_null()) return found;
+  } else if (j.is_array()) {
+    for (const auto& v : j)
+      if (auto found = find_key(v, key); !found.is_null()) return found;
+  }
+  return nullptr;
+}
+
+class ServiceCompute : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = fresh_test_dir(std::string("compute_") + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    write_test_specs(dir);
+    ASSERT_TRUE(daemon.start(dir, {"--no-scan", "--camera-spec", (dir / "camera.json").string(), "--scene",
+                                   (dir / "scene.json").string()}))
+        << daemon.log();
+    camera = "/v1/cameras/" + url_segment(daemon.camera_id());
+  }
+  void TearDown() override {
+    daemon.stop(SIGTERM);
+    fs::remove_all(dir);
+  }
+  fs::path dir;
+  Daemon daemon;
+  std::string camera;
+};
+
+TEST_F(ServiceCompute, ExposureAnalysisOfABracketReportsLinearity) {
+  auto capture = daemon.post(camera + "/captures", {{"kind", "bracket"}, {"exposures_us", {2000, 4000, 8000}},
+                                                    {"repeats", 2}, {"controls", {{"iris_absolute", 5}}}});
+  ASSERT_EQ(capture.status, 202) << capture.body;
+  const int64_t capture_id = capture.json()["id"];
+  // A source that is still running is refused.
+  auto early = daemon.post("/v1/analyses", {{"kind", "exposure"}, {"job", capture_id}});
+  if (early.status != 202) {
+    EXPECT_EQ(early.status, 409) << early.body;
+  }
+  ASSERT_EQ(daemon.wait_finished(capture_id)["state"], "succeeded");
+  auto r = daemon.post("/v1/analyses", {{"kind", "exposure"}, {"job", capture_id}});
+  ASSERT_EQ(r.status, 202) << r.body;
+  const json job = daemon.wait_finished(r.json()["id"]);
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  const json linearity_error = find_key(job["result"]["report"], "max_abs_error_pct");
+  ASSERT_TRUE(linearity_error.is_number()) << job["result"].dump();
+  EXPECT_LT(linearity_error.get<double>(), 2.0) << job["result"]["report"]["linearity"].dump();
+}
+
+TEST_F(ServiceCompute, SourcesAreValidated) {
+  EXPECT_EQ(daemon.post("/v1/analyses", {{"kind", "exposure"}, {"job", 4242}}).status, 404);
+  EXPECT_EQ(daemon.post("/v1/analyses", {{"kind", "colour"}, {"job", 1}}).status, 400);
+  EXPECT_EQ(daemon.post("/v1/analyses", {{"kind", "focus"}, {"folder", "../../etc"}}).status, 400);
+  EXPECT_EQ(daemon.post("/v1/analyses", {{"kind", "focus"}, {"folder", "/etc"}}).status, 400);
+  EXPECT_EQ(daemon.post("/v1/analyses", {{"kind", "focus"}, {"folder", "captures/none"}}).status, 404);
+  EXPECT_EQ(daemon.post("/v1/analyses", {{"kind", "focus"}}).status, 400);
+  fs::create_symlink("/etc", dir / "data" / "escape");
+  EXPECT_EQ(daemon.post("/v1/analyses", {{"kind", "focus"}, {"folder", "escape"}}).status, 400);
+  EXPECT_EQ(daemon.post("/v1/calibrations", {{"folder", "captures"}, {"inner_corners", {14}}, {"spacing_m", 0.04}}).status, 400);
+}
+
+TEST_F(ServiceCompute, CalibrationOfARenderedChessboardSetRecoversTheFocalLength) {
+  const fs::path set = dir / "data" / "imports" / "calibration-set";
+  auto render = run_cli("render --camera " CAMLAB_SOURCE_DIR "/mock_device/examples/camera_wide_1280x800.json --scene "
+                        CAMLAB_SOURCE_DIR "/mock_device/examples/scene_chessboard_calibration.json --quiet"
+                        " --view 0 --view 5 --view 10 --view 15 --view 20 --view 25 --view 30 --out " + set.string());
+  ASSERT_EQ(render.exit_code, 0) << render.err;
+  auto bad = daemon.post("/v1/calibrations", {{"folder", "imports/calibration-set"}, {"inner_corners", {14, 10}},
+                                              {"spacing_m", -1}});
+  EXPECT_EQ(bad.status, 422);
+  auto r = daemon.post("/v1/calibrations", {{"folder", "imports/calibration-set"}, {"inner_corners", {14, 10}},
+                                            {"spacing_m", 0.04}, {"model", "LENSMODEL_OPENCV8"}});
+  ASSERT_EQ(r.status, 202) << r.body;
+  const json job = daemon.wait_finished(r.json()["id"], std::chrono::seconds(300));
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  EXPECT_NE(job["result"]["cameramodel"].get<std::string>().find("LENSMODEL_OPENCV8"), std::string::npos);
+  const json fx = find_key(job["result"]["report"], "fx_px");
+  ASSERT_TRUE(fx.is_number()) << job["result"]["report"].dump();
+  EXPECT_NEAR(fx.get<double>(), 2.2 / 0.003, 0.02 * 2.2 / 0.003) << "fx against the spec's f / pitch";
+  EXPECT_TRUE(fs::exists(dir / "data" / job["folder"].get<std::string>() / "camera.cameramodel"));
+}
+
+}  // namespace

@@ -1,0 +1,100 @@
+// camlabd across restarts: a kill -9 during a capture leaves the job "interrupted" after
+// the next start with its frames readable; SIGTERM during a capture exits 0 and
+// interrupts the job cleanly; the token is created once and kept.
+#include <gtest/gtest.h>
+
+#include "daemon_harness.h"
+
+namespace {
+
+using namespace camlab::testing;
+using nlohmann::json;
+
+class ServiceLifecycle : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = fresh_test_dir(std::string("lifecycle_") + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    write_test_specs(dir);
+    args = {"--no-scan", "--camera-spec", (dir / "camera.json").string(), "--scene", (dir / "scene.json").string()};
+  }
+  void TearDown() override { fs::remove_all(dir); }
+
+  // Starts a long capture and waits until it has written at least two frames.
+  int64_t start_long_capture(Daemon& daemon) {
+    const std::string camera = "/v1/cameras/" + url_segment(daemon.camera_id());
+    auto r = daemon.post(camera + "/captures", {{"kind", "single"}, {"repeats", 100}});
+    EXPECT_EQ(r.status, 202) << r.body;
+    if (r.status != 202) return -1;
+    const int64_t id = r.json()["id"];
+    const json job = daemon.wait_job(id, [](const json& j) { return j["progress"]["frames_done"].get<int>() >= 2; });
+    EXPECT_GE(job["progress"]["frames_done"].get<int>(), 2) << job.dump();
+    return id;
+  }
+
+  fs::path dir;
+  std::vector<std::string> args;
+};
+
+TEST_F(ServiceLifecycle, KillNineDuringAJobThenRestartLeavesItInterruptedWithFramesReadable) {
+  Daemon first;
+  ASSERT_TRUE(first.start(dir, args)) << first.log();
+  const int64_t id = start_long_capture(first);
+  ASSERT_GT(id, 0);
+  EXPECT_EQ(first.stop(SIGKILL), 128 + SIGKILL);
+
+  Daemon second;
+  ASSERT_TRUE(second.start(dir, args)) << second.log();
+  const json job = second.get("/v1/jobs/" + std::to_string(id)).json();
+  EXPECT_EQ(job["state"], "interrupted") << job.dump();
+  auto frames = second.get("/v1/jobs/" + std::to_string(id) + "/frames");
+  ASSERT_EQ(frames.status, 200) << frames.body;
+  const size_t count = frames.json()["frames"].size();
+  EXPECT_GE(count, 2u);
+  EXPECT_FALSE(frames.json()["complete"].get<bool>());
+  for (size_t i = 0; i < count; ++i) {
+    EXPECT_EQ(second.get("/v1/jobs/" + std::to_string(id) + "/frames/" + std::to_string(i)).status, 200) << i;
+    EXPECT_EQ(second.get("/v1/jobs/" + std::to_string(id) + "/frames/" + std::to_string(i) + "/meta").status, 200) << i;
+  }
+  // The database is consistent: the job list is readable and new jobs run.
+  EXPECT_EQ(second.get("/v1/jobs?state=running").json()["jobs"].size(), 0u);
+  auto next = second.post("/v1/cameras/" + url_segment(second.camera_id()) + "/captures", {{"kind", "single"}});
+  ASSERT_EQ(next.status, 202);
+  EXPECT_EQ(second.wait_finished(next.json()["id"])["state"], "succeeded");
+  EXPECT_EQ(second.stop(SIGTERM), 0) << second.log();
+}
+
+TEST_F(ServiceLifecycle, SigtermDuringAJobExitsZeroAndInterruptsTheJob) {
+  Daemon daemon;
+  ASSERT_TRUE(daemon.start(dir, args)) << daemon.log();
+  const std::string camera = "/v1/cameras/" + url_segment(daemon.camera_id());
+  const int64_t id = start_long_capture(daemon);
+  ASSERT_GT(id, 0);
+  auto queued = daemon.post(camera + "/captures", {{"kind", "single"}});
+  ASSERT_EQ(queued.status, 202);
+  EXPECT_EQ(daemon.stop(SIGTERM), 0) << daemon.log();
+  EXPECT_NE(daemon.log().find("SIGTERM received"), std::string::npos);
+
+  Daemon again;
+  ASSERT_TRUE(again.start(dir, args)) << again.log();
+  EXPECT_EQ(again.get("/v1/jobs/" + std::to_string(id)).json()["state"], "interrupted");
+  EXPECT_EQ(again.get("/v1/jobs/" + std::to_string(queued.json()["id"].get<int64_t>())).json()["state"], "interrupted");
+  EXPECT_EQ(again.get("/v1/jobs/" + std::to_string(id) + "/frames/0").status, 200);
+  EXPECT_EQ(again.stop(SIGINT), 0);
+}
+
+TEST_F(ServiceLifecycle, TheTokenIsCreatedOncePrintedOnceAndKept) {
+  Daemon first;
+  ASSERT_TRUE(first.start(dir, args)) << first.log();
+  const std::string token = first.token();
+  EXPECT_EQ(token.size(), 64u);
+  EXPECT_NE(first.log().find(token), std::string::npos) << "printed on the first start";
+  EXPECT_EQ(first.stop(SIGTERM), 0);
+  Daemon second;
+  ASSERT_TRUE(second.start(dir, args)) << second.log();
+  EXPECT_EQ(second.token(), token);
+  EXPECT_EQ(second.log().find(token), std::string::npos) << "not printed again";
+  EXPECT_EQ(http(second.port(), "GET", "/v1/cameras", token).status, 200);
+  EXPECT_EQ(second.stop(SIGTERM), 0);
+}
+
+}  // namespace
