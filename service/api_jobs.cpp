@@ -80,6 +80,26 @@ bool read_bytes(const std::filesystem::path& path, std::string* out) {
   return static_cast<bool>(in) || in.eof();
 }
 
+// Frame {n} of job {id}: its image or its sidecar file, read whole; replies with the
+// error (unknown job, frame out of range, unreadable file) and returns nullopt otherwise.
+std::optional<ApiResponse> read_frame_file(const ServiceContext& context, const PathParams& params, bool sidecar,
+                                           const Reply& reply) {
+  auto job = find_job(context, params, reply);
+  if (!job) return std::nullopt;
+  auto folder = job_folder(context, *job, reply);
+  if (!folder) return std::nullopt;
+  auto n = frame_index(*folder, *job, params, reply);
+  if (!n) return std::nullopt;
+  const auto& entry = folder->frames()[*n];
+  ApiResponse response;
+  if (!read_bytes(folder->dir() / (sidecar ? entry.sidecar_file : entry.image_file), &response.body)) {
+    reply(error_response(500, "io_error", std::string("cannot read ") + (sidecar ? "the sidecar of " : "") + "frame " +
+                                              std::to_string(*n)));
+    return std::nullopt;
+  }
+  return response;
+}
+
 // "state=running&limit=10&offset=0"
 std::map<std::string, std::string> parse_query(const std::string& query) {
   std::map<std::string, std::string> out;
@@ -188,31 +208,17 @@ void add_job_routes(Router& router, const ServiceContext& context) {
               }});
   router.add({"GET", "/v1/jobs/{id}/frames/{n}", "Frame n as PNG (raw sensor DN; 16-bit above 8 bits)",
               [context](const ApiRequest&, const PathParams& params, Reply reply) {
-                auto job = find_job(context, params, reply);
-                if (!job) return;
-                auto folder = job_folder(context, *job, reply);
-                if (!folder) return;
-                auto n = frame_index(*folder, *job, params, reply);
-                if (!n) return;
-                ApiResponse response;
-                response.content_type = "image/png";
-                if (!read_bytes(folder->dir() / folder->frames()[*n].image_file, &response.body))
-                  return reply(error_response(500, "io_error", "cannot read frame " + std::to_string(*n)));
-                reply(std::move(response));
+                auto response = read_frame_file(context, params, /*sidecar=*/false, reply);
+                if (!response) return;
+                response->content_type = "image/png";
+                reply(std::move(*response));
               }});
   router.add({"GET", "/v1/jobs/{id}/frames/{n}/meta",
               "Frame n's sidecar: settings in effect, sequence, timestamp, frames discarded",
               [context](const ApiRequest&, const PathParams& params, Reply reply) {
-                auto job = find_job(context, params, reply);
-                if (!job) return;
-                auto folder = job_folder(context, *job, reply);
-                if (!folder) return;
-                auto n = frame_index(*folder, *job, params, reply);
-                if (!n) return;
-                ApiResponse response;
-                if (!read_bytes(folder->dir() / folder->frames()[*n].sidecar_file, &response.body))
-                  return reply(error_response(500, "io_error", "cannot read the sidecar of frame " + std::to_string(*n)));
-                reply(std::move(response));
+                auto response = read_frame_file(context, params, /*sidecar=*/true, reply);
+                if (!response) return;
+                reply(std::move(*response));
               }});
 }
 

@@ -1,6 +1,7 @@
 #include "service/camera_set.h"
 
 #include "mock_device/camera_spec.h"
+#include "mock_device/capture_traits.h"
 #include "mock_device/scene_spec.h"
 #include "service/log.h"
 
@@ -33,17 +34,6 @@ const char* const kBuiltinSceneSpec = R"json({
      "dark_reflectance": 0.1, "light_reflectance": 0.8, "pose": {"position_m": [0.17, 0.11, 2.0]}}]
 })json";
 
-capture::CameraTraits camera_traits(const mock::CameraSpec& spec) {
-  capture::CameraTraits traits;
-  traits.sensor_bit_depth = spec.sensor.bit_depth;
-  traits.black_level_dn = spec.sensor.black_level_dn;
-  traits.gain_unity = spec.controls.gain_unity;
-  traits.f_number_by_iris_position = spec.lens.iris.f_numbers;
-  traits.focal_mm = spec.lens.focal_mm;
-  traits.focus_extension_mm_per_step = spec.lens.focus.extension_mm_per_step;
-  return traits;
-}
-
 Result<std::unique_ptr<CameraSet>> CameraSet::create(const CameraSetOptions& options, JobStore& store,
                                                      Metrics& metrics) {
   std::unique_ptr<CameraSet> set(new CameraSet());
@@ -61,7 +51,7 @@ Result<std::unique_ptr<CameraSet>> CameraSet::create(const CameraSetOptions& opt
   if (!options.device_spec.empty()) {
     auto spec = mock::load_camera_spec(options.device_spec);
     if (!spec) return spec.error();
-    device_traits = camera_traits(*spec);
+    device_traits = mock::capture_traits_of(*spec);
   }
   const bool add_virtual = options.virtual_cameras == VirtualCameras::kAlways ||
                            (options.virtual_cameras == VirtualCameras::kWhenNoneFound && real_count == 0);
@@ -74,7 +64,7 @@ Result<std::unique_ptr<CameraSet>> CameraSet::create(const CameraSetOptions& opt
     if (auto it = set->virtual_devices_.find(entry.identity.id); it != set->virtual_devices_.end()) {
       worker_options.spec_latency_frames = it->second->camera().timing.control_latency_frames;
       worker_options.source_extra = set->virtual_sources_[entry.identity.id];
-      worker_options.traits = camera_traits(it->second->camera());
+      worker_options.traits = mock::capture_traits_of(it->second->camera());
     }
     const std::string id = entry.identity.id;
     const device::DeviceRegistry* registry = &set->registry_;

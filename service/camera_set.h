@@ -69,7 +69,4 @@ class CameraSet {
 extern const char* const kBuiltinCameraSpec;
 extern const char* const kBuiltinSceneSpec;
 
-// What a camera spec says the raw control and pixel values mean.
-capture::CameraTraits camera_traits(const mock::CameraSpec& spec);
-
 }  // namespace camlab::service

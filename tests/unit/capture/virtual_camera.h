@@ -13,6 +13,7 @@
 
 #include "capture/capture_plan.h"
 #include "device/v4l2_camera.h"
+#include "mock_device/capture_traits.h"
 #include "mock_device/virtual_v4l2_io.h"
 #include "test_specs.h"
 
@@ -31,17 +32,6 @@ inline nlohmann::json capture_camera_json(int latency_frames, int width_px = 64,
   return camera;
 }
 
-inline capture::CameraTraits traits_of(const mock::CameraSpec& spec) {
-  capture::CameraTraits traits;
-  traits.sensor_bit_depth = spec.sensor.bit_depth;
-  traits.black_level_dn = spec.sensor.black_level_dn;
-  traits.gain_unity = spec.controls.gain_unity;
-  traits.f_number_by_iris_position = spec.lens.iris.f_numbers;
-  traits.focal_mm = spec.lens.focal_mm;
-  traits.focus_extension_mm_per_step = spec.lens.focus.extension_mm_per_step;
-  return traits;
-}
-
 struct VirtualCamera {
   std::shared_ptr<mock::VirtualV4l2Device> device;
   std::shared_ptr<mock::VirtualV4l2Io> io;
@@ -56,7 +46,7 @@ inline VirtualCamera open_virtual_camera(const nlohmann::json& camera_json,
   if (!camera || !scene)
     throw std::runtime_error(!camera ? camera.error().message : scene.error().message);
   VirtualCamera v;
-  v.traits = traits_of(*camera);
+  v.traits = mock::capture_traits_of(*camera);
   mock::VirtualDeviceOptions options;
   options.realtime = realtime;
   auto device = mock::VirtualV4l2Device::create(std::move(*camera), std::move(*scene), options);
