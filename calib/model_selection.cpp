@@ -1,6 +1,9 @@
 #include "calib/model_selection.h"
 
 #include <algorithm>
+#include <chrono>
+#include <memory>
+#include <numeric>
 
 #include "calib/lens_model.h"
 
@@ -13,20 +16,48 @@ std::vector<std::string> default_candidate_models() {
 
 namespace {
 
+// The full data's solution as a warm start for a fold whose views are data.views[fold_views[k]].
+std::shared_ptr<const WarmStart> warm_start_for(const Solution& full, const std::vector<int>& fold_views) {
+  auto warm = std::make_shared<WarmStart>();
+  warm->model = full.model;
+  warm->calobject_warp = full.calobject_warp;
+  for (int v : fold_views) {
+    const auto it = std::find(full.views_used.begin(), full.views_used.end(), v);
+    auto& outliers = warm->outlier_corners.emplace_back();
+    if (it == full.views_used.end()) {
+      warm->rt_cam_board.emplace_back();
+      continue;
+    }
+    const size_t i = it - full.views_used.begin();
+    warm->rt_cam_board.emplace_back(full.rt_cam_board[i]);
+    // A down-weighted view's corners all count as outliers in the report; in the fold it
+    // is judged afresh (rejecting all its corners would leave its pose undetermined).
+    if (i < full.view_downweighted.size() && full.view_downweighted[i]) continue;
+    for (const auto& r : full.residuals)
+      if (r.view == v && r.outlier) outliers.push_back(r.corner);
+  }
+  return warm;
+}
+
 // Held-out error of one model: views split into `folds` interleaved groups.
 Result<double> heldout_error(const CalibrationData& data, const SolveOptions& options,
-                             const std::vector<int>& views, int folds) {
+                             const Solution& full, const std::vector<int>& views, int folds) {
   std::vector<CornerResidual> all;
   for (int f = 0; f < folds; ++f) {
     CalibrationData train = data;
     SolveOptions fold_options = options;
     fold_options.compute_covariance = false;  // only the held-out error is used
     train.views.clear();
-    std::vector<int> test;
+    std::vector<int> test, train_views;
     for (size_t i = 0; i < views.size(); ++i) {
-      if (static_cast<int>(i % folds) == f) test.push_back(views[i]);
-      else train.views.push_back(data.views[views[i]]);
+      if (static_cast<int>(i % folds) == f) {
+        test.push_back(views[i]);
+      } else {
+        train.views.push_back(data.views[views[i]]);
+        train_views.push_back(views[i]);
+      }
     }
+    fold_options.warm_start = warm_start_for(full, train_views);
     Solution s;
     CAMLAB_ASSIGN(s, solve(train, fold_options));
     Solution h;
@@ -44,7 +75,7 @@ Result<double> heldout_error(const CalibrationData& data, const SolveOptions& op
 // to new board poses, so it is weaker evidence than leaving views out (stated in the
 // report as cross_validation "corners").
 Result<double> heldout_error_by_corners(const CalibrationData& data, const SolveOptions& options,
-                                        const std::vector<int>& views, int folds) {
+                                        const Solution& full, const std::vector<int>& views, int folds) {
   std::vector<CornerResidual> all;
   const int cols = data.board.cols;
   for (int f = 0; f < folds; ++f) {
@@ -60,6 +91,9 @@ Result<double> heldout_error_by_corners(const CalibrationData& data, const Solve
       }
     SolveOptions fold_options = options;
     fold_options.compute_covariance = false;
+    std::vector<int> all_views(data.views.size());
+    std::iota(all_views.begin(), all_views.end(), 0);
+    fold_options.warm_start = warm_start_for(full, all_views);
     Solution s;
     CAMLAB_ASSIGN(s, solve(train, fold_options));
     for (auto [v, j] : test) {
@@ -108,8 +142,9 @@ Result<ModelSelection> select_model(const CalibrationData& data, const SolveOpti
     }
     e.rms_px = s->rms_px;
     e.solve_s = s->solve_s;
-    auto h = by_views ? heldout_error(data, o, views, folds)
-                      : heldout_error_by_corners(data, o, views, folds);
+    const auto cv_t0 = std::chrono::steady_clock::now();
+    auto h = by_views ? heldout_error(data, o, *s, views, folds)
+                      : heldout_error_by_corners(data, o, *s, views, folds);
     if (!h) {
       e.error = "cross-validation failed: " + h.error().message;
       out.evidence.push_back(e);
@@ -117,6 +152,7 @@ Result<ModelSelection> select_model(const CalibrationData& data, const SolveOpti
       continue;
     }
     e.heldout_px = *h;
+    e.cv_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - cv_t0).count();
     e.ok = true;
     out.evidence.push_back(e);
     solutions.push_back(std::move(*s));

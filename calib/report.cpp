@@ -131,6 +131,20 @@ CalibrationReport make_report(const CalibrationData& data, const Solution& s,
                           "the residual RMS is " + fmt("%.2f", s.rms_px) +
                               " px: the lens model cannot describe this lens or the corners are "
                               "poor; try a richer model (OPENCV8, SPLINED_STEREOGRAPHIC)"});
+  // Pixels are square to a fraction of a percent on every sensor we know, and the optical
+  // axis meets the sensor inside it: intrinsics that say otherwise come from a wrong
+  // board size, mislabelled corners or too little data, not from the lens.
+  const auto& k = s.model.intrinsics;
+  if (k.size() >= 4) {
+    const double aspect = k[1] != 0 ? k[0] / k[1] : 0;
+    const bool centre_inside = k[2] >= 0 && k[2] <= s.model.width_px - 1 && k[3] >= 0 && k[3] <= s.model.height_px - 1;
+    if (!(aspect > 0.8 && aspect < 1.25) || !centre_inside)
+      r.warnings.push_back({"implausible_intrinsics",
+                            "fx/fy = " + fmt("%.3g", aspect) + " and the principal point (" + fmt("%.1f", k[2]) + ", " +
+                                fmt("%.1f", k[3]) + ") px describe no ordinary camera (square pixels, axis inside "
+                                "the imager): check --board (inner corners), the spacing and the corners; "
+                                "an anamorphic lens is the one exception"});
+  }
   if (!r.fov)
     r.warnings.push_back({"fov_undefined", fov.error().message +
                                                "; capture boards near the image edges or use a "
@@ -181,6 +195,7 @@ nlohmann::json to_json(const CalibrationReport& r) {
       row["rms_px"] = e.rms_px;
       row["heldout_px"] = e.heldout_px;
       row["solve_s"] = e.solve_s;
+      row["cv_s"] = e.cv_s;
     } else {
       row["error"] = e.error;
     }
@@ -218,11 +233,11 @@ std::string to_text(const CalibrationReport& r) {
     t += r.cross_validation == "corners"
              ? "model selection (held-out: every third corner left out of the fit; fewer than 6 views):\n"
              : "model selection (held-out: views left out of the fit, poses refitted):\n";
-    t += "  model                      params   rms_px  heldout_px  solve_s\n";
+    t += "  model                      params   rms_px  heldout_px  solve_s     cv_s\n";
     for (const auto& e : r.evidence) {
       if (e.ok)
-        std::snprintf(buf, sizeof buf, "  %-26s %6d %8.4f %11.4f %8.3f%s\n", e.lensmodel.c_str(),
-                      e.params, e.rms_px, e.heldout_px, e.solve_s,
+        std::snprintf(buf, sizeof buf, "  %-26s %6d %8.4f %11.4f %8.3f %8.3f%s\n", e.lensmodel.c_str(),
+                      e.params, e.rms_px, e.heldout_px, e.solve_s, e.cv_s,
                       e.lensmodel == s.model.lensmodel ? "  <- chosen" : "");
       else
         std::snprintf(buf, sizeof buf, "  %-26s %6d  failed: %s\n", e.lensmodel.c_str(), e.params,

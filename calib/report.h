@@ -12,6 +12,7 @@
 //   many_outliers     more than 5% of the corners were rejected
 //   high_residuals    inlier RMS above 1 px: the model cannot describe the lens
 //   fov_undefined     the model does not invert at the image edges
+//   implausible_intrinsics  fx/fy outside 0.8-1.25 or the principal point off the imager
 //
 // Reentrant.
 #pragma once
@@ -40,7 +41,8 @@ struct ModelEvidence {
   int params = 0;
   double rms_px = 0;
   double heldout_px = 0;  // trimmed RMS on held-out data (model_selection.h)
-  double solve_s = 0;
+  double solve_s = 0;  // the solve on all views
+  double cv_s = 0;     // the cross-validation folds
   bool ok = false;
   std::string error;
 };

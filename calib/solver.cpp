@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cmath>
 #include <numeric>
+#include <optional>
 
 #include "calib/mrcal_api.h"
 #include "calib/mrcal_problem.h"
@@ -55,23 +56,26 @@ mrcal_problem_selections_t selections(bool core, bool distortions, bool warp, bo
   return mrcal_selections(core, distortions, warp, regularize, outliers);
 }
 
-// Per-view RMS of the unweighted residuals (px) of the corners that are in the solve.
-std::vector<double> view_rms_px(const Problem& p, int per_view) {
+// Per-view median length of the unweighted residuals (px) of the corners that are in the
+// solve. A median, not an RMS: one gross outlier corner (25 px among 140 good ones) lifts
+// a view's RMS over the straggler limit, and the whole good view would be set aside.
+std::vector<double> view_median_residual_px(const Problem& p, int per_view) {
   const size_t nviews = p.frames.size();
-  std::vector<double> rms(nviews, 0.0);
+  std::vector<double> medians(nviews, 0.0);
+  std::vector<double> lengths;
   for (size_t i = 0; i < nviews; ++i) {
-    double s2 = 0;
-    int n = 0;
+    lengths.clear();
     for (int k = 0; k < per_view; ++k) {
       const size_t j = i * per_view + k;
       if (p.pool[j].z <= 0) continue;
       const double w = p.pool[j].z;
-      s2 += (p.x[2 * j] * p.x[2 * j] + p.x[2 * j + 1] * p.x[2 * j + 1]) / (w * w);
-      ++n;
+      lengths.push_back(std::hypot(p.x[2 * j], p.x[2 * j + 1]) / w);
     }
-    rms[i] = std::sqrt(s2 / std::max(1, n));
+    if (lengths.empty()) continue;
+    std::nth_element(lengths.begin(), lengths.begin() + lengths.size() / 2, lengths.end());
+    medians[i] = lengths[lengths.size() / 2];
   }
-  return rms;
+  return medians;
 }
 
 // Suspect views: a planar PnP on a partial edge view through a core-only projection can
@@ -99,12 +103,12 @@ void apply_weights(Problem* p, const ViewWeights& w, int per_view) {
 }
 
 std::vector<char> find_stragglers(const Problem& p, int per_view) {
-  const auto rms = view_rms_px(p, per_view);
-  std::vector<double> sorted = rms;
+  const auto median = view_median_residual_px(p, per_view);
+  std::vector<double> sorted = median;
   std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
   const double limit = std::max(5 * sorted[sorted.size() / 2], 2.0);
-  std::vector<char> out(rms.size());
-  for (size_t i = 0; i < rms.size(); ++i) out[i] = rms[i] > limit;
+  std::vector<char> out(median.size());
+  for (size_t i = 0; i < median.size(); ++i) out[i] = median[i] > limit;
   return out;
 }
 
@@ -167,6 +171,96 @@ void seed_k1_k2_from_stereographic(const Problem& p, std::vector<double>* intrin
   (*intrinsics)[5] = (a11 * b2 - a12 * b1) / det;
 }
 
+// Stage 1 fits only the core and rough poses, which every other corner in each
+// direction determines nearly as well as all of them, at a quarter of the measurements
+// (the first stages start farthest from the optimum and take the most iterations). The
+// coarse board is corners (2i, 2j) of the real one: spacing doubled, same origin, so
+// its poses are the real board's. Used only when each view keeps 8+ coarse corners.
+std::optional<CalibrationData> coarse_data(const CalibrationData& data, const std::vector<int>& views) {
+  const BoardSpec& b = data.board;
+  CalibrationData coarse;
+  coarse.board = {(b.cols + 1) / 2, (b.rows + 1) / 2, 2 * b.spacing_m};
+  if (coarse.board.cols < 3 || coarse.board.rows < 3) return std::nullopt;
+  coarse.imager_width_px = data.imager_width_px;
+  coarse.imager_height_px = data.imager_height_px;
+  coarse.views.resize(data.views.size());
+  for (int v : views) {
+    auto& corners = coarse.views[v].corners;
+    for (int j = 0; j < b.rows; j += 2)
+      for (int i = 0; i < b.cols; i += 2) corners.push_back(data.views[v].corners[j * b.cols + i]);
+    if (coarse.views[v].present_count() < 8) return std::nullopt;
+  }
+  return coarse;
+}
+
+// Stage 1 on `p` (poses seeded): poses alone, then the seed projection's core with them.
+// Corners far from the centre are down-weighted here: a core-only projection cannot
+// describe a wide lens's edges, and letting them pull would bias the core every later
+// stage starts from. Sets w->suspect; leaves w->radial_r0 at 0.
+Status run_stage1(Problem* p, const BoardSpec& board, ViewWeights* w) {
+  const int per_view = board.cols * board.rows;
+  w->radial_r0 = 0.35 * std::hypot(p->imagersize[0], p->imagersize[1]);
+  apply_weights(p, *w, per_view);
+  if (!optimize(p, board, selections(false, false, false, false, false)))
+    return make_error("solve_failed", "the pose solve did not converge");
+  w->suspect = find_stragglers(*p, per_view);
+  apply_weights(p, *w, per_view);
+  if (!optimize(p, board, selections(true, false, false, false, false)))
+    return make_error("solve_failed", "the core solve did not converge");
+  w->radial_r0 = 0;
+  return {};
+}
+
+// Core + distortions + poses of p's current model with regularization, then the
+// suspect views re-judged (update_suspects) and the stage re-solved when they changed.
+Status solve_stage(Problem* p, const CalibrationData& data, const std::vector<int>& views,
+                   const std::string& name, ViewWeights* w) {
+  apply_weights(p, *w, data.board.cols * data.board.rows);
+  const bool distort = p->intrinsics.size() > 4;
+  const auto sel = selections(true, distort, false, distort, false);
+  const Error not_converged{"solve_failed", "the " + name + " solve did not converge"};
+  if (!optimize(p, data.board, sel)) return not_converged;
+  bool failed = false;
+  for (int round = 0; round < 2 && update_suspects(p, data, views, w, &failed); ++round)
+    if (failed || !optimize(p, data.board, sel)) return not_converged;
+  if (failed) return make_error("solve_failed", "the " + name + " pose refit did not converge");
+  return {};
+}
+
+// The models a solve passes through to reach `target`. OpenCV models grow through the
+// chain OPENCV4 -> 8 -> 12 (OPENCV5 from OPENCV4), each starting from the previous one's
+// solution with its new terms at zero: a rational model started from zero distortion on
+// a wide lens falls into a local minimum, a chain does not.
+std::vector<std::string> model_chain(const mrcal_lensmodel_t& target, const std::string& name) {
+  switch (target.type) {
+    case MRCAL_LENSMODEL_OPENCV12: return {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV8", "LENSMODEL_OPENCV12"};
+    case MRCAL_LENSMODEL_OPENCV8: return {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV8"};
+    case MRCAL_LENSMODEL_OPENCV5: return {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV5"};
+    default: return {name};
+  }
+}
+
+// One model of the chain: starts from p's current model (shared leading parameters
+// kept, new terms at zero, or k1 k2 from the stereographic seed), solves core +
+// distortions + poses with regularization, then re-judges the suspect views.
+Status fit_chain_model(Problem* p, const CalibrationData& data, const std::vector<int>& views,
+                       const std::string& name, bool stereographic_core, ViewWeights* w) {
+  mrcal_lensmodel_t m;
+  mrcal_lensmodel_from_name(&m, name.c_str());
+  std::vector<double> next(mrcal_lensmodel_num_params(&m), 0.0);
+  // OpenCV models share their leading parameters (fx fy cx cy k1 k2 p1 p2 k3 ...).
+  const bool opencv_to_opencv = p->lensmodel.type >= MRCAL_LENSMODEL_OPENCV4 &&
+                                p->lensmodel.type <= MRCAL_LENSMODEL_OPENCV12;
+  const size_t keep = opencv_to_opencv ? std::min(next.size(), p->intrinsics.size()) : 4;
+  std::copy(p->intrinsics.begin(), p->intrinsics.begin() + keep, next.begin());
+  if (stereographic_core && m.type == MRCAL_LENSMODEL_OPENCV4 &&
+      p->lensmodel.type == MRCAL_LENSMODEL_STEREOGRAPHIC)
+    seed_k1_k2_from_stereographic(*p, &next);
+  p->lensmodel = m;
+  p->intrinsics = next;
+  return solve_stage(p, data, views, name, w);
+}
+
 void fill_solution(const Problem& p, const CalibrationData& data, const std::vector<int>& views,
                    const std::vector<char>& suspect, Solution* s) {
   s->views_used = views;
@@ -218,6 +312,115 @@ void fill_outlier_residuals(const Problem& p, const CalibrationData& data, Solut
     r.dx_px = (*q)[0] - obs.x_px;
     r.dy_px = (*q)[1] - obs.y_px;
   }
+}
+
+// Stages 3 and 4 (outlier rejection, board warp) on the solved model, then the
+// Solution with its residuals and, when asked, the state covariance.
+Result<Solution> finish_solve(Problem* p, const CalibrationData& data, const std::vector<int>& views,
+                              const std::vector<char>& suspect, const SolveOptions& options,
+                              const FocalSeed& seed, std::chrono::steady_clock::time_point t0) {
+  const BoardSpec& board = data.board;
+  const bool has_distortions = p->intrinsics.size() > 4;
+  // Views still far off after the full model are mis-observed (or not this board): they
+  // keep their 1e-3 weight (a pose with no observations would make the problem
+  // singular), and the report counts their corners as outliers.
+
+  // Stage 3: outlier rejection, now that the model can describe the lens; with the
+  // board's warp (stage 4) when that is asked for: one solve less, and the warp (two
+  // smooth coefficients) cannot absorb a gross outlier that rejection should catch.
+  if (options.reject_outliers && !options.board_warp &&
+      !optimize(p, board, selections(true, has_distortions, false, has_distortions, true)))
+    return make_error("solve_failed", "the solve with outlier rejection did not converge");
+  // Stage 4: the board's warp.
+  if (options.board_warp &&
+      !optimize(p, board, selections(true, has_distortions, true, has_distortions,
+                                      options.reject_outliers)))
+    return make_error("solve_failed", "the solve with board warp did not converge");
+
+  Solution s;
+  s.model.lensmodel = options.lensmodel;
+  s.model.intrinsics = p->intrinsics;
+  s.model.width_px = data.imager_width_px;
+  s.model.height_px = data.imager_height_px;
+  s.seed_focal_px = seed.focal_px;
+  s.seed_projection = seed.projection == SeedProjection::kPinhole ? "pinhole" : "stereographic";
+  fill_solution(*p, data, views, suspect, &s);
+  fill_outlier_residuals(*p, data, &s);
+  s.board = board;
+  s.view_downweighted = suspect;
+  if (options.compute_covariance) {
+    // The Jacobian of the last stage's problem, at its optimum (uncertainty.h).
+    auto cov = state_covariance(*p, board, selections(true, has_distortions, options.board_warp,
+                                                     has_distortions, false),
+                                suspect);
+    if (cov)
+      s.covariance = std::make_shared<const StateCovariance>(std::move(*cov));
+    else
+      s.covariance_error = cov.error().message;
+    if (std::getenv("CAMLAB_CALIB_DEBUG"))
+      std::fprintf(stderr, "[calib] covariance done at %.3f s\n",
+                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  }
+  s.solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return s;
+}
+
+
+// The problem of every view with a whole corner array, 8+ present corners and a pose:
+// known[v] when given, else planar PnP on its present corners through `model` (missing
+// corners never enter a pose). Starts at `model`'s intrinsics; *views gets the data
+// indices of the views kept. Error "too_few_views" below 2.
+Result<Problem> posed_problem(const CalibrationData& data, const LensModel& model,
+                              const std::vector<std::optional<std::array<double, 6>>>& known,
+                              std::vector<int>* views) {
+  views->clear();
+  std::vector<std::array<double, 6>> poses;
+  for (int v = 0; v < static_cast<int>(data.views.size()); ++v) {
+    if (static_cast<int>(data.views[v].corners.size()) != data.board.cols * data.board.rows) continue;
+    if (data.views[v].present_count() < 8) continue;
+    std::optional<std::array<double, 6>> pose;
+    if (v < static_cast<int>(known.size())) pose = known[v];
+    if (!pose) pose = pose_from_corners(data, v, model);
+    if (!pose) continue;
+    views->push_back(v);
+    poses.push_back(*pose);
+  }
+  if (views->size() < 2)
+    return make_error("too_few_views", "fewer than 2 views have a usable board (8+ corners and a pose)");
+  Problem p = make_mrcal_problem(data, *views);
+  mrcal_lensmodel_from_name(&p.lensmodel, model.lensmodel.c_str());
+  p.intrinsics = model.intrinsics;
+  for (size_t i = 0; i < poses.size(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      p.frames[i].r.xyz[k] = poses[i][k];
+      p.frames[i].t.xyz[k] = poses[i][3 + k];
+    }
+  return p;
+}
+
+// A solve from options.warm_start (solver.h): its poses (or PnP through its model for
+// views it lacks), then the model's stage and stages 3-4 as in a full solve.
+Result<Solution> solve_warm(const CalibrationData& data, const SolveOptions& options,
+                            std::chrono::steady_clock::time_point t0) {
+  const WarmStart& warm = *options.warm_start;
+  std::vector<int> views;
+  Problem p;
+  CAMLAB_ASSIGN(p, posed_problem(data, warm.model, warm.rt_cam_board, &views));
+  p.warp.x2 = warm.calobject_warp[0];
+  p.warp.y2 = warm.calobject_warp[1];
+  ViewWeights weights;
+  weights.full_pool = p.pool;
+  weights.suspect.assign(views.size(), 0);
+  const int per_view = data.board.cols * data.board.rows;
+  if (options.reject_outliers)
+    for (size_t i = 0; i < views.size(); ++i)
+      if (views[i] < static_cast<int>(warm.outlier_corners.size()))
+        for (int k : warm.outlier_corners[views[i]])
+          if (k >= 0 && k < per_view) weights.full_pool[i * per_view + k].z = -1.0;
+  if (Status s = solve_stage(&p, data, views, options.lensmodel, &weights); !s) return s.error();
+  FocalSeed seed;
+  seed.focal_px = warm.model.intrinsics.empty() ? 0 : warm.model.intrinsics[0];
+  return finish_solve(&p, data, views, weights.suspect, options, seed, t0);
 }
 
 }  // namespace
@@ -297,6 +500,9 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
   if (!mrcal_lensmodel_from_name(&target, options.lensmodel.c_str()) || target.type < 0 ||
       !mrcal_lensmodel_metadata(&target).has_core || target.type == MRCAL_LENSMODEL_CAHVORE)
     return make_error("bad_lensmodel", "unsupported lens model '" + options.lensmodel + "'");
+  if (options.warm_start && options.warm_start->model.lensmodel == options.lensmodel &&
+      options.warm_start->model.intrinsics.size() == static_cast<size_t>(mrcal_lensmodel_num_params(&target)))
+    return solve_warm(data, options, t0);
 
   auto seed = seed_focal(data, options.focal_guess_px);
   if (std::getenv("CAMLAB_CALIB_DEBUG"))
@@ -313,121 +519,43 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
 
   // Per-view poses from the present corners only; views without a pose are left out.
   std::vector<int> views;
-  std::vector<std::array<double, 6>> poses;
-  for (int v = 0; v < static_cast<int>(data.views.size()); ++v) {
-    if (static_cast<int>(data.views[v].corners.size()) != board.cols * board.rows) continue;
-    if (data.views[v].present_count() < 8) continue;
-    auto pose = pose_from_corners(data, v, seed_model);
-    if (!pose) continue;
-    views.push_back(v);
-    poses.push_back(*pose);
-  }
-  if (views.size() < 2)
-    return make_error("too_few_views", "fewer than 2 views have a usable board (8+ corners and a pose)");
-
-  Problem p = make_mrcal_problem(data, views);
-  mrcal_lensmodel_from_name(&p.lensmodel, seed_model.lensmodel.c_str());
-  p.intrinsics = seed_model.intrinsics;
-  for (size_t i = 0; i < poses.size(); ++i) {
-    for (int k = 0; k < 3; ++k) {
-      p.frames[i].r.xyz[k] = poses[i][k];
-      p.frames[i].t.xyz[k] = poses[i][3 + k];
-    }
-  }
-  // Stage 1: poses alone, then the seed projection's core with them. Corners far from
-  // the centre are down-weighted here: a core-only projection cannot describe a wide
-  // lens's edges, and letting them pull would bias the core every later stage starts from.
-  const int per_view = board.cols * board.rows;
+  Problem p;
+  CAMLAB_ASSIGN(p, posed_problem(data, seed_model, {}, &views));
+  // Stage 1 (run_stage1), then stage 2: the requested model, reached through a chain of
+  // models (model_chain). Stage 1 and every model of the chain but the last only bring the
+  // state near the optimum: they run on every other corner when the board is large
+  // enough (coarse_data), a quarter of the measurements and fewer iterations.
+  const std::vector<std::string> chain = model_chain(target, options.lensmodel);
+  const bool stereographic_core = seed->projection == SeedProjection::kStereographic;
   ViewWeights weights;
   weights.full_pool = p.pool;
   weights.suspect.assign(views.size(), 0);
-  weights.radial_r0 = 0.35 * std::hypot(data.imager_width_px, data.imager_height_px);
   weights.cx = cx;
   weights.cy = cy;
-  apply_weights(&p, weights, per_view);
-  bool failed = false;
-  if (!optimize(&p, board, selections(false, false, false, false, false)))
-    return make_error("solve_failed", "the pose solve did not converge");
-  weights.suspect = find_stragglers(p, per_view);
-  apply_weights(&p, weights, per_view);
-  if (!optimize(&p, board, selections(true, false, false, false, false)))
-    return make_error("solve_failed", "the core solve did not converge");
-  const bool stereographic_core = p.lensmodel.type == MRCAL_LENSMODEL_STEREOGRAPHIC;
-  weights.radial_r0 = 0;
-
-  // Stage 2: the requested model. OpenCV models grow through the chain OPENCV4 -> 8 ->
-  // 12 (OPENCV5 from OPENCV4), each starting from the previous one's solution with its new terms at zero:
-  // a rational model started from zero distortion on a wide lens falls into a local
-  // minimum, a chain does not.
-  std::vector<std::string> chain;
-  switch (target.type) {
-    case MRCAL_LENSMODEL_OPENCV12: chain = {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV8", "LENSMODEL_OPENCV12"}; break;
-    case MRCAL_LENSMODEL_OPENCV8: chain = {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV8"}; break;
-    case MRCAL_LENSMODEL_OPENCV5: chain = {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV5"}; break;
-    default: chain = {options.lensmodel}; break;
+  auto approach = [&](Problem* q, const CalibrationData& d, ViewWeights* w) -> Status {
+    if (Status s = run_stage1(q, d.board, w); !s) return s;
+    for (size_t k = 0; k + 1 < chain.size(); ++k)
+      if (Status s = fit_chain_model(q, d, views, chain[k], stereographic_core, w); !s) return s;
+    return {};
+  };
+  if (auto coarse = coarse_data(data, views)) {
+    Problem pc = make_mrcal_problem(*coarse, views);
+    pc.lensmodel = p.lensmodel;
+    pc.intrinsics = p.intrinsics;
+    pc.frames = p.frames;
+    ViewWeights coarse_weights = weights;
+    coarse_weights.full_pool = pc.pool;
+    if (Status s = approach(&pc, *coarse, &coarse_weights); !s) return s.error();
+    p.lensmodel = pc.lensmodel;
+    p.intrinsics = pc.intrinsics;
+    p.frames = pc.frames;
+    weights.suspect = coarse_weights.suspect;
+  } else if (Status s = approach(&p, data, &weights); !s) {
+    return s.error();
   }
-  for (const auto& name : chain) {
-    mrcal_lensmodel_t m;
-    mrcal_lensmodel_from_name(&m, name.c_str());
-    std::vector<double> next(mrcal_lensmodel_num_params(&m), 0.0);
-    // OpenCV models share their leading parameters (fx fy cx cy k1 k2 p1 p2 k3 ...).
-    const bool opencv_to_opencv = p.lensmodel.type >= MRCAL_LENSMODEL_OPENCV4 &&
-                                  p.lensmodel.type <= MRCAL_LENSMODEL_OPENCV12;
-    const size_t keep = opencv_to_opencv ? std::min(next.size(), p.intrinsics.size()) : 4;
-    std::copy(p.intrinsics.begin(), p.intrinsics.begin() + keep, next.begin());
-    if (stereographic_core && m.type == MRCAL_LENSMODEL_OPENCV4 &&
-        p.lensmodel.type == MRCAL_LENSMODEL_STEREOGRAPHIC)
-      seed_k1_k2_from_stereographic(p, &next);
-    p.lensmodel = m;
-    p.intrinsics = next;
-    apply_weights(&p, weights, per_view);
-    const bool distort = p.intrinsics.size() > 4;
-    const auto sel = selections(true, distort, false, distort, false);
-    if (!optimize(&p, board, sel))
-      return make_error("solve_failed", "the " + name + " solve did not converge");
-    for (int round = 0; round < 2 && update_suspects(&p, data, views, &weights, &failed); ++round)
-      if (failed || !optimize(&p, board, sel))
-        return make_error("solve_failed", "the " + name + " solve did not converge");
-    if (failed) return make_error("solve_failed", "the " + name + " pose refit did not converge");
-  }
-  const bool has_distortions = p.intrinsics.size() > 4;
-  // Views still far off after the full model are mis-observed (or not this board): they
-  // keep their 1e-3 weight (a pose with no observations would make the problem
-  // singular), and the report counts their corners as outliers.
-
-  // Stage 3: outlier rejection, now that the model can describe the lens.
-  if (options.reject_outliers &&
-      !optimize(&p, board, selections(true, has_distortions, false, has_distortions, true)))
-    return make_error("solve_failed", "the solve with outlier rejection did not converge");
-  // Stage 4: the board's warp.
-  if (options.board_warp &&
-      !optimize(&p, board, selections(true, has_distortions, true, has_distortions,
-                                      options.reject_outliers)))
-    return make_error("solve_failed", "the solve with board warp did not converge");
-
-  Solution s;
-  s.model.lensmodel = options.lensmodel;
-  s.model.intrinsics = p.intrinsics;
-  s.model.width_px = data.imager_width_px;
-  s.model.height_px = data.imager_height_px;
-  s.seed_focal_px = seed->focal_px;
-  s.seed_projection = seed->projection == SeedProjection::kPinhole ? "pinhole" : "stereographic";
-  fill_solution(p, data, views, weights.suspect, &s);
-  fill_outlier_residuals(p, data, &s);
-  s.board = board;
-  s.view_downweighted = weights.suspect;
-  if (options.compute_covariance) {
-    // The Jacobian of the last stage's problem, at its optimum (uncertainty.h).
-    auto cov = state_covariance(p, board, selections(true, has_distortions, options.board_warp,
-                                                     has_distortions, false),
-                                weights.suspect);
-    if (cov)
-      s.covariance = std::make_shared<const StateCovariance>(std::move(*cov));
-    else
-      s.covariance_error = cov.error().message;
-  }
-  s.solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return s;
+  if (Status s = fit_chain_model(&p, data, views, chain.back(), stereographic_core, &weights); !s)
+    return s.error();
+  return finish_solve(&p, data, views, weights.suspect, options, *seed, t0);
 }
 
 Result<Solution> fit_poses(const CalibrationData& data, const LensModel& model,

@@ -18,6 +18,7 @@
 
 #include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -26,6 +27,21 @@
 #include "calib/lens_model.h"
 
 namespace camlab::calib {
+
+// A solution to start from instead of seeding and staging: cross-validation folds start
+// from the full data's solution, whose optimum is near theirs, and reach it in one stage
+// instead of five. Not a prior: the fold's own data decide where the solve ends.
+struct WarmStart {
+  LensModel model;
+  std::array<double, 2> calobject_warp{};
+  // Per view of the data being solved (same indexing as its views): rt_cam_board, or
+  // nullopt for a view to pose by PnP through `model`.
+  std::vector<std::optional<std::array<double, 6>>> rt_cam_board;
+  // Per view (same indexing): corners the warm solution rejected as outliers. They start
+  // out rejected (mrcal never re-admits a corner, so its rejection rounds would otherwise
+  // repeat the warm solve's, each a full re-solve).
+  std::vector<std::vector<int>> outlier_corners;
+};
 
 struct SolveOptions {
   std::string lensmodel = "LENSMODEL_OPENCV8";  // configured mrcal name (see configured_lensmodel)
@@ -36,6 +52,8 @@ struct SolveOptions {
   // dense inverse of J^T J (n = parameters + 6 per view; ~10-50 ms for 40 views);
   // cross-validation folds turn it off.
   bool compute_covariance = true;
+  // Used when warm_start->model.lensmodel == lensmodel; null: seed and stage as above.
+  std::shared_ptr<const WarmStart> warm_start;
 };
 
 struct StateCovariance;  // uncertainty.h

@@ -149,7 +149,7 @@ int main(int argc, char** argv) {
   int views = 40, repeats = 3;
   double noise = 0.1;
   bool peers = true;
-  std::string corners_path, truth_path;
+  std::string corners_path, truth_path, write_corners_path;
   BoardSpec board{14, 10, 0.04};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -161,9 +161,11 @@ int main(int argc, char** argv) {
     else if (a == "--truth" && i + 1 < argc) truth_path = argv[++i];
     else if (a == "--board" && i + 1 < argc) std::sscanf(argv[++i], "%dx%d", &board.cols, &board.rows);
     else if (a == "--spacing-m" && i + 1 < argc) board.spacing_m = std::atof(argv[++i]);
+    else if (a == "--write-corners" && i + 1 < argc) write_corners_path = argv[++i];
     else {
       std::fprintf(stderr, "usage: calib_bench [--views N] [--noise PX] [--repeats N] [--no-peers] "
-                           "[--corners FILE.vnl --truth TRUTH.cameramodel [--board CxR --spacing-m S]]\n");
+                           "[--corners FILE.vnl --truth TRUTH.cameramodel [--board CxR --spacing-m S]] "
+                           "[--write-corners OUT.vnl]\n");
       return 2;
     }
   }
@@ -193,6 +195,11 @@ int main(int argc, char** argv) {
     spec.noise_px = noise;
     data = testing::make_views(truth, board, spec);
     source = "synthetic, OPENCV8 wide truth, noise " + std::to_string(noise).substr(0, 4) + " px";
+  }
+  if (!write_corners_path.empty()) {
+    // The same corners for `camlab calibrate --corners` and mrcal's tools.
+    std::ofstream(write_corners_path) << to_corners_vnl(data.views);
+    std::printf("wrote %s\n", write_corners_path.c_str());
   }
   int corners = 0;
   for (const auto& v : data.views) corners += v.present_count();

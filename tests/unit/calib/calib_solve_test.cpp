@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "calib/lens_model.h"
+#include "calib/report.h"
 #include "calib/solver.h"
 #include "synthetic_views.h"
 
@@ -41,6 +42,26 @@ TEST(CalibSolve, WideOpencv8RecoversTheTruthByProjection) {
               s->seed_projection.c_str(), s->seed_focal_px, s->model.intrinsics[0],
               s->model.intrinsics[1], s->model.intrinsics[2], s->model.intrinsics[3], s->rms_px,
               diff->rms_px, diff->max_px, fov->horizontal_deg, fov_truth->horizontal_deg, s->solve_s);
+}
+
+TEST(CalibReport, ImplausibleIntrinsicsAreWarnedNotPassedOff) {
+  const LensModel truth = testing::wide_opencv8_truth();
+  testing::ViewSetSpec spec;
+  spec.views = 12;
+  const CalibrationData data = testing::make_views(truth, kBoard, spec);
+  SolveOptions options;
+  options.lensmodel = "LENSMODEL_OPENCV4";
+  options.compute_covariance = false;
+  auto s = solve(data, options);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  EXPECT_FALSE(has_warning(make_report(data, *s, 0), "implausible_intrinsics"));
+  // What a wrong --board gave camlabd once: fx/fy in the thousands, the centre off the imager.
+  Solution stretched = *s;
+  stretched.model.intrinsics[1] = stretched.model.intrinsics[0] / 3;
+  EXPECT_TRUE(has_warning(make_report(data, stretched, 0), "implausible_intrinsics"));
+  Solution off_centre = *s;
+  off_centre.model.intrinsics[3] = 2.0 * truth.height_px;
+  EXPECT_TRUE(has_warning(make_report(data, off_centre, 0), "implausible_intrinsics"));
 }
 
 }  // namespace
