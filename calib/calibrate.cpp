@@ -9,7 +9,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/chessboard_corners.h"
+#include "calib/chessboard_detector.h"
 #include "calib/corners_vnl.h"
 #include "calib/lens_model.h"
 #include "calib/model_io.h"
@@ -67,9 +67,11 @@ Result<std::vector<NamedImage>> load_job(const fs::path& dir) {
   return out;
 }
 
-// Detects the board in each image on `threads` threads (images are independent); views
-// keep the images' order.
+// Detects the board in each image on `threads` threads (images are independent) with
+// options.detector; views keep the images' order and record which detector found them.
 Status detect(const std::vector<NamedImage>& images, const CalibrateOptions& options, CalibrationData* data) {
+  // Before any image is searched: a wrong choice is the caller's to fix, not a lost view.
+  if (Status s = check_chessboard_detector(options.detector, data->board.cols, data->board.rows); !s) return s;
   for (const auto& [name, image] : images) {
     if (data->imager_width_px == 0) {
       data->imager_width_px = image.cols;
@@ -87,7 +89,7 @@ Status detect(const std::vector<NamedImage>& images, const CalibrateOptions& opt
   std::mutex progress_mutex;
   auto worker = [&] {
     for (size_t i; (i = next++) < images.size();) {
-      auto corners = find_chessboard_corners(images[i].second, data->board.cols, data->board.rows);
+      auto corners = find_chessboard(images[i].second, data->board.cols, data->board.rows, options.detector);
       if (corners) {
         found[i] = std::move(*corners);
         ++boards;
@@ -110,7 +112,10 @@ Status detect(const std::vector<NamedImage>& images, const CalibrateOptions& opt
     if (!found[i]) continue;
     BoardView v;
     v.name = images[i].first;
-    for (const auto& p : found[i]->corners_px) v.corners.push_back({p.x, p.y, 1.0, true});
+    const ChessboardCorners& c = *found[i];
+    v.detector = c.detector;
+    for (size_t k = 0; k < c.corners_px.size(); ++k)
+      v.corners.push_back({c.corners_px[k].x, c.corners_px[k].y, c.weights[k], true});
     data->views.push_back(std::move(v));
   }
   return {};
@@ -166,6 +171,11 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
     CAMLAB_ASSIGN(images, options.images_dir.empty() ? load_job(options.job_dir) : load_images_dir(options.images_dir));
     run.images = static_cast<int>(images.size());
     if (Status s = detect(images, options, &data); !s) return s.error();
+    if (data.views.empty())
+      return make_error("no_board", "no " + std::to_string(data.board.cols) + "x" + std::to_string(data.board.rows) +
+                                        " inner-corner chessboard found in any of the " +
+                                        std::to_string(images.size()) + " images (check --board: inner corners, "
+                                        "not squares)");
   }
   // Written before the solve, so the corners survive a solve that fails.
   if (!options.out_corners_vnl.empty())
@@ -202,7 +212,16 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
   run.report.cross_validation = cross_validation;
   run.report_json = to_json(run.report);
   run.report_json["images"] = run.images;
-  run.cameramodel_text = cameramodel_text(solution.model, "camlab calibrate: " + solution.model.lensmodel);
+  if (run.images > 0) {
+    // Boards found per detector: under "auto", the "opencv" count on a square board is
+    // the images mrgingham missed.
+    nlohmann::json views_by_detector = {{"mrgingham", 0}, {"opencv", 0}};
+    for (const auto& v : data.views) views_by_detector[v.detector] = views_by_detector.value(v.detector, 0) + 1;
+    run.report_json["detector"] = {{"requested", options.detector}, {"views", views_by_detector}};
+  }
+  // With mrcal's optimization_inputs, so mrcal's uncertainty and residual tools read it.
+  CAMLAB_ASSIGN(run.cameramodel_text,
+                cameramodel_text_with_inputs(solution, data, "camlab calibrate: " + solution.model.lensmodel));
   if (has_opencv_equivalent(solution.model))
     if (auto yaml = opencv_yaml_text(solution.model); yaml.ok()) run.opencv_yaml_text = std::move(*yaml);
   return run;

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/calibrate.h"
+#include "calib/chessboard_detector.h"
 #include "calib/report.h"
 #include "commands.h"
 
@@ -21,8 +22,8 @@ namespace {
 
 struct CalibrateArgs {
   std::string images_dir, job_dir, corners_path;
-  std::string board, imager, model = "auto", sensor, out, report_path, yaml_path, write_corners,
-              plots_dir;
+  std::string board, imager, model = "auto", detector = "auto", sensor, out, report_path, yaml_path,
+              write_corners, plots_dir;
   double spacing_m = 0, pixel_um = 0, focal_guess_px = 0;
   bool json = false, quiet = false, no_board_warp = false;
 };
@@ -45,6 +46,11 @@ void run_calibrate(const CalibrateArgs& a) {
   if (!parse_wxh(a.board, &o.board.cols, &o.board.rows) || o.board.cols < 2 || o.board.rows < 2)
     fail("--board must be COLSxROWS inner corners, e.g. 14x10");
   o.board.spacing_m = a.spacing_m;
+  // Checked here, before any image is read: an unknown name, or mrgingham on a board
+  // it cannot find.
+  if (auto s = calib::check_chessboard_detector(a.detector, o.board.cols, o.board.rows); !s)
+    fail("--detector: " + s.error().message);
+  o.detector = a.detector;
   if (!a.imager.empty() && !parse_wxh(a.imager, &o.imager_width_px, &o.imager_height_px))
     fail("--imager must be WxH pixels");
   if (!a.corners_path.empty() && a.imager.empty())
@@ -70,9 +76,12 @@ void run_calibrate(const CalibrateArgs& a) {
 
   auto run = calib::calibrate(o);
   if (!run) fail(run.error().message);
-  if (!a.quiet && run->images > 0)
-    std::fprintf(stderr, "camlab calibrate: found the board in %zu of %d images\n", run->data.views.size(),
-                 run->images);
+  if (!a.quiet && run->images > 0) {
+    const nlohmann::json by =
+        run->report_json.value("detector", nlohmann::json::object()).value("views", nlohmann::json::object());
+    std::fprintf(stderr, "camlab calibrate: found the board in %zu of %d images (mrgingham %d, opencv %d)\n",
+                 run->data.views.size(), run->images, by.value("mrgingham", 0), by.value("opencv", 0));
+  }
   auto report = calib::write_calibration_outputs(&*run, o);
   if (!report) fail(report.error().message);
   if (a.json)
@@ -92,6 +101,11 @@ void register_calibrate_command(CLI::App& app) {
   cmd->add_option("--board", args->board, "Inner corners COLSxROWS, e.g. 14x10")->required();
   cmd->add_option("--spacing-m", args->spacing_m, "Corner spacing in metres")->required();
   cmd->add_option("--model", args->model, "auto (default) or a mrcal LENSMODEL_... name");
+  cmd->add_option("--detector", args->detector,
+                  "Chessboard corner detector for --images/--job: auto (default), opencv or mrgingham. "
+                  "auto uses mrgingham (mrcal's detector) on a square board and OpenCV's "
+                  "findChessboardCornersSB + cornerSubPix on an image where mrgingham finds no board; "
+                  "non-square boards always use OpenCV (mrgingham 1.22 finds N x N boards only)");
   cmd->add_option("--imager", args->imager, "Imager size WxH (px); default: from the images");
   auto pixel = cmd->add_option("--pixel-um", args->pixel_um, "Pixel pitch in micrometres");
   cmd->add_option("--sensor", args->sensor, "Sensor format (full-frame, aps-c, 1/2.3in, ...)")->excludes(pixel);

@@ -97,6 +97,13 @@ void post_calibration(const ServiceContext& context, const ApiRequest& request, 
   if (!model.is_string() || !(model == "auto" || model.get<std::string>().rfind("LENSMODEL_", 0) == 0) ||
       model.get<std::string>().size() > 200)
     return reply(error_response(400, "invalid_request", "\"model\" must be \"auto\" or a mrcal LENSMODEL_... name"));
+  const nlohmann::json& detector = body->value("detector", nlohmann::json("auto"));
+  if (!detector.is_string() || !(detector == "auto" || detector == "opencv" || detector == "mrgingham"))
+    return reply(error_response(400, "invalid_request",
+                                "\"detector\" must be \"auto\" (mrgingham on square boards, else OpenCV), "
+                                "\"opencv\" or \"mrgingham\""));
+  if (detector == "mrgingham" && cols != rows)
+    return reply(error_response(422, "unsupported", "the mrgingham detector finds square boards only (N x N inner corners)"));
   if (body->contains("pixel_um")) {
     const auto& pixel = (*body)["pixel_um"];
     if (!pixel.is_number() || !(pixel.get<double>() > 0) || pixel.get<double>() > 100)
@@ -110,6 +117,7 @@ void post_calibration(const ServiceContext& context, const ApiRequest& request, 
   normalised["inner_corners"] = {cols, rows};
   normalised["spacing_m"] = spacing;
   normalised["model"] = model;
+  normalised["detector"] = detector;
   queue_compute_job(context, "calibration", normalised, reply);
 }
 

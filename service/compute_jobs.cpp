@@ -5,12 +5,8 @@
 #include "analysis/defocus_report.h"
 #include "analysis/exposure_report.h"
 #include "analysis/focus_report.h"
-#include "calib/chessboard_corners.h"
-#include "calib/lens_model.h"
+#include "calib/calibrate.h"
 #include "calib/model_io.h"
-#include "calib/model_selection.h"
-#include "calib/report.h"
-#include "calib/solver.h"
 #include "image/atomic_file.h"
 #include "image/capture_folder.h"
 #include "service/log.h"
@@ -42,75 +38,46 @@ double manifest_pixel_pitch_um(const image::CaptureFolder& folder) {
 
 JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path& data_dir) {
   const nlohmann::json& request = job.request;
-  auto folder = image::CaptureFolder::open(data_dir / request.at("source_folder").get<std::string>());
+  const std::filesystem::path source = data_dir / request.at("source_folder").get<std::string>();
+  auto folder = image::CaptureFolder::open(source);
   if (!folder) return failure(folder.error());
+  if (folder->frames().empty()) return failure(make_error("no_frames", "the capture folder holds no frames"));
 
-  calib::CalibrationData data;
-  data.board.cols = request.at("inner_corners").at(0).get<int>();
-  data.board.rows = request.at("inner_corners").at(1).get<int>();
-  data.board.spacing_m = request.at("spacing_m").get<double>();
-  int images = 0;
-  for (size_t i = 0; i < folder->frames().size(); ++i) {
-    auto image = folder->load_image(static_cast<int>(i));
-    if (!image) return failure(image.error());
-    ++images;
-    if (data.imager_width_px == 0) {
-      data.imager_width_px = image->cols;
-      data.imager_height_px = image->rows;
-    }
-    auto corners = calib::find_chessboard_corners(*image, data.board.cols, data.board.rows);
-    if (!corners) continue;
-    calib::BoardView view;
-    view.name = folder->frames()[i].image_file;
-    for (const auto& p : corners->corners_px) view.corners.push_back({p.x, p.y, 1.0, true});
-    data.views.push_back(std::move(view));
-  }
-  if (images == 0) return failure(make_error("no_frames", "the capture folder holds no frames"));
-  if (data.views.empty())
-    return failure(make_error("no_board", "no " + std::to_string(data.board.cols) + "x" +
-                                              std::to_string(data.board.rows) + " chessboard found in any of the " +
-                                              std::to_string(images) + " frames"));
-
-  calib::SolveOptions options;
-  calib::Solution solution;
-  std::vector<calib::ModelEvidence> evidence;
-  const std::string model = request.value("model", "auto");
-  if (model == "auto") {
-    auto selection = calib::select_model(data, options, calib::default_candidate_models());
-    if (!selection) return failure(selection.error());
-    solution = std::move(selection->chosen);
-    evidence = std::move(selection->evidence);
-  } else {
-    auto name = calib::configured_lensmodel(model, data.imager_width_px, data.imager_height_px, 90);
-    if (!name) return failure(name.error());
-    options.lensmodel = *name;
-    auto solved = calib::solve(data, options);
-    if (!solved) return failure(solved.error());
-    solution = std::move(*solved);
-  }
+  // The same run as `camlab calibrate --job` (calib/calibrate.h): detector choice, corner
+  // weights, model selection, report, and a model file with mrcal's optimization inputs.
+  calib::CalibrateOptions options;
+  options.job_dir = source;
+  options.board.cols = request.at("inner_corners").at(0).get<int>();
+  options.board.rows = request.at("inner_corners").at(1).get<int>();
+  options.board.spacing_m = request.at("spacing_m").get<double>();
+  options.model = request.value("model", "auto");
+  options.detector = request.value("detector", "auto");
   const double pixel_um = request.contains("pixel_um") ? request["pixel_um"].get<double>()
                                                        : manifest_pixel_pitch_um(*folder);
-  calib::CalibrationReport report = calib::make_report(data, solution, pixel_um);
-  report.evidence = std::move(evidence);
-  const nlohmann::json report_json = calib::to_json(report);
-  const std::string model_text =
-      calib::cameramodel_text(solution.model, "camlabd calibration job " + std::to_string(job.id));
-
+  options.pixel_pitch_um = pixel_um > 0 && pixel_um <= 100 ? pixel_um : 0;
+  options.detect_threads = 1;  // the compute thread's one core; the others serve cameras and HTTP
   const std::filesystem::path out = data_dir / job.folder;
   std::error_code ec;
   std::filesystem::create_directories(out, ec);
   if (ec) return failure(make_error("io_error", "cannot create " + out.string() + ": " + ec.message()));
-  if (auto s = image::write_file_atomically(out / "camera.cameramodel", model_text); !s) return failure(s.error());
-  if (auto s = image::write_file_atomically(out / "report.json", report_json.dump(2) + "\n"); !s)
-    return failure(s.error());
+  options.out_cameramodel = out / "camera.cameramodel";
+  options.out_report_json = out / "report.json";
+
+  auto run = calib::calibrate(options);
+  if (!run) return failure(run.error());
+  auto report = calib::write_calibration_outputs(&*run, options);
+  if (!report) return failure(report.error());
 
   JobOutcome outcome;
   outcome.state = JobState::kSucceeded;
-  outcome.result = {{"report", report_json},
-                    {"cameramodel", model_text},
+  // The result's model text is the bare model (a few hundred bytes); the file carries
+  // the optimization inputs too (about 100 kB for 40 views).
+  outcome.result = {{"report", *report},
+                    {"cameramodel", calib::cameramodel_text(run->report.solution.model,
+                                                            "camlabd calibration job " + std::to_string(job.id))},
                     {"cameramodel_file", job.folder + "/camera.cameramodel"},
-                    {"views_with_board", static_cast<int>(data.views.size())},
-                    {"frames", images}};
+                    {"views_with_board", static_cast<int>(run->data.views.size())},
+                    {"frames", run->images}};
   return outcome;
 }
 

@@ -4,7 +4,8 @@
 // handlers (service/api_compute.cpp); these functions trust them.
 //
 //   calibration request: {"source_folder": "captures/job-000012", "inner_corners": [14, 10],
-//                         "spacing_m": 0.04, "model": "auto" | "LENSMODEL_...", "pixel_um": 4}
+//                         "spacing_m": 0.04, "model": "auto" | "LENSMODEL_...", "pixel_um": 4,
+//                         "detector": "auto" | "opencv" | "mrgingham"}
 //   analysis request:    {"source_folder": ..., "analysis": "defocus" | "exposure" | "focus"}
 //
 // Reentrant functions; ComputeWorker is thread-safe.

@@ -30,6 +30,14 @@ std::string to_cameramodel_text(const CameraModelText& model) {
   for (size_t i = 0; i < 6; ++i) out << (i ? ", " : " ") << exact(model.rt_cam_ref[i]);
   out << " ],\n";
   out << "    'imagersize': [ " << model.imagersize[0] << ", " << model.imagersize[1] << " ],\n";
+  if (!model.optimization_inputs_b85.empty()) {
+    // mrcal's Python reader requires icam_intrinsics with the inputs; its C reader skips
+    // both keys. The base-85 alphabet has no quote or backslash: no escaping needed.
+    out << "    'icam_intrinsics': " << model.icam_intrinsics << ",\n";
+    out << "    # mrcal's optimization_inputs of the solve that made this model: an .npz,\n"
+           "    # base-85 encoded (mrcal.cameramodel(...).optimization_inputs() decodes it).\n";
+    out << "    'optimization_inputs': b'" << model.optimization_inputs_b85 << "',\n";
+  }
   out << "}\n";
   return out.str();
 }

@@ -6,6 +6,10 @@
 // (mrcal_read_cameramodel_string) and its Python tools (mrcal.cameramodel) both load.
 // Reading is left to mrcal itself (calib/, mock_device/), which src/ does not link.
 //
+// A model from a calibration may carry mrcal's 'optimization_inputs' (the solve's whole
+// problem, calib/model_io.h) with 'icam_intrinsics'; this writer only places the encoded
+// text, which calib/ produces.
+//
 // Reentrant.
 #pragma once
 
@@ -21,6 +25,10 @@ struct CameraModelText {
   std::array<double, 6> rt_cam_ref{};  // rotation vector (rad) and translation (m)
   std::array<unsigned, 2> imagersize{};  // width, height (px)
   std::string comment;              // optional; written as '#' lines at the top
+  // Optional: the base-85 text of the .npz of mrcal's optimization_inputs (written as the
+  // Python bytes literal b'...') and the index of this camera's intrinsics in them.
+  std::string optimization_inputs_b85;
+  int icam_intrinsics = 0;
 };
 
 std::string to_cameramodel_text(const CameraModelText& model);

@@ -1,6 +1,7 @@
 // POST /v1/analyses and POST /v1/calibrations: jobs running the analysis and calibration
 // libraries on capture folders (a daemon capture, and a rendered calibration set placed
 // under the data folder), with their sources validated.
+#include <fstream>
 #include <gtest/gtest.h>
 
 #include "tests/integration/cli_runner.h"
@@ -84,6 +85,21 @@ TEST_F(ServiceCompute, CalibrationOfARenderedChessboardSetRecoversTheFocalLength
   auto bad = daemon.post("/v1/calibrations", {{"folder", "imports/calibration-set"}, {"inner_corners", {14, 10}},
                                               {"spacing_m", -1}});
   EXPECT_EQ(bad.status, 422);
+  // mrgingham finds square boards only: refused before any work, with the reason.
+  auto not_square = daemon.post("/v1/calibrations", {{"folder", "imports/calibration-set"}, {"inner_corners", {14, 10}},
+                                                     {"spacing_m", 0.04}, {"detector", "mrgingham"}});
+  EXPECT_EQ(not_square.status, 422) << not_square.body;
+  EXPECT_NE(not_square.body.find("square"), std::string::npos) << not_square.body;
+  EXPECT_EQ(daemon.post("/v1/calibrations", {{"folder", "imports/calibration-set"}, {"inner_corners", {14, 10}},
+                                             {"spacing_m", 0.04}, {"detector", "harris"}}).status, 400);
+  // A board larger than the one in the frames is found in none: a failed job that says
+  // so, not an empty model. (A smaller one can be found inside the real board.)
+  auto wrong_board = daemon.post("/v1/calibrations", {{"folder", "imports/calibration-set"}, {"inner_corners", {15, 11}},
+                                                      {"spacing_m", 0.04}, {"model", "LENSMODEL_OPENCV4"}});
+  ASSERT_EQ(wrong_board.status, 202) << wrong_board.body;
+  const json failed = daemon.wait_finished(wrong_board.json()["id"], std::chrono::seconds(300));
+  EXPECT_EQ(failed["state"], "failed") << failed.dump();
+  EXPECT_NE(failed.dump().find("no_board"), std::string::npos) << failed.dump();
   auto r = daemon.post("/v1/calibrations", {{"folder", "imports/calibration-set"}, {"inner_corners", {14, 10}},
                                             {"spacing_m", 0.04}, {"model", "LENSMODEL_OPENCV8"}});
   ASSERT_EQ(r.status, 202) << r.body;
@@ -93,7 +109,12 @@ TEST_F(ServiceCompute, CalibrationOfARenderedChessboardSetRecoversTheFocalLength
   const json fx = find_key(job["result"]["report"], "fx_px");
   ASSERT_TRUE(fx.is_number()) << job["result"]["report"].dump();
   EXPECT_NEAR(fx.get<double>(), 2.2 / 0.003, 0.02 * 2.2 / 0.003) << "fx against the spec's f / pitch";
-  EXPECT_TRUE(fs::exists(dir / "data" / job["folder"].get<std::string>() / "camera.cameramodel"));
+  // The model file is the CLI's: it carries mrcal's optimization inputs.
+  std::ifstream model_file(dir / "data" / job["folder"].get<std::string>() / "camera.cameramodel");
+  ASSERT_TRUE(model_file) << "no camera.cameramodel in the job's folder";
+  const std::string model_text((std::istreambuf_iterator<char>(model_file)), std::istreambuf_iterator<char>());
+  EXPECT_NE(model_text.find("'optimization_inputs'"), std::string::npos);
+  EXPECT_EQ(job["result"]["report"]["detector"]["requested"], "auto");
 }
 
 }  // namespace
