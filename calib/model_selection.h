@@ -1,9 +1,12 @@
 // Model selection (`--model auto`): fit models of growing richness, score each by
 // cross-validation over views (fit on the other views, refit only the poses of the
-// held-out ones with the lens fixed, trimmed RMS of their residuals), and keep the
-// simplest model that a richer one does not beat by more than 5% (and 0.005 px) on
-// held-out views. Models are compared by their projections of held-out data, never by
-// coefficients. The search stops after two richer models in a row fail to improve.
+// held-out ones with the lens fixed; residuals times the corners' weights, so each is in
+// units of its own noise), and keep the simplest model that a richer one does not beat
+// significantly on the held-out corners: a paired test per held-out view, the mean gain
+// more than 3 standard errors (model_selection.cpp). The evidence table's heldout_px is
+// the trimmed RMS of the weighted held-out residuals. Models are compared by their
+// projections of held-out data, never by coefficients. The search stops after two
+// richer models in a row fail to improve.
 // With fewer than 6 usable views no view can be spared: a third of each view's corners
 // is held out per fold instead (cross_validation "corners"; weaker evidence, see
 // model_selection.cpp), and the report says so.

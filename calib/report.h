@@ -5,12 +5,14 @@
 // the solution's Jacobian: uncertainty.h), with warnings that have stable codes:
 //
 //   too_few_views     fewer than 8 views solved
-//   fronto_parallel   every board within 12 deg of facing the camera: focal length and
-//                     distance trade off, the focal length is poorly constrained
+//   fronto_parallel   every board within 12 deg of facing the camera (its line of sight),
+//                     or of parallel to the image plane: focal length and distance trade
+//                     off, the focal length is poorly constrained
 //   centre_only       corners cover less than a third of the imager's outer ring
 //   far_boards        boards span under a quarter of the imager's diagonal (median)
 //   many_outliers     more than 5% of the corners were rejected
-//   high_residuals    inlier RMS above 1 px: the model cannot describe the lens
+//   high_residuals    inlier RMS above 1 px, each corner weighted by its detection level:
+//                     the model cannot describe the lens or the corners are poor
 //   fov_undefined     the model does not invert at the image edges
 //   implausible_intrinsics  fx/fy outside 0.8-1.25 or the principal point off the imager
 //
@@ -53,10 +55,12 @@ struct CalibrationReport {
   double pixel_pitch_um = 0;  // 0: unknown
   double focal_mm = 0, focal_35mm_equiv_mm = 0, crop_factor = 0;
   int views_total = 0;
+  double rms_weighted_px = 0;  // inlier RMS of weight x residual (mrcal's x), px at level 0
   double outlier_share = 0;
   double coverage = 0;        // share of a 16 x 10 grid of imager cells holding an inlier
   double edge_coverage = 0;   // the same over the outer ring of cells
-  double tilt_min_deg = 0, tilt_max_deg = 0;
+  double tilt_min_deg = 0, tilt_max_deg = 0;  // board normal off the line of sight
+  double tilt_plane_min_deg = 0, tilt_plane_max_deg = 0;  // board normal off the optical axis
   double board_span_median = 0;  // board extent / imager diagonal, median over views
   std::optional<UncertaintySummary> uncertainty;  // empty: uncertainty_error says why
   std::string uncertainty_error;
