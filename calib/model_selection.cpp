@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <memory>
 #include <numeric>
@@ -56,34 +57,35 @@ std::vector<CornerResidual> weighted(const CalibrationData& data, std::vector<Co
 }
 
 // Whether `rich` predicts the held-out corners better than `lean` beyond chance. Each
-// corner both models scored gives the difference of its squared (weighted) residuals,
-// capped at 9 x the lean model's median (about 3.5 sigma of a 2-D Gaussian residual: gross
-// outliers do not decide); the differences are summed per block, and the richer model
-// wins when the mean over the blocks is more than 3 standard errors above zero. A block is
-// a held-out view when whole views are held out (its corners share one refitted pose, so
-// they are not independent), and a corner when corners are held out (few views: the
-// views are too few to be the unit of a test, and each corner is scored through poses
-// fitted without it). A fixed share of the held-out RMS (the former rule: 5%) cannot see
-// a lens error that the poses mostly absorb: on a 30-deg lens, OPENCV4's k1 changes the
-// held-out RMS by 4% and the projection by 3.7 px.
+// corner both models scored gives the difference of its squared (weighted) residuals;
+// the differences are summed per block, and the richer model wins when the mean over the
+// blocks is more than 3 standard errors above zero. A block is a held-out view when whole
+// views are held out (its corners share one refitted pose, so they are not independent),
+// and a corner when corners are held out (few views: the views are too few to be the unit
+// of a test, and each corner is scored through poses fitted without it). Gross outliers
+// would decide alone (a 40 px corner and a 0.1 px model difference give 8 px^2), so
+// corners the richer model misses by more than 5x its median residual (about 6 sigma) are
+// left out. They are judged by the richer model, not capped at the leaner one's scale: a
+// lean model's systematic misfit at the edges is the very signal (capping it at 3 sigma
+// of the lean model hid a 13% held-out gain of OPENCV5 over OPENCV4 on rendered views). A
+// fixed share of the held-out RMS (the former rule: 5%) cannot see a lens error that the
+// poses mostly absorb: on a 30-deg lens, OPENCV4's k1 changes the held-out RMS by 4% and
+// the projection by 3.7 px.
 bool significantly_better(const std::vector<CornerResidual>& lean, const std::vector<CornerResidual>& rich,
                           bool blocks_are_views) {
   std::map<std::pair<int, int>, double> lean_e2;
-  std::vector<double> all;
-  for (const auto& r : lean) {
-    const double e2 = r.dx_px * r.dx_px + r.dy_px * r.dy_px;
-    lean_e2[{r.view, r.corner}] = e2;
-    all.push_back(e2);
-  }
-  if (all.empty()) return false;
-  std::nth_element(all.begin(), all.begin() + all.size() / 2, all.end());
-  const double cap = 9 * all[all.size() / 2];
+  for (const auto& r : lean) lean_e2[{r.view, r.corner}] = r.dx_px * r.dx_px + r.dy_px * r.dy_px;
+  std::vector<double> rich_e2;
+  for (const auto& r : rich) rich_e2.push_back(r.dx_px * r.dx_px + r.dy_px * r.dy_px);
+  if (rich_e2.empty()) return false;
+  std::vector<double> sorted = rich_e2;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double gross = 25 * sorted[sorted.size() / 2];
   std::map<std::pair<int, int>, double> per_block;
-  for (const auto& r : rich) {
-    const auto it = lean_e2.find({r.view, r.corner});
-    if (it == lean_e2.end()) continue;
-    const double e2 = r.dx_px * r.dx_px + r.dy_px * r.dy_px;
-    per_block[{r.view, blocks_are_views ? 0 : r.corner}] += std::min(it->second, cap) - std::min(e2, cap);
+  for (size_t k = 0; k < rich.size(); ++k) {
+    const auto it = lean_e2.find({rich[k].view, rich[k].corner});
+    if (it == lean_e2.end() || rich_e2[k] > gross) continue;
+    per_block[{rich[k].view, blocks_are_views ? 0 : rich[k].corner}] += it->second - rich_e2[k];
   }
   const int n = static_cast<int>(per_block.size());
   if (n < 2) return false;
@@ -91,6 +93,9 @@ bool significantly_better(const std::vector<CornerResidual>& lean, const std::ve
   for (const auto& [b, d] : per_block) mean += d / n;
   double var = 0;
   for (const auto& [b, d] : per_block) var += (d - mean) * (d - mean) / (n - 1);
+  if (std::getenv("CAMLAB_CALIB_DEBUG"))
+    std::fprintf(stderr, "[calib] paired test: %d blocks, mean gain %.4g, standard error %.4g\n", n, mean,
+                 std::sqrt(var / n));
   return mean > 0 && mean > 3 * std::sqrt(var / n);
 }
 
@@ -168,6 +173,19 @@ Result<std::vector<CornerResidual>> heldout_residuals_by_corners(const Calibrati
   return weighted(data, std::move(all));
 }
 
+// Mean over a solution's inlier corners of weight^2 x |residual|^2 (mrcal's measurements).
+double weighted_mean_square_px2(const CalibrationData& data, const Solution& s) {
+  double sum = 0;
+  int n = 0;
+  for (const auto& r : s.residuals) {
+    if (r.outlier) continue;
+    const double w = data.views[r.view].corners[r.corner].weight;
+    sum += w * w * (r.dx_px * r.dx_px + r.dy_px * r.dy_px);
+    ++n;
+  }
+  return n > 0 ? sum / n : 0.0;
+}
+
 // A lens that no OpenCV model describes (a decentred or anamorphic fisheye) can leave
 // every OpenCV model's residuals and held-out errors at the noise level while its
 // projection is off by most of a pixel: the board poses absorb the misfit at the boards'
@@ -185,6 +203,7 @@ Result<std::vector<CornerResidual>> heldout_residuals_by_corners(const Calibrati
 void cross_check_with_spline(const CalibrationData& data, const SolveOptions& options, bool by_views,
                              ModelSelection* out) {
   constexpr double kSplineCheckSigmas = 2.5;
+  constexpr double kSplineCheckF = 1.5;
   if (!by_views || out->chosen.model.lensmodel.find("SPLINED") != std::string::npos) return;
   const CalibrationReport chosen_report = make_report(data, out->chosen, 0);
   for (const char* code : {"too_few_views", "fronto_parallel", "centre_only", "far_boards"})
@@ -216,14 +235,30 @@ void cross_check_with_spline(const CalibrationData& data, const SolveOptions& op
     return;
   }
   const double sigma = *u->points[0].at_infinity_px;
-  const bool switch_to_spline = d->rms_px > kSplineCheckSigmas * sigma;
-  char buf[256];
+  // The projections' difference is judged against the spline's noise-driven uncertainty,
+  // which is blind to what the spline itself gets wrong (biased corners, knots with
+  // little data): on 35 rendered views of an OPENCV8 lens the spline was 0.14 px off the
+  // truth, 3.5 x its centre uncertainty away from OPENCV4. So the spline must also fit the
+  // corners better than its extra parameters alone would: an F test of the weighted
+  // residual sums, F = ((RSS_chosen - RSS_spline) / extra params) / (RSS_spline / dof),
+  // above 1.5 (the 99.9% point of F(300, 10^4) is about 1.25). Spline-shaped truths gave
+  // F 2.2; the rendered OPENCV8 views 0.5.
+  const double chosen_ms = weighted_mean_square_px2(data, out->chosen);
+  const double spline_ms = weighted_mean_square_px2(data, *spline);
+  const int extra_params = static_cast<int>(spline->model.intrinsics.size() - out->chosen.model.intrinsics.size());
+  const int dof = 2 * spline->inliers - static_cast<int>(spline->model.intrinsics.size()) -
+                  6 * static_cast<int>(spline->views_used.size());
+  const double f_stat = spline_ms > 0 && extra_params > 0 && dof > 0
+                            ? (chosen_ms - spline_ms) / spline_ms * dof / extra_params
+                            : 0.0;
+  const bool switch_to_spline = d->rms_px > kSplineCheckSigmas * sigma && f_stat > kSplineCheckF;
+  char buf[512];
   std::snprintf(buf, sizeof buf,
                 "spline cross-check (not cross-validated): projection differs from %s by %.3f px "
-                "RMS over the central 60%%, %.1f x its uncertainty at the centre: %s",
-                out->chosen.model.lensmodel.c_str(), d->rms_px, d->rms_px / sigma,
+                "RMS over the central 60%%, %.1f x its uncertainty at the centre; fit F = %.2f: %s",
+                out->chosen.model.lensmodel.c_str(), d->rms_px, d->rms_px / sigma, f_stat,
                 switch_to_spline ? "chosen" : "not chosen");
-  e.error = buf;
+  e.note = buf;
   out->evidence.push_back(e);
   if (switch_to_spline) out->chosen = std::move(*spline);
 }
@@ -243,6 +278,7 @@ Result<ModelSelection> select_model(const CalibrationData& data, const SolveOpti
   out.cross_validation = by_views ? "views" : "corners";
   int best = -1;
   std::vector<CornerResidual> best_heldout;
+  double best_heldout_px = 0;
   int misses = 0;
   std::vector<Solution> solutions;
   for (const auto& name : candidates) {
@@ -275,9 +311,15 @@ Result<ModelSelection> select_model(const CalibrationData& data, const SolveOpti
     out.evidence.push_back(e);
     solutions.push_back(std::move(*s));
     const int idx = static_cast<int>(out.evidence.size()) - 1;
-    if (best < 0 || significantly_better(best_heldout, *h, by_views)) {
+    // A richer model wins on a held-out error lower by 5% and 0.005 px (no noise gives
+    // that on thousands of held-out corners; a gain concentrated in the few views that
+    // reach the edges is real, yet too uneven across views for the paired test), or on a
+    // smaller gain the paired test finds consistent (significantly_better).
+    const bool clearly_lower = e.heldout_px < best_heldout_px * 0.95 - 0.005;
+    if (best < 0 || clearly_lower || significantly_better(best_heldout, *h, by_views)) {
       best = idx;
       best_heldout = std::move(*h);
+      best_heldout_px = e.heldout_px;
       misses = 0;
     } else if (++misses >= 2) {
       break;

@@ -224,7 +224,8 @@ nlohmann::json to_json(const CalibrationReport& r) {
       row["solve_s"] = e.solve_s;
       row["cv_s"] = e.cv_s;
     } else {
-      row["error"] = e.error;
+      if (!e.error.empty()) row["error"] = e.error;
+      if (!e.note.empty()) row["note"] = e.note;
     }
     ev.push_back(row);
   }
@@ -255,7 +256,7 @@ nlohmann::json to_json(const CalibrationReport& r) {
 std::string to_text(const CalibrationReport& r) {
   const auto& s = r.solution;
   std::string t;
-  char buf[256];
+  char buf[768];
   if (!r.evidence.empty()) {
     t += r.cross_validation == "corners"
              ? "model selection (held-out: every third corner left out of the fit; fewer than 6 views):\n"
@@ -266,6 +267,9 @@ std::string to_text(const CalibrationReport& r) {
         std::snprintf(buf, sizeof buf, "  %-26s %6d %8.4f %11.4f %8.3f %8.3f%s\n", e.lensmodel.c_str(),
                       e.params, e.rms_px, e.heldout_px, e.solve_s, e.cv_s,
                       e.lensmodel == s.model.lensmodel ? "  <- chosen" : "");
+      else if (!e.note.empty())
+        std::snprintf(buf, sizeof buf, "  %-26s %6d %8.4f  %s%s\n", e.lensmodel.c_str(), e.params, e.rms_px,
+                      e.note.c_str(), e.lensmodel == s.model.lensmodel ? "  <- chosen" : "");
       else
         std::snprintf(buf, sizeof buf, "  %-26s %6d  failed: %s\n", e.lensmodel.c_str(), e.params,
                       e.error.c_str());

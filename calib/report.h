@@ -47,6 +47,7 @@ struct ModelEvidence {
   double cv_s = 0;     // the cross-validation folds
   bool ok = false;
   std::string error;
+  std::string note;  // a check that is not a cross-validated candidate (the spline cross-check)
 };
 
 struct CalibrationReport {
