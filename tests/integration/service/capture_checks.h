@@ -77,4 +77,40 @@ inline void check_bracket_is_linear(const Daemon& daemon, const std::string& cam
     EXPECT_NEAR(per_us[i] / per_us[0], 1.0, 0.02) << "signal/exposure of " << (1 << i) << " ms vs 1 ms";
 }
 
+// One daemon shared by a suite's tests (they only read its cameras and add jobs), on the
+// test camera and scene (write_test_specs). Suite is the derived fixture (CRTP), so each
+// suite owns its daemon. start_shared_daemon() is called from the suite's SetUpTestSuite
+// with `make_args(dir)` giving the daemon's arguments and launch prefix.
+template <class Suite>
+class SharedDaemonSuite : public ::testing::Test {
+ protected:
+  struct Launch {
+    std::vector<std::string> args;
+    std::vector<std::string> prefix;
+  };
+  template <class MakeLaunch>
+  static void start_shared_daemon(const std::string& name, MakeLaunch make_launch) {
+    dir_ = new fs::path(fresh_test_dir(name));
+    write_test_specs(*dir_);
+    daemon_ = new Daemon();
+    const Launch launch = make_launch(*dir_);
+    started_ = daemon_->start(*dir_, launch.args, launch.prefix);
+    if (started_) camera_ = "/v1/cameras/" + url_segment(daemon_->camera_id());
+  }
+  static void TearDownTestSuite() {
+    if (daemon_) daemon_->stop(SIGTERM);
+    delete daemon_;
+    daemon_ = nullptr;
+    if (dir_) fs::remove_all(*dir_);
+    delete dir_;
+    dir_ = nullptr;
+  }
+  void SetUp() override { ASSERT_TRUE(started_) << (daemon_ ? daemon_->log() : ""); }
+
+  static inline fs::path* dir_ = nullptr;
+  static inline Daemon* daemon_ = nullptr;
+  static inline bool started_ = false;
+  static inline std::string camera_;
+};
+
 }  // namespace camlab::testing

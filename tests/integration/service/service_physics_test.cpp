@@ -14,28 +14,15 @@ namespace {
 using namespace camlab::testing;
 using nlohmann::json;
 
-class ServicePhysics : public ::testing::Test {
+class ServicePhysics : public SharedDaemonSuite<ServicePhysics> {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new fs::path(fresh_test_dir("physics"));
-    write_test_specs(*dir_);
-    daemon_ = new Daemon();
-    started_ = daemon_->start(*dir_, {"--no-scan", "--camera-spec", (*dir_ / "camera.json").string(), "--scene",
-                                      (*dir_ / "scene.json").string()});
-    if (started_) camera_ = "/v1/cameras/" + url_segment(daemon_->camera_id());
+    start_shared_daemon("physics", [](const fs::path& dir) {
+      return Launch{{"--no-scan", "--camera-spec", (dir / "camera.json").string(), "--scene",
+                     (dir / "scene.json").string()},
+                    {}};
+    });
   }
-  static void TearDownTestSuite() {
-    if (daemon_) daemon_->stop(SIGTERM);
-    delete daemon_;
-    fs::remove_all(*dir_);
-    delete dir_;
-  }
-  void SetUp() override { ASSERT_TRUE(started_) << (daemon_ ? daemon_->log() : ""); }
-
-  static inline fs::path* dir_ = nullptr;
-  static inline Daemon* daemon_ = nullptr;
-  static inline bool started_ = false;
-  static inline std::string camera_;
 };
 
 TEST_F(ServicePhysics, BracketSignalIsProportionalToExposure) { check_bracket_is_linear(*daemon_, camera_); }

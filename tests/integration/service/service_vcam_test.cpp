@@ -10,30 +10,15 @@ namespace {
 using namespace camlab::testing;
 using nlohmann::json;
 
-class ServiceVcam : public ::testing::Test {
+class ServiceVcam : public SharedDaemonSuite<ServiceVcam> {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new fs::path(fresh_test_dir("vcam"));
-    write_test_specs(*dir_);
-    daemon_ = new Daemon();
-    const std::string camera = (*dir_ / "camera.json").string();
-    started_ = daemon_->start(*dir_, {"--no-virtual", "--device", "/dev/video0", "--device-spec", camera},
-                              {CAMLAB_CLI_PATH, "vcam", "run", "--camera", camera, "--scene",
-                               (*dir_ / "scene.json").string(), "--"});
-    if (started_) camera_ = "/v1/cameras/" + url_segment(daemon_->camera_id());
+    start_shared_daemon("vcam", [](const fs::path& dir) {
+      const std::string camera = (dir / "camera.json").string();
+      return Launch{{"--no-virtual", "--device", "/dev/video0", "--device-spec", camera},
+                    {CAMLAB_CLI_PATH, "vcam", "run", "--camera", camera, "--scene", (dir / "scene.json").string(), "--"}};
+    });
   }
-  static void TearDownTestSuite() {
-    if (daemon_) daemon_->stop(SIGTERM);
-    delete daemon_;
-    fs::remove_all(*dir_);
-    delete dir_;
-  }
-  void SetUp() override { ASSERT_TRUE(started_) << (daemon_ ? daemon_->log() : ""); }
-
-  static inline fs::path* dir_ = nullptr;
-  static inline Daemon* daemon_ = nullptr;
-  static inline bool started_ = false;
-  static inline std::string camera_;
 };
 
 TEST_F(ServiceVcam, TheUserSpaceDeviceIsServedAsAKernelCamera) {
