@@ -1,6 +1,7 @@
 // Joint fit of two overlapping edges (edge_pair.h): Levenberg-Marquardt over eight
 // parameters with the analytic Jacobian of the pixel-integrated pillbox model.
 #include "analysis/edge_pair.h"
+#include "analysis/levenberg_marquardt.h"
 
 #include <algorithm>
 #include <array>
@@ -115,34 +116,20 @@ struct Solution {
 Solution levenberg_marquardt(const std::vector<Sample>& samples, const Line& l1, const Line& l2, Params p,
                              double half_length, double reach, bool pin_diameter = false) {
   Normals ne = evaluate(samples, l1, l2, p, false);
-  double lambda = 1e-3;
+  const LmOutcome lm = levenberg_marquardt_loop(
+      &p, &ne, kMaxIterations,
+      [&](const Normals& n, double lambda, Params* step) { return solve_step(n, lambda, pin_diameter, step); },
+      [&](const Params& trial) { return evaluate(samples, l1, l2, trial, false); },
+      [&](const Params& step, const Params&) {
+        return std::fabs(step[kOff1]) < 1e-9 && std::fabs(step[kOff2]) < 1e-9 && std::fabs(step[kQ]) < 1e-9 &&
+               (std::fabs(step[kAng1]) + std::fabs(step[kAng2])) * half_length < 1e-9;
+      },
+      [&](const Params& q) {
+        return std::fabs(q[kQ]) > 2 * reach || std::fabs(q[kOff1]) > reach || std::fabs(q[kOff2]) > reach;
+      });
   Solution sol;
-  bool runaway = false;
-  while (sol.iterations < kMaxIterations && !sol.converged && !runaway) {
-    ++sol.iterations;
-    Params step{};
-    Normals trial_ne;
-    trial_ne.cost = kInf;
-    Params trial = p;
-    if (solve_step(ne, lambda, pin_diameter, &step)) {
-      for (int i = 0; i < kParams; ++i) trial[i] += step[i];
-      trial_ne = evaluate(samples, l1, l2, trial, false);
-    }
-    if (!(trial_ne.cost < ne.cost)) {
-      lambda *= 10.0;
-      sol.converged = lambda > 1e12;
-      continue;
-    }
-    const double decrease = ne.cost - trial_ne.cost;
-    p = trial;
-    ne = trial_ne;
-    lambda = std::max(lambda / 10.0, 1e-12);
-    sol.converged = decrease <= 1e-13 * ne.cost ||
-                    (std::fabs(step[kOff1]) < 1e-9 && std::fabs(step[kOff2]) < 1e-9 && std::fabs(step[kQ]) < 1e-9 &&
-                     (std::fabs(step[kAng1]) + std::fabs(step[kAng2])) * half_length < 1e-9);
-    runaway = std::fabs(p[kQ]) > 2 * reach || std::fabs(p[kOff1]) > reach || std::fabs(p[kOff2]) > reach;
-  }
-  sol.converged = sol.converged && !runaway;
+  sol.iterations = lm.iterations;
+  sol.converged = lm.converged && !lm.runaway;
   sol.p = p;
   sol.cost = ne.cost;
   return sol;

@@ -1,6 +1,7 @@
 // Pillbox edge model and its slanted-edge fit. The header is the reference; this file
 // says how the closed forms stay accurate and why the fit is set up as it is.
 #include "analysis/edge_spread.h"
+#include "analysis/levenberg_marquardt.h"
 
 #include <algorithm>
 #include <array>
@@ -335,37 +336,24 @@ struct Solution {
 
 Solution levenberg_marquardt(const std::vector<Sample>& samples, Params p, bool fit_angle,
                              double half_length_px, double half_width_px) {
-  Solution sol;
   Normals ne = evaluate(samples, p, fit_angle, false);
-  double lambda = 1e-3;
-  while (sol.iterations < kMaxIterations && !sol.converged && !sol.runaway) {
-    ++sol.iterations;
-    Params step{};
-    Normals trial_ne;
-    trial_ne.cost = kInf;
-    Params trial = p;
-    if (solve_normals(ne, lambda, fit_angle, &step)) {
-      for (int i = 0; i < kParams; ++i) trial[i] += step[i];
-      trial_ne = evaluate(samples, trial, fit_angle, false);
-    }
-    if (!(trial_ne.cost < ne.cost)) {
-      // No decrease even for a short, gradient-like step: at the minimum to rounding.
-      lambda *= 10.0;
-      sol.converged = lambda > 1e12;
-      continue;
-    }
-    const double decrease = ne.cost - trial_ne.cost;
-    p = trial;
-    ne = trial_ne;
-    lambda = std::max(lambda / 10.0, 1e-12);
-    const double level_tol = 1e-9 * std::fabs(p[kLight] - p[kDark]);
-    sol.converged = decrease <= 1e-13 * ne.cost ||
-                    (std::fabs(step[kOffset]) < 1e-9 && std::fabs(step[kQ]) < 1e-9 &&
-                     std::fabs(step[kAngle]) * half_length_px < 1e-9 &&
-                     std::fabs(step[kDark]) <= level_tol && std::fabs(step[kLight]) <= level_tol);
-    sol.runaway = std::fabs(p[kQ]) > 4.0 * half_width_px ||
-                  std::fabs(p[kOffset]) > 2.0 * half_width_px;
-  }
+  const LmOutcome lm = levenberg_marquardt_loop(
+      &p, &ne, kMaxIterations,
+      [&](const Normals& n, double lambda, Params* step) { return solve_normals(n, lambda, fit_angle, step); },
+      [&](const Params& trial) { return evaluate(samples, trial, fit_angle, false); },
+      [&](const Params& step, const Params& q) {
+        const double level_tol = 1e-9 * std::fabs(q[kLight] - q[kDark]);
+        return std::fabs(step[kOffset]) < 1e-9 && std::fabs(step[kQ]) < 1e-9 &&
+               std::fabs(step[kAngle]) * half_length_px < 1e-9 && std::fabs(step[kDark]) <= level_tol &&
+               std::fabs(step[kLight]) <= level_tol;
+      },
+      [&](const Params& q) {
+        return std::fabs(q[kQ]) > 4.0 * half_width_px || std::fabs(q[kOffset]) > 2.0 * half_width_px;
+      });
+  Solution sol;
+  sol.iterations = lm.iterations;
+  sol.converged = lm.converged;
+  sol.runaway = lm.runaway;
   sol.p = p;
   return sol;
 }
