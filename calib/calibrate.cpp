@@ -9,14 +9,14 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/chessboard_detector.h"
-#include "calib/corners_vnl.h"
+#include "calib/corners/chessboard_detector.h"
+#include "calib/corners/corners_vnl.h"
 #include "calib/lens_model.h"
 #include "calib/model_io.h"
 #include "calib/model_selection.h"
 #include "calib/plots.h"
 #include "calib/solver.h"
-#include "image/atomic_file.h"
+#include "base/atomic_file.h"
 #include "image/capture_folder.h"
 #include "optics/optics.h"
 

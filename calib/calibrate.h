@@ -34,7 +34,7 @@ struct CalibrateOptions {
   double focal_guess_px = 0;   // searched around, never trusted
   bool board_warp = true;
   int detect_threads = 0;      // 0: hardware concurrency, at most 16
-  std::string detector = "auto";  // auto | opencv | mrgingham (calib/chessboard_detector.h)
+  std::string detector = "auto";  // auto | opencv | mrgingham (calib/corners/chessboard_detector.h)
   // Outputs written by calibrate_folder() when not empty.
   std::filesystem::path out_cameramodel, out_report_json, out_opencv_yaml, out_corners_vnl, plots_dir;
   // Called after each image's detection (done, total, boards found so far), from the

@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/calibrate.h"
-#include "calib/chessboard_detector.h"
+#include "calib/corners/chessboard_detector.h"
 #include "calib/report.h"
 #include "commands.h"
 

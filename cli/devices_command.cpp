@@ -9,7 +9,7 @@
 #include "commands.h"
 #include "device/camera_json.h"
 #include "device/device_registry.h"
-#include "mock_device/virtual_v4l2_io.h"
+#include "mock_device/v4l2/virtual_v4l2_io.h"
 
 namespace camlab::cli {
 

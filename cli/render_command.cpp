@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "mock_device/render_capture.h"
+#include "mock_device/render/render_capture.h"
 
 namespace camlab::cli {
 

@@ -20,7 +20,7 @@
 #include "mock_device/broker/broker_protocol.h"
 #include "mock_device/broker/vcam_broker.h"
 #include "mock_device/broker/vcam_devices.h"
-#include "mock_device/fake_sysfs.h"
+#include "mock_device/v4l2/fake_sysfs.h"
 
 extern char** environ;
 

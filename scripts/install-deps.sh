@@ -7,7 +7,7 @@ packages=(
   build-essential cmake pkg-config git
   libopencv-dev          # image I/O, chessboard detection, filtering
   libmrcal-dev mrcal python3-mrcal   # lens models (C API) and mrcal's own tools for interop tests
-  libmrgingham-dev       # mrcal's chessboard detector (square boards), calib/mrgingham_corners.h
+  libmrgingham-dev       # mrcal's chessboard detector (square boards), calib/corners/mrgingham_corners.h
   libboost-dev           # Beast / Asio (header-only parts)
   nlohmann-json3-dev libcli11-dev libspdlog-dev libsqlite3-dev
   libgtest-dev libgmock-dev libbenchmark-dev

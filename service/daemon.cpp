@@ -12,14 +12,14 @@
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/signal_set.hpp>
 
-#include "service/auth.h"
-#include "service/compute_jobs.h"
-#include "service/job_store.h"
-#include "service/listener.h"
+#include "service/api/auth.h"
+#include "service/jobs/compute_jobs.h"
+#include "service/store/job_store.h"
+#include "service/http/listener.h"
 #include "service/log.h"
 #include "service/metrics.h"
-#include "service/router.h"
-#include "service/service_context.h"
+#include "service/api/router.h"
+#include "service/api/service_context.h"
 
 namespace camlab::service {
 

@@ -23,8 +23,8 @@
 #include <vector>
 
 #include "base/result.h"
-#include "mock_device/virtual_media_device.h"
-#include "mock_device/virtual_v4l2_device.h"
+#include "mock_device/v4l2/virtual_media_device.h"
+#include "mock_device/v4l2/virtual_v4l2_device.h"
 
 namespace camlab::mock {
 

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "base/result.h"
-#include "mock_device/virtual_v4l2_device.h"
+#include "mock_device/v4l2/virtual_v4l2_device.h"
 
 namespace camlab::mock {
 

@@ -4,7 +4,7 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "mock_device/fake_sysfs.h"
+#include "mock_device/v4l2/fake_sysfs.h"
 
 namespace camlab::vcam {
 
@@ -34,7 +34,7 @@ int vcam_count() { return config().count; }
 const char* redirect_sysfs_path(const char* path, std::string* storage) {
   const Config& c = config();
   if (!path || c.root.empty() || !starts_with(path, "/sys/")) return nullptr;
-  // Header-only and allocation-free (mock_device/fake_sysfs.h): the preload links none
+  // Header-only and allocation-free (mock_device/v4l2/fake_sysfs.h): the preload links none
   // of the mock device library.
   if (!camlab::mock::is_fake_sysfs_path(path, c.count)) return nullptr;
   *storage = c.root + (path + 4);  // keep everything after "/sys"

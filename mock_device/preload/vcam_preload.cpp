@@ -36,7 +36,7 @@
 #include <string>
 #include <vector>
 
-#include "mock_device/fake_sysfs.h"
+#include "mock_device/v4l2/fake_sysfs.h"
 #include "mock_device/preload/broker_client.h"
 #include "mock_device/preload/real_libc.h"
 #include "mock_device/preload/sysfs_paths.h"

@@ -1,7 +1,7 @@
 // Edge measurement: window choice, rejections, baseline removal, diffraction flag.
 #include "analysis/defocus.h"
 
-#include "analysis/edge_pair.h"
+#include "analysis/edge/edge_pair.h"
 
 #include <algorithm>
 #include <cmath>

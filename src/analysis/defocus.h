@@ -22,7 +22,7 @@
 
 #include <opencv2/core/mat.hpp>
 
-#include "analysis/edge_spread.h"
+#include "analysis/edge/edge_spread.h"
 #include "base/result.h"
 
 namespace camlab::analysis {

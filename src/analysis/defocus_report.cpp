@@ -10,7 +10,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "analysis/edge_finder.h"
+#include "analysis/edge/edge_finder.h"
 #include "image/capture_folder.h"
 #include "optics/optics.h"
 

@@ -23,7 +23,7 @@
 
 #include "analysis/coc_fits.h"
 #include "analysis/defocus.h"
-#include "analysis/edge_finder.h"
+#include "analysis/edge/edge_finder.h"
 #include "base/result.h"
 
 namespace camlab::analysis {

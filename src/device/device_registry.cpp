@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "device/v4l2_camera.h"
+#include "device/v4l2/v4l2_camera.h"
 #ifdef CAMLAB_HAVE_LIBCAMERA
 #include "device/libcamera/libcamera_camera.h"
 #endif

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "device/camera.h"
-#include "device/v4l2_io.h"
+#include "device/v4l2/v4l2_io.h"
 
 namespace camlab::device {
 

@@ -7,7 +7,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "image/atomic_file.h"
+#include "base/atomic_file.h"
 
 namespace camlab::image {
 

@@ -22,12 +22,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "analysis/defocus.h"
-#include "analysis/edge_spread.h"
+#include "analysis/edge/edge_spread.h"
 #include "analysis/focus_stack.h"
 #include "analysis_bench_previous_focus.h"
-#include "mock_device/camera_spec.h"
-#include "mock_device/renderer.h"
-#include "mock_device/scene_spec.h"
+#include "mock_device/spec/camera_spec.h"
+#include "mock_device/render/renderer.h"
+#include "mock_device/spec/scene_spec.h"
 
 namespace {
 

@@ -25,7 +25,7 @@
 
 #include <opencv2/calib3d.hpp>
 
-#include "calib/corners_vnl.h"
+#include "calib/corners/corners_vnl.h"
 #include "calib/lens_model.h"
 #include "calib/model_selection.h"
 #include "calib/mrcal_api.h"

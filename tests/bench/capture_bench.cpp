@@ -18,7 +18,7 @@
 #include <cstring>
 #include <string>
 
-#include "device/v4l2_camera.h"
+#include "device/v4l2/v4l2_camera.h"
 
 namespace {
 

@@ -22,9 +22,9 @@
 #include <vector>
 
 #include "capture/capture_runner.h"
-#include "device/v4l2_camera.h"
+#include "device/v4l2/v4l2_camera.h"
 #include "image/capture_folder.h"
-#include "mock_device/virtual_v4l2_io.h"
+#include "mock_device/v4l2/virtual_v4l2_io.h"
 
 namespace {
 

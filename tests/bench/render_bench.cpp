@@ -20,8 +20,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "analysis/edge_spread.h"
-#include "mock_device/renderer.h"
+#include "analysis/edge/edge_spread.h"
+#include "mock_device/render/renderer.h"
 #include "optics/optics.h"
 
 namespace {

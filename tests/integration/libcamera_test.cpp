@@ -1,8 +1,8 @@
 // libcamera against the virtual camera, inside `camlab vcam run`: libcamera's own tools
 // (cam -l, cam --capture), v4l2-compliance on the media node, and camlab's libcamera
 // backend (enumerate, controls, an exposure bracket) all see the virtual camera as a
-// UVC webcam: the broker serves /dev/media0 (mock_device/virtual_media_device.h) and the
-// preload routes it and the fake sysfs (mock_device/fake_sysfs.h) in every process.
+// UVC webcam: the broker serves /dev/media0 (mock_device/v4l2/virtual_media_device.h) and the
+// preload routes it and the fake sysfs (mock_device/v4l2/fake_sysfs.h) in every process.
 //
 // camlab's backend runs in a child process under `camlab vcam run` (this executable,
 // started with --libcamera-child), which prints what it measured as JSON; the checks

@@ -18,8 +18,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "device/v4l2_io.h"
-#include "device/v4l2_camera.h"
+#include "device/v4l2/v4l2_io.h"
+#include "device/v4l2/v4l2_camera.h"
 #include "mock_device/broker/broker_protocol.h"
 #include "test_specs.h"
 

@@ -9,8 +9,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "daemon_harness.h"
-#include "service/router.h"
-#include "service/service_context.h"
+#include "service/api/router.h"
+#include "service/api/service_context.h"
 
 namespace {
 

@@ -9,7 +9,7 @@
 
 #include "../../integration/cli_runner.h"
 #include "capture_fixture.h"
-#include "mock_device/render_capture.h"
+#include "mock_device/render/render_capture.h"
 
 namespace camlab::analysis {
 namespace {

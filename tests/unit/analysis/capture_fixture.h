@@ -13,9 +13,9 @@
 #include <nlohmann/json.hpp>
 
 #include "image/capture_folder.h"
-#include "mock_device/camera_spec.h"
-#include "mock_device/renderer.h"
-#include "mock_device/scene_spec.h"
+#include "mock_device/spec/camera_spec.h"
+#include "mock_device/render/renderer.h"
+#include "mock_device/spec/scene_spec.h"
 
 namespace camlab::analysis::testing {
 

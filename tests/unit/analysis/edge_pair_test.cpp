@@ -1,7 +1,7 @@
-// Joint fit of two overlapping edges (analysis/edge_pair.h) and its use by measure_edge
+// Joint fit of two overlapping edges (analysis/edge/edge_pair.h) and its use by measure_edge
 // (defocus.h) against the truth: two parallel edges rendered with the exact model (the
 // superposition of two pixel-integrated pillbox steps), noise at contrast-to-noise 50.
-#include "analysis/edge_pair.h"
+#include "analysis/edge/edge_pair.h"
 
 #include <cmath>
 #include <numbers>

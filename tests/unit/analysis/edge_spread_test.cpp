@@ -14,7 +14,7 @@
 //   D = 0.5 at exactly 0 degrees, which the pixels cannot resolve: sigma is infinite);
 //   contrast-to-noise 50, 30 seeds, windows D/2 + 8 wide and max(60, 5 D) long:
 //   |bias| <= 0.014 px, spread 0.011-0.043 px for D = 1..30 (reported sigma within 25%).
-#include "analysis/edge_spread.h"
+#include "analysis/edge/edge_spread.h"
 
 #include <algorithm>
 #include <chrono>

@@ -12,7 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "capture_fixture.h"
-#include "mock_device/render_capture.h"
+#include "mock_device/render/render_capture.h"
 
 namespace camlab::analysis {
 namespace {

@@ -17,7 +17,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "capture_fixture.h"
-#include "mock_device/render_capture.h"
+#include "mock_device/render/render_capture.h"
 
 namespace camlab::analysis {
 namespace {

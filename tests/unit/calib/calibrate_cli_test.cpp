@@ -9,7 +9,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/corners_vnl.h"
+#include "calib/corners/corners_vnl.h"
 #include "calib/mrcal_api.h"
 #include "synthetic_views.h"
 #include "tests/integration/cli_runner.h"

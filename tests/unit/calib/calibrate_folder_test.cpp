@@ -11,7 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "calib/calibrate.h"
-#include "calib/corners_vnl.h"
+#include "calib/corners/corners_vnl.h"
 #include "synthetic_views.h"
 
 namespace camlab::calib {

@@ -1,7 +1,7 @@
 // The chessboard detectors against the virtual camera's truth: mrgingham
-// (calib/mrgingham_corners.h) and OpenCV (calib/chessboard_corners.h) on rendered 10x10
+// (calib/corners/mrgingham_corners.h) and OpenCV (calib/corners/chessboard_corners.h) on rendered 10x10
 // boards seen through the wide OPENCV8 lens (mock_device/examples), the detector choice
-// (calib/chessboard_detector.h) and what calibrate() records of it, and bad images.
+// (calib/corners/chessboard_detector.h) and what calibrate() records of it, and bad images.
 //
 // A square board looks the same after a quarter turn, so a detector may label it from
 // another physical corner; a labelling is matched to the truth's (mrcal's row-major
@@ -27,11 +27,11 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "calib/calibrate.h"
-#include "calib/chessboard_corners.h"
-#include "calib/chessboard_detector.h"
-#include "calib/image_8bit.h"
-#include "calib/mrgingham_corners.h"
-#include "mock_device/renderer.h"
+#include "calib/corners/chessboard_corners.h"
+#include "calib/corners/chessboard_detector.h"
+#include "calib/corners/image_8bit.h"
+#include "calib/corners/mrgingham_corners.h"
+#include "mock_device/render/renderer.h"
 
 namespace camlab::calib {
 namespace {

@@ -1,7 +1,7 @@
 // corners.vnl reading and writing (mrcal / mrgingham interop).
 #include <gtest/gtest.h>
 
-#include "calib/corners_vnl.h"
+#include "calib/corners/corners_vnl.h"
 
 namespace camlab::calib {
 namespace {

@@ -12,9 +12,9 @@
 #include <string>
 
 #include "capture/capture_plan.h"
-#include "device/v4l2_camera.h"
-#include "mock_device/capture_traits.h"
-#include "mock_device/virtual_v4l2_io.h"
+#include "device/v4l2/v4l2_camera.h"
+#include "mock_device/v4l2/capture_traits.h"
+#include "mock_device/v4l2/virtual_v4l2_io.h"
 #include "test_specs.h"
 
 namespace camlab::testing {

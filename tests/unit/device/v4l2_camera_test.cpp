@@ -1,6 +1,6 @@
 // camlab's V4L2 backend against the virtual camera's V4L2 device, in process: the
 // backend's real ioctl code (formats, controls, streaming, latency, faults) with only
-// the system-call layer replaced (mock_device/virtual_v4l2_io.h).
+// the system-call layer replaced (mock_device/v4l2/virtual_v4l2_io.h).
 #include <gtest/gtest.h>
 #include <linux/videodev2.h>
 
@@ -9,8 +9,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "device/v4l2_camera.h"
-#include "mock_device/virtual_v4l2_io.h"
+#include "device/v4l2/v4l2_camera.h"
+#include "mock_device/v4l2/virtual_v4l2_io.h"
 #include "test_specs.h"
 
 namespace camlab {

@@ -7,7 +7,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "image/atomic_file.h"
+#include "base/atomic_file.h"
 #include "image/cameramodel_file.h"
 #include "image/capture_folder.h"
 

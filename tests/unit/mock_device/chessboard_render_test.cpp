@@ -8,8 +8,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "calib/chessboard_corners.h"
-#include "mock_device/mrcal_api.h"
+#include "calib/corners/chessboard_corners.h"
+#include "mock_device/spec/mrcal_api.h"
 #include "test_specs.h"
 
 namespace camlab::mock {

@@ -3,8 +3,8 @@
 
 #include <cmath>
 
-#include "mock_device/chief_ray_table.h"
-#include "mock_device/mrcal_api.h"
+#include "mock_device/render/chief_ray_table.h"
+#include "mock_device/spec/mrcal_api.h"
 
 namespace camlab::mock {
 namespace {

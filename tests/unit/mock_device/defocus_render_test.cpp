@@ -4,7 +4,7 @@
 
 #include <cmath>
 
-#include "analysis/edge_spread.h"
+#include "analysis/edge/edge_spread.h"
 #include "optics/optics.h"
 #include "test_specs.h"
 

@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "mock_device/fake_sysfs.h"
-#include "mock_device/virtual_v4l2_io.h"
+#include "mock_device/v4l2/fake_sysfs.h"
+#include "mock_device/v4l2/virtual_v4l2_io.h"
 #include "test_specs.h"
 
 namespace camlab::mock {

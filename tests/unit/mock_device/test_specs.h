@@ -4,9 +4,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "mock_device/camera_spec.h"
-#include "mock_device/renderer.h"
-#include "mock_device/scene_spec.h"
+#include "mock_device/spec/camera_spec.h"
+#include "mock_device/render/renderer.h"
+#include "mock_device/spec/scene_spec.h"
 
 namespace camlab::mock::testing {
 

@@ -13,8 +13,8 @@
 #include <set>
 #include <vector>
 
-#include "mock_device/virtual_media_device.h"
-#include "mock_device/virtual_v4l2_io.h"
+#include "mock_device/v4l2/virtual_media_device.h"
+#include "mock_device/v4l2/virtual_v4l2_io.h"
 #include "test_specs.h"
 
 namespace camlab::mock {

@@ -1,0 +1,44 @@
+// Chessboard corner detection with OpenCV: findChessboardCornersSB (the sector-based
+// detector) finds the board, cornerSubPix refines each corner.
+//
+// Corners are returned in mrcal's order: row-major over the inner corners, corner (i, j)
+// being target point (i * spacing, j * spacing, 0). OpenCV may find the board rotated by
+// 180 degrees (a chessboard with an even/odd layout is symmetric), and a square board by
+// a quarter turn too; the caller that knows the truth or the previous view disambiguates.
+//
+// Reentrant.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "base/result.h"
+
+namespace camlab::calib {
+
+// One detected board, whichever detector found it (calib/corners/mrgingham_corners.h is the other).
+struct ChessboardCorners {
+  int cols = 0;  // inner corners per row
+  int rows = 0;
+  std::vector<cv::Point2d> corners_px;  // cols * rows, pixel centres at integers
+  // cols * rows, mrcal's weight of each corner: 0.5^level for a corner refined at image
+  // pyramid level `level` (mrgingham), 1 for a full-resolution corner (OpenCV).
+  std::vector<double> weights;
+  std::string detector;  // "opencv" or "mrgingham"
+};
+
+// Finds a cols x rows inner-corner chessboard in a single-channel 8- or 16-bit image.
+// 16-bit input is scaled to 8 bits using its own 0.1%..99.9% range (raw sensor DN of
+// any bit depth works). Errors: "bad_image" for empty or multi-channel input,
+// "board_not_found" when the whole board is not visible.
+Result<ChessboardCorners> find_chessboard_corners(const cv::Mat& image, int cols, int rows);
+
+// Refines a detected cols x rows board's corners in place with cv::cornerSubPix (single-
+// channel 8- or 16-bit image), over a window that follows the view's smallest corner
+// spacing; a corner the refinement moves by 1.5 px or more keeps its position. Both
+// detectors use it.
+void refine_corners_subpix(const cv::Mat& image, int cols, int rows, std::vector<cv::Point2f>* corners);
+
+}  // namespace camlab::calib

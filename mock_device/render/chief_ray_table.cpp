@@ -1,0 +1,85 @@
+#include "mock_device/render/chief_ray_table.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "mock_device/spec/mrcal_api.h"
+
+namespace camlab::mock {
+
+Result<ChiefRayTable> ChiefRayTable::create(const std::string& lensmodel_name,
+                                            const std::vector<double>& intrinsics, int width_px,
+                                            int height_px) {
+  mrcal_lensmodel_t lensmodel;
+  if (!mrcal_lensmodel_from_name(&lensmodel, lensmodel_name.c_str()))
+    return make_error("bad_lensmodel", "unknown lens model " + lensmodel_name);
+  if (static_cast<int>(intrinsics.size()) != mrcal_lensmodel_num_params(&lensmodel))
+    return make_error("bad_lensmodel", lensmodel_name + " needs " +
+                                           std::to_string(mrcal_lensmodel_num_params(&lensmodel)) +
+                                           " intrinsics, got " + std::to_string(intrinsics.size()));
+  ChiefRayTable table;
+  table.width_ = width_px;
+  table.height_ = height_px;
+  table.cx_ = intrinsics[2];
+  table.cy_ = intrinsics[3];
+  const int stride = width_px + 1;
+  const size_t n = static_cast<size_t>(stride) * (height_px + 1);
+  std::vector<mrcal_point2_t> q(n);
+  for (int j = 0; j <= height_px; ++j)
+    for (int i = 0; i <= width_px; ++i) q[j * stride + i] = {.x = i - 0.5, .y = j - 0.5};
+  std::vector<mrcal_point3_t> v(n);
+  // mrcal_unproject reports failure for the whole batch if any point fails to converge;
+  // the round trip below judges each point on its own, so its return value is not needed.
+  (void)mrcal_unproject(v.data(), q.data(), static_cast<int>(n), &lensmodel, intrinsics.data());
+  std::vector<mrcal_point2_t> q_back(n);
+  mrcal_project(q_back.data(), nullptr, nullptr, v.data(), static_cast<int>(n), &lensmodel,
+                intrinsics.data());
+
+  table.xn_.resize(n);
+  table.yn_.resize(n);
+  table.valid_.assign(n, 0);
+  for (size_t k = 0; k < n; ++k) {
+    const auto& p = v[k];
+    const double error_px = std::hypot(q_back[k].x - q[k].x, q_back[k].y - q[k].y);
+    const double norm = std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z);
+    // Rays within 1 degree of the lens plane cannot meet a plane of focus in front.
+    const bool ok = std::isfinite(error_px) && error_px < 1e-3 && norm > 0 && p.z > 0.0175 * norm;
+    table.valid_[k] = ok;
+    table.xn_[k] = ok ? static_cast<float>(p.x / p.z) : 0.f;
+    table.yn_[k] = ok ? static_cast<float>(p.y / p.z) : 0.f;
+  }
+  return table;
+}
+
+ChiefRayTable ChiefRayTable::rescaled(double ratio) const {
+  ChiefRayTable out = *this;
+  if (ratio == 1.0) return out;
+  const int stride = width_ + 1;
+  for (int j = 0; j <= height_; ++j) {
+    for (int i = 0; i <= width_; ++i) {
+      // Where in the reference table (corner index space) this corner's ray lives.
+      const double qx = cx_ + ((i - 0.5) - cx_) / ratio + 0.5;
+      const double qy = cy_ + ((j - 0.5) - cy_) / ratio + 0.5;
+      const int i0 = std::clamp(static_cast<int>(std::floor(qx)), 0, width_ - 1);
+      const int j0 = std::clamp(static_cast<int>(std::floor(qy)), 0, height_ - 1);
+      const double a = std::clamp(qx - i0, 0.0, 1.0);
+      const double b = std::clamp(qy - j0, 0.0, 1.0);
+      const size_t k00 = j0 * stride + i0, k10 = k00 + 1, k01 = k00 + stride, k11 = k01 + 1;
+      const size_t k = static_cast<size_t>(j) * stride + i;
+      const bool ok = valid_[k00] && valid_[k10] && valid_[k01] && valid_[k11];
+      out.valid_[k] = ok;
+      out.xn_[k] = static_cast<float>((1 - b) * ((1 - a) * xn_[k00] + a * xn_[k10]) +
+                                      b * ((1 - a) * xn_[k01] + a * xn_[k11]));
+      out.yn_[k] = static_cast<float>((1 - b) * ((1 - a) * yn_[k00] + a * yn_[k10]) +
+                                      b * ((1 - a) * yn_[k01] + a * yn_[k11]));
+    }
+  }
+  return out;
+}
+
+double ChiefRayTable::invalid_fraction() const {
+  if (valid_.empty()) return 1.0;
+  return 1.0 - static_cast<double>(std::count(valid_.begin(), valid_.end(), 1)) / valid_.size();
+}
+
+}  // namespace camlab::mock

@@ -1,0 +1,158 @@
+#include "mock_device/render/frame_truth.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "image/cameramodel_file.h"
+#include "mock_device/spec/mrcal_api.h"
+#include "optics/optics.h"
+
+namespace camlab::mock {
+
+namespace {
+
+double coc_px_at_depth(const CameraSpec& camera, double f_number, double focus_mm,
+                       double depth_mm) {
+  auto coc = optics::circle_of_confusion_mm(camera.lens.focal_mm, f_number, focus_mm, depth_mm);
+  // A point inside the focal length has no real image: report the aperture-sized blur
+  // the lens would give at the focal length, never NaN.
+  const double coc_mm = coc ? *coc : camera.lens.focal_mm / f_number;
+  return coc_mm / (camera.sensor.pixel_pitch_um * 1e-3);
+}
+
+// Projects camera-frame points (m) through the model; nullopt-like flag when behind the
+// camera or off the imager.
+std::vector<nlohmann::json> project_points(const CameraSpec& camera,
+                                           const std::vector<double>& intrinsics,
+                                           const std::vector<std::array<double, 3>>& points,
+                                           bool null_if_off_imager) {
+  mrcal_lensmodel_t lensmodel;
+  mrcal_lensmodel_from_name(&lensmodel, camera.lens.model.c_str());
+  std::vector<mrcal_point3_t> p(points.size());
+  for (size_t i = 0; i < points.size(); ++i) p[i] = {.x = points[i][0], .y = points[i][1], .z = points[i][2]};
+  std::vector<mrcal_point2_t> q(points.size());
+  mrcal_project(q.data(), nullptr, nullptr, p.data(), static_cast<int>(p.size()), &lensmodel,
+                intrinsics.data());
+  std::vector<nlohmann::json> out;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const bool in_front = points[i][2] > 0;
+    const bool on_imager = q[i].x >= -0.5 && q[i].y >= -0.5 &&
+                           q[i].x <= camera.sensor.width_px - 0.5 &&
+                           q[i].y <= camera.sensor.height_px - 0.5;
+    if (!in_front || !std::isfinite(q[i].x) || !std::isfinite(q[i].y) ||
+        (null_if_off_imager && !on_imager))
+      out.emplace_back(nullptr);
+    else
+      out.push_back({q[i].x, q[i].y});
+  }
+  return out;
+}
+
+}  // namespace
+
+CocRange predicted_coc(const CameraSpec& camera, const TargetSurface& surface, double f_number,
+                       double focus_distance_mm) {
+  const TargetSpec& t = surface.spec();
+  const double us[] = {t.x_min_m(), t.x_max_m(), t.x_min_m(), t.x_max_m()};
+  const double vs[] = {t.y_min_m(), t.y_min_m(), t.y_max_m(), t.y_max_m()};
+  CocRange range;
+  range.at_origin_px = coc_px_at_depth(camera, f_number, focus_distance_mm,
+                                       surface.to_camera(0, 0)[2] * 1e3);
+  range.min_px = range.max_px = range.at_origin_px;
+  for (int i = 0; i < 4; ++i) {
+    const double depth_m = surface.to_camera(us[i], vs[i])[2];
+    if (depth_m <= 0) continue;  // behind the lens: not imaged
+    const double c = coc_px_at_depth(camera, f_number, focus_distance_mm, depth_m * 1e3);
+    range.min_px = std::min(range.min_px, c);
+    range.max_px = std::max(range.max_px, c);
+  }
+  // A plane that crosses the plane of focus is sharp somewhere on it.
+  double z_min = 1e300, z_max = -1e300;
+  for (int i = 0; i < 4; ++i) {
+    const double z = surface.to_camera(us[i], vs[i])[2] * 1e3;
+    z_min = std::min(z_min, z);
+    z_max = std::max(z_max, z);
+  }
+  if (z_min <= focus_distance_mm && focus_distance_mm <= z_max) range.min_px = 0;
+  return range;
+}
+
+std::string truth_cameramodel_text(const CameraSpec& camera, const std::vector<double>& intrinsics) {
+  image::CameraModelText model;
+  model.lensmodel = camera.lens.model;
+  model.intrinsics = intrinsics;
+  model.imagersize = {static_cast<unsigned>(camera.sensor.width_px),
+                      static_cast<unsigned>(camera.sensor.height_px)};
+  model.comment = "camlab virtual camera truth: " + camera.name;
+  return image::to_cameramodel_text(model);
+}
+
+nlohmann::json make_frame_truth(const TruthInputs& in) {
+  const CameraSpec& camera = *in.camera;
+  nlohmann::json targets = nlohmann::json::array();
+  for (const auto& surface : *in.surfaces) {
+    const TargetSpec& spec = surface.spec();
+    const RtCamTarget& rt = in.scene->pose(spec, in.view);
+    const auto origin = surface.to_camera(0, 0);
+    const CocRange coc = predicted_coc(camera, surface, in.f_number, in.focus_distance_mm);
+    nlohmann::json target = {
+        {"name", spec.name},
+        {"type", target_type_name(spec.type)},
+        {"rt_cam_target", rt},
+        {"distance_m", origin[2]},  // along the optical axis: the thin lens's z_o
+        {"range_m", std::sqrt(origin[0] * origin[0] + origin[1] * origin[1] + origin[2] * origin[2])},
+        {"coc_px", {{"at_origin", coc.at_origin_px}, {"min", coc.min_px}, {"max", coc.max_px}}},
+    };
+    if (spec.type == TargetType::kChessboard) {
+      // mrcal's order: row-major over the inner corners, corner (i, j) at
+      // (i * square, j * square, 0) in the target frame.
+      std::vector<std::array<double, 3>> points;
+      for (int j = 0; j < spec.corners_rows; ++j)
+        for (int i = 0; i < spec.corners_cols; ++i)
+          points.push_back(surface.to_camera(i * spec.square_m, j * spec.square_m));
+      target["inner_corners"] = {spec.corners_cols, spec.corners_rows};
+      target["square_m"] = spec.square_m;
+      target["corners_px"] = project_points(camera, in.intrinsics, points, true);
+    }
+    if (spec.type == TargetType::kSlantedEdge) {
+      // The edge segment inside the target's rectangle, through the origin along
+      // (sin a, cos a); its normal (cos a, -sin a) points to the light side.
+      const double a = spec.angle_deg * std::numbers::pi / 180.0;
+      const double ex = std::sin(a), ey = std::cos(a);
+      const double half_len = std::min(std::abs(ex) > 1e-12 ? spec.width_m / 2 / std::abs(ex) : 1e300,
+                                       std::abs(ey) > 1e-12 ? spec.height_m / 2 / std::abs(ey) : 1e300);
+      const std::vector<std::array<double, 3>> points = {
+          surface.to_camera(-half_len * ex, -half_len * ey), surface.to_camera(0, 0),
+          surface.to_camera(half_len * ex, half_len * ey),
+          surface.to_camera(1e-3 * std::cos(a), -1e-3 * std::sin(a))};
+      const auto q = project_points(camera, in.intrinsics, points, false);
+      target["edge_px"] = {{"start", q[0]}, {"middle", q[1]}, {"end", q[2]},
+                           {"light_side_point", q[3]}};
+      target["angle_deg"] = spec.angle_deg;
+    }
+    target["dark_reflectance"] = spec.dark_reflectance;
+    target["light_reflectance"] = spec.light_reflectance;
+    targets.push_back(std::move(target));
+  }
+  const double pitch_mm = camera.sensor.pixel_pitch_um * 1e-3;
+  return {
+      {"cameramodel", truth_cameramodel_text(camera, in.intrinsics)},
+      {"lensmodel", camera.lens.model},
+      {"intrinsics", in.intrinsics},
+      {"imagersize", {camera.sensor.width_px, camera.sensor.height_px}},
+      {"pixel_pitch_um", camera.sensor.pixel_pitch_um},
+      {"focal_mm", camera.lens.focal_mm},
+      {"lens_to_sensor_mm", in.lens_to_sensor_mm},
+      {"focus_distance_m", in.focus_distance_mm / 1e3},  // null when infinite
+      {"f_number", in.f_number},
+      {"aperture_mm", camera.lens.focal_mm / in.f_number},
+      {"airy_diameter_px", 2.44 * 550e-6 * in.f_number / pitch_mm},
+      {"baseline_blur_sigma_px", camera.lens.baseline_blur_sigma_px},
+      {"electrons_per_unit_reflectance", in.electrons_per_unit_reflectance},
+      {"view", in.view},
+      {"targets", std::move(targets)},
+  };
+}
+
+}  // namespace camlab::mock

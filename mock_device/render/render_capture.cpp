@@ -1,0 +1,181 @@
+#include "mock_device/render/render_capture.h"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "image/capture_folder.h"
+#include "mock_device/render/frame_truth.h"
+#include "optics/optics.h"
+
+namespace camlab::mock {
+
+namespace {
+
+constexpr int kMaxFrames = 100000;
+
+Result<double> parse_number(const std::string& text, const std::string& context) {
+  try {
+    size_t used = 0;
+    const double value = std::stod(text, &used);
+    if (used != text.size() || !std::isfinite(value)) throw std::invalid_argument(text);
+    return value;
+  } catch (const std::exception&) {
+    return make_error("bad_argument", context + ": '" + text + "' is not a number");
+  }
+}
+
+const char* pixel_format_for(int bit_depth) {
+  switch (bit_depth) {
+    case 8: return "GREY";
+    case 10: return "Y10";
+    case 12: return "Y12";
+    case 14: return "Y14";
+    default: return "Y16";
+  }
+}
+
+}  // namespace
+
+Result<Sweep> parse_sweep(const std::string& text) {
+  const auto eq = text.find('=');
+  if (eq == std::string::npos || eq == 0)
+    return make_error("bad_argument", "sweep '" + text +
+                                          "' must be name=v1,v2,... or name=start:stop:step");
+  Sweep sweep;
+  sweep.parameter = text.substr(0, eq);
+  const std::string values = text.substr(eq + 1);
+  if (values.find(':') != std::string::npos) {
+    std::vector<double> parts;
+    std::stringstream in(values);
+    for (std::string part; std::getline(in, part, ':');) {
+      double v;
+      CAMLAB_ASSIGN(v, parse_number(part, "sweep " + sweep.parameter));
+      parts.push_back(v);
+    }
+    if (parts.size() != 3 || parts[2] == 0 || (parts[1] - parts[0]) / parts[2] < 0)
+      return make_error("bad_argument", "sweep range '" + values +
+                                            "' must be start:stop:step with a step towards stop");
+    const double count = std::floor((parts[1] - parts[0]) / parts[2] + 1e-9) + 1;
+    if (count > kMaxFrames)
+      return make_error("out_of_range", "sweep range gives " + std::to_string(count) +
+                                            " values; at most " + std::to_string(kMaxFrames));
+    for (int i = 0; i < static_cast<int>(count); ++i) sweep.values.push_back(parts[0] + i * parts[2]);
+  } else {
+    std::stringstream in(values);
+    for (std::string part; std::getline(in, part, ',');) {
+      double v;
+      CAMLAB_ASSIGN(v, parse_number(part, "sweep " + sweep.parameter));
+      sweep.values.push_back(v);
+    }
+  }
+  if (sweep.values.empty()) return make_error("bad_argument", "sweep '" + text + "' has no values");
+  return sweep;
+}
+
+Status apply_setting(const Renderer& renderer, const std::string& name, double value,
+                     RenderSettings* settings) {
+  if (name == "exposure_us") settings->exposure_us = value;
+  else if (name == "gain") settings->gain = value;
+  else if (name == "f_number") settings->f_number = value;
+  else if (name == "focus_position") {
+    if (value != std::round(value))
+      return make_error("bad_argument", "focus_position must be a whole number of steps, not " +
+                                            std::to_string(value));
+    settings->focus_position = static_cast<int>(value);
+  } else if (name == "focus_m") {
+    const LensSpec& lens = renderer.camera().lens;
+    auto z_s = optics::lens_to_sensor_mm(lens.focal_mm, value * 1e3);
+    if (!z_s) return make_error(z_s.error().code, "focus_m = " + std::to_string(value) + ": " + z_s.error().message);
+    // The focus motor moves in steps: the nearest step, reported as what is in effect.
+    settings->focus_position = static_cast<int>(std::lround((*z_s - lens.focal_mm) / lens.focus.extension_mm_per_step));
+  } else {
+    return make_error("bad_argument", "unknown setting '" + name +
+                                          "' (exposure_us, gain, f_number, focus_position, focus_m)");
+  }
+  return renderer.validate(*settings);
+}
+
+Result<RenderCaptureSummary> render_capture(Renderer& renderer, const RenderCaptureRequest& request) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<int> views = request.views;
+  if (views.empty())
+    for (int v = 0; v < renderer.scene().view_count; ++v) views.push_back(v);
+  for (int v : views)
+    if (v < 0 || v >= renderer.scene().view_count)
+      return make_error("out_of_range", "view " + std::to_string(v) + " is not in 0.." +
+                                            std::to_string(renderer.scene().view_count - 1));
+  if (request.repeats < 1 || request.repeats > 1000)
+    return make_error("out_of_range", "repeats = " + std::to_string(request.repeats) + " is not in [1, 1000]");
+
+  // Every setting is checked before the first frame, so a bad value loses no work.
+  std::vector<RenderSettings> settings_list;
+  if (request.sweep) {
+    for (double value : request.sweep->values) {
+      RenderSettings s = request.base;
+      if (Status ok = apply_setting(renderer, request.sweep->parameter, value, &s); !ok)
+        return make_error(ok.error().code, "sweep " + request.sweep->parameter + ": " + ok.error().message);
+      settings_list.push_back(s);
+    }
+  } else {
+    if (Status ok = renderer.validate(request.base); !ok) return ok.error();
+    settings_list.push_back(request.base);
+  }
+  const long total = static_cast<long>(views.size()) * settings_list.size() * request.repeats;
+  if (total > kMaxFrames)
+    return make_error("out_of_range", "the request renders " + std::to_string(total) +
+                                          " frames; at most " + std::to_string(kMaxFrames));
+
+  const CameraSpec& camera = renderer.camera();
+  nlohmann::json source = {{"backend", "virtual"}, {"camera", camera.name},
+                           {"camera_spec", camera.source}, {"scene_spec", renderer.scene().source}};
+  nlohmann::json parameters = {{"repeats", request.repeats}, {"views", views},
+                               {"seed", request.options.seed}, {"noise", request.options.noise}};
+  if (request.sweep)
+    parameters["sweep"] = {{"parameter", request.sweep->parameter}, {"values", request.sweep->values}};
+  auto writer = image::CaptureFolderWriter::create(request.out_dir, "render", source, parameters);
+  if (!writer) return writer.error();
+
+  bool constant_focus = true;
+  for (const auto& s : settings_list) constant_focus &= s.focus_position == settings_list[0].focus_position;
+  if (constant_focus) {
+    const double z_s = camera.lens.focal_mm + settings_list[0].focus_position * camera.lens.focus.extension_mm_per_step;
+    if (Status s = writer->add_file("truth.cameramodel",
+                                    truth_cameramodel_text(camera, intrinsics_at(camera, z_s)));
+        !s)
+      return s.error();
+  }
+
+  uint64_t sequence = 0;
+  for (int view : views) {
+    for (size_t k = 0; k < settings_list.size(); ++k) {
+      for (int repeat = 0; repeat < request.repeats; ++repeat, ++sequence) {
+        RenderOptions options = request.options;
+        options.frame_number = sequence;
+        auto frame = renderer.render(settings_list[k], view, options);
+        if (!frame) return frame.error();
+        image::FrameSidecar sidecar;
+        sidecar.sequence = sequence;
+        // The virtual camera's clock: frames follow each other at the frame interval.
+        sidecar.timestamp_ns = static_cast<int64_t>(std::llround(sequence * camera.timing.frame_interval_us * 1e3));
+        sidecar.clock = "virtual";
+        sidecar.pixel_format = pixel_format_for(camera.sensor.bit_depth);
+        sidecar.bit_depth = camera.sensor.bit_depth;
+        sidecar.black_level_dn = camera.sensor.black_level_dn;
+        sidecar.settings = frame->settings;
+        sidecar.labels = {{"view", view}, {"sweep_index", k}, {"repeat", repeat}};
+        sidecar.truth = frame->truth;
+        if (auto added = writer->add_frame(frame->image, sidecar); !added) return added.error();
+        if (request.progress) request.progress(static_cast<int>(sequence + 1), static_cast<int>(total), *frame);
+      }
+    }
+  }
+  if (Status s = writer->finish(); !s) return s.error();
+  RenderCaptureSummary summary;
+  summary.frames = static_cast<int>(total);
+  summary.out_dir = request.out_dir;
+  summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace camlab::mock

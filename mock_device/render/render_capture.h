@@ -1,0 +1,52 @@
+// Renders a whole capture (views x sweep values x repeats) into a capture folder: the
+// engine behind `camlab render`. Frames carry the settings in effect and their truth.
+//
+// Thread-bound: one call at a time per Renderer.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "base/result.h"
+#include "mock_device/render/renderer.h"
+
+namespace camlab::mock {
+
+// A setting varied across frames. Parameters: exposure_us, gain (linear), f_number,
+// focus_position (steps), focus_m (focus distance in metres; converted to the nearest
+// focus position).
+struct Sweep {
+  std::string parameter;
+  std::vector<double> values;
+};
+
+// "name=v1,v2,..." or "name=start:stop:step" (stop included when on the grid).
+Result<Sweep> parse_sweep(const std::string& text);
+
+// Applies one `name=value` to settings (the same names as a sweep).
+Status apply_setting(const Renderer& renderer, const std::string& name, double value,
+                     RenderSettings* settings);
+
+struct RenderCaptureRequest {
+  std::filesystem::path out_dir;
+  RenderSettings base;
+  std::optional<Sweep> sweep;
+  int repeats = 1;             // frames per setting (noise statistics need pairs)
+  std::vector<int> views;      // empty: every view of the scene
+  RenderOptions options;       // seed etc.; frame_number is set per frame
+  // Called after each frame with (frames done, frames total); may print progress.
+  std::function<void(int, int, const RenderedFrame&)> progress;
+};
+
+struct RenderCaptureSummary {
+  int frames = 0;
+  double seconds = 0;
+  std::filesystem::path out_dir;
+};
+
+Result<RenderCaptureSummary> render_capture(Renderer& renderer, const RenderCaptureRequest& request);
+
+}  // namespace camlab::mock

@@ -1,0 +1,217 @@
+#include "mock_device/render/renderer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include <opencv2/imgproc.hpp>
+
+#include "mock_device/render/frame_truth.h"
+#include "mock_device/render/radiance_integrator.h"
+#include "mock_device/render/sampling.h"
+#include "mock_device/render/sensor_model.h"
+#include "optics/optics.h"
+
+namespace camlab::mock {
+
+namespace {
+
+// Below this predicted CoC the aperture is not sampled: a disk a tenth of a pixel wide
+// changes a pixel-integrated edge by less than the rendering's own sampling noise.
+constexpr double kNegligibleCocPx = 0.1;
+
+// Lens grid k (k x k stratified samples) for a predicted CoC: the bigger the disk, the
+// more strata are needed for its edge to be resolved; docs/BENCHMARKS.md has the
+// error-against-samples table this rule was chosen from.
+int lens_grid_for_coc(double coc_px) {
+  return std::clamp(static_cast<int>(std::lround(4 + coc_px / 2.5)), 4, 16);
+}
+
+std::string range_text(double lo, double hi, const char* unit) {
+  char text[96];
+  std::snprintf(text, sizeof text, "[%g, %g] %s", lo, hi, unit);
+  return text;
+}
+
+}  // namespace
+
+Result<Renderer> Renderer::create(CameraSpec camera, SceneSpec scene) {
+  Renderer r;
+  r.camera_ = std::move(camera);
+  r.scene_ = std::move(scene);
+  auto rays = ChiefRayTable::create(r.camera_.lens.model, intrinsics_at(r.camera_, r.camera_.lens.focal_mm),
+                                    r.camera_.sensor.width_px, r.camera_.sensor.height_px);
+  if (!rays) return rays.error();
+  if (rays->invalid_fraction() > 0.5)
+    return make_error("bad_lens", "the lens model cannot unproject " +
+                                      std::to_string(static_cast<int>(rays->invalid_fraction() * 100)) +
+                                      "% of the imager; check lens.distortion");
+  r.reference_rays_ = std::make_shared<const ChiefRayTable>(std::move(*rays));
+  for (const auto& target : r.scene_.targets) r.textures_.push_back(make_texture(target));
+  return r;
+}
+
+RenderSettings Renderer::default_settings() const {
+  const ControlsSpec& c = camera_.controls;
+  RenderSettings s;
+  s.exposure_us = c.exposure_time_absolute.default_value * 100.0;
+  s.gain = static_cast<double>(c.gain.default_value) / c.gain_unity;
+  s.f_number = camera_.lens.iris.f_numbers[c.iris_absolute.default_value];
+  s.focus_position = c.focus_absolute.default_value;
+  return s;
+}
+
+Status Renderer::validate(const RenderSettings& s) const {
+  const ControlsSpec& c = camera_.controls;
+  const double exposure_min = c.exposure_time_absolute.min * 100.0;
+  const double exposure_max = c.exposure_time_absolute.max * 100.0;
+  if (!(s.exposure_us >= exposure_min && s.exposure_us <= exposure_max))
+    return make_error("out_of_range", "exposure_us = " + std::to_string(s.exposure_us) +
+                                          " is outside the camera's " +
+                                          range_text(exposure_min, exposure_max, "us") +
+                                          " (capped by the frame interval)");
+  const double gain_min = static_cast<double>(c.gain.min) / c.gain_unity;
+  const double gain_max = static_cast<double>(c.gain.max) / c.gain_unity;
+  if (!(s.gain >= gain_min && s.gain <= gain_max))
+    return make_error("out_of_range", "gain = " + std::to_string(s.gain) + " is outside " +
+                                          range_text(gain_min, gain_max, "x (linear)"));
+  if (!(s.f_number >= camera_.lens.f_number_min && s.f_number <= camera_.lens.f_number_max))
+    return make_error("out_of_range", "f_number = " + std::to_string(s.f_number) +
+                                          " is outside the lens's " +
+                                          range_text(camera_.lens.f_number_min,
+                                                     camera_.lens.f_number_max, "(f-number)"));
+  if (s.focus_position < camera_.lens.focus.position_min ||
+      s.focus_position > camera_.lens.focus.position_max)
+    return make_error("out_of_range", "focus_position = " + std::to_string(s.focus_position) +
+                                          " is outside " +
+                                          range_text(camera_.lens.focus.position_min,
+                                                     camera_.lens.focus.position_max, "(steps)"));
+  return {};
+}
+
+const ChiefRayTable& Renderer::rays_for(int focus_position) {
+  if (focus_position == 0 || camera_.lens.focus.extension_mm_per_step == 0) return *reference_rays_;
+  auto it = rays_by_focus_.find(focus_position);
+  if (it != rays_by_focus_.end()) return *it->second;
+  if (rays_by_focus_.size() >= 64) rays_by_focus_.clear();  // bound the cache for long sweeps
+  const double lens_to_sensor_mm =
+      camera_.lens.focal_mm + focus_position * camera_.lens.focus.extension_mm_per_step;
+  auto table = std::make_shared<const ChiefRayTable>(
+      reference_rays_->rescaled(lens_to_sensor_mm / camera_.lens.focal_mm));
+  return *rays_by_focus_.emplace(focus_position, std::move(table)).first->second;
+}
+
+cv::Mat Renderer::cached_reflectance(const IntegrationKey& key) const {
+  for (const auto& [k, image] : reflectance_cache_)
+    if (k == key) return image;  // shared, never written after insertion
+  return {};
+}
+
+void Renderer::remember_reflectance(const IntegrationKey& key, const cv::Mat& reflectance) {
+  // Bounded: a long focus sweep must not hold every frame's integral in memory.
+  if (reflectance_cache_.size() >= kReflectanceCacheSize) reflectance_cache_.erase(reflectance_cache_.begin());
+  reflectance_cache_.emplace_back(key, reflectance);
+}
+
+Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
+                                       const RenderOptions& options) {
+  if (Status ok = validate(settings); !ok) return ok.error();
+  if (view < 0 || view >= scene_.view_count)
+    return make_error("out_of_range", "view " + std::to_string(view) + " is not in 0.." +
+                                          std::to_string(scene_.view_count - 1));
+  const auto start = std::chrono::steady_clock::now();
+  const LensSpec& lens = camera_.lens;
+  const double lens_to_sensor_mm = lens.focal_mm + settings.focus_position * lens.focus.extension_mm_per_step;
+  auto focus_mm = optics::focus_distance_mm(lens.focal_mm, lens_to_sensor_mm);
+  if (!focus_mm) return focus_mm.error();
+
+  std::vector<TargetSurface> surfaces;
+  surfaces.reserve(scene_.targets.size());
+  for (size_t i = 0; i < scene_.targets.size(); ++i)
+    surfaces.emplace_back(scene_.targets[i], scene_.pose(scene_.targets[i], view), textures_[i]);
+
+  RenderStats stats;
+  for (const auto& surface : surfaces)
+    stats.max_coc_px = std::max(stats.max_coc_px,
+                                predicted_coc(camera_, surface, settings.f_number, *focus_mm).max_px);
+
+  IntegratorSetup setup;
+  setup.rays = &rays_for(settings.focus_position);
+  setup.surfaces = &surfaces;
+  setup.background_reflectance = scene_.background_reflectance;
+  setup.aperture_radius_m = lens.focal_mm / settings.f_number / 2 * 1e-3;
+  setup.focus_distance_m = *focus_mm * 1e-3;
+  if (options.aperture_samples > 0) {
+    setup.lens_grid = std::max(1, static_cast<int>(std::lround(std::sqrt(options.aperture_samples))));
+  } else if (options.aperture_samples < 0 && stats.max_coc_px >= kNegligibleCocPx) {
+    setup.lens_grid = lens_grid_for_coc(stats.max_coc_px);
+  }
+  setup.pixel_grid = options.pixel_samples > 0
+                         ? std::max(1, static_cast<int>(std::lround(std::sqrt(options.pixel_samples))))
+                         : 4;
+  // The scene integral depends on the seed but not on the frame: repeated frames of one
+  // setting differ by sensor noise only, as a static scene's frames do (a frame-varying
+  // sampling pattern would add rendering noise to photon-transfer measurements).
+  setup.seed = mix_seed(options.seed, 1);
+  setup.threads = options.threads > 0 ? options.threads
+                                      : std::max(1u, std::thread::hardware_concurrency());
+  stats.aperture_samples = setup.lens_grid * setup.lens_grid;
+  stats.pixel_samples = setup.lens_grid > 0 ? stats.aperture_samples : setup.pixel_grid * setup.pixel_grid;
+
+  const IntegrationKey key{view, settings.focus_position, settings.f_number, setup.lens_grid,
+                           setup.pixel_grid, setup.seed};
+  cv::Mat reflectance = cached_reflectance(key);
+  if (reflectance.empty()) {
+    reflectance = integrate_reflectance(setup);
+    if (lens.baseline_blur_sigma_px > 0)
+      cv::GaussianBlur(reflectance, reflectance, cv::Size(), lens.baseline_blur_sigma_px,
+                       lens.baseline_blur_sigma_px, cv::BORDER_REFLECT);
+    remember_reflectance(key, reflectance);
+    stats.cached = false;
+  } else {
+    stats.cached = true;
+  }
+
+  const double electrons_per_reflectance = electrons_per_unit_reflectance(
+      camera_, scene_.illuminance_lux, settings.exposure_us, settings.f_number, lens_to_sensor_mm);
+  RenderedFrame frame;
+  frame.image = expose(reflectance, camera_, electrons_per_reflectance, settings.gain,
+                       options.noise, mix_seed(options.seed, options.frame_number * 2 + 2), setup.threads);
+
+  TruthInputs truth;
+  truth.camera = &camera_;
+  truth.scene = &scene_;
+  truth.surfaces = &surfaces;
+  truth.view = view;
+  truth.intrinsics = intrinsics_at(camera_, lens_to_sensor_mm);
+  truth.f_number = settings.f_number;
+  truth.focus_distance_mm = *focus_mm;
+  truth.lens_to_sensor_mm = lens_to_sensor_mm;
+  truth.electrons_per_unit_reflectance = electrons_per_reflectance;
+  frame.truth = make_frame_truth(truth);
+  frame.truth["render"] = {{"aperture_samples", stats.aperture_samples},
+                           {"samples_per_pixel", stats.pixel_samples},
+                           {"max_coc_px", stats.max_coc_px},
+                           {"noise", options.noise},
+                           {"integral_reused", stats.cached},
+                           {"seed", options.seed},
+                           {"frame_number", options.frame_number}};
+
+  const ControlsSpec& c = camera_.controls;
+  frame.settings = {
+      {"exposure_us", settings.exposure_us},
+      {"exposure_time_absolute", settings.exposure_us / 100.0},
+      {"gain", settings.gain},
+      {"gain_control", settings.gain * c.gain_unity},
+      {"f_number", settings.f_number},
+      {"focus_position", settings.focus_position},
+      {"focus_distance_m", *focus_mm * 1e-3},
+      {"lens_to_sensor_mm", lens_to_sensor_mm},
+  };
+  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  frame.stats = stats;
+  return frame;
+}
+
+}  // namespace camlab::mock

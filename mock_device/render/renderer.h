@@ -1,0 +1,118 @@
+// The virtual camera's physically based renderer.
+//
+// For every pixel it integrates the scene's radiance over the pixel's area and over the
+// lens aperture, as the lecture's thin-lens recipe does: a sample point x' on the sensor
+// defines the chief ray (through the lens centre, bent by the exact mrcal lens model),
+// which meets the plane of focus at x'''; a sample point x'' on the aperture disk
+// (diameter A = f / N) sends the ray x'' -> x''' into the scene. Stratified samples
+// (concentric disk for the lens) are randomised per pixel, so the estimate is unbiased
+// and its error averages out across pixels.
+//
+// Radiometry: targets are Lambertian (radiance = reflectance x illuminance / pi); sensor
+// irradiance E = pi L / (4 N^2) (f / z_s)^2, the (f / z_s)^2 being the working-aperture
+// loss when focused close; electrons = QE x photons (555 nm) over the pixel area and the
+// exposure time. Then photon shot noise (Poisson), full-well clipping, read noise,
+// conversion gain x analogue gain, black level, rounding and clipping to the bit depth.
+//
+// Only what the scene needs is modelled: no aperture sampling when the predicted CoC over
+// the visible targets is negligible, no noise when the sensor spec has none.
+//
+// A Renderer is thread-compatible: render() may be called from one thread at a time; it
+// uses std::thread internally for rows.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "base/result.h"
+#include "mock_device/spec/camera_spec.h"
+#include "mock_device/render/chief_ray_table.h"
+#include "mock_device/spec/scene_spec.h"
+
+namespace camlab::mock {
+
+// The settings a frame is rendered with, in physical units.
+struct RenderSettings {
+  double exposure_us = 10000;
+  double gain = 1.0;      // linear analogue gain (1 = unity)
+  double f_number = 4.0;
+  int focus_position = 0;  // focus_absolute; 0 = infinity
+};
+
+struct RenderOptions {
+  int aperture_samples = -1;  // lens samples per pixel; -1 = decide from the predicted CoC
+  int pixel_samples = -1;     // area samples per pixel when the lens is not sampled; -1 = 16
+  bool noise = true;          // false renders the expected signal (still quantised)
+  uint64_t seed = 1;
+  uint64_t frame_number = 0;  // mixed into the noise seed: every frame has its own noise
+  int threads = 0;            // 0 = hardware concurrency
+};
+
+struct RenderStats {
+  int aperture_samples = 0;  // 0 = pinhole (lens not sampled)
+  int pixel_samples = 0;     // samples per pixel in total
+  double max_coc_px = 0;     // largest predicted CoC over the visible targets
+  double seconds = 0;
+  bool cached = false;       // the scene integral was reused from an earlier frame
+};
+
+struct RenderedFrame {
+  cv::Mat image;              // CV_8UC1 (bit depth 8) or CV_16UC1: raw DN
+  nlohmann::json settings;    // the settings in effect, with units in the keys
+  nlohmann::json truth;       // ground truth (docs/virtual-camera.md)
+  RenderStats stats;
+};
+
+class Renderer {
+ public:
+  // What the (expensive) scene integral depends on; exposure, gain and noise do not
+  // change it, so brackets and repeats reuse it.
+  struct IntegrationKey {
+    int view;
+    int focus_position;
+    double f_number;
+    int lens_grid;
+    int pixel_grid;
+    uint64_t seed;
+    bool operator==(const IntegrationKey&) const = default;
+  };
+
+  // Unprojects the lens once (about a second for a megapixel) and builds the textures.
+  static Result<Renderer> create(CameraSpec camera, SceneSpec scene);
+
+  // Checks the settings against the camera's ranges; renders view `view` of the scene.
+  Result<RenderedFrame> render(const RenderSettings& settings, int view,
+                               const RenderOptions& options);
+
+  // The settings the camera's control defaults give.
+  RenderSettings default_settings() const;
+
+  // Settings checked against the camera's control ranges, with a specific message.
+  Status validate(const RenderSettings& settings) const;
+
+  const CameraSpec& camera() const { return camera_; }
+  const SceneSpec& scene() const { return scene_; }
+
+ private:
+  Renderer() = default;
+  const ChiefRayTable& rays_for(int focus_position);
+  cv::Mat cached_reflectance(const IntegrationKey& key) const;
+  void remember_reflectance(const IntegrationKey& key, const cv::Mat& reflectance);
+
+  static constexpr size_t kReflectanceCacheSize = 8;
+
+  CameraSpec camera_;
+  SceneSpec scene_;
+  std::shared_ptr<const ChiefRayTable> reference_rays_;        // focused at infinity
+  std::map<int, std::shared_ptr<const ChiefRayTable>> rays_by_focus_;  // small LRU-less cache
+  std::vector<std::shared_ptr<const cv::Mat>> textures_;       // one per target (or null)
+  std::vector<std::pair<IntegrationKey, cv::Mat>> reflectance_cache_;  // oldest first
+};
+
+}  // namespace camlab::mock

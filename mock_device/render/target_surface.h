@@ -1,0 +1,65 @@
+// A scene target placed in the camera frame, ready for ray intersection: its plane, its
+// extent and its reflectance as a function of target coordinates.
+//
+// Thread-safe for concurrent reads after construction (the texture is immutable).
+#pragma once
+
+#include <array>
+#include <memory>
+
+#include <opencv2/core.hpp>
+
+#include "mock_device/spec/scene_spec.h"
+
+namespace camlab::mock {
+
+// Rotation matrix (row-major 3x3) of an mrcal rotation vector (Rodrigues).
+std::array<double, 9> rotation_from_vector(double rx, double ry, double rz);
+
+class TargetSurface {
+ public:
+  TargetSurface(const TargetSpec& spec, const RtCamTarget& rt_cam_target,
+                std::shared_ptr<const cv::Mat> texture);
+
+  // Ray origin o and direction d in the camera frame (metres). Returns the ray parameter
+  // lambda of the hit (point o + lambda d), or a negative number when the ray misses the
+  // target or meets it behind the origin. On a hit, *reflectance is the surface's.
+  double intersect(const double o[3], const double d[3], double* reflectance) const {
+    const double denom = n_[0] * d[0] + n_[1] * d[1] + n_[2] * d[2];
+    if (denom > -1e-12 && denom < 1e-12) return -1;  // ray parallel to the plane
+    const double lambda = (plane_offset_ - (n_[0] * o[0] + n_[1] * o[1] + n_[2] * o[2])) / denom;
+    if (lambda <= 0) return -1;
+    const double p[3] = {o[0] + lambda * d[0] - t_[0], o[1] + lambda * d[1] - t_[1],
+                         o[2] + lambda * d[2] - t_[2]};
+    // Target coordinates: R^T (p - t); the rows of R^T are R's columns.
+    const double u = R_[0] * p[0] + R_[3] * p[1] + R_[6] * p[2];
+    const double v = R_[1] * p[0] + R_[4] * p[1] + R_[7] * p[2];
+    if (u < x_min_ || u > x_max_ || v < y_min_ || v > y_max_) return -1;
+    *reflectance = reflectance_at(u, v);
+    return lambda;
+  }
+
+  // Reflectance at target coordinates (u, v) in metres, inside the extent.
+  double reflectance_at(double u, double v) const;
+
+  // A target point (metres, target frame) in the camera frame.
+  std::array<double, 3> to_camera(double u, double v) const;
+
+  const TargetSpec& spec() const { return *spec_; }
+
+ private:
+  const TargetSpec* spec_;
+  std::array<double, 9> R_;  // row-major, camera <- target
+  std::array<double, 3> t_;
+  std::array<double, 3> n_;  // plane normal in the camera frame (R's third column)
+  double plane_offset_;      // n . t
+  double x_min_, x_max_, y_min_, y_max_;
+  double edge_cos_ = 1, edge_sin_ = 0;  // slanted edge normal in target coordinates
+  std::shared_ptr<const cv::Mat> texture_;  // CV_32F reflectance over the extent
+};
+
+// The texture of a `texture` target: band-limited noise with features of about
+// spec.feature_m, reflectance spanning [dark, light], deterministic in spec.texture_seed.
+std::shared_ptr<const cv::Mat> make_texture(const TargetSpec& spec);
+
+}  // namespace camlab::mock

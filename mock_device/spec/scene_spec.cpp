@@ -1,0 +1,181 @@
+#include "mock_device/spec/scene_spec.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "mock_device/spec/json_fields.h"
+
+namespace camlab::mock {
+
+const char* target_type_name(TargetType type) {
+  switch (type) {
+    case TargetType::kChessboard: return "chessboard";
+    case TargetType::kSlantedEdge: return "slanted_edge";
+    case TargetType::kBars: return "bars";
+    case TargetType::kTexture: return "texture";
+    case TargetType::kUniform: return "uniform";
+  }
+  return "unknown";
+}
+
+double TargetSpec::x_min_m() const {
+  return type == TargetType::kChessboard ? -(1 + margin_squares) * square_m : -width_m / 2;
+}
+double TargetSpec::x_max_m() const {
+  return type == TargetType::kChessboard ? (corners_cols + margin_squares) * square_m : width_m / 2;
+}
+double TargetSpec::y_min_m() const {
+  return type == TargetType::kChessboard ? -(1 + margin_squares) * square_m : -height_m / 2;
+}
+double TargetSpec::y_max_m() const {
+  return type == TargetType::kChessboard ? (corners_rows + margin_squares) * square_m
+                                         : height_m / 2;
+}
+
+namespace {
+
+// A pose is [rx, ry, rz, tx, ty, tz] (mrcal rt_cam_target), {"rt_cam_target": [...]}, or
+// {"position_m": [x, y, z], "rotation_deg": [rx, ry, rz]} with a rotation vector in degrees.
+Result<RtCamTarget> parse_pose(const nlohmann::json& json, const std::string& path) {
+  std::vector<double> values;
+  if (json.is_array()) {
+    nlohmann::json wrapper = {{"rt_cam_target", json}};
+    JsonFields f(wrapper, path);
+    CAMLAB_ASSIGN(values, f.numbers("rt_cam_target", 6, 6, -1e6, 1e6));
+  } else if (json.is_object()) {
+    JsonFields f(json, path);
+    if (f.has("rt_cam_target")) {
+      CAMLAB_ASSIGN(values, f.numbers("rt_cam_target", 6, 6, -1e6, 1e6));
+    } else {
+      std::vector<double> position, rotation = {0, 0, 0};
+      CAMLAB_ASSIGN(position, f.numbers("position_m", 3, 3, -1e6, 1e6));
+      if (f.has("rotation_deg")) CAMLAB_ASSIGN(rotation, f.numbers("rotation_deg", 3, 3, -720, 720));
+      const double to_rad = std::numbers::pi / 180.0;
+      values = {rotation[0] * to_rad, rotation[1] * to_rad, rotation[2] * to_rad,
+                position[0], position[1], position[2]};
+    }
+  } else {
+    return make_error("bad_field", path + " must be an rt_cam_target array or a pose object");
+  }
+  if (values[5] <= 0)
+    return make_error("out_of_range", path + ": the target origin must be in front of the "
+                                             "camera (z = " + std::to_string(values[5]) + " m)");
+  RtCamTarget rt;
+  std::copy(values.begin(), values.end(), rt.begin());
+  return rt;
+}
+
+Result<TargetSpec> parse_target(const JsonFields& f) {
+  TargetSpec t;
+  std::string type;
+  CAMLAB_ASSIGN(type, f.string("type"));
+  CAMLAB_ASSIGN(t.name, f.string("name", type));
+  if (type == "chessboard") t.type = TargetType::kChessboard;
+  else if (type == "slanted_edge") t.type = TargetType::kSlantedEdge;
+  else if (type == "bars") t.type = TargetType::kBars;
+  else if (type == "texture") t.type = TargetType::kTexture;
+  else if (type == "uniform") t.type = TargetType::kUniform;
+  else
+    return make_error("bad_field", f.path_of("type") + " = \"" + type +
+                                       "\" is not one of chessboard, slanted_edge, bars, "
+                                       "texture, uniform");
+
+  CAMLAB_ASSIGN(t.dark_reflectance, f.number("dark_reflectance", 0, 1, 0.05));
+  CAMLAB_ASSIGN(t.light_reflectance, f.number("light_reflectance", 0, 1, 0.85));
+
+  if (t.type == TargetType::kChessboard) {
+    std::vector<double> corners;
+    CAMLAB_ASSIGN(corners, f.numbers("inner_corners", 2, 2, 2, 200));
+    t.corners_cols = static_cast<int>(corners[0]);
+    t.corners_rows = static_cast<int>(corners[1]);
+    if (t.corners_cols != corners[0] || t.corners_rows != corners[1])
+      return make_error("bad_field", f.path_of("inner_corners") + " must be two integers");
+    CAMLAB_ASSIGN(t.square_m, f.number("square_m", 0, 10, std::nullopt, true));
+    CAMLAB_ASSIGN(t.margin_squares, f.number("margin_squares", 0, 100, 1.0));
+  } else {
+    std::vector<double> size;
+    CAMLAB_ASSIGN(size, f.numbers("size_m", 2, 2, 1e-6, 1e6));
+    t.width_m = size[0];
+    t.height_m = size[1];
+  }
+  if (t.type == TargetType::kSlantedEdge)
+    CAMLAB_ASSIGN(t.angle_deg, f.number("angle_deg", -90, 90, 5.0));
+  if (t.type == TargetType::kBars) {
+    CAMLAB_ASSIGN(t.bar_width_m, f.number("bar_width_m", 0, 1e3, std::nullopt, true));
+    CAMLAB_ASSIGN(t.bar_gap_m, f.number("bar_gap_m", 0, 1e3, t.bar_width_m, true));
+    CAMLAB_ASSIGN(t.bar_count, f.integer("bar_count", 1, 10000, 5));
+  }
+  if (t.type == TargetType::kTexture) {
+    CAMLAB_ASSIGN(t.feature_m, f.number("feature_m", 0, 1e3, std::nullopt, true));
+    int seed = 1;
+    CAMLAB_ASSIGN(seed, f.integer("seed", 0, 1 << 30, 1));
+    t.texture_seed = static_cast<uint64_t>(seed);
+    const double features = std::max(t.width_m, t.height_m) / t.feature_m;
+    if (features > 4096)
+      return make_error("out_of_range", f.path() + ": size_m / feature_m = " +
+                                            std::to_string(features) +
+                                            " features exceeds the texture limit of 4096");
+  }
+
+  if (f.has("pose") == f.has("poses"))
+    return make_error("missing_field", f.path() + " needs exactly one of \"pose\" or \"poses\"");
+  if (f.has("pose")) {
+    RtCamTarget rt;
+    CAMLAB_ASSIGN(rt, parse_pose(f.json().at("pose"), f.path_of("pose")));
+    t.poses.push_back(rt);
+  } else {
+    const auto& poses = f.json().at("poses");
+    if (!poses.is_array() || poses.empty() || poses.size() > 10000)
+      return make_error("bad_field", f.path_of("poses") + " must be a non-empty array (<= 10000)");
+    for (size_t i = 0; i < poses.size(); ++i) {
+      RtCamTarget rt;
+      CAMLAB_ASSIGN(rt, parse_pose(poses[i], f.path_of("poses") + "[" + std::to_string(i) + "]"));
+      t.poses.push_back(rt);
+    }
+  }
+  return t;
+}
+
+}  // namespace
+
+Result<SceneSpec> parse_scene_spec(const nlohmann::json& json) {
+  if (!json.is_object()) return make_error("bad_spec", "scene spec must be a JSON object");
+  JsonFields root(json, "scene");
+  SceneSpec scene;
+  scene.source = json;
+  CAMLAB_ASSIGN(scene.name, root.string("name", "scene"));
+  CAMLAB_ASSIGN(scene.illuminance_lux, root.number("illuminance_lux", 0, 1e6, 500.0));
+  CAMLAB_ASSIGN(scene.background_reflectance, root.number("background_reflectance", 0, 1, 0.18));
+  if (!root.has("targets") || !json.at("targets").is_array())
+    return make_error("missing_field", "scene.targets must be an array of targets");
+  const auto& targets = json.at("targets");
+  if (targets.size() > 64)
+    return make_error("out_of_range", "scene.targets has " + std::to_string(targets.size()) +
+                                          " targets; at most 64 are supported");
+  for (size_t i = 0; i < targets.size(); ++i) {
+    TargetSpec target;
+    CAMLAB_ASSIGN(target, parse_target(JsonFields(targets[i], "scene.targets[" + std::to_string(i) + "]")));
+    scene.targets.push_back(std::move(target));
+  }
+  scene.view_count = 1;
+  for (const auto& t : scene.targets) scene.view_count = std::max<int>(scene.view_count, t.poses.size());
+  for (size_t i = 0; i < scene.targets.size(); ++i) {
+    const auto n = scene.targets[i].poses.size();
+    if (n != 1 && static_cast<int>(n) != scene.view_count)
+      return make_error("bad_field", "scene.targets[" + std::to_string(i) + "].poses has " +
+                                         std::to_string(n) + " poses; every target must have 1 or " +
+                                         std::to_string(scene.view_count));
+  }
+  return scene;
+}
+
+Result<SceneSpec> load_scene_spec(const std::filesystem::path& path) {
+  auto json = read_json_file(path);
+  if (!json) return json.error();
+  auto scene = parse_scene_spec(*json);
+  if (!scene) return make_error(scene.error().code, path.string() + ": " + scene.error().message);
+  return scene;
+}
+
+}  // namespace camlab::mock

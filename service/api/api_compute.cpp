@@ -1,0 +1,153 @@
+// POST /v1/calibrations and POST /v1/analyses: validate the request, resolve its source
+// (a finished capture job, or a capture folder inside the data folder), store a
+// normalised job and queue it on the compute worker (service/jobs/compute_jobs.h).
+#include <algorithm>
+
+#include "image/capture_folder.h"
+#include "service/jobs/compute_jobs.h"
+#include "service/store/job_store.h"
+#include "service/api/service_context.h"
+
+namespace camlab::service {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// A folder named by the client: relative, plain components, and inside the data folder
+// once symbolic links are resolved.
+Result<std::string> checked_folder(const ServiceContext& context, const std::string& folder) {
+  if (folder.empty() || folder.size() > 256 || folder.front() == '/')
+    return make_error("invalid_request", "folder must be a relative path inside the data folder, e.g. captures/job-000012");
+  for (char c : folder)
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' || c == '/'))
+      return make_error("invalid_request", "folder may hold only letters, digits, '-', '_', '.' and '/'");
+  for (const auto& part : fs::path(folder))
+    if (part == ".." || part == ".")
+      return make_error("invalid_request", "folder must not contain '.' or '..' components");
+  std::error_code ec;
+  const fs::path resolved = fs::weakly_canonical(context.data_dir / folder, ec);
+  const std::string root = context.data_dir.string() + "/";
+  if (ec || resolved.string().rfind(root, 0) != 0)
+    return make_error("invalid_request", "folder '" + folder + "' is not inside the data folder");
+  return fs::relative(resolved, context.data_dir).string();
+}
+
+// The capture folder a request names by "job" or "folder", checked to be readable.
+Result<nlohmann::json> resolve_source(const ServiceContext& context, const nlohmann::json& body) {
+  nlohmann::json source;
+  if (body.contains("job") == body.contains("folder"))
+    return make_error("invalid_request", "give exactly one of \"job\" (a capture job id) or \"folder\" (a capture "
+                                         "folder under the data folder)");
+  if (body.contains("job")) {
+    if (!body["job"].is_number_integer() || body["job"].get<int64_t>() < 1)
+      return make_error("invalid_request", "\"job\" must be a capture job id (a positive integer)");
+    const int64_t id = body["job"].get<int64_t>();
+    auto job = context.store->get(id);
+    if (!job) return job.error();
+    if (!job->has_value()) return make_error("not_found", "no job " + std::to_string(id));
+    const JobRecord& j = **job;
+    if (j.kind != "capture") return make_error("invalid_request", "job " + std::to_string(id) + " is a " + j.kind + " job, not a capture");
+    if (!is_finished(j.state))
+      return make_error("conflict", "capture job " + std::to_string(id) + " is still " + job_state_name(j.state) +
+                                        "; wait until it has finished");
+    source = {{"source_job", id}, {"source_folder", j.folder}};
+  } else {
+    if (!body["folder"].is_string()) return make_error("invalid_request", "\"folder\" must be a string");
+    auto folder = checked_folder(context, body["folder"].get<std::string>());
+    if (!folder) return folder.error();
+    source = {{"source_folder", *folder}};
+  }
+  auto folder = image::CaptureFolder::open(context.data_dir / source["source_folder"].get<std::string>());
+  if (!folder) return make_error("not_found", folder.error().message);
+  if (folder->frames().empty()) return make_error("no_frames", "the capture folder holds no frames");
+  return source;
+}
+
+void queue_compute_job(const ServiceContext& context, const std::string& kind, const nlohmann::json& request,
+                       const Reply& reply) {
+  if (!context.compute->can_accept_job())
+    return reply(error_response(429, "too_many_jobs", "the compute queue is full; retry later"));
+  auto job = context.store->create(kind, "", request, kind == "calibration" ? "calibrations/job-" : "", 0);
+  if (!job) return reply(error_response(job.error()));
+  if (auto s = context.compute->enqueue_job(job->id); !s) {
+    (void)context.store->finish(job->id, JobState::kCancelled, s.error(), nullptr);
+    return reply(error_response(s.error()));
+  }
+  ApiResponse response = json_response(202, to_json(*job));
+  response.headers.emplace_back("Location", "/v1/jobs/" + std::to_string(job->id));
+  reply(std::move(response));
+}
+
+void post_calibration(const ServiceContext& context, const ApiRequest& request, Reply reply) {
+  auto body = parse_json_object(request.body);
+  if (!body) return reply(error_response(body.error()));
+  nlohmann::json normalised = nlohmann::json::object();
+  const nlohmann::json& corners = body->value("inner_corners", nlohmann::json());
+  if (!corners.is_array() || corners.size() != 2 || !corners[0].is_number_integer() || !corners[1].is_number_integer())
+    return reply(error_response(400, "invalid_request", "\"inner_corners\" must be [COLS, ROWS], e.g. [14, 10]"));
+  const int cols = corners[0].get<int>(), rows = corners[1].get<int>();
+  if (cols < 2 || rows < 2 || cols > 100 || rows > 100)
+    return reply(error_response(422, "out_of_range", "inner corners must be in [2, 100] each"));
+  const nlohmann::json& spacing = body->value("spacing_m", nlohmann::json());
+  if (!spacing.is_number()) return reply(error_response(400, "invalid_request", "\"spacing_m\" (corner spacing in metres) is required"));
+  if (!(spacing.get<double>() > 0) || spacing.get<double>() > 10)
+    return reply(error_response(422, "out_of_range", "spacing_m must be in (0, 10] metres"));
+  const nlohmann::json& model = body->value("model", nlohmann::json("auto"));
+  if (!model.is_string() || !(model == "auto" || model.get<std::string>().rfind("LENSMODEL_", 0) == 0) ||
+      model.get<std::string>().size() > 200)
+    return reply(error_response(400, "invalid_request", "\"model\" must be \"auto\" or a mrcal LENSMODEL_... name"));
+  const nlohmann::json& detector = body->value("detector", nlohmann::json("auto"));
+  if (!detector.is_string() || !(detector == "auto" || detector == "opencv" || detector == "mrgingham"))
+    return reply(error_response(400, "invalid_request",
+                                "\"detector\" must be \"auto\" (mrgingham on square boards, else OpenCV), "
+                                "\"opencv\" or \"mrgingham\""));
+  if (detector == "mrgingham" && cols != rows)
+    return reply(error_response(422, "unsupported", "the mrgingham detector finds square boards only (N x N inner corners)"));
+  if (body->contains("pixel_um")) {
+    const auto& pixel = (*body)["pixel_um"];
+    if (!pixel.is_number() || !(pixel.get<double>() > 0) || pixel.get<double>() > 100)
+      return reply(error_response(422, "out_of_range", "pixel_um must be in (0, 100] micrometres"));
+    normalised["pixel_um"] = pixel;
+  }
+  // The source last: a malformed request is refused before any file is looked at.
+  auto source = resolve_source(context, *body);
+  if (!source) return reply(error_response(source.error()));
+  for (const auto& [key, value] : source->items()) normalised[key] = value;
+  normalised["inner_corners"] = {cols, rows};
+  normalised["spacing_m"] = spacing;
+  normalised["model"] = model;
+  normalised["detector"] = detector;
+  queue_compute_job(context, "calibration", normalised, reply);
+}
+
+void post_analysis(const ServiceContext& context, const ApiRequest& request, Reply reply) {
+  auto body = parse_json_object(request.body);
+  if (!body) return reply(error_response(body.error()));
+  const nlohmann::json& kind = body->value("kind", nlohmann::json());
+  if (!kind.is_string() || (kind != "defocus" && kind != "exposure" && kind != "focus"))
+    return reply(error_response(400, "invalid_request", "\"kind\" must be \"defocus\", \"exposure\" or \"focus\""));
+  auto source = resolve_source(context, *body);
+  if (!source) return reply(error_response(source.error()));
+  nlohmann::json normalised = *source;
+  normalised["analysis"] = kind;
+  queue_compute_job(context, "analysis", normalised, reply);
+}
+
+}  // namespace
+
+void add_compute_routes(Router& router, const ServiceContext& context) {
+  router.add({"POST", "/v1/calibrations",
+              "Queue a calibration (mrcal) of a capture's chessboard frames: 202 with the job; the result holds "
+              "the report and the .cameramodel",
+              [context](const ApiRequest& request, const PathParams&, Reply reply) {
+                post_calibration(context, request, std::move(reply));
+              }});
+  router.add({"POST", "/v1/analyses",
+              "Queue an analysis (defocus, exposure, focus) of a capture: 202 with the job; the result holds the report",
+              [context](const ApiRequest& request, const PathParams&, Reply reply) {
+                post_analysis(context, request, std::move(reply));
+              }});
+}
+
+}  // namespace camlab::service

@@ -1,0 +1,225 @@
+// Jobs: list, status, cancel, and the frames of a capture job (PNG and sidecar). Frame
+// files are found only through the job's own folder (from the database) and the
+// manifest's entries (plain file names, checked by CaptureFolder::open); the request
+// supplies numbers only.
+#include <fstream>
+#include <sstream>
+
+#include "image/capture_folder.h"
+#include "service/jobs/camera_set.h"
+#include "service/store/job_store.h"
+#include "service/api/service_context.h"
+
+namespace camlab::service {
+
+namespace {
+
+constexpr int kMaxListLimit = 1000;
+
+// The job named by the {id} parameter, or a 400/404/500 reply.
+std::optional<JobRecord> find_job(const ServiceContext& context, const PathParams& params, const Reply& reply) {
+  auto id = parse_id(params.at("id"), "the job id");
+  if (!id) {
+    reply(error_response(id.error()));
+    return std::nullopt;
+  }
+  auto job = context.store->get(*id);
+  if (!job) {
+    reply(error_response(job.error()));
+    return std::nullopt;
+  }
+  if (!job->has_value()) {
+    reply(error_response(404, "not_found", "no job " + std::to_string(*id)));
+    return std::nullopt;
+  }
+  return std::move(**job);
+}
+
+// The capture folder of a capture job, or a reply saying why there is none.
+std::optional<image::CaptureFolder> job_folder(const ServiceContext& context, const JobRecord& job, const Reply& reply) {
+  if (job.kind != "capture") {
+    reply(error_response(422, "no_frames", "job " + std::to_string(job.id) + " is a " + job.kind + " job; only capture jobs have frames"));
+    return std::nullopt;
+  }
+  auto folder = image::CaptureFolder::open(context.data_dir / job.folder);
+  if (!folder) {
+    if (job.state == JobState::kQueued) {
+      reply(error_response(404, "not_found", "job " + std::to_string(job.id) + " is queued and has no frames yet"));
+    } else {
+      reply(error_response(404, "not_found", "job " + std::to_string(job.id) + " has no capture folder (" + folder.error().message + ")"));
+    }
+    return std::nullopt;
+  }
+  return std::move(*folder);
+}
+
+// The frame index {n}: a number below the folder's frame count.
+std::optional<int> frame_index(const image::CaptureFolder& folder, const JobRecord& job, const PathParams& params,
+                               const Reply& reply) {
+  auto n = parse_id(params.at("n"), "the frame index", 9);
+  if (!n) {
+    reply(error_response(n.error()));
+    return std::nullopt;
+  }
+  const int count = static_cast<int>(folder.frames().size());
+  if (*n >= count) {
+    reply(error_response(404, "not_found", "job " + std::to_string(job.id) + " has " + std::to_string(count) +
+                                               " frames (0.." + std::to_string(count - 1) + "); no frame " +
+                                               std::to_string(*n)));
+    return std::nullopt;
+  }
+  return static_cast<int>(*n);
+}
+
+bool read_bytes(const std::filesystem::path& path, std::string* out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  *out = buffer.str();
+  return static_cast<bool>(in) || in.eof();
+}
+
+// Frame {n} of job {id}: its image or its sidecar file, read whole; replies with the
+// error (unknown job, frame out of range, unreadable file) and returns nullopt otherwise.
+std::optional<ApiResponse> read_frame_file(const ServiceContext& context, const PathParams& params, bool sidecar,
+                                           const Reply& reply) {
+  auto job = find_job(context, params, reply);
+  if (!job) return std::nullopt;
+  auto folder = job_folder(context, *job, reply);
+  if (!folder) return std::nullopt;
+  auto n = frame_index(*folder, *job, params, reply);
+  if (!n) return std::nullopt;
+  const auto& entry = folder->frames()[*n];
+  ApiResponse response;
+  if (!read_bytes(folder->dir() / (sidecar ? entry.sidecar_file : entry.image_file), &response.body)) {
+    reply(error_response(500, "io_error", std::string("cannot read ") + (sidecar ? "the sidecar of " : "") + "frame " +
+                                              std::to_string(*n)));
+    return std::nullopt;
+  }
+  return response;
+}
+
+// "state=running&limit=10&offset=0"
+std::map<std::string, std::string> parse_query(const std::string& query) {
+  std::map<std::string, std::string> out;
+  size_t start = 0;
+  while (start < query.size() && out.size() < 16) {
+    size_t end = query.find('&', start);
+    if (end == std::string::npos) end = query.size();
+    const std::string pair = query.substr(start, end - start);
+    const size_t eq = pair.find('=');
+    out[pair.substr(0, eq)] = eq == std::string::npos ? "" : pair.substr(eq + 1);
+    start = end + 1;
+  }
+  return out;
+}
+
+void list_jobs(const ServiceContext& context, const ApiRequest& request, Reply reply) {
+  const auto query = parse_query(request.query);
+  std::optional<JobState> state;
+  int limit = 100, offset = 0;
+  if (auto it = query.find("state"); it != query.end()) {
+    state = parse_job_state(it->second);
+    if (!state)
+      return reply(error_response(400, "invalid_request",
+                                  "state must be one of queued, running, succeeded, failed, cancelled, interrupted"));
+  }
+  if (auto it = query.find("limit"); it != query.end()) {
+    auto n = parse_id(it->second, "limit", 6);
+    if (!n || *n < 1 || *n > kMaxListLimit)
+      return reply(error_response(400, "invalid_request", "limit must be in [1, " + std::to_string(kMaxListLimit) + "]"));
+    limit = static_cast<int>(*n);
+  }
+  if (auto it = query.find("offset"); it != query.end()) {
+    auto n = parse_id(it->second, "offset", 9);
+    if (!n) return reply(error_response(n.error()));
+    offset = static_cast<int>(*n);
+  }
+  auto jobs = context.store->list(state, limit, offset);
+  if (!jobs) return reply(error_response(jobs.error()));
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& job : *jobs) list.push_back(to_json(job));
+  reply(json_response(200, {{"jobs", list}, {"limit", limit}, {"offset", offset}}));
+}
+
+void cancel_job(const ServiceContext& context, const PathParams& params, Reply reply) {
+  auto job = find_job(context, params, reply);
+  if (!job) return;
+  if (job->state == JobState::kQueued) {
+    auto cancelled = context.store->cancel_queued(job->id);
+    if (!cancelled) return reply(error_response(cancelled.error()));
+    if (*cancelled) {
+      auto now = context.store->get(job->id);
+      return reply(json_response(200, now && now->has_value() ? to_json(**now) : to_json(*job)));
+    }
+    auto now = context.store->get(job->id);  // it started meanwhile: cancel it running
+    if (!now || !now->has_value()) return reply(error_response(500, "io_error", "job vanished while cancelling"));
+    job = **now;
+  }
+  if (job->state == JobState::kRunning) {
+    CameraWorker* worker = job->camera_id.empty() ? nullptr : context.cameras->find(job->camera_id);
+    if (worker && worker->cancel_running(job->id)) {
+      nlohmann::json json = to_json(*job);
+      json["cancel_requested"] = true;
+      return reply(json_response(202, json));
+    }
+    return reply(error_response(409, "not_cancellable", "job " + std::to_string(job->id) + " (" + job->kind +
+                                                            ") cannot be cancelled once running"));
+  }
+  reply(error_response(409, "conflict", "job " + std::to_string(job->id) + " has already finished (" +
+                                            job_state_name(job->state) + ")"));
+}
+
+}  // namespace
+
+void add_job_routes(Router& router, const ServiceContext& context) {
+  router.add({"GET", "/v1/jobs", "Jobs, newest first (?state=, ?limit= up to 1000, ?offset=)",
+              [context](const ApiRequest& request, const PathParams&, Reply reply) {
+                list_jobs(context, request, std::move(reply));
+              }});
+  router.add({"GET", "/v1/jobs/{id}", "A job: state, progress, error, result",
+              [context](const ApiRequest&, const PathParams& params, Reply reply) {
+                if (auto job = find_job(context, params, reply)) reply(json_response(200, to_json(*job)));
+              }});
+  router.add({"DELETE", "/v1/jobs/{id}",
+              "Cancel: a queued job at once (200), a running capture between frames (202; frames kept)",
+              [context](const ApiRequest&, const PathParams& params, Reply reply) {
+                cancel_job(context, params, std::move(reply));
+              }});
+  router.add({"GET", "/v1/jobs/{id}/frames", "The frames a capture job has written so far",
+              [context](const ApiRequest&, const PathParams& params, Reply reply) {
+                auto job = find_job(context, params, reply);
+                if (!job) return;
+                if (job->kind == "capture" && job->state == JobState::kQueued)
+                  return reply(json_response(200, {{"job_id", job->id}, {"complete", false}, {"frames", nlohmann::json::array()}}));
+                auto folder = job_folder(context, *job, reply);
+                if (!folder) return;
+                nlohmann::json frames = nlohmann::json::array();
+                const std::string base = "/v1/jobs/" + std::to_string(job->id) + "/frames/";
+                for (size_t i = 0; i < folder->frames().size(); ++i)
+                  frames.push_back({{"index", i},
+                                    {"image", base + std::to_string(i)},
+                                    {"meta", base + std::to_string(i) + "/meta"}});
+                reply(json_response(200, {{"job_id", job->id},
+                                          {"complete", folder->complete()},
+                                          {"folder", job->folder},
+                                          {"frames", frames}}));
+              }});
+  router.add({"GET", "/v1/jobs/{id}/frames/{n}", "Frame n as PNG (raw sensor DN; 16-bit above 8 bits)",
+              [context](const ApiRequest&, const PathParams& params, Reply reply) {
+                auto response = read_frame_file(context, params, /*sidecar=*/false, reply);
+                if (!response) return;
+                response->content_type = "image/png";
+                reply(std::move(*response));
+              }});
+  router.add({"GET", "/v1/jobs/{id}/frames/{n}/meta",
+              "Frame n's sidecar: settings in effect, sequence, timestamp, frames discarded",
+              [context](const ApiRequest&, const PathParams& params, Reply reply) {
+                auto response = read_frame_file(context, params, /*sidecar=*/true, reply);
+                if (!response) return;
+                reply(std::move(*response));
+              }});
+}
+
+}  // namespace camlab::service

@@ -1,0 +1,63 @@
+// The daemon's own request and response values, independent of Beast: the session
+// (service/http/http_session.h) converts to and from them, so that routes, handlers and their
+// tests compile without the HTTP library.
+//
+// Reentrant: plain values. A Reply is called exactly once, from any thread.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "base/result.h"
+
+namespace camlab::service {
+
+struct ApiRequest {
+  std::string method;         // "GET", "PUT", ...
+  std::string path;           // the target before '?', still percent-encoded
+  std::string query;          // after '?', without it
+  std::string body;
+  std::string authorization;  // the Authorization header, as sent
+  std::string content_type;
+  std::string remote;         // peer address, for the log
+};
+
+struct ApiResponse {
+  int status = 200;
+  std::string content_type = "application/json";
+  std::string body;
+  std::vector<std::pair<std::string, std::string>> headers;  // extra headers (Allow, ...)
+};
+
+// Delivers the response for one request; the session posts it to its own strand.
+using Reply = std::function<void(ApiResponse)>;
+
+// Path parameters by name ({id} -> "42"), percent-decoded.
+using PathParams = std::map<std::string, std::string>;
+
+ApiResponse json_response(int status, const nlohmann::json& body);
+
+// {"error": {"code": code, "message": message}}.
+ApiResponse error_response(int status, const std::string& code, const std::string& message);
+
+// Maps a library error to its HTTP status at the handler boundary:
+//   invalid_request, bad_json -> 400; unauthorized -> 401; not_found -> 404;
+//   conflict, busy, not_cancellable -> 409; payload_too_large -> 413;
+//   out_of_range, unsupported, no_frames -> 422; too_many_jobs -> 429;
+//   no_device, unavailable, shutting_down -> 503; anything else -> 500.
+int http_status_for(const std::string& error_code);
+ApiResponse error_response(const Error& error);
+
+// Parses a JSON request body: an object, or the error "bad_json"/"invalid_request".
+Result<nlohmann::json> parse_json_object(const std::string& body);
+
+// Parses a non-negative decimal integer path parameter of at most `max_digits` digits
+// ("0042" is accepted, "+1", "1e3", "-1", "" and overflow are not).
+Result<int64_t> parse_id(const std::string& text, const std::string& what, int max_digits = 15);
+
+}  // namespace camlab::service

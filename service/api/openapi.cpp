@@ -1,0 +1,229 @@
+// The OpenAPI 3.0 document of camlabd's API (GET /v1/openapi.json). Written by hand, so
+// it documents bodies and errors; tests/integration/service checks that its paths and
+// methods are exactly the router's.
+#include "service/api/service_context.h"
+
+namespace camlab::service {
+
+namespace {
+
+using nlohmann::json;
+
+json ref(const std::string& name) { return {{"$ref", "#/components/schemas/" + name}}; }
+
+json error_responses(std::initializer_list<int> statuses) {
+  static const std::map<int, std::string> kText = {
+      {400, "Malformed request (bad JSON, missing or mistyped fields, bad path parameter)"},
+      {401, "Missing or wrong bearer token"},
+      {404, "No such camera, job or frame"},
+      {409, "Conflict (camera busy, job already finished, source job still running)"},
+      {413, "Body too large"},
+      {422, "A value outside the camera's range (the message names it) or unsupported"},
+      {429, "Too many jobs queued"},
+      {503, "Camera unavailable or daemon shutting down"}};
+  json out = json::object();
+  for (int s : statuses)
+    out[std::to_string(s)] = {{"description", kText.at(s)},
+                              {"content", {{"application/json", {{"schema", ref("Error")}}}}}};
+  return out;
+}
+
+json operation(const std::string& summary, const std::string& tag, json parameters, json responses,
+               json request_schema = nullptr) {
+  json op = {{"summary", summary}, {"tags", {tag}}, {"responses", std::move(responses)}};
+  if (!parameters.empty()) op["parameters"] = std::move(parameters);
+  if (!request_schema.is_null())
+    op["requestBody"] = {{"required", true}, {"content", {{"application/json", {{"schema", request_schema}}}}}};
+  return op;
+}
+
+json path_param(const std::string& name, const std::string& description, json schema) {
+  return {{"name", name}, {"in", "path"}, {"required", true}, {"description", description}, {"schema", schema}};
+}
+
+json ok(int status, const std::string& description, json schema, const std::string& type = "application/json") {
+  return {{std::to_string(status), {{"description", description}, {"content", {{type, {{"schema", schema}}}}}}}};
+}
+
+json merge(json a, const json& b) {
+  for (const auto& [k, v] : b.items()) a[k] = v;
+  return a;
+}
+
+json schemas() {
+  return {
+      {"Error",
+       {{"type", "object"},
+        {"required", {"error"}},
+        {"properties",
+         {{"error",
+           {{"type", "object"},
+            {"required", {"code", "message"}},
+            {"properties", {{"code", {{"type", "string"}}}, {"message", {{"type", "string"}}}}}}}}}}},
+      {"Job",
+       {{"type", "object"},
+        {"properties",
+         {{"id", {{"type", "integer"}}},
+          {"kind", {{"type", "string"}, {"enum", {"capture", "latency_probe", "calibration", "analysis"}}}},
+          {"state",
+           {{"type", "string"}, {"enum", {"queued", "running", "succeeded", "failed", "cancelled", "interrupted"}}}},
+          {"camera_id", {{"type", "string"}}},
+          {"request", {{"type", "object"}}},
+          {"folder", {{"type", "string"}, {"description", "relative to the data folder"}}},
+          {"created_at", {{"type", "string"}, {"format", "date-time"}}},
+          {"started_at", {{"type", "string"}, {"format", "date-time"}, {"nullable", true}}},
+          {"finished_at", {{"type", "string"}, {"format", "date-time"}, {"nullable", true}}},
+          {"progress",
+           {{"type", "object"},
+            {"properties",
+             {{"frames_done", {{"type", "integer"}}},
+              {"frames_total", {{"type", "integer"}}},
+              {"frames_discarded", {{"type", "integer"}}},
+              {"fraction", {{"type", "number"}}}}}}},
+          {"error", ref("Error")},
+          {"result", {{"type", "object"}, {"nullable", true}}}}}}},
+      {"CaptureRequest",
+       {{"type", "object"},
+        {"required", {"kind"}},
+        {"description",
+         "single: {}; bracket: exposures_us[] (+ gain) or base_exposure_us + ev_steps[]; focus_stack: positions[] "
+         "or start/stop/step; aperture_series: f_numbers[] or iris_positions[]. Common: repeats, format "
+         "{fourcc, width, height}, controls {name: value}."},
+        {"properties",
+         {{"kind", {{"type", "string"}, {"enum", {"single", "bracket", "focus_stack", "aperture_series"}}}},
+          {"exposures_us", {{"type", "array"}, {"items", {{"type", "number"}}}}},
+          {"base_exposure_us", {{"type", "number"}}},
+          {"ev_steps", {{"type", "array"}, {"items", {{"type", "number"}}}}},
+          {"gain", {{"type", "number"}}},
+          {"positions", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
+          {"start", {{"type", "integer"}}},
+          {"stop", {{"type", "integer"}}},
+          {"step", {{"type", "integer"}}},
+          {"f_numbers", {{"type", "array"}, {"items", {{"type", "number"}}}}},
+          {"iris_positions", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
+          {"repeats", {{"type", "integer"}, {"minimum", 1}}},
+          {"format", {{"type", "object"}}},
+          {"controls", {{"type", "object"}, {"additionalProperties", {{"type", "integer"}}}}}}}}},
+      {"Controls",
+       {{"type", "object"},
+        {"description", "control name (V4L2 style) -> value in the control's own unit"},
+        {"additionalProperties", {{"type", "integer"}}}}},
+      {"CalibrationRequest",
+       {{"type", "object"},
+        {"required", {"inner_corners", "spacing_m"}},
+        {"properties",
+         {{"job", {{"type", "integer"}, {"description", "a finished capture job"}}},
+          {"folder", {{"type", "string"}, {"description", "or a capture folder under the data folder"}}},
+          {"inner_corners", {{"type", "array"}, {"items", {{"type", "integer"}}}, {"minItems", 2}, {"maxItems", 2}}},
+          {"spacing_m", {{"type", "number"}}},
+          {"model", {{"type", "string"}, {"description", "auto (default) or a mrcal LENSMODEL_... name"}}},
+          {"detector",
+           {{"type", "string"},
+            {"enum", {"auto", "opencv", "mrgingham"}},
+            {"description", "auto (default): mrgingham on square boards, OpenCV elsewhere and where it misses"}}},
+          {"pixel_um", {{"type", "number"}}}}}}},
+      {"AnalysisRequest",
+       {{"type", "object"},
+        {"required", {"kind"}},
+        {"properties",
+         {{"kind", {{"type", "string"}, {"enum", {"defocus", "exposure", "focus"}}}},
+          {"job", {{"type", "integer"}}},
+          {"folder", {{"type", "string"}}}}}}},
+      {"Faults",
+       {{"type", "object"},
+        {"properties",
+         {{"unplug", {{"type", "boolean"}}},
+          {"fail_next_dequeues", {{"type", "integer"}}},
+          {"drop_next_frames", {{"type", "integer"}}},
+          {"stall", {{"type", "boolean"}}}}}}}};
+}
+
+}  // namespace
+
+json openapi_document(bool include_test_routes) {
+  const json camera_id = path_param("id", "camera id as listed by GET /v1/cameras (percent-encoded)", {{"type", "string"}});
+  const json job_id = path_param("id", "job id", {{"type", "integer"}, {"minimum", 1}});
+  const json frame_n = path_param("n", "frame index, 0-based", {{"type", "integer"}, {"minimum", 0}});
+  const json object = {{"type", "object"}};
+  json paths = {
+      {"/v1/health",
+       {{"get", merge(operation("Liveness (no token needed)", "system", json::array(), ok(200, "serving", object)),
+                      {{"security", json::array()}})}}},
+      {"/metrics",
+       {{"get", operation("Prometheus metrics", "system", json::array(),
+                          merge(ok(200, "text format 0.0.4", {{"type", "string"}}, "text/plain"), error_responses({401})))}}},
+      {"/v1/openapi.json",
+       {{"get", operation("This document", "system", json::array(), merge(ok(200, "OpenAPI 3", object), error_responses({401})))}}},
+      {"/v1/cameras",
+       {{"get", operation("Cameras", "cameras", json::array(), merge(ok(200, "{cameras: [...]}", object), error_responses({401})))}}},
+      {"/v1/cameras/{id}",
+       {{"get", operation("A camera: formats, controls with ranges and units, control latency", "cameras", {camera_id},
+                          merge(ok(200, "camera", object), error_responses({401, 404})))}}},
+      {"/v1/cameras/{id}/controls",
+       {{"put", operation("Set controls", "cameras", {camera_id},
+                          merge(ok(200, "{controls: {name: {requested, applied}}}", object),
+                                error_responses({400, 401, 404, 409, 413, 422, 503})),
+                          ref("Controls"))}}},
+      {"/v1/cameras/{id}/captures",
+       {{"post", operation("Queue a capture", "captures", {camera_id},
+                           merge(ok(202, "the queued job (Location: /v1/jobs/{id})", ref("Job")),
+                                 error_responses({400, 401, 404, 413, 422, 429, 503})),
+                           ref("CaptureRequest"))}}},
+      {"/v1/cameras/{id}/latency-probe",
+       {{"post", operation("Queue a control-latency probe; the result is stored for the camera", "captures", {camera_id},
+                           merge(ok(202, "the queued job", ref("Job")), error_responses({401, 404, 429})))}}},
+      {"/v1/jobs",
+       {{"get", operation("Jobs, newest first", "jobs",
+                          {{{"name", "state"}, {"in", "query"}, {"schema", {{"type", "string"}}}},
+                           {{"name", "limit"}, {"in", "query"}, {"schema", {{"type", "integer"}, {"maximum", 1000}}}},
+                           {{"name", "offset"}, {"in", "query"}, {"schema", {{"type", "integer"}}}}},
+                          merge(ok(200, "{jobs: [...]}", object), error_responses({400, 401})))}}},
+      {"/v1/jobs/{id}",
+       {{"get", operation("A job", "jobs", {job_id}, merge(ok(200, "the job", ref("Job")), error_responses({400, 401, 404})))},
+        {"delete", operation("Cancel a job (200 when queued, 202 when running: stops between frames, frames kept)",
+                             "jobs", {job_id},
+                             merge(merge(ok(200, "cancelled", ref("Job")), ok(202, "cancel requested", ref("Job"))),
+                                   error_responses({400, 401, 404, 409})))}}},
+      {"/v1/jobs/{id}/frames",
+       {{"get", operation("Frames written so far", "jobs", {job_id},
+                          merge(ok(200, "{frames: [{index, image, meta}], complete}", object),
+                                error_responses({400, 401, 404, 422})))}}},
+      {"/v1/jobs/{id}/frames/{n}",
+       {{"get", operation("Frame n as PNG", "jobs", {job_id, frame_n},
+                          merge(ok(200, "PNG", {{"type", "string"}, {"format", "binary"}}, "image/png"),
+                                error_responses({400, 401, 404, 422})))}}},
+      {"/v1/jobs/{id}/frames/{n}/meta",
+       {{"get", operation("Frame n's sidecar", "jobs", {job_id, frame_n},
+                          merge(ok(200, "sidecar (docs/capture-folder.md)", object), error_responses({400, 401, 404, 422})))}}},
+      {"/v1/calibrations",
+       {{"post", operation("Queue a calibration", "compute", json::array(),
+                           merge(ok(202, "the queued job; its result holds report and cameramodel", ref("Job")),
+                                 error_responses({400, 401, 404, 409, 413, 422, 429})),
+                           ref("CalibrationRequest"))}}},
+      {"/v1/analyses",
+       {{"post", operation("Queue an analysis", "compute", json::array(),
+                           merge(ok(202, "the queued job; its result holds the report", ref("Job")),
+                                 error_responses({400, 401, 404, 409, 413, 422, 429})),
+                           ref("AnalysisRequest"))}}}};
+  if (include_test_routes)
+    paths["/v1/test/cameras/{id}/faults"] = {
+        {"post", merge(operation("TEST ONLY: inject faults into an in-process virtual camera (--test-faults)", "test",
+                                 {camera_id}, merge(ok(200, "injected", object), error_responses({400, 401, 404, 422})),
+                                 ref("Faults")),
+                       {{"x-test-only", true}})}};
+  return {{"openapi", "3.0.3"},
+          {"info",
+           {{"title", "camlabd"},
+            {"version", "0.1.0"},
+            {"description",
+             "REST capture of exposure brackets, focus stacks and aperture series with frame-accurate settings. "
+             "Every endpoint but GET /v1/health needs 'Authorization: Bearer TOKEN' (DATA/token). Errors are "
+             "{\"error\": {\"code\", \"message\"}}."}}},
+          {"servers", {{{"url", "http://127.0.0.1:8080"}}}},
+          {"security", {{{"bearer", json::array()}}}},
+          {"components",
+           {{"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}, {"schemas", schemas()}}},
+          {"paths", paths}};
+}
+
+}  // namespace camlab::service

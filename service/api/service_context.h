@@ -1,0 +1,42 @@
+// What the route handlers share: the data folder, the job store, the cameras, the compute
+// worker and the metrics. Owned by the Daemon (service/daemon.h); handlers borrow it for
+// the daemon's lifetime.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "service/api/router.h"
+
+namespace camlab::service {
+
+class CameraSet;
+class ComputeWorker;
+class JobStore;
+class Metrics;
+
+struct ServiceContext {
+  std::filesystem::path data_dir;  // canonical
+  JobStore* store = nullptr;
+  CameraSet* cameras = nullptr;
+  ComputeWorker* compute = nullptr;
+  Metrics* metrics = nullptr;
+  bool test_faults = false;  // POST /v1/test/cameras/{id}/faults is registered
+};
+
+// Registration of each group of routes (one file each).
+void add_system_routes(Router& router, const ServiceContext& context);   // api_system.cpp
+void add_camera_routes(Router& router, const ServiceContext& context);   // api_cameras.cpp
+void add_job_routes(Router& router, const ServiceContext& context);      // api_jobs.cpp
+void add_compute_routes(Router& router, const ServiceContext& context);  // api_compute.cpp
+void add_test_routes(Router& router, const ServiceContext& context);     // api_test_faults.cpp
+
+// Every route of the daemon, in the order they are matched (test routes only with
+// context.test_faults).
+void add_all_routes(Router& router, const ServiceContext& context);
+
+// The OpenAPI 3 document of the routes (service/api/openapi.cpp); with test routes marked
+// "x-test-only" when `include_test_routes`.
+nlohmann::json openapi_document(bool include_test_routes);
+
+}  // namespace camlab::service

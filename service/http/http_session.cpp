@@ -1,0 +1,145 @@
+#include "service/http/http_session.h"
+
+#include <boost/asio/dispatch.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/beast/core/bind_handler.hpp>
+#include <boost/beast/http/read.hpp>
+#include <boost/beast/http/write.hpp>
+
+#include "service/api/router.h"
+
+namespace camlab::service {
+
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace net = boost::asio;
+
+namespace {
+
+// What a client may still be sending after an over-limit request: drained up to this.
+constexpr std::size_t kMaxDrainBytes = 64u << 20;
+constexpr std::chrono::seconds kDrainTimeout{3};
+
+std::string header(const http::request<http::string_body>& request, http::field field) {
+  auto it = request.find(field);
+  return it == request.end() ? std::string() : std::string(it->value());
+}
+
+}  // namespace
+
+HttpSession::HttpSession(net::ip::tcp::socket&& socket, const Router& router, const HttpLimits& limits,
+                         std::shared_ptr<ConnectionCount> connections)
+    : stream_(std::move(socket)), router_(router), limits_(limits), connections_(std::move(connections)) {}
+
+HttpSession::~HttpSession() { --connections_->open; }
+
+void HttpSession::run() {
+  // The socket's executor is this connection's strand (the acceptor made it so).
+  net::dispatch(stream_.get_executor(), beast::bind_front_handler(&HttpSession::do_read, shared_from_this()));
+}
+
+void HttpSession::do_read() {
+  // A new parser per request: limits apply to each request, not to the connection.
+  parser_.emplace();
+  parser_->header_limit(static_cast<std::uint32_t>(limits_.max_header_bytes));
+  parser_->body_limit(limits_.max_body_bytes);
+  stream_.expires_after(limits_.read_timeout);
+  http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpSession::on_read, shared_from_this()));
+}
+
+void HttpSession::on_read(beast::error_code ec, std::size_t) {
+  if (ec == http::error::end_of_stream || ec == beast::error::timeout || ec == net::error::operation_aborted ||
+      ec == net::error::connection_reset || ec == net::error::eof)
+    return do_close();
+  if (ec == http::error::body_limit)
+    return send(error_response(413, "payload_too_large",
+                               "the request body is larger than " + std::to_string(limits_.max_body_bytes) + " bytes"),
+                true);
+  if (ec == http::error::header_limit)
+    return send(error_response(431, "headers_too_large",
+                               "the request headers are larger than " + std::to_string(limits_.max_header_bytes) +
+                                   " bytes"),
+                true);
+  if (ec) {
+    if (std::string_view(ec.category().name()) == "beast.http")
+      return send(error_response(400, "bad_http", "malformed HTTP request: " + ec.message()), true);
+    return do_close();
+  }
+
+  http::request<http::string_body> request = parser_->release();
+  http_version_ = request.version();
+  keep_alive_ = request.keep_alive();
+  head_request_ = request.method() == http::verb::head;
+
+  ApiRequest api;
+  api.method = std::string(request.method_string());
+  const std::string target(request.target());
+  const size_t question = target.find('?');
+  api.path = target.substr(0, question);
+  if (question != std::string::npos) api.query = target.substr(question + 1);
+  api.body = std::move(request.body());
+  api.authorization = header(request, http::field::authorization);
+  api.content_type = header(request, http::field::content_type);
+  beast::error_code endpoint_ec;
+  const auto remote = stream_.socket().remote_endpoint(endpoint_ec);
+  if (!endpoint_ec) api.remote = remote.address().to_string();
+
+  // No timer runs while the handler works: it always replies (a camera task replies
+  // when the camera answers), and the write below has its own timeout.
+  stream_.expires_never();
+  router_.dispatch(api, [self = shared_from_this()](ApiResponse response) {
+    net::post(self->stream_.get_executor(), [self, response = std::move(response)]() mutable {
+      self->send(std::move(response), !self->keep_alive_);
+    });
+  });
+}
+
+void HttpSession::send(ApiResponse api, bool close_after) {
+  response_.emplace(static_cast<http::status>(api.status), http_version_);
+  response_->set(http::field::server, "camlabd");
+  response_->set(http::field::content_type, api.content_type);
+  response_->set(http::field::cache_control, "no-store");
+  for (const auto& [name, value] : api.headers) response_->set(name, value);
+  response_->keep_alive(!close_after);
+  response_->body() = std::move(api.body);
+  response_->prepare_payload();
+  if (head_request_) response_->body().clear();  // Content-Length stays that of the GET
+  stream_.expires_after(limits_.write_timeout);
+  http::async_write(stream_, *response_,
+                    beast::bind_front_handler(&HttpSession::on_write, shared_from_this(), close_after));
+}
+
+void HttpSession::on_write(bool close_after, beast::error_code ec, std::size_t) {
+  response_.reset();
+  if (ec) return do_close();
+  if (close_after) {
+    // An over-limit or malformed request leaves unread bytes behind: drain them.
+    if (parser_ && !parser_->is_done()) return drain_and_close();
+    return do_close();
+  }
+  do_read();
+}
+
+void HttpSession::drain_and_close() {
+  beast::error_code ec;
+  stream_.socket().shutdown(net::ip::tcp::socket::shutdown_send, ec);
+  drained_bytes_ = 0;
+  stream_.expires_after(kDrainTimeout);
+  stream_.async_read_some(net::buffer(drain_buffer_),
+                          beast::bind_front_handler(&HttpSession::on_drain, shared_from_this()));
+}
+
+void HttpSession::on_drain(beast::error_code ec, std::size_t bytes) {
+  drained_bytes_ += bytes;
+  if (ec || drained_bytes_ > kMaxDrainBytes) return do_close();
+  stream_.async_read_some(net::buffer(drain_buffer_),
+                          beast::bind_front_handler(&HttpSession::on_drain, shared_from_this()));
+}
+
+void HttpSession::do_close() {
+  beast::error_code ec;
+  stream_.socket().shutdown(net::ip::tcp::socket::shutdown_both, ec);
+  stream_.socket().close(ec);
+}
+
+}  // namespace camlab::service

@@ -1,0 +1,227 @@
+#include "service/jobs/camera_worker.h"
+
+#include "device/camera_json.h"
+#include "service/jobs/capture_job.h"
+#include "service/store/job_store.h"
+#include "service/log.h"
+#include "service/metrics.h"
+
+namespace camlab::service {
+
+CameraWorker::CameraWorker(device::DeviceEntry entry, OpenCamera open, CameraWorkerOptions options,
+                           JobStore& store, Metrics& metrics)
+    : entry_(std::move(entry)), open_(std::move(open)), options_(std::move(options)), store_(store),
+      metrics_(metrics) {
+  snapshot_.identity = entry_.identity;
+  snapshot_.transport = entry_.transport;
+  snapshot_.traits = options_.traits;
+  snapshot_.unavailable_reason = "not opened yet";
+  snapshot_.description = device::to_json(entry_.identity);
+}
+
+CameraWorker::~CameraWorker() { stop(); }
+
+void CameraWorker::start() {
+  thread_ = std::thread([this] { run(); });
+  std::unique_lock lock(mutex_);
+  // Opening a V4L2 device takes milliseconds; a wedged one must not hold up the daemon.
+  wake_.wait_for(lock, std::chrono::seconds(10), [this] { return started_snapshot_; });
+}
+
+void CameraWorker::request_stop() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+    shutting_down_ = true;
+    cancel_ = true;
+  }
+  wake_.notify_all();
+}
+
+void CameraWorker::stop() {
+  request_stop();
+  if (thread_.joinable()) thread_.join();
+}
+
+CameraSnapshot CameraWorker::snapshot() const {
+  std::lock_guard lock(mutex_);
+  CameraSnapshot copy = snapshot_;
+  copy.running_job = running_job_.load();
+  copy.queued_jobs = static_cast<int>(jobs_.size());
+  return copy;
+}
+
+Status CameraWorker::post_task(Task task) {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_) return make_error("shutting_down", "camlabd is shutting down");
+    tasks_.push_back(std::move(task));
+  }
+  wake_.notify_all();
+  return {};
+}
+
+bool CameraWorker::can_accept_job() const {
+  std::lock_guard lock(mutex_);
+  return !stopping_ && static_cast<int>(jobs_.size()) < options_.max_queued_jobs;
+}
+
+Status CameraWorker::enqueue_job(int64_t job_id) {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_) return make_error("shutting_down", "camlabd is shutting down");
+    if (static_cast<int>(jobs_.size()) >= options_.max_queued_jobs)
+      return make_error("too_many_jobs", "camera " + id() + " already has " +
+                                             std::to_string(jobs_.size()) + " jobs queued (limit " +
+                                             std::to_string(options_.max_queued_jobs) + "); retry later");
+    jobs_.push_back(job_id);
+  }
+  wake_.notify_all();
+  return {};
+}
+
+bool CameraWorker::cancel_running(int64_t id) {
+  if (id == 0 || running_job_.load() != id) return false;
+  cancel_ = true;
+  return true;
+}
+
+device::Camera* CameraWorker::ensure_open(Error* why) {
+  if (camera_) return camera_.get();
+  auto camera = open_();
+  if (!camera) {
+    *why = camera.error();
+    std::lock_guard lock(mutex_);
+    snapshot_.available = false;
+    snapshot_.unavailable_reason = camera.error().message;
+    return nullptr;
+  }
+  camera_ = std::move(*camera);
+  refresh_snapshot();
+  return camera_.get();
+}
+
+void CameraWorker::drop_camera(const Error& why) {
+  camera_.reset();
+  std::lock_guard lock(mutex_);
+  snapshot_.available = false;
+  snapshot_.unavailable_reason = why.message;
+}
+
+void CameraWorker::refresh_snapshot() {
+  if (!camera_) return;
+  nlohmann::json description = device::describe_camera(*camera_);
+  auto controls = camera_->controls();
+  auto formats = camera_->formats();
+  std::lock_guard lock(mutex_);
+  snapshot_.description = std::move(description);
+  snapshot_.available = controls.ok() && formats.ok();
+  snapshot_.unavailable_reason = snapshot_.available ? "" : (!controls ? controls.error() : formats.error()).message;
+  if (controls) snapshot_.controls = std::move(*controls);
+  if (formats) snapshot_.formats = std::move(*formats);
+}
+
+void CameraWorker::run() {
+  Error why;
+  if (!ensure_open(&why)) log_warning("camera %s: cannot open: %s", id().c_str(), why.message.c_str());
+  {
+    std::lock_guard lock(mutex_);
+    started_snapshot_ = true;
+  }
+  wake_.notify_all();
+
+  for (;;) {
+    Task task;
+    int64_t job = 0;
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait(lock, [this] { return stopping_ || !tasks_.empty() || !jobs_.empty(); });
+      if (stopping_) break;
+      if (!tasks_.empty()) {
+        task = std::move(tasks_.front());
+        tasks_.pop_front();
+      } else {
+        job = jobs_.front();
+        jobs_.pop_front();
+      }
+    }
+    if (task) {
+      Error unavailable;
+      device::Camera* camera = ensure_open(&unavailable);
+      task(camera, camera ? nullptr : &unavailable);
+      refresh_snapshot();
+    } else {
+      run_job(job);
+    }
+  }
+
+  // Shutting down: answer the tasks still waiting, and leave no job queued.
+  std::deque<Task> tasks;
+  std::deque<int64_t> jobs;
+  {
+    std::lock_guard lock(mutex_);
+    tasks.swap(tasks_);
+    jobs.swap(jobs_);
+  }
+  const Error stopping = make_error("shutting_down", "camlabd is shutting down");
+  for (auto& task : tasks) task(nullptr, &stopping);
+  for (int64_t id : jobs) {
+    if (auto done = store_.finish(id, JobState::kInterrupted,
+                                  make_error("interrupted", "camlabd stopped before the job started"), nullptr);
+        done && *done)
+      metrics_.count_job_finished("capture", "interrupted");
+  }
+  camera_.reset();  // stops streaming and closes the device on its own thread
+}
+
+void CameraWorker::run_job(int64_t id) {
+  auto record = store_.get(id);
+  if (!record || !record->has_value()) {
+    log_error("job %lld: %s", static_cast<long long>(id),
+              record ? "vanished from the database" : record.error().message.c_str());
+    return;
+  }
+  const JobRecord& job = **record;
+  auto started = store_.start(id);
+  if (!started || !*started) return;  // cancelled while queued
+  cancel_ = false;
+  running_job_ = id;
+  log_info("job %lld (%s) started on camera %s", static_cast<long long>(id), job.kind.c_str(), this->id().c_str());
+
+  JobOutcome outcome;
+  Error why;
+  device::Camera* camera = ensure_open(&why);
+  if (!camera) {
+    outcome.state = JobState::kFailed;
+    outcome.error = make_error(why.code.empty() ? "no_device" : why.code,
+                               "camera " + this->id() + " is not available: " + why.message);
+  } else {
+    CaptureJobEnv env{store_,           metrics_,          options_.data_dir, options_.spec_latency_frames,
+                      options_.traits,  nlohmann::json(), options_.frame_timeout, &cancel_, &shutting_down_};
+    env.source = snapshot().description;
+    env.source["transport"] = entry_.transport;
+    for (const auto& [key, value] : options_.source_extra.items()) env.source[key] = value;
+    outcome = job.kind == "latency_probe" ? execute_latency_probe(*camera, job, env)
+                                          : execute_capture(*camera, job, env);
+  }
+  running_job_ = 0;
+  if (outcome.device_failed) {
+    log_warning("camera %s failed during job %lld: %s", this->id().c_str(), static_cast<long long>(id),
+                outcome.error ? outcome.error->message.c_str() : "device error");
+    drop_camera(outcome.error.value_or(make_error("io_error", "device error")));
+    // Reopen now, so the API shows at once whether the camera is back (an I/O error or
+    // a stall) or gone (unplugged: the reopen fails and names why).
+    Error reopen_error;
+    if (!ensure_open(&reopen_error))
+      log_warning("camera %s: cannot reopen: %s", this->id().c_str(), reopen_error.message.c_str());
+  } else {
+    refresh_snapshot();
+  }
+  auto finished = store_.finish(id, outcome.state, outcome.error, outcome.result);
+  if (!finished) log_error("job %lld: %s", static_cast<long long>(id), finished.error().message.c_str());
+  metrics_.count_job_finished(job.kind, job_state_name(outcome.state));
+  log_info("job %lld %s%s%s", static_cast<long long>(id), job_state_name(outcome.state),
+           outcome.error ? ": " : "", outcome.error ? outcome.error->message.c_str() : "");
+}
+
+}  // namespace camlab::service

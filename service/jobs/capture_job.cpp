@@ -1,0 +1,183 @@
+#include "service/jobs/capture_job.h"
+
+#include <algorithm>
+
+#include "capture/capture_plan.h"
+#include "capture/capture_runner.h"
+#include "capture/latency_probe.h"
+#include "service/log.h"
+#include "service/metrics.h"
+
+namespace camlab::service {
+
+namespace {
+
+// Records a probe (or the fallback) for the camera and returns the latency to use.
+struct LatencyChoice {
+  int frames = 0;
+  int min_frames = -1;  // when the probe and the spec disagree: the smaller (runner option)
+  std::string source;
+  nlohmann::json details;
+};
+
+Result<LatencyChoice> measure_latency(device::Camera& camera, const CaptureJobEnv& env, int* frames_consumed) {
+  const std::string& id = camera.identity().id;
+  auto probe = capture::probe_control_latency(camera);
+  LatencyChoice choice;
+  if (probe) {
+    *frames_consumed += probe->frames_consumed;
+    choice.frames = probe->latency_frames;
+    choice.source = "probe";
+    choice.details = {{"probed_frames", probe->latency_frames},
+                      {"repetitions", probe->repetitions},
+                      {"agreeing", probe->agreeing},
+                      {"frames_consumed", probe->frames_consumed},
+                      {"mean_dn_trace", probe->mean_dn_trace}};
+    if (env.spec_latency_frames) {
+      choice.details["spec_frames"] = *env.spec_latency_frames;
+      // Keeping a frame too early breaks the settings-in-effect promise; one too late
+      // only costs a frame: use the larger.
+      if (*env.spec_latency_frames > choice.frames) {
+        choice.min_frames = choice.frames;
+        choice.frames = *env.spec_latency_frames;
+        choice.source = "spec";
+      }
+    }
+  } else if (is_device_error(probe.error().code)) {
+    return probe.error();
+  } else if (env.spec_latency_frames) {
+    choice.frames = *env.spec_latency_frames;
+    choice.source = "spec";
+    choice.details = {{"probe_error", {{"code", probe.error().code}, {"message", probe.error().message}}},
+                      {"spec_frames", *env.spec_latency_frames}};
+  } else {
+    // Not stored: a later probe (another scene, more light) may succeed.
+    choice.frames = kFallbackLatencyFrames;
+    choice.source = "default";
+    choice.details = {{"probe_error", {{"code", probe.error().code}, {"message", probe.error().message}}}};
+    log_warning("camera %s: latency probe failed (%s); assuming %d frames", id.c_str(),
+                probe.error().message.c_str(), kFallbackLatencyFrames);
+    return choice;
+  }
+  LatencyRecord record{id, choice.frames, choice.source, unix_time_ms(), choice.details};
+  if (auto s = env.store.put_latency(record); !s) log_warning("camera %s: %s", id.c_str(), s.error().message.c_str());
+  log_info("camera %s: control latency %d frames (%s)", id.c_str(), choice.frames, choice.source.c_str());
+  return choice;
+}
+
+Result<LatencyChoice> latency_for(device::Camera& camera, const CaptureJobEnv& env, int* frames_consumed) {
+  auto stored = env.store.latency(camera.identity().id);
+  if (stored && stored->has_value()) {
+    LatencyChoice choice{(*stored)->latency_frames, -1, (*stored)->source, nullptr};
+    const nlohmann::json& details = (*stored)->details;
+    if (details.is_object() && details.contains("probed_frames") && details["probed_frames"].is_number_integer() &&
+        details["probed_frames"].get<int>() < choice.frames)
+      choice.min_frames = details["probed_frames"].get<int>();
+    return choice;
+  }
+  return measure_latency(camera, env, frames_consumed);
+}
+
+// Writes progress to the store and counts frames, on each frame the runner keeps.
+class ProgressObserver final : public capture::CaptureObserver {
+ public:
+  ProgressObserver(int64_t job_id, const CaptureJobEnv& env) : job_id_(job_id), env_(env) {}
+  void on_frame(const image::CaptureFrameEntry&, const image::FrameSidecar& sidecar,
+                const capture::CaptureProgress& progress) override {
+    env_.metrics.count_frames(1, sidecar.frames_discarded);
+    (void)env_.store.progress(job_id_, progress.frames_kept, progress.frames_total, progress.frames_discarded);
+  }
+
+ private:
+  int64_t job_id_;
+  const CaptureJobEnv& env_;
+};
+
+JobOutcome failed(Error error, bool device_failed = false) {
+  JobOutcome outcome;
+  outcome.state = JobState::kFailed;
+  outcome.device_failed = device_failed || is_device_error(error.code);
+  outcome.error = std::move(error);
+  return outcome;
+}
+
+}  // namespace
+
+bool is_device_error(const std::string& code) {
+  return code == "no_device" || code == "io_error" || code == "timeout" || code == "not_streaming" ||
+         code == "busy";
+}
+
+JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const CaptureJobEnv& env) {
+  // Plan again against the camera as it is now (controls may have changed since POST).
+  auto controls = camera.controls();
+  if (!controls) return failed(controls.error());
+  auto formats = camera.formats();
+  if (!formats) return failed(formats.error());
+  auto plan = capture::plan_capture(job.request, *controls, *formats, env.traits);
+  if (!plan) return failed(plan.error());
+
+  int probe_frames = 0;
+  auto latency = latency_for(camera, env, &probe_frames);
+  if (!latency) return failed(latency.error(), true);
+
+  capture::CaptureOptions options;
+  options.control_latency_frames = latency->frames;
+  options.control_latency_min_frames = latency->min_frames;
+  options.frame_timeout = env.frame_timeout;
+  options.cancel = env.cancel;
+  options.source = env.source;
+  options.source["job_id"] = job.id;
+  options.source["control_latency"] = {{"frames", latency->frames}, {"source", latency->source}};
+  ProgressObserver observer(job.id, env);
+  auto summary = capture::run_capture(camera, *plan, env.data_dir / job.folder, options, &observer);
+  if (!summary) return failed(summary.error());
+
+  JobOutcome outcome;
+  outcome.result = {{"frames_kept", summary->frames_kept},
+                    {"frames_discarded", summary->frames_discarded},
+                    {"frames_dropped", summary->frames_dropped},
+                    {"frames_consumed", summary->frames_consumed},
+                    {"frames_minimum", summary->frames_minimum},
+                    {"steps_retaken", summary->steps_retaken},
+                    {"frames_consumed_by_probe", probe_frames},
+                    {"frames_total", plan->total_frames()},
+                    {"wall_seconds", summary->wall_seconds},
+                    {"control_latency_frames", latency->frames},
+                    {"control_latency_source", latency->source},
+                    {"folder", job.folder}};
+  if (summary->restore_error)
+    outcome.result["restore_error"] = {{"code", summary->restore_error->code},
+                                       {"message", summary->restore_error->message}};
+  (void)env.store.progress(job.id, summary->frames_kept, plan->total_frames(), summary->frames_discarded);
+  if (summary->failure) {
+    outcome.state = JobState::kFailed;
+    outcome.device_failed = is_device_error(summary->failure->code);
+    outcome.error = make_error(summary->failure->code,
+                               summary->failure->message + " (the " + std::to_string(summary->frames_kept) +
+                                   " frames captured before the failure are kept)");
+  } else if (summary->cancelled) {
+    const bool shutdown = env.shutting_down && env.shutting_down->load();
+    outcome.state = shutdown ? JobState::kInterrupted : JobState::kCancelled;
+    outcome.error = shutdown ? make_error("interrupted", "camlabd stopped during the capture; frames kept")
+                             : make_error("cancelled", "cancelled by request; frames kept");
+  } else {
+    outcome.state = JobState::kSucceeded;
+  }
+  return outcome;
+}
+
+JobOutcome execute_latency_probe(device::Camera& camera, const JobRecord&, const CaptureJobEnv& env) {
+  int frames = 0;
+  auto latency = measure_latency(camera, env, &frames);
+  if (!latency) return failed(latency.error());
+  JobOutcome outcome;
+  outcome.state = JobState::kSucceeded;
+  outcome.result = {{"control_latency_frames", latency->frames},
+                    {"source", latency->source},
+                    {"details", latency->details},
+                    {"frames_consumed", frames}};
+  return outcome;
+}
+
+}  // namespace camlab::service

@@ -1,0 +1,182 @@
+#include "service/jobs/compute_jobs.h"
+
+#include <opencv2/core.hpp>
+
+#include "analysis/defocus_report.h"
+#include "analysis/exposure_report.h"
+#include "analysis/focus_report.h"
+#include "calib/calibrate.h"
+#include "calib/model_io.h"
+#include "base/atomic_file.h"
+#include "image/capture_folder.h"
+#include "service/log.h"
+#include "service/metrics.h"
+
+namespace camlab::service {
+
+namespace {
+
+JobOutcome failure(Error error) {
+  JobOutcome outcome;
+  outcome.state = JobState::kFailed;
+  outcome.error = std::move(error);
+  return outcome;
+}
+
+// The pixel pitch a capture's manifest knows (the virtual camera's spec), else 0.
+double manifest_pixel_pitch_um(const image::CaptureFolder& folder) {
+  const nlohmann::json& source = folder.manifest().value("source", nlohmann::json::object());
+  if (source.is_object() && source.contains("camera_spec")) {
+    const auto& sensor = source["camera_spec"].value("sensor", nlohmann::json::object());
+    if (sensor.is_object() && sensor.contains("pixel_pitch_um") && sensor["pixel_pitch_um"].is_number())
+      return sensor["pixel_pitch_um"].get<double>();
+  }
+  return 0;
+}
+
+}  // namespace
+
+JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path& data_dir) {
+  const nlohmann::json& request = job.request;
+  const std::filesystem::path source = data_dir / request.at("source_folder").get<std::string>();
+  auto folder = image::CaptureFolder::open(source);
+  if (!folder) return failure(folder.error());
+  if (folder->frames().empty()) return failure(make_error("no_frames", "the capture folder holds no frames"));
+
+  // The same run as `camlab calibrate --job` (calib/calibrate.h): detector choice, corner
+  // weights, model selection, report, and a model file with mrcal's optimization inputs.
+  calib::CalibrateOptions options;
+  options.job_dir = source;
+  options.board.cols = request.at("inner_corners").at(0).get<int>();
+  options.board.rows = request.at("inner_corners").at(1).get<int>();
+  options.board.spacing_m = request.at("spacing_m").get<double>();
+  options.model = request.value("model", "auto");
+  options.detector = request.value("detector", "auto");
+  const double pixel_um = request.contains("pixel_um") ? request["pixel_um"].get<double>()
+                                                       : manifest_pixel_pitch_um(*folder);
+  options.pixel_pitch_um = pixel_um > 0 && pixel_um <= 100 ? pixel_um : 0;
+  options.detect_threads = 1;  // the compute thread's one core; the others serve cameras and HTTP
+  const std::filesystem::path out = data_dir / job.folder;
+  std::error_code ec;
+  std::filesystem::create_directories(out, ec);
+  if (ec) return failure(make_error("io_error", "cannot create " + out.string() + ": " + ec.message()));
+  options.out_cameramodel = out / "camera.cameramodel";
+  options.out_report_json = out / "report.json";
+
+  auto run = calib::calibrate(options);
+  if (!run) return failure(run.error());
+  auto report = calib::write_calibration_outputs(&*run, options);
+  if (!report) return failure(report.error());
+
+  JobOutcome outcome;
+  outcome.state = JobState::kSucceeded;
+  // The result's model text is the bare model (a few hundred bytes); the file carries
+  // the optimization inputs too (about 100 kB for 40 views).
+  outcome.result = {{"report", *report},
+                    {"cameramodel", calib::cameramodel_text(run->report.solution.model,
+                                                            "camlabd calibration job " + std::to_string(job.id))},
+                    {"cameramodel_file", job.folder + "/camera.cameramodel"},
+                    {"views_with_board", static_cast<int>(run->data.views.size())},
+                    {"frames", run->images}};
+  return outcome;
+}
+
+JobOutcome execute_analysis(const JobRecord& job, const std::filesystem::path& data_dir) {
+  const std::filesystem::path dir = data_dir / job.request.at("source_folder").get<std::string>();
+  const std::string kind = job.request.at("analysis").get<std::string>();
+  JobOutcome outcome;
+  outcome.state = JobState::kSucceeded;
+  if (kind == "defocus") {
+    analysis::DefocusOptions options;
+    options.threads = 1;  // the compute thread; cameras and HTTP keep the other core
+    auto report = analysis::analyze_defocus(dir, options);
+    if (!report) return failure(report.error());
+    outcome.result = {{"report", analysis::to_json(*report)}};
+  } else if (kind == "exposure") {
+    auto report = analysis::analyze_exposure(dir, analysis::ExposureOptions{});
+    if (!report) return failure(report.error());
+    outcome.result = {{"report", analysis::to_json(*report)}};
+  } else if (kind == "focus") {
+    auto report = analysis::analyze_focus(dir, analysis::FocusStackOptions{});
+    if (!report) return failure(report.error());
+    outcome.result = {{"report", analysis::to_json(*report)}};
+  } else {
+    return failure(make_error("invalid_request", "unknown analysis '" + kind + "'"));
+  }
+  return outcome;
+}
+
+ComputeWorker::ComputeWorker(std::filesystem::path data_dir, JobStore& store, Metrics& metrics, int max_queued_jobs)
+    : data_dir_(std::move(data_dir)), store_(store), metrics_(metrics), max_queued_jobs_(max_queued_jobs) {}
+
+ComputeWorker::~ComputeWorker() { stop(); }
+
+void ComputeWorker::start() { thread_ = std::thread([this] { run(); }); }
+
+void ComputeWorker::stop() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+  }
+  wake_.notify_all();
+  if (thread_.joinable()) thread_.join();
+}
+
+bool ComputeWorker::can_accept_job() const {
+  std::lock_guard lock(mutex_);
+  return !stopping_ && static_cast<int>(jobs_.size()) < max_queued_jobs_;
+}
+
+Status ComputeWorker::enqueue_job(int64_t id) {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_) return make_error("shutting_down", "camlabd is shutting down");
+    if (static_cast<int>(jobs_.size()) >= max_queued_jobs_)
+      return make_error("too_many_jobs", "the compute queue is full (" + std::to_string(max_queued_jobs_) +
+                                             " jobs); retry later");
+    jobs_.push_back(id);
+  }
+  wake_.notify_all();
+  return {};
+}
+
+void ComputeWorker::run() {
+  for (;;) {
+    int64_t id = 0;
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait(lock, [this] { return stopping_ || !jobs_.empty(); });
+      if (stopping_) break;
+      id = jobs_.front();
+      jobs_.pop_front();
+    }
+    auto record = store_.get(id);
+    if (!record || !record->has_value()) continue;
+    auto started = store_.start(id);
+    if (!started || !*started) continue;
+    const JobRecord& job = **record;
+    log_info("job %lld (%s) started", static_cast<long long>(id), job.kind.c_str());
+    JobOutcome outcome;
+    // The libraries return errors as values; an exception here is a bug in a library or
+    // a request the handler let through malformed, and must not take the daemon down.
+    try {
+      outcome = job.kind == "calibration" ? execute_calibration(job, data_dir_) : execute_analysis(job, data_dir_);
+    } catch (const std::exception& e) {
+      outcome = failure(make_error("internal", std::string("the job failed unexpectedly: ") + e.what()));
+    }
+    (void)store_.finish(id, outcome.state, outcome.error, outcome.result);
+    metrics_.count_job_finished(job.kind, job_state_name(outcome.state));
+    log_info("job %lld %s%s%s", static_cast<long long>(id), job_state_name(outcome.state), outcome.error ? ": " : "",
+             outcome.error ? outcome.error->message.c_str() : "");
+  }
+  std::deque<int64_t> left;
+  {
+    std::lock_guard lock(mutex_);
+    left.swap(jobs_);
+  }
+  for (int64_t id : left)
+    (void)store_.finish(id, JobState::kInterrupted,
+                        make_error("interrupted", "camlabd stopped before the job started"), nullptr);
+}
+
+}  // namespace camlab::service

@@ -1,0 +1,74 @@
+#include "base/atomic_file.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace camlab::image {
+
+namespace {
+
+Error io_error(const std::filesystem::path& path, const char* what, int err) {
+  return make_error("io_error", std::string(what) + " " + path.string() + ": " + std::strerror(err));
+}
+
+}  // namespace
+
+Status write_file_atomically(const std::filesystem::path& path,
+                             std::span<const unsigned char> bytes) {
+  // mkstemp in the target's own directory, so the rename never crosses filesystems.
+  std::string temp_name = (path.parent_path() / ("." + path.filename().string() + ".XXXXXX")).string();
+  if (path.parent_path().empty()) temp_name = "." + path.filename().string() + ".XXXXXX";
+  int fd = ::mkstemp(temp_name.data());
+  if (fd < 0) return io_error(path, "cannot create a temporary file for", errno);
+
+  size_t written = 0;
+  while (written < bytes.size()) {
+    ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      int err = errno;
+      ::close(fd);
+      ::unlink(temp_name.c_str());
+      return io_error(path, "cannot write", err);
+    }
+    written += static_cast<size_t>(n);
+  }
+  // Data must be on disk before the rename makes it visible, or a power cut could leave
+  // an empty file under the final name.
+  if (::fsync(fd) != 0 || ::fchmod(fd, 0644) != 0) {
+    int err = errno;
+    ::close(fd);
+    ::unlink(temp_name.c_str());
+    return io_error(path, "cannot flush", err);
+  }
+  ::close(fd);
+  if (::rename(temp_name.c_str(), path.c_str()) != 0) {
+    int err = errno;
+    ::unlink(temp_name.c_str());
+    return io_error(path, "cannot rename into place", err);
+  }
+  return {};
+}
+
+Status write_file_atomically(const std::filesystem::path& path, std::string_view text) {
+  return write_file_atomically(
+      path, std::span(reinterpret_cast<const unsigned char*>(text.data()), text.size()));
+}
+
+Result<std::string> read_text_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return io_error(path, "cannot open", errno ? errno : ENOENT);
+  std::ostringstream text;
+  text << in.rdbuf();
+  if (in.bad()) return io_error(path, "cannot read", errno);
+  return text.str();
+}
+
+}  // namespace camlab::image
