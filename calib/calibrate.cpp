@@ -246,7 +246,7 @@ Result<nlohmann::json> write_calibration_outputs(CalibrationRun* run_ptr, const 
   if (Status s = write(options.out_cameramodel, run.cameramodel_text, "cameramodel"); !s) return s.error();
   if (!options.out_opencv_yaml.empty()) {
     if (!run.opencv_yaml_text)
-      return make_error("no_opencv_equivalent", run.report.solution.model.lensmodel +
+      return make_error("unsupported", run.report.solution.model.lensmodel +
                                                     " has no OpenCV equivalent; OpenCV YAML needs PINHOLE or OPENCV4/5/8/12");
     if (Status s = write(options.out_opencv_yaml, *run.opencv_yaml_text, "opencv_yaml"); !s) return s.error();
   }

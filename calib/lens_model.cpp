@@ -57,15 +57,15 @@ Result<std::vector<double>> project(const LensModel& model, const std::vector<do
   mrcal_lensmodel_t m;
   CAMLAB_ASSIGN(m, parse_model(model.lensmodel));
   if (static_cast<int>(model.intrinsics.size()) != mrcal_lensmodel_num_params(&m))
-    return make_error("bad_intrinsics", "intrinsics length does not match " + model.lensmodel);
+    return make_error("bad_lensmodel", "intrinsics length does not match " + model.lensmodel);
   const int n = static_cast<int>(p_cam.size() / 3);
   std::vector<double> q(2 * n);
   if (n > 0 && !mrcal_project(reinterpret_cast<mrcal_point2_t*>(q.data()), nullptr, nullptr,
                               reinterpret_cast<const mrcal_point3_t*>(p_cam.data()), n, &m,
                               model.intrinsics.data()))
-    return make_error("project_failed", "mrcal_project failed for " + model.lensmodel);
+    return make_error("projection_failed", "mrcal_project failed for " + model.lensmodel);
   for (double v : q)
-    if (!std::isfinite(v)) return make_error("project_failed", "projection is not finite");
+    if (!std::isfinite(v)) return make_error("projection_failed", "projection is not finite");
   return q;
 }
 
@@ -73,18 +73,18 @@ Result<std::vector<double>> unproject(const LensModel& model, const std::vector<
   mrcal_lensmodel_t m;
   CAMLAB_ASSIGN(m, parse_model(model.lensmodel));
   if (static_cast<int>(model.intrinsics.size()) != mrcal_lensmodel_num_params(&m))
-    return make_error("bad_intrinsics", "intrinsics length does not match " + model.lensmodel);
+    return make_error("bad_lensmodel", "intrinsics length does not match " + model.lensmodel);
   const int n = static_cast<int>(q_px.size() / 2);
   std::vector<double> v(3 * n);
   if (n > 0 && !mrcal_unproject(reinterpret_cast<mrcal_point3_t*>(v.data()),
                                 reinterpret_cast<const mrcal_point2_t*>(q_px.data()), n, &m,
                                 model.intrinsics.data()))
-    return make_error("unproject_failed", "mrcal_unproject failed for " + model.lensmodel);
+    return make_error("projection_failed", "mrcal_unproject failed for " + model.lensmodel);
   for (int i = 0; i < n; ++i) {
     double* p = &v[3 * i];
     const double norm = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
     if (!std::isfinite(norm) || norm <= 0)
-      return make_error("unproject_failed", "the model does not unproject pixel (" +
+      return make_error("projection_failed", "the model does not unproject pixel (" +
                                                 std::to_string(q_px[2 * i]) + ", " +
                                                 std::to_string(q_px[2 * i + 1]) + ")");
     for (int k = 0; k < 3; ++k) p[k] /= norm;
@@ -97,7 +97,7 @@ Result<std::vector<double>> unproject_each(const LensModel& model, const std::ve
   mrcal_lensmodel_t m;
   CAMLAB_ASSIGN(m, parse_model(model.lensmodel));
   if (static_cast<int>(model.intrinsics.size()) != mrcal_lensmodel_num_params(&m))
-    return make_error("bad_intrinsics", "intrinsics length does not match " + model.lensmodel);
+    return make_error("bad_lensmodel", "intrinsics length does not match " + model.lensmodel);
   const int n = static_cast<int>(q_px.size() / 2);
   std::vector<double> v(3 * n, 0.0);
   valid->assign(n, 0);
@@ -141,7 +141,7 @@ Result<FieldOfView> field_of_view(const LensModel& model) {
   CAMLAB_ASSIGN(back, project(model, v));
   for (size_t i = 0; i < q.size(); ++i)
     if (std::fabs(back[i] - q[i]) > 0.01)
-      return make_error("unproject_failed",
+      return make_error("projection_failed",
                         "the fitted model does not invert at the image edges; its FOV is undefined "
                         "(the model extrapolates beyond the data)");
   FieldOfView fov;

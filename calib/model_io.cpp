@@ -184,7 +184,7 @@ bool has_opencv_equivalent(const LensModel& model) {
 
 Result<std::string> opencv_yaml_text(const LensModel& model) {
   if (!has_opencv_equivalent(model) || model.intrinsics.size() < 4)
-    return make_error("no_opencv_equivalent",
+    return make_error("unsupported",
                       model.lensmodel + " has no OpenCV equivalent; use the .cameramodel");
   const auto& in = model.intrinsics;
   cv::Mat K = (cv::Mat_<double>(3, 3) << in[0], 0, in[2], 0, in[1], in[3], 0, 0, 1);

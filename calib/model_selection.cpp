@@ -9,6 +9,7 @@
 #include <memory>
 #include <numeric>
 
+#include "base/log.h"
 #include "calib/lens_model.h"
 #include "calib/uncertainty.h"
 
@@ -96,9 +97,8 @@ bool significantly_better(const std::vector<CornerResidual>& lean, const std::ve
   for (const auto& [b, d] : per_block) mean += d / n;
   double var = 0;
   for (const auto& [b, d] : per_block) var += (d - mean) * (d - mean) / (n - 1);
-  if (std::getenv("CAMLAB_CALIB_DEBUG"))
-    std::fprintf(stderr, "[calib] paired test: %d blocks, mean gain %.4g, standard error %.4g\n", n, mean,
-                 std::sqrt(var / n));
+  log_debug(log::Category::kCalib, "paired test: %d blocks, mean gain %.4g, standard error %.4g",
+            n, mean, std::sqrt(var / n));
   return mean > 0 && mean > 3 * std::sqrt(var / n);
 }
 

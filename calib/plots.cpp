@@ -7,6 +7,7 @@
 #include <limits>
 #include <system_error>
 
+#include "base/format.h"
 #include "analysis/plot.h"
 #include "calib/lens_model.h"
 #include "calib/uncertainty.h"
@@ -21,11 +22,6 @@ using analysis::PlotSpec;
 
 constexpr int kRed = 0x0000d0, kBlue = 0xc04000, kGreen = 0x008000;
 
-std::string fmt(const char* f, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, v);
-  return buf;
-}
 
 // The imager as an image-coordinate panel: pixel centres 0..W-1, y down, equal aspect.
 PlotSpec imager_panel(const CalibrationData& data, const std::string& title) {
@@ -66,7 +62,7 @@ Status residual_vectors(const fs::path& path, const CalibrationData& data, const
   const double diag = std::hypot(data.imager_width_px, data.imager_height_px);
   // A 95th-percentile residual draws 2% of the imager's diagonal long.
   const double scale = std::isfinite(p95) && p95 > 0 ? nice(0.02 * diag / p95) : 1.0;
-  PlotSpec spec = imager_panel(data, "residuals (predicted - observed) x " + fmt("%g", scale));
+  PlotSpec spec = imager_panel(data, "residuals (predicted - observed) x " + format_printf("%g", scale));
   PlotSeries in{"inliers", {}, {}, {}, false, kBlue}, out{"outliers", {}, {}, {}, false, kRed};
   for (const auto& r : s.residuals) {
     const auto& c = data.views[r.view].corners[r.corner];
@@ -105,7 +101,7 @@ Status residual_histogram(const fs::path& path, const Solution& s, double sigma_
   spec.y_label = "corners per bin";
   PlotSeries bars{"observed", {}, {}, {}, false, kBlue};
   bars.bar_width = 0.9 * bin;
-  PlotSeries normal{"normal, sigma " + fmt("%.3f", sigma_px) + " px", {}, {}, {}, true, kRed};
+  PlotSeries normal{"normal, sigma " + format_printf("%.3f", sigma_px) + " px", {}, {}, {}, true, kRed};
   for (int b = 0; b < kBins; ++b) {
     bars.x.push_back(-half + (b + 0.5) * bin);
     bars.y.push_back(counts[b]);
@@ -121,8 +117,8 @@ Status residual_histogram(const fs::path& path, const Solution& s, double sigma_
 }
 
 Status coverage(const fs::path& path, const CalibrationData& data, const CalibrationReport& r) {
-  PlotSpec spec = imager_panel(data, "observed corners: " + fmt("%.0f", 100 * r.coverage) +
-                                         "% of the imager, " + fmt("%.0f", 100 * r.edge_coverage) +
+  PlotSpec spec = imager_panel(data, "observed corners: " + format_printf("%.0f", 100 * r.coverage) +
+                                         "% of the imager, " + format_printf("%.0f", 100 * r.edge_coverage) +
                                          "% of its border");
   PlotSeries in{"inliers", {}, {}, {}, false, kBlue}, out{"outliers", {}, {}, {}, false, kRed};
   in.marker_px = 1;

@@ -6,6 +6,7 @@
 
 #include <opencv2/calib3d.hpp>
 
+#include "base/format.h"
 #include "optics/optics.h"
 
 namespace camlab::calib {
@@ -14,11 +15,6 @@ namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
 
-std::string fmt(const char* f, double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, f, v);
-  return buf;
-}
 
 }  // namespace
 
@@ -125,25 +121,25 @@ CalibrationReport make_report(const CalibrationData& data, const Solution& s,
   if (r.tilt_max_deg < 12 || r.tilt_plane_max_deg < 12)
     r.warnings.push_back({"fronto_parallel",
                           (r.tilt_plane_max_deg < 12
-                               ? "every board is within " + fmt("%.1f", r.tilt_plane_max_deg) +
+                               ? "every board is within " + format_printf("%.1f", r.tilt_plane_max_deg) +
                                      " deg of parallel to the image plane"
-                               : "every board faces the camera within " + fmt("%.1f", r.tilt_max_deg) +
+                               : "every board faces the camera within " + format_printf("%.1f", r.tilt_max_deg) +
                                      " deg") +
                               ", so focal length and distance cannot be told apart; capture "
                               "views with the board tilted 20-45 deg in different directions"});
   if (r.edge_coverage < 1.0 / 3)
     r.warnings.push_back({"centre_only",
-                          "corners cover only " + fmt("%.0f", 100 * r.edge_coverage) +
+                          "corners cover only " + format_printf("%.0f", 100 * r.edge_coverage) +
                               "% of the imager's border; distortion near the edges is extrapolated. "
                               "Capture views with the board reaching into the corners and edges"});
   if (r.board_span_median < 0.25)
     r.warnings.push_back({"far_boards",
-                          "the boards span a median " + fmt("%.0f", 100 * r.board_span_median) +
+                          "the boards span a median " + format_printf("%.0f", 100 * r.board_span_median) +
                               "% of the imager diagonal; capture views closer to the camera so the "
                               "board fills a third or more of the image"});
   if (r.outlier_share > 0.05)
     r.warnings.push_back({"many_outliers",
-                          fmt("%.1f", 100 * r.outlier_share) +
+                          format_printf("%.1f", 100 * r.outlier_share) +
                               "% of the corners were rejected as outliers; check the board size and "
                               "flatness, focus and motion blur, and recapture the worst views"});
   // Judged on the weighted residuals (mrcal's x = weight x residual: each corner in units
@@ -152,7 +148,7 @@ CalibrationReport make_report(const CalibrationData& data, const Solution& s,
   // it passes 1 px on a lens the model describes exactly.
   if (r.rms_weighted_px > 1.0)
     r.warnings.push_back({"high_residuals",
-                          "the residual RMS is " + fmt("%.2f", r.rms_weighted_px) +
+                          "the residual RMS is " + format_printf("%.2f", r.rms_weighted_px) +
                               " px (each corner weighted by its detection level): the lens model "
                               "cannot describe this lens or the corners are poor; try a richer "
                               "model (OPENCV8, SPLINED_STEREOGRAPHIC)"});
@@ -165,8 +161,8 @@ CalibrationReport make_report(const CalibrationData& data, const Solution& s,
     const bool centre_inside = k[2] >= 0 && k[2] <= s.model.width_px - 1 && k[3] >= 0 && k[3] <= s.model.height_px - 1;
     if (!(aspect > 0.8 && aspect < 1.25) || !centre_inside)
       r.warnings.push_back({"implausible_intrinsics",
-                            "fx/fy = " + fmt("%.3g", aspect) + " and the principal point (" + fmt("%.1f", k[2]) + ", " +
-                                fmt("%.1f", k[3]) + ") px describe no ordinary camera (square pixels, axis inside "
+                            "fx/fy = " + format_printf("%.3g", aspect) + " and the principal point (" + format_printf("%.1f", k[2]) + ", " +
+                                format_printf("%.1f", k[3]) + ") px describe no ordinary camera (square pixels, axis inside "
                                 "the imager): check --board (inner corners), the spacing and the corners; "
                                 "an anamorphic lens is the one exception"});
   }
@@ -306,7 +302,7 @@ std::string to_text(const CalibrationReport& r) {
                   "infinity / at %.3g m:\n",
                   r.uncertainty->observed_sigma_px, r.uncertainty->working_distance_m);
     t += buf;
-    auto v = [](const std::optional<double>& x) { return x ? fmt("%.4f", *x) : std::string("n/a"); };
+    auto v = [](const std::optional<double>& x) { return x ? format_printf("%.4f", *x) : std::string("n/a"); };
     for (const auto& p : r.uncertainty->points) {
       std::snprintf(buf, sizeof buf, "  %-13s (%7.1f, %7.1f)  %s / %s\n", p.where.c_str(), p.x_px,
                     p.y_px, v(p.at_infinity_px).c_str(), v(p.at_working_distance_px).c_str());

@@ -1,4 +1,5 @@
 #include "calib/seed.h"
+#include "base/log.h"
 
 #include <algorithm>
 #include <cmath>
@@ -169,7 +170,7 @@ std::optional<std::array<double, 6>> pose_from_corners(const CalibrationData& da
   std::vector<char> valid;
   auto dirs = unproject_each(model, q, &valid);
   if (!dirs) {
-    if (std::getenv("CAMLAB_CALIB_DEBUG")) std::fprintf(stderr, "[calib] view %d: %s\n", view, dirs.error().message.c_str());
+    log_debug(log::Category::kCalib, "view %d: %s", view, dirs.error().message.c_str());
     return std::nullopt;
   }
   std::vector<cv::Point3d> obj;
@@ -183,7 +184,7 @@ std::optional<std::array<double, 6>> pose_from_corners(const CalibrationData& da
   }
   cv::Vec3d r, t;
   if (!solve_pnp(obj, img, &r, &t)) {
-    if (std::getenv("CAMLAB_CALIB_DEBUG")) std::fprintf(stderr, "[calib] view %d: pnp failed with %zu points\n", view, obj.size());
+    log_debug(log::Category::kCalib, "view %d: pnp failed with %zu points", view, obj.size());
     return std::nullopt;
   }
   return std::array<double, 6>{r[0], r[1], r[2], t[0], t[1], t[2]};

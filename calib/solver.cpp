@@ -8,6 +8,8 @@
 #include <numeric>
 #include <optional>
 
+#include "base/log.h"
+#include "base/format.h"
 #include "calib/mrcal_api.h"
 #include "calib/mrcal_problem.h"
 #include "calib/seed.h"
@@ -40,13 +42,13 @@ bool optimize(Problem* p, const BoardSpec& board, mrcal_problem_selections_t sel
   for (const auto& f : p->frames)
     for (int k = 0; k < 3; ++k)
       if (!std::isfinite(f.r.xyz[k]) || !std::isfinite(f.t.xyz[k])) return false;
-  // CAMLAB_CALIB_DEBUG=1: one line per mrcal_optimize call (time, RMS, intrinsics).
-  if (std::getenv("CAMLAB_CALIB_DEBUG")) {
-    std::fprintf(stderr, "[calib] stage %.3f s rms %.4f outliers %d intrinsics",
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
-                 stats.rms_reproj_error__pixels, stats.Noutliers);
-    for (double v : p->intrinsics) std::fprintf(stderr, " %.5g", v);
-    std::fprintf(stderr, "\n");
+  // CAMLAB_LOG=calib=debug: one line per mrcal_optimize call (time, RMS, intrinsics).
+  if (log::enabled(log::Category::kCalib, log::Level::kDebug)) {
+    std::string intrinsics;
+    for (double v : p->intrinsics) intrinsics += " " + format_significant(v, 5);
+    log_debug(log::Category::kCalib, "stage %.3f s rms %.4f outliers %d intrinsics%s",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(),
+              stats.rms_reproj_error__pixels, stats.Noutliers, intrinsics.c_str());
   }
   return std::isfinite(p->warp.x2) && std::isfinite(p->warp.y2);
 }
@@ -218,7 +220,7 @@ Status solve_stage(Problem* p, const CalibrationData& data, const std::vector<in
   apply_weights(p, *w, data.board.cols * data.board.rows);
   const bool distort = p->intrinsics.size() > 4;
   const auto sel = selections(true, distort, false, distort, false);
-  const Error not_converged{"solve_failed", "the " + name + " solve did not converge"};
+  const Error not_converged = make_error("solve_failed", "the " + name + " solve did not converge");
   if (!optimize(p, data.board, sel)) return not_converged;
   bool failed = false;
   for (int round = 0; round < 2 && update_suspects(p, data, views, w, &failed); ++round)
@@ -357,9 +359,8 @@ Result<Solution> finish_solve(Problem* p, const CalibrationData& data, const std
       s.covariance = std::make_shared<const StateCovariance>(std::move(*cov));
     else
       s.covariance_error = cov.error().message;
-    if (std::getenv("CAMLAB_CALIB_DEBUG"))
-      std::fprintf(stderr, "[calib] covariance done at %.3f s\n",
-                   std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    log_debug(log::Category::kCalib, "covariance done at %.3f s",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
   s.solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return s;
@@ -505,10 +506,9 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
     return solve_warm(data, options, t0);
 
   auto seed = seed_focal(data, options.focal_guess_px);
-  if (std::getenv("CAMLAB_CALIB_DEBUG"))
-    std::fprintf(stderr, "[calib] seed %.3f s\n",
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  if (!seed) return make_error("seed_failed", "no view gave a board pose: check the board size and the corners");
+  log_debug(log::Category::kCalib, "seed %.3f s",
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  if (!seed) return make_error("solve_failed", "no view gave a board pose: check the board size and the corners");
   const double cx = (data.imager_width_px - 1) / 2.0, cy = (data.imager_height_px - 1) / 2.0;
   LensModel seed_model;
   seed_model.lensmodel = seed->projection == SeedProjection::kPinhole ? "LENSMODEL_PINHOLE"

@@ -61,7 +61,7 @@ Result<StateCovariance> state_covariance(const MrcalProblem& p, const BoardSpec&
                                 nullptr, p.frames.data(), nullptr, &p.warp, 1, 0, nframes, 0, 0,
                                 p.observations.data(), nullptr, nobs, 0, p.pool.data(), &p.lensmodel,
                                 p.imagersize, sel, &constants, board.spacing_m, W, H, false))
-    return make_error("mrcal_failed", "mrcal_optimizer_callback failed on the solved problem");
+    return make_error("solve_failed", "mrcal_optimizer_callback failed on the solved problem");
 
   // J^T J over all rows, and J_obs^T J_obs over the board observations' rows.
   cv::Mat jtj = cv::Mat::zeros(nstate, nstate, CV_64F), jobs = cv::Mat::zeros(nstate, nstate, CV_64F);
@@ -149,7 +149,7 @@ Result<std::vector<double>> projection_gradient(const Solution& s, const StateCo
   std::vector<double> dq_dintr(2 * nintr);
   const mrcal_point3_t p{{p_cam[0], p_cam[1], p_cam[2]}};
   if (!mrcal_project(&q, dq_dp, dq_dintr.data(), &p, 1, &lm, s.model.intrinsics.data()))
-    return make_error("project_failed", "mrcal could not project the point");
+    return make_error("projection_failed", "mrcal could not project the point");
   std::vector<double> g(2 * static_cast<size_t>(c.n), 0.0);
   for (int r = 0; r < 2; ++r)
     for (int j = 0; j < nintr; ++j) g[r * c.n + j] = dq_dintr[r * nintr + j];
@@ -227,7 +227,7 @@ Result<PixelCovariance> projection_uncertainty(const Solution& s, double x_px, d
   if (!std::isfinite(x_px) || !std::isfinite(y_px) || !(distance_m > 0))
     return make_error("invalid_argument", "the pixel must be finite and the distance > 0");
   auto v = unproject(s.model, {x_px, y_px});
-  if (!v) return make_error("unproject_failed", v.error().message);
+  if (!v) return make_error("projection_failed", v.error().message);
   const bool inf = !std::isfinite(distance_m);
   const double scale = inf ? 1.0 : distance_m;
   const double p[3] = {(*v)[0] * scale, (*v)[1] * scale, (*v)[2] * scale};

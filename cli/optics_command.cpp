@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
+#include "base/format.h"
 #include "optics/optics.h"
 
 namespace camlab::cli {
@@ -66,11 +67,6 @@ std::optional<double> parse_shutter_s(std::string text) {
 
 // ---- Reporting -------------------------------------------------------------------------
 
-std::string format(double value, const char* printf_format = "%.6g") {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, printf_format, value);
-  return buffer;
-}
 
 // A distance given in metres, to point at it in errors that the library reports in mm.
 struct MetreOption {
@@ -91,7 +87,7 @@ struct Context {
   std::string message = error.message;
   for (const MetreOption& option : context.metres) {
     if (message.find(std::string(option.library_name) + " =") != std::string::npos) {
-      message += " (from " + std::string(option.flag) + " " + format(option.value_m) + ")";
+      message += " (from " + std::string(option.flag) + " " + format_significant(option.value_m) + ")";
     }
   }
   std::cerr << "camlab optics " << context.subcommand << ": " << message << "\n";
@@ -102,7 +98,7 @@ struct Context {
 }
 
 Error invalid(std::string message) {
-  return make_error(std::string(optics::kErrInvalidArgument), std::move(message));
+  return make_error(optics::kErrInvalidArgument, std::move(message));
 }
 
 template <class T>
@@ -118,15 +114,15 @@ json metres_or_null(double distance_mm) {
 
 // "1/125" below a second, "2 s" above: how cameras show a shutter time.
 std::string format_shutter(double exposure_s) {
-  if (exposure_s >= 1.0) return format(exposure_s, "%.3g") + " s";
+  if (exposure_s >= 1.0) return format_significant(exposure_s, 3) + " s";
   const double reciprocal = 1.0 / exposure_s;
-  return "1/" + format(reciprocal, reciprocal >= 10.0 ? "%.0f" : "%.2g");
+  return "1/" + (reciprocal >= 10.0 ? format_printf("%.0f", reciprocal) : format_significant(reciprocal, 2));
 }
 
 std::string text_of(const json& value) {
   if (value.is_null()) return "inf";  // the only null this command writes
   if (value.is_boolean()) return value.get<bool>() ? "yes" : "no";
-  if (value.is_number()) return format(value.get<double>());
+  if (value.is_number()) return format_significant(value.get<double>());
   if (value.is_string()) return value.get<std::string>();
   return value.dump();
 }

@@ -16,7 +16,7 @@
 #include "service/jobs/compute_jobs.h"
 #include "service/store/job_store.h"
 #include "service/http/listener.h"
-#include "service/log.h"
+#include "base/log.h"
 #include "service/metrics.h"
 #include "service/api/router.h"
 #include "service/api/service_context.h"
@@ -49,20 +49,20 @@ int run_daemon(const DaemonConfig& config) {
 
   auto endpoint = parse_listen_address(config.listen);
   if (!endpoint) {
-    log_error("%s", endpoint.error().message.c_str());
+    log_error(log::Category::kDaemon, "%s", endpoint.error().message.c_str());
     return 1;
   }
   auto data_dir = prepare_data_dir(config.data_dir);
   if (!data_dir) {
-    log_error("%s", data_dir.error().message.c_str());
+    log_error(log::Category::kDaemon, "%s", data_dir.error().message.c_str());
     return 1;
   }
   auto token = load_or_create_token(*data_dir);
   if (!token) {
-    log_error("%s", token.error().message.c_str());
+    log_error(log::Category::kDaemon, "%s", token.error().message.c_str());
     return 1;
   }
-  if (!token->warning.empty()) log_warning("%s", token->warning.c_str());
+  if (!token->warning.empty()) log_warning(log::Category::kDaemon, "%s", token->warning.c_str());
   if (token->created) {
     // Printed once, on the start that created it; later starts only name the file.
     std::printf("camlabd: API token (also in %s, mode 0600): %s\n", (*data_dir / "token").c_str(), token->token.c_str());
@@ -71,19 +71,19 @@ int run_daemon(const DaemonConfig& config) {
 
   auto store = JobStore::open(*data_dir / "camlabd.sqlite");
   if (!store) {
-    log_error("%s", store.error().message.c_str());
+    log_error(log::Category::kDaemon, "%s", store.error().message.c_str());
     return 1;
   }
   auto interrupted = (*store)->interrupt_unfinished(
       "camlabd stopped while this job was queued or running (crash or kill); the frames written are kept");
-  if (interrupted && *interrupted > 0) log_warning("%d unfinished job(s) from the last run marked interrupted", *interrupted);
+  if (interrupted && *interrupted > 0) log_warning(log::Category::kDaemon, "%d unfinished job(s) from the last run marked interrupted", *interrupted);
 
   Metrics metrics;
   CameraSetOptions camera_options = config.cameras;
   camera_options.worker.data_dir = *data_dir;
   auto cameras = CameraSet::create(camera_options, **store, metrics);
   if (!cameras) {
-    log_error("%s", cameras.error().message.c_str());
+    log_error(log::Category::kDaemon, "%s", cameras.error().message.c_str());
     return 1;
   }
   ComputeWorker compute(*data_dir, **store, metrics, config.max_compute_jobs);
@@ -96,7 +96,7 @@ int run_daemon(const DaemonConfig& config) {
   net::io_context ioc(config.io_threads);
   auto listener = Listener::create(ioc, *endpoint, router, config.limits);
   if (!listener) {
-    log_error("%s", listener.error().message.c_str());
+    log_error(log::Category::kDaemon, "%s", listener.error().message.c_str());
     return 1;
   }
 
@@ -104,10 +104,10 @@ int run_daemon(const DaemonConfig& config) {
   compute.start();
   for (const auto& worker : (*cameras)->workers()) {
     const CameraSnapshot s = worker->snapshot();
-    log_info("camera %s: %s (%s, %s)%s%s", s.identity.id.c_str(), s.identity.name.c_str(), s.identity.path.c_str(),
+    log_info(log::Category::kDaemon, "camera %s: %s (%s, %s)%s%s", s.identity.id.c_str(), s.identity.name.c_str(), s.identity.path.c_str(),
              s.transport.c_str(), s.available ? "" : " unavailable: ", s.available ? "" : s.unavailable_reason.c_str());
   }
-  if ((*cameras)->workers().empty()) log_warning("no cameras (none found, and the virtual camera is off)");
+  if ((*cameras)->workers().empty()) log_warning(log::Category::kDaemon, "no cameras (none found, and the virtual camera is off)");
 
   std::promise<int> stop_signal;
   net::signal_set signals(ioc, SIGINT, SIGTERM);
@@ -117,7 +117,7 @@ int run_daemon(const DaemonConfig& config) {
 
   (*listener)->run();
   const auto bound = (*listener)->local_endpoint();
-  log_info("listening on http://%s:%u (data %s, %zu camera(s), %d I/O threads%s)",
+  log_info(log::Category::kDaemon, "listening on http://%s:%u (data %s, %zu camera(s), %d I/O threads%s)",
            bound.address().to_string().c_str(), bound.port(), data_dir->c_str(), (*cameras)->workers().size(),
            config.io_threads, config.test_faults ? ", TEST FAULT INJECTION ENABLED" : "");
 
@@ -125,14 +125,14 @@ int run_daemon(const DaemonConfig& config) {
   for (int i = 0; i < config.io_threads; ++i) pool.emplace_back([&ioc] { ioc.run(); });
 
   const int signal_number = stop_signal.get_future().get();
-  log_info("%s received: stopping (no new connections; running jobs are interrupted, frames kept)",
+  log_info(log::Category::kDaemon, "%s received: stopping (no new connections; running jobs are interrupted, frames kept)",
            signal_number == SIGTERM ? "SIGTERM" : "SIGINT");
   (*listener)->stop();
   (*cameras)->stop();
   compute.stop();
   ioc.stop();
   for (auto& t : pool) t.join();
-  log_info("stopped");
+  log_info(log::Category::kDaemon, "stopped");
   return 0;
 }
 

@@ -2,9 +2,11 @@
 // serves (service/daemon.h).
 #include <CLI/CLI.hpp>
 
+#include "base/log.h"
 #include "service/daemon.h"
 
 int main(int argc, char** argv) {
+  camlab::log::set_program_name("camlabd");
   camlab::service::DaemonConfig config;
   bool no_virtual = false, no_scan = false;
   int read_timeout_s = static_cast<int>(config.limits.read_timeout.count());

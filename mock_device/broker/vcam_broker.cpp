@@ -251,7 +251,7 @@ Result<std::unique_ptr<VcamBroker>> VcamBroker::start(std::vector<std::shared_pt
   sockaddr_un address{};
   address.sun_family = AF_UNIX;
   if (socket_path.size() >= sizeof address.sun_path)
-    return make_error("invalid_path", "broker socket path too long (max " +
+    return make_error("invalid_argument", "broker socket path too long (max " +
                                           std::to_string(sizeof address.sun_path - 1) + " bytes): " + socket_path);
   std::memcpy(address.sun_path, socket_path.c_str(), socket_path.size() + 1);
   const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);

@@ -21,7 +21,7 @@ Result<double> parse_number(const std::string& text, const std::string& context)
     if (used != text.size() || !std::isfinite(value)) throw std::invalid_argument(text);
     return value;
   } catch (const std::exception&) {
-    return make_error("bad_argument", context + ": '" + text + "' is not a number");
+    return make_error("invalid_argument", context + ": '" + text + "' is not a number");
   }
 }
 
@@ -40,7 +40,7 @@ const char* pixel_format_for(int bit_depth) {
 Result<Sweep> parse_sweep(const std::string& text) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0)
-    return make_error("bad_argument", "sweep '" + text +
+    return make_error("invalid_argument", "sweep '" + text +
                                           "' must be name=v1,v2,... or name=start:stop:step");
   Sweep sweep;
   sweep.parameter = text.substr(0, eq);
@@ -54,7 +54,7 @@ Result<Sweep> parse_sweep(const std::string& text) {
       parts.push_back(v);
     }
     if (parts.size() != 3 || parts[2] == 0 || (parts[1] - parts[0]) / parts[2] < 0)
-      return make_error("bad_argument", "sweep range '" + values +
+      return make_error("invalid_argument", "sweep range '" + values +
                                             "' must be start:stop:step with a step towards stop");
     const double count = std::floor((parts[1] - parts[0]) / parts[2] + 1e-9) + 1;
     if (count > kMaxFrames)
@@ -69,7 +69,7 @@ Result<Sweep> parse_sweep(const std::string& text) {
       sweep.values.push_back(v);
     }
   }
-  if (sweep.values.empty()) return make_error("bad_argument", "sweep '" + text + "' has no values");
+  if (sweep.values.empty()) return make_error("invalid_argument", "sweep '" + text + "' has no values");
   return sweep;
 }
 
@@ -80,7 +80,7 @@ Status apply_setting(const Renderer& renderer, const std::string& name, double v
   else if (name == "f_number") settings->f_number = value;
   else if (name == "focus_position") {
     if (value != std::round(value))
-      return make_error("bad_argument", "focus_position must be a whole number of steps, not " +
+      return make_error("invalid_argument", "focus_position must be a whole number of steps, not " +
                                             std::to_string(value));
     settings->focus_position = static_cast<int>(value);
   } else if (name == "focus_m") {
@@ -90,7 +90,7 @@ Status apply_setting(const Renderer& renderer, const std::string& name, double v
     // The focus motor moves in steps: the nearest step, reported as what is in effect.
     settings->focus_position = static_cast<int>(std::lround((*z_s - lens.focal_mm) / lens.focus.extension_mm_per_step));
   } else {
-    return make_error("bad_argument", "unknown setting '" + name +
+    return make_error("invalid_argument", "unknown setting '" + name +
                                           "' (exposure_us, gain, f_number, focus_position, focus_m)");
   }
   return renderer.validate(*settings);

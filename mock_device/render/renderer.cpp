@@ -44,7 +44,7 @@ Result<Renderer> Renderer::create(CameraSpec camera, SceneSpec scene) {
                                     r.camera_.sensor.width_px, r.camera_.sensor.height_px);
   if (!rays) return rays.error();
   if (rays->invalid_fraction() > 0.5)
-    return make_error("bad_lens", "the lens model cannot unproject " +
+    return make_error("projection_failed", "the lens model cannot unproject " +
                                       std::to_string(static_cast<int>(rays->invalid_fraction() * 100)) +
                                       "% of the imager; check lens.distortion");
   r.reference_rays_ = std::make_shared<const ChiefRayTable>(std::move(*rays));

@@ -53,19 +53,19 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
   mrcal_lensmodel_t lensmodel;
   if (!mrcal_lensmodel_from_name(&lensmodel, lens.model.c_str()) ||
       !mrcal_lensmodel_type_is_valid(lensmodel.type))
-    return make_error("bad_field", f.path_of("model") + " = \"" + lens.model +
+    return make_error("invalid_argument", f.path_of("model") + " = \"" + lens.model +
                                        "\" is not an mrcal lens model (e.g. LENSMODEL_OPENCV8, "
                                        "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=10_fov_x_deg=100)");
   if (lensmodel.type == MRCAL_LENSMODEL_CAHVORE)
-    return make_error("bad_field", f.path_of("model") +
+    return make_error("invalid_argument", f.path_of("model") +
                                        ": CAHVORE cannot be unprojected by mrcal; choose another");
   if (!mrcal_lensmodel_metadata(&lensmodel).has_core)
-    return make_error("bad_field", f.path_of("model") + " has no intrinsics core (fx fy cx cy)");
+    return make_error("invalid_argument", f.path_of("model") + " has no intrinsics core (fx fy cx cy)");
   const size_t n_distortion = static_cast<size_t>(mrcal_lensmodel_num_params(&lensmodel) - 4);
   if (n_distortion == 0) {
     lens.distortion.clear();
     if (f.has("distortion") && !f.json().at("distortion").empty())
-      return make_error("bad_field", f.path_of("distortion") + " must be empty for " + lens.model);
+      return make_error("invalid_argument", f.path_of("distortion") + " must be empty for " + lens.model);
   } else {
     CAMLAB_ASSIGN(lens.distortion, f.numbers("distortion", n_distortion, n_distortion));
   }
@@ -91,7 +91,7 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
     if (!std::is_sorted(lens.iris.f_numbers.rbegin(), lens.iris.f_numbers.rend()) ||
         std::adjacent_find(lens.iris.f_numbers.begin(), lens.iris.f_numbers.end()) !=
             lens.iris.f_numbers.end())
-      return make_error("bad_field", iris.path_of("f_numbers") +
+      return make_error("invalid_argument", iris.path_of("f_numbers") +
                                          " must fall strictly from the smallest aperture to the "
                                          "widest (iris_absolute: larger value = wider open)");
   } else {
@@ -116,7 +116,7 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
 }  // namespace
 
 Result<CameraSpec> parse_camera_spec(const nlohmann::json& json) {
-  if (!json.is_object()) return make_error("bad_spec", "camera spec must be a JSON object");
+  if (!json.is_object()) return make_error("invalid_argument", "camera spec must be a JSON object");
   JsonFields root(json, "camera");
   CameraSpec spec;
   spec.source = json;

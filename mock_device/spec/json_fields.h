@@ -38,11 +38,11 @@ class JsonFields {
                         bool min_exclusive = false) const {
     if (!has(key)) {
       if (fallback) return *fallback;
-      return make_error("missing_field", path_of(key) + " is required");
+      return make_error("invalid_argument", path_of(key) + " is required");
     }
     const auto& value = object_.at(key);
     if (!value.is_number())
-      return make_error("bad_field", path_of(key) + " must be a number, not " + value.dump());
+      return make_error("invalid_argument", path_of(key) + " must be a number, not " + value.dump());
     const double x = value.get<double>();
     if (!std::isfinite(x) || x > max || (min_exclusive ? x <= min : x < min))
       return make_error("out_of_range", path_of(key) + " = " + value.dump() +
@@ -55,11 +55,11 @@ class JsonFields {
                       std::optional<int> fallback = std::nullopt) const {
     if (!has(key)) {
       if (fallback) return *fallback;
-      return make_error("missing_field", path_of(key) + " is required");
+      return make_error("invalid_argument", path_of(key) + " is required");
     }
     const auto& value = object_.at(key);
     if (!value.is_number_integer())
-      return make_error("bad_field", path_of(key) + " must be an integer, not " + value.dump());
+      return make_error("invalid_argument", path_of(key) + " must be an integer, not " + value.dump());
     const auto x = value.get<long long>();
     if (x < min || x > max)
       return make_error("out_of_range", path_of(key) + " = " + value.dump() +
@@ -72,28 +72,28 @@ class JsonFields {
     if (!has(key)) return fallback;
     const auto& value = object_.at(key);
     if (!value.is_boolean())
-      return make_error("bad_field", path_of(key) + " must be true or false, not " + value.dump());
+      return make_error("invalid_argument", path_of(key) + " must be true or false, not " + value.dump());
     return value.get<bool>();
   }
 
   Result<std::string> string(const char* key, std::optional<std::string> fallback = std::nullopt) const {
     if (!has(key)) {
       if (fallback) return *fallback;
-      return make_error("missing_field", path_of(key) + " is required");
+      return make_error("invalid_argument", path_of(key) + " is required");
     }
     const auto& value = object_.at(key);
     if (!value.is_string())
-      return make_error("bad_field", path_of(key) + " must be a string, not " + value.dump());
+      return make_error("invalid_argument", path_of(key) + " must be a string, not " + value.dump());
     return value.get<std::string>();
   }
 
   // An array of finite numbers, each in [min, max], of length in [min_size, max_size].
   Result<std::vector<double>> numbers(const char* key, size_t min_size, size_t max_size,
                                       double min = -1e300, double max = 1e300) const {
-    if (!has(key)) return make_error("missing_field", path_of(key) + " is required");
+    if (!has(key)) return make_error("invalid_argument", path_of(key) + " is required");
     const auto& value = object_.at(key);
     if (!value.is_array() || value.size() < min_size || value.size() > max_size)
-      return make_error("bad_field", path_of(key) + " must be an array of " +
+      return make_error("invalid_argument", path_of(key) + " must be an array of " +
                                          (min_size == max_size ? std::to_string(min_size)
                                                                : std::to_string(min_size) + ".." +
                                                                      std::to_string(max_size)) +

@@ -56,7 +56,7 @@ Result<RtCamTarget> parse_pose(const nlohmann::json& json, const std::string& pa
                 position[0], position[1], position[2]};
     }
   } else {
-    return make_error("bad_field", path + " must be an rt_cam_target array or a pose object");
+    return make_error("invalid_argument", path + " must be an rt_cam_target array or a pose object");
   }
   if (values[5] <= 0)
     return make_error("out_of_range", path + ": the target origin must be in front of the "
@@ -77,7 +77,7 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
   else if (type == "texture") t.type = TargetType::kTexture;
   else if (type == "uniform") t.type = TargetType::kUniform;
   else
-    return make_error("bad_field", f.path_of("type") + " = \"" + type +
+    return make_error("invalid_argument", f.path_of("type") + " = \"" + type +
                                        "\" is not one of chessboard, slanted_edge, bars, "
                                        "texture, uniform");
 
@@ -90,7 +90,7 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
     t.corners_cols = static_cast<int>(corners[0]);
     t.corners_rows = static_cast<int>(corners[1]);
     if (t.corners_cols != corners[0] || t.corners_rows != corners[1])
-      return make_error("bad_field", f.path_of("inner_corners") + " must be two integers");
+      return make_error("invalid_argument", f.path_of("inner_corners") + " must be two integers");
     CAMLAB_ASSIGN(t.square_m, f.number("square_m", 0, 10, std::nullopt, true));
     CAMLAB_ASSIGN(t.margin_squares, f.number("margin_squares", 0, 100, 1.0));
   } else {
@@ -119,7 +119,7 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
   }
 
   if (f.has("pose") == f.has("poses"))
-    return make_error("missing_field", f.path() + " needs exactly one of \"pose\" or \"poses\"");
+    return make_error("invalid_argument", f.path() + " needs exactly one of \"pose\" or \"poses\"");
   if (f.has("pose")) {
     RtCamTarget rt;
     CAMLAB_ASSIGN(rt, parse_pose(f.json().at("pose"), f.path_of("pose")));
@@ -127,7 +127,7 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
   } else {
     const auto& poses = f.json().at("poses");
     if (!poses.is_array() || poses.empty() || poses.size() > 10000)
-      return make_error("bad_field", f.path_of("poses") + " must be a non-empty array (<= 10000)");
+      return make_error("invalid_argument", f.path_of("poses") + " must be a non-empty array (<= 10000)");
     for (size_t i = 0; i < poses.size(); ++i) {
       RtCamTarget rt;
       CAMLAB_ASSIGN(rt, parse_pose(poses[i], f.path_of("poses") + "[" + std::to_string(i) + "]"));
@@ -140,7 +140,7 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
 }  // namespace
 
 Result<SceneSpec> parse_scene_spec(const nlohmann::json& json) {
-  if (!json.is_object()) return make_error("bad_spec", "scene spec must be a JSON object");
+  if (!json.is_object()) return make_error("invalid_argument", "scene spec must be a JSON object");
   JsonFields root(json, "scene");
   SceneSpec scene;
   scene.source = json;
@@ -148,7 +148,7 @@ Result<SceneSpec> parse_scene_spec(const nlohmann::json& json) {
   CAMLAB_ASSIGN(scene.illuminance_lux, root.number("illuminance_lux", 0, 1e6, 500.0));
   CAMLAB_ASSIGN(scene.background_reflectance, root.number("background_reflectance", 0, 1, 0.18));
   if (!root.has("targets") || !json.at("targets").is_array())
-    return make_error("missing_field", "scene.targets must be an array of targets");
+    return make_error("invalid_argument", "scene.targets must be an array of targets");
   const auto& targets = json.at("targets");
   if (targets.size() > 64)
     return make_error("out_of_range", "scene.targets has " + std::to_string(targets.size()) +
@@ -163,7 +163,7 @@ Result<SceneSpec> parse_scene_spec(const nlohmann::json& json) {
   for (size_t i = 0; i < scene.targets.size(); ++i) {
     const auto n = scene.targets[i].poses.size();
     if (n != 1 && static_cast<int>(n) != scene.view_count)
-      return make_error("bad_field", "scene.targets[" + std::to_string(i) + "].poses has " +
+      return make_error("invalid_argument", "scene.targets[" + std::to_string(i) + "].poses has " +
                                          std::to_string(n) + " poses; every target must have 1 or " +
                                          std::to_string(scene.view_count));
   }

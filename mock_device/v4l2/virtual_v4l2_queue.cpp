@@ -19,6 +19,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "mock_device/v4l2/virtual_v4l2_device.h"
+#include "base/log.h"
 #include "mock_device/render/sensor_model.h"
 #include "optics/optics.h"
 
@@ -324,8 +325,8 @@ bool VirtualV4l2Device::render_into(int index, uint64_t sequence, std::unique_lo
     // A driver that cannot fill a buffer returns it flagged, never keeps it: the client
     // sees V4L2_BUF_FLAG_ERROR instead of waiting forever.
     if (!render_error_reported_) {
-      std::fprintf(stderr, "camlab vcam: cannot render frame %llu: %s\n",
-                   static_cast<unsigned long long>(sequence), frame.error().message.c_str());
+      log_warning(log::Category::kVcam, "cannot render frame %llu: %s",
+                  static_cast<unsigned long long>(sequence), frame.error().message.c_str());
       render_error_reported_ = true;  // a repeating error is logged once
     }
     std::memset(buffer.address, 0, format.sizeimage);

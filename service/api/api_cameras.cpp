@@ -20,7 +20,7 @@ CameraWorker* find_camera(const ServiceContext& context, const std::string& id, 
   if (CameraWorker* worker = context.cameras->find(id)) return worker;
   std::string known;
   for (const auto& w : context.cameras->workers()) known += (known.empty() ? "" : ", ") + w->id();
-  reply(error_response(404, "not_found", "no camera '" + clip(id) + "' (cameras: " +
+  reply(error_response("not_found", "no camera '" + clip(id) + "' (cameras: " +
                                              (known.empty() ? "none" : known) + ")"));
   return nullptr;
 }
@@ -79,15 +79,15 @@ void put_controls(const ServiceContext& context, const ApiRequest& request, cons
   if (!body) return reply(error_response(body.error()));
   const nlohmann::json& wanted = body->contains("controls") ? (*body)["controls"] : *body;
   if (!wanted.is_object() || wanted.empty())
-    return reply(error_response(400, "invalid_request",
+    return reply(error_response("invalid_request",
                                 "send an object of control names and values, e.g. {\"exposure_time_absolute\": 100}"));
-  if (wanted.size() > 64) return reply(error_response(400, "invalid_request", "at most 64 controls per request"));
+  if (wanted.size() > 64) return reply(error_response("invalid_request", "at most 64 controls per request"));
   const CameraSnapshot snapshot = worker->snapshot();
   if (!snapshot.available)
-    return reply(error_response(503, "no_device", "camera " + worker->id() + " is not available: " +
+    return reply(error_response("no_device", "camera " + worker->id() + " is not available: " +
                                                       snapshot.unavailable_reason));
   if (snapshot.running_job)
-    return reply(error_response(409, "busy", "camera " + worker->id() + " is running job " +
+    return reply(error_response("busy", "camera " + worker->id() + " is running job " +
                                                  std::to_string(snapshot.running_job) +
                                                  "; change controls when it is idle"));
   std::vector<std::pair<std::string, int64_t>> values;
@@ -99,7 +99,7 @@ void put_controls(const ServiceContext& context, const ApiRequest& request, cons
       if (c.type != device::ControlType::kOther && c.type != device::ControlType::kButton)
         names += (names.empty() ? "" : ", ") + c.name;
     }
-    if (!found) return reply(error_response(422, "unsupported", "camera " + worker->id() + " has no control '" +
+    if (!found) return reply(error_response("unsupported", "camera " + worker->id() + " has no control '" +
                                                                     clip(name) + "' (controls: " + names + ")"));
     auto checked = check_control(*found, value);
     if (!checked) return reply(error_response(checked.error()));
@@ -122,7 +122,7 @@ void put_controls(const ServiceContext& context, const ApiRequest& request, cons
 void queue_job(const ServiceContext& context, CameraWorker* worker, const std::string& kind,
                const nlohmann::json& request, int frames_total, const Reply& reply) {
   if (!worker->can_accept_job())
-    return reply(error_response(429, "too_many_jobs", "camera " + worker->id() + " has too many jobs queued; retry later"));
+    return reply(error_response("too_many_jobs", "camera " + worker->id() + " has too many jobs queued; retry later"));
   auto job = context.store->create(kind, worker->id(), request, kind == "capture" ? "captures/job-" : "", frames_total);
   if (!job) return reply(error_response(job.error()));
   if (auto s = worker->enqueue_job(job->id); !s) {
@@ -143,7 +143,7 @@ void post_capture(const ServiceContext& context, const ApiRequest& request, cons
   if (!snapshot.available) {
     // Have the worker try to open it again (it may be back), for the next request.
     (void)worker->post_task([](device::Camera*, const Error*) {});
-    return reply(error_response(503, "no_device", "camera " + worker->id() + " is not available: " +
+    return reply(error_response("no_device", "camera " + worker->id() + " is not available: " +
                                                       snapshot.unavailable_reason));
   }
   // Validated here against the snapshot, so a bad request gets its 400/422 now rather

@@ -67,7 +67,7 @@ Result<nlohmann::json> resolve_source(const ServiceContext& context, const nlohm
 void queue_compute_job(const ServiceContext& context, const std::string& kind, const nlohmann::json& request,
                        const Reply& reply) {
   if (!context.compute->can_accept_job())
-    return reply(error_response(429, "too_many_jobs", "the compute queue is full; retry later"));
+    return reply(error_response("too_many_jobs", "the compute queue is full; retry later"));
   auto job = context.store->create(kind, "", request, kind == "calibration" ? "calibrations/job-" : "", 0);
   if (!job) return reply(error_response(job.error()));
   if (auto s = context.compute->enqueue_job(job->id); !s) {
@@ -85,29 +85,29 @@ void post_calibration(const ServiceContext& context, const ApiRequest& request, 
   nlohmann::json normalised = nlohmann::json::object();
   const nlohmann::json& corners = body->value("inner_corners", nlohmann::json());
   if (!corners.is_array() || corners.size() != 2 || !corners[0].is_number_integer() || !corners[1].is_number_integer())
-    return reply(error_response(400, "invalid_request", "\"inner_corners\" must be [COLS, ROWS], e.g. [14, 10]"));
+    return reply(error_response("invalid_request", "\"inner_corners\" must be [COLS, ROWS], e.g. [14, 10]"));
   const int cols = corners[0].get<int>(), rows = corners[1].get<int>();
   if (cols < 2 || rows < 2 || cols > 100 || rows > 100)
-    return reply(error_response(422, "out_of_range", "inner corners must be in [2, 100] each"));
+    return reply(error_response("out_of_range", "inner corners must be in [2, 100] each"));
   const nlohmann::json& spacing = body->value("spacing_m", nlohmann::json());
-  if (!spacing.is_number()) return reply(error_response(400, "invalid_request", "\"spacing_m\" (corner spacing in metres) is required"));
+  if (!spacing.is_number()) return reply(error_response("invalid_request", "\"spacing_m\" (corner spacing in metres) is required"));
   if (!(spacing.get<double>() > 0) || spacing.get<double>() > 10)
-    return reply(error_response(422, "out_of_range", "spacing_m must be in (0, 10] metres"));
+    return reply(error_response("out_of_range", "spacing_m must be in (0, 10] metres"));
   const nlohmann::json& model = body->value("model", nlohmann::json("auto"));
   if (!model.is_string() || !(model == "auto" || model.get<std::string>().rfind("LENSMODEL_", 0) == 0) ||
       model.get<std::string>().size() > 200)
-    return reply(error_response(400, "invalid_request", "\"model\" must be \"auto\" or a mrcal LENSMODEL_... name"));
+    return reply(error_response("invalid_request", "\"model\" must be \"auto\" or a mrcal LENSMODEL_... name"));
   const nlohmann::json& detector = body->value("detector", nlohmann::json("auto"));
   if (!detector.is_string() || !(detector == "auto" || detector == "opencv" || detector == "mrgingham"))
-    return reply(error_response(400, "invalid_request",
+    return reply(error_response("invalid_request",
                                 "\"detector\" must be \"auto\" (mrgingham on square boards, else OpenCV), "
                                 "\"opencv\" or \"mrgingham\""));
   if (detector == "mrgingham" && cols != rows)
-    return reply(error_response(422, "unsupported", "the mrgingham detector finds square boards only (N x N inner corners)"));
+    return reply(error_response("unsupported", "the mrgingham detector finds square boards only (N x N inner corners)"));
   if (body->contains("pixel_um")) {
     const auto& pixel = (*body)["pixel_um"];
     if (!pixel.is_number() || !(pixel.get<double>() > 0) || pixel.get<double>() > 100)
-      return reply(error_response(422, "out_of_range", "pixel_um must be in (0, 100] micrometres"));
+      return reply(error_response("out_of_range", "pixel_um must be in (0, 100] micrometres"));
     normalised["pixel_um"] = pixel;
   }
   // The source last: a malformed request is refused before any file is looked at.
@@ -126,7 +126,7 @@ void post_analysis(const ServiceContext& context, const ApiRequest& request, Rep
   if (!body) return reply(error_response(body.error()));
   const nlohmann::json& kind = body->value("kind", nlohmann::json());
   if (!kind.is_string() || (kind != "defocus" && kind != "exposure" && kind != "focus"))
-    return reply(error_response(400, "invalid_request", "\"kind\" must be \"defocus\", \"exposure\" or \"focus\""));
+    return reply(error_response("invalid_request", "\"kind\" must be \"defocus\", \"exposure\" or \"focus\""));
   auto source = resolve_source(context, *body);
   if (!source) return reply(error_response(source.error()));
   nlohmann::json normalised = *source;

@@ -29,7 +29,7 @@ std::optional<JobRecord> find_job(const ServiceContext& context, const PathParam
     return std::nullopt;
   }
   if (!job->has_value()) {
-    reply(error_response(404, "not_found", "no job " + std::to_string(*id)));
+    reply(error_response("not_found", "no job " + std::to_string(*id)));
     return std::nullopt;
   }
   return std::move(**job);
@@ -38,15 +38,15 @@ std::optional<JobRecord> find_job(const ServiceContext& context, const PathParam
 // The capture folder of a capture job, or a reply saying why there is none.
 std::optional<image::CaptureFolder> job_folder(const ServiceContext& context, const JobRecord& job, const Reply& reply) {
   if (job.kind != "capture") {
-    reply(error_response(422, "no_frames", "job " + std::to_string(job.id) + " is a " + job.kind + " job; only capture jobs have frames"));
+    reply(error_response("no_frames", "job " + std::to_string(job.id) + " is a " + job.kind + " job; only capture jobs have frames"));
     return std::nullopt;
   }
   auto folder = image::CaptureFolder::open(context.data_dir / job.folder);
   if (!folder) {
     if (job.state == JobState::kQueued) {
-      reply(error_response(404, "not_found", "job " + std::to_string(job.id) + " is queued and has no frames yet"));
+      reply(error_response("not_found", "job " + std::to_string(job.id) + " is queued and has no frames yet"));
     } else {
-      reply(error_response(404, "not_found", "job " + std::to_string(job.id) + " has no capture folder (" + folder.error().message + ")"));
+      reply(error_response("not_found", "job " + std::to_string(job.id) + " has no capture folder (" + folder.error().message + ")"));
     }
     return std::nullopt;
   }
@@ -63,7 +63,7 @@ std::optional<int> frame_index(const image::CaptureFolder& folder, const JobReco
   }
   const int count = static_cast<int>(folder.frames().size());
   if (*n >= count) {
-    reply(error_response(404, "not_found", "job " + std::to_string(job.id) + " has " + std::to_string(count) +
+    reply(error_response("not_found", "job " + std::to_string(job.id) + " has " + std::to_string(count) +
                                                " frames (0.." + std::to_string(count - 1) + "); no frame " +
                                                std::to_string(*n)));
     return std::nullopt;
@@ -93,7 +93,7 @@ std::optional<ApiResponse> read_frame_file(const ServiceContext& context, const 
   const auto& entry = folder->frames()[*n];
   ApiResponse response;
   if (!read_bytes(folder->dir() / (sidecar ? entry.sidecar_file : entry.image_file), &response.body)) {
-    reply(error_response(500, "io_error", std::string("cannot read ") + (sidecar ? "the sidecar of " : "") + "frame " +
+    reply(error_response("io_error", std::string("cannot read ") + (sidecar ? "the sidecar of " : "") + "frame " +
                                               std::to_string(*n)));
     return std::nullopt;
   }
@@ -122,13 +122,13 @@ void list_jobs(const ServiceContext& context, const ApiRequest& request, Reply r
   if (auto it = query.find("state"); it != query.end()) {
     state = parse_job_state(it->second);
     if (!state)
-      return reply(error_response(400, "invalid_request",
+      return reply(error_response("invalid_request",
                                   "state must be one of queued, running, succeeded, failed, cancelled, interrupted"));
   }
   if (auto it = query.find("limit"); it != query.end()) {
     auto n = parse_id(it->second, "limit", 6);
     if (!n || *n < 1 || *n > kMaxListLimit)
-      return reply(error_response(400, "invalid_request", "limit must be in [1, " + std::to_string(kMaxListLimit) + "]"));
+      return reply(error_response("invalid_request", "limit must be in [1, " + std::to_string(kMaxListLimit) + "]"));
     limit = static_cast<int>(*n);
   }
   if (auto it = query.find("offset"); it != query.end()) {
@@ -154,7 +154,7 @@ void cancel_job(const ServiceContext& context, const PathParams& params, Reply r
       return reply(json_response(200, now && now->has_value() ? to_json(**now) : to_json(*job)));
     }
     auto now = context.store->get(job->id);  // it started meanwhile: cancel it running
-    if (!now || !now->has_value()) return reply(error_response(500, "io_error", "job vanished while cancelling"));
+    if (!now || !now->has_value()) return reply(error_response("io_error", "job vanished while cancelling"));
     job = **now;
   }
   if (job->state == JobState::kRunning) {
@@ -164,10 +164,10 @@ void cancel_job(const ServiceContext& context, const PathParams& params, Reply r
       json["cancel_requested"] = true;
       return reply(json_response(202, json));
     }
-    return reply(error_response(409, "not_cancellable", "job " + std::to_string(job->id) + " (" + job->kind +
+    return reply(error_response("not_cancellable", "job " + std::to_string(job->id) + " (" + job->kind +
                                                             ") cannot be cancelled once running"));
   }
-  reply(error_response(409, "conflict", "job " + std::to_string(job->id) + " has already finished (" +
+  reply(error_response("conflict", "job " + std::to_string(job->id) + " has already finished (" +
                                             job_state_name(job->state) + ")"));
 }
 

@@ -27,14 +27,14 @@ void add_test_routes(Router& router, const ServiceContext& context) {
               [context](const ApiRequest& request, const PathParams& params, Reply reply) {
                 mock::VirtualV4l2Device* device = context.cameras->virtual_device(params.at("id"));
                 if (!context.cameras->find(params.at("id")))
-                  return reply(error_response(404, "not_found", "no camera '" + params.at("id").substr(0, 100) + "'"));
+                  return reply(error_response("not_found", "no camera '" + params.at("id").substr(0, 100) + "'"));
                 if (!device)
-                  return reply(error_response(422, "unsupported", "faults can be injected only into in-process virtual cameras"));
+                  return reply(error_response("unsupported", "faults can be injected only into in-process virtual cameras"));
                 auto body = parse_json_object(request.body);
                 if (!body) return reply(error_response(body.error()));
                 for (const auto& [key, value] : body->items())
                   if (key != "unplug" && key != "fail_next_dequeues" && key != "drop_next_frames" && key != "stall")
-                    return reply(error_response(400, "invalid_request", "unknown fault '" + key.substr(0, 40) +
+                    return reply(error_response("invalid_request", "unknown fault '" + key.substr(0, 40) +
                                                     "' (unplug, fail_next_dequeues, drop_next_frames, stall)"));
                 auto fail = bounded_count(*body, "fail_next_dequeues");
                 if (!fail) return reply(error_response(fail.error()));
@@ -42,7 +42,7 @@ void add_test_routes(Router& router, const ServiceContext& context) {
                 if (!drop) return reply(error_response(drop.error()));
                 for (const char* flag : {"unplug", "stall"})
                   if (body->contains(flag) && !(*body)[flag].is_boolean())
-                    return reply(error_response(400, "invalid_request", std::string(flag) + " must be true or false"));
+                    return reply(error_response("invalid_request", std::string(flag) + " must be true or false"));
                 if (*fail > 0) device->fail_next_dequeues(*fail);
                 if (*drop > 0) device->drop_next_frames(*drop);
                 if (body->contains("stall")) device->stall((*body)["stall"].get<bool>());

@@ -12,23 +12,13 @@ ApiResponse json_response(int status, const nlohmann::json& body) {
   return response;
 }
 
-ApiResponse error_response(int status, const std::string& code, const std::string& message) {
-  return json_response(status, {{"error", {{"code", code}, {"message", message}}}});
-}
-
-int http_status_for(const std::string& code) {
-  static const std::map<std::string, int> kStatus = {
-      {"invalid_request", 400}, {"bad_json", 400},         {"unauthorized", 401},
-      {"not_found", 404},       {"conflict", 409},         {"busy", 409},
-      {"not_cancellable", 409}, {"payload_too_large", 413}, {"out_of_range", 422},
-      {"unsupported", 422},     {"no_frames", 422},        {"too_many_jobs", 429},
-      {"no_device", 503},       {"unavailable", 503},      {"shutting_down", 503}};
-  auto it = kStatus.find(code);
-  return it == kStatus.end() ? 500 : it->second;
-}
-
 ApiResponse error_response(const Error& error) {
-  return error_response(http_status_for(error.code), error.code, error.message);
+  return json_response(info_of(error.code).http_status,
+                       {{"error", {{"code", name_of(error.code)}, {"message", error.message}}}});
+}
+
+ApiResponse error_response(ErrorCodeName code, const std::string& message) {
+  return error_response(make_error(code, message));
 }
 
 Result<nlohmann::json> parse_json_object(const std::string& body) {

@@ -42,16 +42,11 @@ using PathParams = std::map<std::string, std::string>;
 
 ApiResponse json_response(int status, const nlohmann::json& body);
 
-// {"error": {"code": code, "message": message}}.
-ApiResponse error_response(int status, const std::string& code, const std::string& message);
-
-// Maps a library error to its HTTP status at the handler boundary:
-//   invalid_request, bad_json -> 400; unauthorized -> 401; not_found -> 404;
-//   conflict, busy, not_cancellable -> 409; payload_too_large -> 413;
-//   out_of_range, unsupported, no_frames -> 422; too_many_jobs -> 429;
-//   no_device, unavailable, shutting_down -> 503; anything else -> 500.
-int http_status_for(const std::string& error_code);
+// {"error": {"code": code, "message": message}} with the code's HTTP status: every
+// error, the library's and the handlers' own, maps through base/error_code.h at the
+// handler boundary.
 ApiResponse error_response(const Error& error);
+ApiResponse error_response(ErrorCodeName code, const std::string& message);
 
 // Parses a JSON request body: an object, or the error "bad_json"/"invalid_request".
 Result<nlohmann::json> parse_json_object(const std::string& body);

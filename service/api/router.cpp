@@ -5,7 +5,7 @@
 #include <memory>
 
 #include "service/api/auth.h"
-#include "service/log.h"
+#include "base/log.h"
 #include "service/metrics.h"
 
 namespace camlab::service {
@@ -86,7 +86,7 @@ void Router::dispatch(const ApiRequest& request, Reply reply) const {
   for (const std::string& raw : split_path(request.path)) {
     std::string decoded;
     if (!percent_decode_segment(raw, &decoded)) {
-      counted("unmatched")(error_response(400, "invalid_request", "malformed percent-encoding in the path"));
+      counted("unmatched")(error_response("invalid_request", "malformed percent-encoding in the path"));
       return;
     }
     segments.push_back(std::move(decoded));
@@ -108,7 +108,7 @@ void Router::dispatch(const ApiRequest& request, Reply reply) const {
 
   const bool is_public = found && found->is_public;
   if (!is_public && auth_ && !auth_->accepts(request.authorization)) {
-    ApiResponse response = error_response(401, "unauthorized",
+    ApiResponse response = error_response("unauthorized",
                                           "send the API token as 'Authorization: Bearer TOKEN' (it is in "
                                           "the data folder's 'token' file)");
     response.headers.emplace_back("WWW-Authenticate", "Bearer realm=\"camlabd\"");
@@ -117,12 +117,12 @@ void Router::dispatch(const ApiRequest& request, Reply reply) const {
   }
   if (!found) {
     if (!allowed.empty()) {
-      ApiResponse response = error_response(405, "method_not_allowed",
+      ApiResponse response = error_response("method_not_allowed",
                                             request.method + " is not allowed here; allowed: " + allowed);
       response.headers.emplace_back("Allow", allowed);
       counted("unmatched")(std::move(response));
     } else {
-      counted("unmatched")(error_response(404, "no_route", "no endpoint " + request.method + " " +
+      counted("unmatched")(error_response("no_route", "no endpoint " + request.method + " " +
                                                                request.path.substr(0, 200) +
                                                                " (GET /v1/openapi.json lists them)"));
     }
@@ -137,8 +137,8 @@ void Router::dispatch(const ApiRequest& request, Reply reply) const {
   try {
     found->handler(request, params, once);
   } catch (const std::exception& e) {
-    log_error("%s %s: unexpected exception: %s", request.method.c_str(), found->pattern.c_str(), e.what());
-    once(error_response(500, "internal", "the request failed unexpectedly; see the daemon's log"));
+    log_error(log::Category::kHttp, "%s %s: unexpected exception: %s", request.method.c_str(), found->pattern.c_str(), e.what());
+    once(error_response("internal", "the request failed unexpectedly; see the daemon's log"));
   }
 }
 

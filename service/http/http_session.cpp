@@ -52,17 +52,17 @@ void HttpSession::on_read(beast::error_code ec, std::size_t) {
       ec == net::error::connection_reset || ec == net::error::eof)
     return do_close();
   if (ec == http::error::body_limit)
-    return send(error_response(413, "payload_too_large",
+    return send(error_response("payload_too_large",
                                "the request body is larger than " + std::to_string(limits_.max_body_bytes) + " bytes"),
                 true);
   if (ec == http::error::header_limit)
-    return send(error_response(431, "headers_too_large",
+    return send(error_response("headers_too_large",
                                "the request headers are larger than " + std::to_string(limits_.max_header_bytes) +
                                    " bytes"),
                 true);
   if (ec) {
     if (std::string_view(ec.category().name()) == "beast.http")
-      return send(error_response(400, "bad_http", "malformed HTTP request: " + ec.message()), true);
+      return send(error_response("invalid_request", "malformed HTTP request: " + ec.message()), true);
     return do_close();
   }
 

@@ -4,7 +4,7 @@
 #include <boost/asio/strand.hpp>
 #include <boost/beast/core/bind_handler.hpp>
 
-#include "service/log.h"
+#include "base/log.h"
 
 namespace camlab::service {
 
@@ -77,7 +77,7 @@ void Listener::do_accept() {
 void Listener::on_accept(beast::error_code ec, tcp::socket socket) {
   if (ec == net::error::operation_aborted || !acceptor_.is_open()) return;  // stopped
   if (ec) {
-    log_warning("accept: %s", ec.message().c_str());
+    log_warning(log::Category::kHttp, "accept: %s", ec.message().c_str());
   } else if (connections_->open.load() >= limits_.max_connections) {
     beast::error_code ignored;
     socket.close(ignored);  // over the limit: refuse rather than queue without bound

@@ -3,7 +3,7 @@
 #include "mock_device/spec/camera_spec.h"
 #include "mock_device/v4l2/capture_traits.h"
 #include "mock_device/spec/scene_spec.h"
-#include "service/log.h"
+#include "base/log.h"
 
 namespace camlab::service {
 
@@ -44,7 +44,7 @@ Result<std::unique_ptr<CameraSet>> CameraSet::create(const CameraSetOptions& opt
   for (const std::string& path : options.device_paths) {
     bool found = false;
     for (const auto& e : set->registry_.devices()) found = found || e.identity.path == path;
-    if (!found) log_warning("--device %s: not a V4L2 capture device (skipped)", path.c_str());
+    if (!found) log_warning(log::Category::kCameras, "--device %s: not a V4L2 capture device (skipped)", path.c_str());
   }
   const int real_count = static_cast<int>(set->registry_.devices().size());
   capture::CameraTraits device_traits;

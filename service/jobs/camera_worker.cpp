@@ -3,7 +3,7 @@
 #include "device/camera_json.h"
 #include "service/jobs/capture_job.h"
 #include "service/store/job_store.h"
-#include "service/log.h"
+#include "base/log.h"
 #include "service/metrics.h"
 
 namespace camlab::service {
@@ -86,15 +86,14 @@ bool CameraWorker::cancel_running(int64_t id) {
   return true;
 }
 
-device::Camera* CameraWorker::ensure_open(Error* why) {
+Result<device::Camera*> CameraWorker::ensure_open() {
   if (camera_) return camera_.get();
   auto camera = open_();
   if (!camera) {
-    *why = camera.error();
     std::lock_guard lock(mutex_);
     snapshot_.available = false;
     snapshot_.unavailable_reason = camera.error().message;
-    return nullptr;
+    return camera.error();
   }
   camera_ = std::move(*camera);
   refresh_snapshot();
@@ -122,8 +121,9 @@ void CameraWorker::refresh_snapshot() {
 }
 
 void CameraWorker::run() {
-  Error why;
-  if (!ensure_open(&why)) log_warning("camera %s: cannot open: %s", id().c_str(), why.message.c_str());
+  if (auto opened = ensure_open(); !opened)
+    log_warning(log::Category::kCameras, "camera %s: cannot open: %s", id().c_str(),
+                opened.error().message.c_str());
   {
     std::lock_guard lock(mutex_);
     started_snapshot_ = true;
@@ -146,9 +146,8 @@ void CameraWorker::run() {
       }
     }
     if (task) {
-      Error unavailable;
-      device::Camera* camera = ensure_open(&unavailable);
-      task(camera, camera ? nullptr : &unavailable);
+      auto camera = ensure_open();
+      task(camera ? *camera : nullptr, camera ? nullptr : &camera.error());
       refresh_snapshot();
     } else {
       run_job(job);
@@ -177,7 +176,7 @@ void CameraWorker::run() {
 void CameraWorker::run_job(int64_t id) {
   auto record = store_.get(id);
   if (!record || !record->has_value()) {
-    log_error("job %lld: %s", static_cast<long long>(id),
+    log_error(log::Category::kJobs, "job %lld: %s", static_cast<long long>(id),
               record ? "vanished from the database" : record.error().message.c_str());
     return;
   }
@@ -186,41 +185,39 @@ void CameraWorker::run_job(int64_t id) {
   if (!started || !*started) return;  // cancelled while queued
   cancel_ = false;
   running_job_ = id;
-  log_info("job %lld (%s) started on camera %s", static_cast<long long>(id), job.kind.c_str(), this->id().c_str());
+  log_info(log::Category::kJobs, "job %lld (%s) started on camera %s", static_cast<long long>(id), job.kind.c_str(), this->id().c_str());
 
   JobOutcome outcome;
-  Error why;
-  device::Camera* camera = ensure_open(&why);
+  auto camera = ensure_open();
   if (!camera) {
     outcome.state = JobState::kFailed;
-    outcome.error = make_error(why.code.empty() ? "no_device" : why.code,
-                               "camera " + this->id() + " is not available: " + why.message);
+    outcome.error = camera.error().with_context("camera " + this->id() + " is not available: ");
   } else {
     CaptureJobEnv env{store_,           metrics_,          options_.data_dir, options_.spec_latency_frames,
                       options_.traits,  nlohmann::json(), options_.frame_timeout, &cancel_, &shutting_down_};
     env.source = snapshot().description;
     env.source["transport"] = entry_.transport;
     for (const auto& [key, value] : options_.source_extra.items()) env.source[key] = value;
-    outcome = job.kind == "latency_probe" ? execute_latency_probe(*camera, job, env)
-                                          : execute_capture(*camera, job, env);
+    outcome = job.kind == "latency_probe" ? execute_latency_probe(**camera, job, env)
+                                          : execute_capture(**camera, job, env);
   }
   running_job_ = 0;
   if (outcome.device_failed) {
-    log_warning("camera %s failed during job %lld: %s", this->id().c_str(), static_cast<long long>(id),
+    log_warning(log::Category::kCameras, "camera %s failed during job %lld: %s", this->id().c_str(), static_cast<long long>(id),
                 outcome.error ? outcome.error->message.c_str() : "device error");
     drop_camera(outcome.error.value_or(make_error("io_error", "device error")));
     // Reopen now, so the API shows at once whether the camera is back (an I/O error or
     // a stall) or gone (unplugged: the reopen fails and names why).
-    Error reopen_error;
-    if (!ensure_open(&reopen_error))
-      log_warning("camera %s: cannot reopen: %s", this->id().c_str(), reopen_error.message.c_str());
+    if (auto reopened = ensure_open(); !reopened)
+      log_warning(log::Category::kCameras, "camera %s: cannot reopen: %s", this->id().c_str(),
+                  reopened.error().message.c_str());
   } else {
     refresh_snapshot();
   }
   auto finished = store_.finish(id, outcome.state, outcome.error, outcome.result);
-  if (!finished) log_error("job %lld: %s", static_cast<long long>(id), finished.error().message.c_str());
+  if (!finished) log_error(log::Category::kJobs, "job %lld: %s", static_cast<long long>(id), finished.error().message.c_str());
   metrics_.count_job_finished(job.kind, job_state_name(outcome.state));
-  log_info("job %lld %s%s%s", static_cast<long long>(id), job_state_name(outcome.state),
+  log_info(log::Category::kJobs, "job %lld %s%s%s", static_cast<long long>(id), job_state_name(outcome.state),
            outcome.error ? ": " : "", outcome.error ? outcome.error->message.c_str() : "");
 }
 

@@ -99,7 +99,7 @@ class CameraWorker {
   void run();
   void run_job(int64_t id);
   // The open camera, opening it if needed (updates the snapshot's availability).
-  device::Camera* ensure_open(Error* why);
+  Result<device::Camera*> ensure_open();
   void drop_camera(const Error& why);
   void refresh_snapshot();
 

@@ -5,7 +5,7 @@
 #include "capture/capture_plan.h"
 #include "capture/capture_runner.h"
 #include "capture/latency_probe.h"
-#include "service/log.h"
+#include "base/log.h"
 #include "service/metrics.h"
 
 namespace camlab::service {
@@ -55,13 +55,13 @@ Result<LatencyChoice> measure_latency(device::Camera& camera, const CaptureJobEn
     choice.frames = kFallbackLatencyFrames;
     choice.source = "default";
     choice.details = {{"probe_error", {{"code", probe.error().code}, {"message", probe.error().message}}}};
-    log_warning("camera %s: latency probe failed (%s); assuming %d frames", id.c_str(),
+    log_warning(log::Category::kCameras, "camera %s: latency probe failed (%s); assuming %d frames", id.c_str(),
                 probe.error().message.c_str(), kFallbackLatencyFrames);
     return choice;
   }
   LatencyRecord record{id, choice.frames, choice.source, unix_time_ms(), choice.details};
-  if (auto s = env.store.put_latency(record); !s) log_warning("camera %s: %s", id.c_str(), s.error().message.c_str());
-  log_info("camera %s: control latency %d frames (%s)", id.c_str(), choice.frames, choice.source.c_str());
+  if (auto s = env.store.put_latency(record); !s) log_warning(log::Category::kCameras, "camera %s: %s", id.c_str(), s.error().message.c_str());
+  log_info(log::Category::kCameras, "camera %s: control latency %d frames (%s)", id.c_str(), choice.frames, choice.source.c_str());
   return choice;
 }
 
@@ -103,9 +103,9 @@ JobOutcome failed(Error error, bool device_failed = false) {
 
 }  // namespace
 
-bool is_device_error(const std::string& code) {
-  return code == "no_device" || code == "io_error" || code == "timeout" || code == "not_streaming" ||
-         code == "busy";
+bool is_device_error(ErrorCode code) {
+  return code == ErrorCode::kNoDevice || code == ErrorCode::kIoError || code == ErrorCode::kTimeout ||
+         code == ErrorCode::kNotStreaming || code == ErrorCode::kBusy;
 }
 
 JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const CaptureJobEnv& env) {

@@ -49,6 +49,6 @@ JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const C
 JobOutcome execute_latency_probe(device::Camera& camera, const JobRecord& job, const CaptureJobEnv& env);
 
 // Whether an error code means the device itself failed (as opposed to bad input).
-bool is_device_error(const std::string& code);
+bool is_device_error(ErrorCode code);
 
 }  // namespace camlab::service

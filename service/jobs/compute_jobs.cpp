@@ -9,7 +9,7 @@
 #include "calib/model_io.h"
 #include "base/atomic_file.h"
 #include "image/capture_folder.h"
-#include "service/log.h"
+#include "base/log.h"
 #include "service/metrics.h"
 
 namespace camlab::service {
@@ -155,7 +155,7 @@ void ComputeWorker::run() {
     auto started = store_.start(id);
     if (!started || !*started) continue;
     const JobRecord& job = **record;
-    log_info("job %lld (%s) started", static_cast<long long>(id), job.kind.c_str());
+    log_info(log::Category::kJobs, "job %lld (%s) started", static_cast<long long>(id), job.kind.c_str());
     JobOutcome outcome;
     // The libraries return errors as values; an exception here is a bug in a library or
     // a request the handler let through malformed, and must not take the daemon down.
@@ -166,7 +166,7 @@ void ComputeWorker::run() {
     }
     (void)store_.finish(id, outcome.state, outcome.error, outcome.result);
     metrics_.count_job_finished(job.kind, job_state_name(outcome.state));
-    log_info("job %lld %s%s%s", static_cast<long long>(id), job_state_name(outcome.state), outcome.error ? ": " : "",
+    log_info(log::Category::kJobs, "job %lld %s%s%s", static_cast<long long>(id), job_state_name(outcome.state), outcome.error ? ": " : "",
              outcome.error ? outcome.error->message.c_str() : "");
   }
   std::deque<int64_t> left;

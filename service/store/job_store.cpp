@@ -336,7 +336,7 @@ Result<bool> JobStore::finish(int64_t id, JobState state, const std::optional<Er
   const std::string result_text = result.is_null() ? "" : dump(result);
   sqlite3_bind_text(stmt, 1, job_state_name(state), -1, SQLITE_STATIC);
   sqlite3_bind_int64(stmt, 2, unix_time_ms());
-  sqlite3_bind_text(stmt, 3, error ? error->code.c_str() : "", -1, SQLITE_TRANSIENT);
+  sqlite3_bind_text(stmt, 3, error ? std::string(name_of(error->code)).c_str() : "", -1, SQLITE_TRANSIENT);
   sqlite3_bind_text(stmt, 4, error ? error->message.c_str() : "", -1, SQLITE_TRANSIENT);
   if (result_text.empty())
     sqlite3_bind_null(stmt, 5);

@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "analysis/analyze_folder.h"
+#include "base/format.h"
 #include "analysis/focus_report.h"
 #include "analysis/plot.h"
 
@@ -17,11 +18,6 @@ namespace {
 namespace fs = std::filesystem;
 using Paths = std::vector<fs::path>;
 
-std::string fmt(const char* format, double a, double b = 0) {
-  char buf[128];
-  std::snprintf(buf, sizeof buf, format, a, b);
-  return buf;
-}
 
 Status make_dir(const fs::path& dir) {
   std::error_code ec;
@@ -75,7 +71,7 @@ Result<Paths> write_defocus_plots(const fs::path& dir, const DefocusReport& r) {
     if (aperture && t.aperture) {
       spec.title = t.name + ": CoC vs f-number";
       spec.x_label = "f-number N";
-      fit.label = fmt("fit C = %.3f / N", t.aperture->k_px);
+      fit.label = format_printf("fit C = %.3f / N", t.aperture->k_px);
       for (double n = *lo_it; n <= *hi_it * 1.001; n *= 1.02) {
         fit.x.push_back(n);
         fit.y.push_back(t.aperture->k_px / n);
@@ -83,7 +79,7 @@ Result<Paths> write_defocus_plots(const fs::path& dir, const DefocusReport& r) {
     } else if (!aperture && t.v_curve) {
       spec.title = t.name + ": V-curve";
       spec.x_label = "focus position (steps)";
-      fit.label = fmt("fit: best %.2f, slope %.4f px/step", t.v_curve->best_position, t.v_curve->slope_px_per_step);
+      fit.label = format_printf("fit: best %.2f, slope %.4f px/step", t.v_curve->best_position, t.v_curve->slope_px_per_step);
       double lo = 1e300, hi = -1e300;
       for (const auto& fe : t.frames) {
         lo = std::min(lo, fe.focus_position);
@@ -118,7 +114,7 @@ Result<Paths> write_exposure_plots(const fs::path& dir, const ExposureReport& r)
       (p.used ? used : pts).x.push_back(p.mean_dn - pt.dark_mean_dn);
       (p.used ? used : pts).y.push_back(p.variance_dn2);
     }
-    PlotSeries fit = series(fmt("K = %.4f DN/e-", pt.system_gain_dn_per_e), true, 0x0000c0);
+    PlotSeries fit = series(format_printf("K = %.4f DN/e-", pt.system_gain_dn_per_e), true, 0x0000c0);
     for (double m : {0.0, pt.saturation_mean_dn - pt.dark_mean_dn}) {
       fit.x.push_back(m);
       fit.y.push_back(pt.dark_variance_dn2 + pt.system_gain_dn_per_e * m);
@@ -132,7 +128,7 @@ Result<Paths> write_exposure_plots(const fs::path& dir, const ExposureReport& r)
     spec.x_label = "exposure x gain (us)";
     spec.y_label = "mean signal above dark (DN)";
     PlotSeries pts = series("frames", false, 0xc00000);
-    PlotSeries fit = series(fmt("max error %.2f%%", r.max_linearity_error_pct), true, 0x0000c0);
+    PlotSeries fit = series(format_printf("max error %.2f%%", r.max_linearity_error_pct), true, 0x0000c0);
     for (const auto& l : r.linearity) {
       pts.x.push_back(l.exposure_gain_us);
       pts.y.push_back(l.mean_dn);
@@ -177,7 +173,8 @@ Result<Paths> write_focus_plots(const fs::path& dir, const FocusReport& r) {
   int colour_index = 0;
   for (const auto& rr : r.regions) {
     if (rr.focus.status != kFocusOk || colour_index >= 6) continue;
-    PlotSeries s = series(fmt("(%.0f,%.0f)", rr.focus.rect.x, rr.focus.rect.y) + fmt(" best %.2f", rr.best_position),
+    PlotSeries s = series(format_printf("(%d,%d) best %.2f", static_cast<int>(rr.focus.rect.x),
+                                        static_cast<int>(rr.focus.rect.y), rr.best_position),
                           true, colours[colour_index++]);
     s.x = r.positions;
     s.y = rr.focus.curve;

@@ -1,6 +1,7 @@
 // Edge measurement: window choice, rejections, baseline removal, diffraction flag.
 #include "analysis/defocus.h"
 
+#include "base/format.h"
 #include "analysis/edge/edge_pair.h"
 
 #include <algorithm>
@@ -20,11 +21,6 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kPi = std::numbers::pi;
 
-std::string fmt(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", v);
-  return buf;
-}
 
 // The largest half-length (<= wanted) for which the window around (x, y) lies within the
 // image's pixel centres, or 0 when even a zero-length window does not fit.
@@ -131,7 +127,7 @@ bool measure_jointly(const cv::Mat& image, const EdgeSegment& edge, const std::v
   const EdgeSegment& b = *partner->segment;
   const double angle_b = std::atan2(b.end_y_px - b.start_y_px, b.end_x_px - b.start_x_px);
   const double tilt = std::fabs(std::remainder(angle_b - angle, kPi));
-  if (tilt > 15.0 * kPi / 180.0) return reject("it is " + fmt(tilt * 180 / kPi) + " deg from parallel");
+  if (tilt > 15.0 * kPi / 180.0) return reject("it is " + format_significant(tilt * 180 / kPi, 3) + " deg from parallel");
   // Passes as for one edge: a window sized for the blur guessed, refitted with one
   // sized for the blur found (the pair's start ladder finds D up to about the window).
   const double mid_x = 0.5 * (edge.start_x_px + edge.end_x_px), mid_y = 0.5 * (edge.start_y_px + edge.end_y_px);
@@ -175,11 +171,11 @@ bool measure_jointly(const cv::Mat& image, const EdgeSegment& edge, const std::v
     if (fit->diameter_px <= d + 4.0 || bounded) break;  // the window held it with margin
     d = fit->diameter_px;
   }
-  if (!fit) return reject(fit.error().code + ": " + fit.error().message);
+  if (!fit) return reject(fit.error().text());
   if (!(fit->diameter_vif <= kMaxJointVif) || !(fit->diameter_profile_ratio >= kMinJointProfile))
-    return reject("ill-conditioned (the edges are " + fmt(fit->separation_px) + " px apart under a blur of " +
-                  fmt(fit->diameter_px) + " px: the other parameters inflate D's variance " +
-                  fmt(fit->diameter_vif) + "x, and its cost rises at " + fmt(fit->diameter_profile_ratio) +
+    return reject("ill-conditioned (the edges are " + format_significant(fit->separation_px, 3) + " px apart under a blur of " +
+                  format_significant(fit->diameter_px, 3) + " px: the other parameters inflate D's variance " +
+                  format_significant(fit->diameter_vif, 3) + "x, and its cost rises at " + format_significant(fit->diameter_profile_ratio, 3) +
                   " of the rate its sigma assumes)");
   // This edge's view of the pair, as a single-edge fit: its line and the levels on its
   // two sides (the normal towards the brighter one, as fit_pillbox_edge orients it).
@@ -351,10 +347,10 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
     const bool neighbour_bound = 0.5 * limit_n - 0.5 < std::min(want_hw, limit_target - 0.5 * blur_guess - 1.0);
     if (hw < 0.5 * blur_guess + 2.5 || hl < 8.0) {
       m.status = neighbour_bound && hl >= 8.0 ? kEdgeNeighbourOverlap : kEdgeWindowTooSmall;
-      m.message = "a window " + fmt(2 * hw) + " px wide and " + fmt(2 * hl) +
-                  " px long cannot hold a blur of about " + fmt(blur_guess) +
+      m.message = "a window " + format_significant(2 * hw, 3) + " px wide and " + format_significant(2 * hl, 3) +
+                  " px long cannot hold a blur of about " + format_significant(blur_guess, 3) +
                   " px plus flat level on both sides" +
-                  (neighbour_bound ? " (a neighbouring edge is " + fmt(limit_n) + " px away)" : "");
+                  (neighbour_bound ? " (a neighbouring edge is " + format_significant(limit_n, 3) + " px away)" : "");
       if (m.status != kEdgeNeighbourOverlap || !joint(hl, blur_guess, m.message)) return m;
       have_fit = true;
       break;
@@ -370,7 +366,7 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
         continue;
       }
       m.status = kEdgeFitFailed;
-      m.message = fit.error().code + ": " + fit.error().message;
+      m.message = fit.error().text();
       return m;
     }
     m.fit = *fit;
@@ -380,8 +376,8 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
       // Either the window is ample or it is already as wide as the bounds allow.
       if (hw < 0.5 * d + 2.5 + std::fabs(fit->offset_px)) {
         m.status = neighbour_bound ? kEdgeNeighbourOverlap : kEdgeWindowTooSmall;
-        m.message = "the blur of " + fmt(d) + " px needs a window at least " +
-                    fmt(d + 5.0) + " px wide; only " + fmt(2 * hw) + " px are free";
+        m.message = "the blur of " + format_significant(d, 3) + " px needs a window at least " +
+                    format_significant(d + 5.0, 3) + " px wide; only " + format_significant(2 * hw, 3) + " px are free";
         if (m.status != kEdgeNeighbourOverlap || !joint(hl, d, m.message)) return m;
       }
       break;
@@ -407,7 +403,7 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
     if (max_value >= options.saturation_level) {
       m.status = kEdgeClipped;
       m.message = "pixels near the edge reach the saturation level " +
-                  fmt(options.saturation_level) + "; reduce the exposure";
+                  format_significant(options.saturation_level, 3) + "; reduce the exposure";
       m.apparent_diameter_px = m.fit.diameter_px;
       return m;
     }
@@ -437,15 +433,15 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
         options.baseline_sigma_px, m.fit.angle_rad);
     m.ci_high_px = bound ? bound->diameter_px : kInf;
     m.status = kEdgeAtBaseline;
-    m.message = "apparent diameter " + fmt(m.apparent_diameter_px) +
-                " px is at or below the baseline blur's " + fmt(inv->apparent_at_zero_px) +
-                " px: in focus (D <= " + fmt(m.ci_high_px) + " px)";
+    m.message = "apparent diameter " + format_significant(m.apparent_diameter_px, 3) +
+                " px is at or below the baseline blur's " + format_significant(inv->apparent_at_zero_px, 3) +
+                " px: in focus (D <= " + format_significant(m.ci_high_px, 3) + " px)";
     return m;
   }
   if (options.airy_diameter_px > 0 && m.diameter_px < options.airy_diameter_px) {
     m.status = kEdgeBelowDiffraction;
-    m.message = "diameter " + fmt(m.diameter_px) + " px is below the diffraction floor " +
-                fmt(options.airy_diameter_px) + " px (2.44 lambda N): not a measurement";
+    m.message = "diameter " + format_significant(m.diameter_px, 3) + " px is below the diffraction floor " +
+                format_significant(options.airy_diameter_px, 3) + " px (2.44 lambda N): not a measurement";
     return m;
   }
   m.status = kEdgeOk;

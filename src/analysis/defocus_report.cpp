@@ -165,7 +165,7 @@ void fit_aperture(TargetDefocus* t, const DefocusReport& r, const DefocusOptions
   for (const FrameEdge& fe : t->frames) samples.push_back(sample_of(fe, fe.f_number));
   auto fit = fit_coc_vs_aperture(samples, options.min_diameter_px);
   if (!fit) {
-    t->aperture_error = fit.error().code + ": " + fit.error().message;
+    t->aperture_error = fit.error().text();
     return;
   }
   t->aperture = *fit;
@@ -186,7 +186,7 @@ void fit_focus(TargetDefocus* t, const DefocusReport& r, const DefocusOptions& o
   for (const FrameEdge& fe : t->frames) samples.push_back(sample_of(fe, fe.focus_position));
   auto fit = fit_v_curve(samples, options.min_diameter_px);
   if (!fit) {
-    t->v_curve_error = fit.error().code + ": " + fit.error().message;
+    t->v_curve_error = fit.error().text();
     return;
   }
   t->v_curve = *fit;
@@ -226,7 +226,7 @@ Result<DefocusReport> analyze_defocus(const std::filesystem::path& capture_dir,
   image::CaptureFolder folder;
   CAMLAB_ASSIGN(folder, image::CaptureFolder::open(capture_dir));
   const int count = static_cast<int>(folder.frames().size());
-  if (count == 0) return make_error("empty_capture", "the capture folder holds no frames");
+  if (count == 0) return make_error("no_frames", "the capture folder holds no frames");
   // Without truth geometry, edges are found automatically: on every frame, keeping the
   // frame where most are found (the sharpest, usually), and used for all frames (the
   // fit refines each edge's position and angle per frame).

@@ -29,7 +29,7 @@ Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir
   CAMLAB_ASSIGN(folder, image::CaptureFolder::open(capture_dir));
   ExposureReport report;
   report.frame_count = static_cast<int>(folder.frames().size());
-  if (report.frame_count == 0) return make_error("empty_capture", "the capture folder holds no frames");
+  if (report.frame_count == 0) return make_error("no_frames", "the capture folder holds no frames");
   if (!(options.roi_fraction > 0 && options.roi_fraction <= 1))
     return make_error("invalid_argument", "roi_fraction must be in (0, 1]");
 
@@ -96,7 +96,7 @@ Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir
       report.photon_transfer = *pt;
       if (k0 > 0) report.photon_transfer->expected_gain_dn_per_e = k0 * mean_gain;
     } else {
-      report.photon_transfer_error = pt.error().code + ": " + pt.error().message;
+      report.photon_transfer_error = pt.error().text();
     }
   } else {
     report.photon_transfer_error = "too_few_samples: photon transfer needs frame pairs "
@@ -113,7 +113,7 @@ Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir
     report.linearity_used = lin->used_count;
   } else {
     report.linearity = lin_points;
-    report.linearity_error = lin.error().code + ": " + lin.error().message;
+    report.linearity_error = lin.error().text();
   }
 
   // HDR: one frame per setting, noise from the photon transfer (else the spec).
@@ -141,7 +141,7 @@ Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir
     if (hdr)
       report.hdr = std::move(*hdr);
     else
-      report.hdr_error = hdr.error().code + ": " + hdr.error().message;
+      report.hdr_error = hdr.error().text();
   } else {
     report.hdr_error = "too_few_samples: an HDR merge needs 2 or more exposures";
   }

@@ -35,7 +35,7 @@ Result<FocusReport> analyze_focus(const std::filesystem::path& capture_dir,
     int index;
     double position, distance_m, lens_to_sensor_mm;
   };
-  if (count == 0) return make_error("empty_capture", "the capture folder holds no frames");
+  if (count == 0) return make_error("no_frames", "the capture folder holds no frames");
   std::vector<Entry> entries;
   bool have_distance = true;
   for (int i = 0; i < count; ++i) {

@@ -1,25 +1,44 @@
 // Result<T>: a value or an Error, returned by every library function that can fail on
-// input (ARCHITECTURE.md: no exception crosses a library boundary).
+// input (docs/architecture.md, "Errors": no exception crosses a library boundary).
 //
 // Reentrant: plain value types.
 #pragma once
 
 #include <cassert>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <variant>
 
+#include "base/error_code.h"
+
 namespace camlab {
 
-// A failure a user can act on. `code` is stable and machine-readable (snake_case, e.g.
-// "out_of_range", "no_real_image"); `message` says what was wrong and what is allowed.
+// A failure a user can act on: `code` says what kind (a closed set, base/error_code.h);
+// `message` says what exactly was wrong and what is allowed.
 struct Error {
-  std::string code;
+  Error(ErrorCode code, std::string message) : code(code), message(std::move(message)) {}
+
+  // "code: message", for a report line that keeps the code.
+  std::string text() const { return std::string(name_of(code)) + ": " + message; }
+
+  // The same error with `context` put before its message ("setting gain = 5: ...").
+  Error with_context(std::string_view context) const {
+    return Error(code, std::string(context) + message);
+  }
+
+  ErrorCode code;
   std::string message;
 };
 
-inline Error make_error(std::string code, std::string message) {
-  return Error{std::move(code), std::move(message)};
+// make_error("out_of_range", "gain = 900 is outside [0, 480]"): the name is checked when
+// compiling (base/error_code.h).
+inline Error make_error(ErrorCodeName code, std::string message) {
+  return Error(code.code, std::move(message));
+}
+inline Error make_error(ErrorCode code, std::string message) {
+  return Error(code, std::move(message));
 }
 
 template <class T>
@@ -49,15 +68,14 @@ class [[nodiscard]] Result {
 class [[nodiscard]] Status {
  public:
   Status() = default;
-  Status(Error error) : error_(std::move(error)), failed_(true) {}  // NOLINT: implicit
+  Status(Error error) : error_(std::move(error)) {}  // NOLINT: implicit
 
-  bool ok() const { return !failed_; }
+  bool ok() const { return !error_.has_value(); }
   explicit operator bool() const { return ok(); }
-  const Error& error() const { assert(failed_); return error_; }
+  const Error& error() const { assert(error_); return *error_; }
 
  private:
-  Error error_;
-  bool failed_ = false;
+  std::optional<Error> error_;
 };
 
 }  // namespace camlab

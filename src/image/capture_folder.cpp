@@ -121,7 +121,7 @@ Result<CaptureFrameEntry> CaptureFolderWriter::add_frame(const cv::Mat& image,
   // Level 1: frames are written on the capture path; bigger levels cost 3-5x the time
   // for a few percent of size on noisy sensor data.
   if (!cv::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 1}))
-    return make_error("encode_failed", "PNG encoding failed for frame " + stem);
+    return make_error("io_error", "PNG encoding failed for frame " + stem);
   if (Status s = write_file_atomically(dir_ / entry.image_file, png); !s) return s.error();
 
   nlohmann::json sidecar_json = to_json(sidecar);

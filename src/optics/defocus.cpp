@@ -6,16 +6,18 @@
 
 #include "optics/optics.h"
 
+#include "base/format.h"
+
 namespace camlab::optics {
 
 namespace {
 
 Error no_real_image(std::string_view name, double value_mm, double focal_mm,
                     std::string_view allowed) {
-  return make_error(std::string(kErrNoRealImage),
-                    std::string(name) + " = " + detail::format_number(value_mm) + " must be " +
+  return make_error(kErrNoRealImage,
+                    std::string(name) + " = " + format_significant(value_mm, 10) + " must be " +
                         std::string(allowed) + " focal_mm = " +
-                        detail::format_number(focal_mm) +
+                        format_significant(focal_mm, 10) +
                         ": at or inside the focal length a thin lens forms no real image");
 }
 

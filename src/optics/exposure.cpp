@@ -117,7 +117,7 @@ Result<double> equivalent_exposure_s(double exposure_s, double f_number, double 
     return s.error();
   }
   if (new_exposure_s == 0.0) {
-    return make_error(std::string(kErrInvalidArgument),
+    return make_error(kErrInvalidArgument,
                       "the inputs are too extreme: the equivalent exposure time underflows "
                       "to 0 s");
   }

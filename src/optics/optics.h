@@ -27,17 +27,15 @@ inline constexpr double kInfinity = std::numeric_limits<double>::infinity();
 // equivalent focal lengths.
 inline constexpr double kFullFrameDiagonal_mm = 43.266615305567875;
 
-// Error codes used by this module.
-inline constexpr std::string_view kErrInvalidArgument = "invalid_argument";  // <= 0, NaN
-inline constexpr std::string_view kErrNoRealImage = "no_real_image";  // at/inside focal length
-inline constexpr std::string_view kErrUnknownSensor = "unknown_sensor";
+// The error codes this module returns (base/error_code.h).
+inline constexpr ErrorCode kErrInvalidArgument = ErrorCode::kInvalidArgument;  // <= 0, NaN
+inline constexpr ErrorCode kErrNoRealImage = ErrorCode::kNoRealImage;  // at/inside focal length
+inline constexpr ErrorCode kErrUnknownSensor = ErrorCode::kInvalidArgument;  // not in the table
 
 // Argument checks shared by the files of this module (defined in thin_lens.cpp). Each
 // returns an Error with kErrInvalidArgument whose message names `name`, its value and the
 // allowed range, e.g. "focal_mm = -5 is out of range: must be finite and > 0".
 namespace detail {
-// %.10g, so that "nan" and "inf" print as such.
-std::string format_number(double value);
 // 0 < value < inf.
 Status require_positive_finite(std::string_view name, double value);
 // 0 < value <= inf: a distance that may be infinite.

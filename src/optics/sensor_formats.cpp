@@ -83,7 +83,7 @@ Result<SensorFormat> find_sensor_format(std::string_view name) {
   for (const SensorFormat& format : kSensorFormats) {
     known += (known.empty() ? "" : ", ") + std::string(format.name);
   }
-  return make_error(std::string(kErrUnknownSensor), "unknown sensor format \"" +
+  return make_error(kErrUnknownSensor, "unknown sensor format \"" +
                                                         std::string(name) +
                                                         "\": known formats are " + known);
 }

@@ -7,20 +7,16 @@
 
 #include "optics/optics.h"
 
+#include "base/format.h"
+
 namespace camlab::optics {
 
 namespace detail {
 
-std::string format_number(double value) {
-  char buffer[32];
-  std::snprintf(buffer, sizeof buffer, "%.10g", value);
-  return buffer;
-}
-
 namespace {
 Error out_of_range(std::string_view name, double value, std::string_view allowed) {
-  return make_error(std::string(kErrInvalidArgument),
-                    std::string(name) + " = " + format_number(value) +
+  return make_error(kErrInvalidArgument,
+                    std::string(name) + " = " + format_significant(value, 10) +
                         " is out of range: must be " + std::string(allowed));
 }
 }  // namespace
@@ -47,9 +43,9 @@ Status require_non_negative_finite(std::string_view name, double value) {
 
 Status require_finite_result(std::string_view name, double value) {
   if (!std::isfinite(value)) {
-    return make_error(std::string(kErrInvalidArgument),
+    return make_error(kErrInvalidArgument,
                       "the inputs are too extreme: " + std::string(name) + " = " +
-                          format_number(value) + " is not representable");
+                          format_significant(value, 10) + " is not representable");
   }
   return {};
 }
@@ -67,9 +63,9 @@ Result<double> conjugate_distance_mm(double focal_mm, double object_mm,
   }
   if (std::isinf(object_mm)) return focal_mm;
   if (object_mm <= focal_mm) {
-    return make_error(std::string(kErrNoRealImage),
-                      std::string(object_name) + " = " + detail::format_number(object_mm) +
-                          " must be > focal_mm = " + detail::format_number(focal_mm) +
+    return make_error(kErrNoRealImage,
+                      std::string(object_name) + " = " + format_significant(object_mm, 10) +
+                          " must be > focal_mm = " + format_significant(focal_mm, 10) +
                           ": at or inside the focal length a thin lens forms no real image");
   }
   // Near f, z_o - f is exact (Sterbenz) and z_o / (z_o - f) cannot overflow; far away,

@@ -216,7 +216,7 @@ int main(int argc, char** argv) {
     SolveOptions o;
     o.lensmodel = name;
     std::vector<double> times;
-    Result<Solution> s = make_error("none", "");
+    Result<Solution> s = make_error("internal", "not run yet");
     for (int r = 0; r < repeats; ++r) {
       s = solve(data, o);
       if (!s) break;
@@ -240,7 +240,7 @@ int main(int argc, char** argv) {
     o.lensmodel = "LENSMODEL_OPENCV8";
     o.board_warp = false;
     std::vector<double> times;
-    Result<Solution> s = make_error("none", "");
+    Result<Solution> s = make_error("internal", "not run yet");
     for (int r = 0; r < repeats; ++r) {
       s = solve(data, o);
       if (!s) break;

@@ -118,7 +118,7 @@ void aperture_table(const std::vector<double>& diameters_px, const std::vector<i
       options.aperture_samples = count;
       options.seed = 1;
       std::vector<double> seconds;
-      Result<RenderedFrame> frame = make_error("none", "");
+      Result<RenderedFrame> frame = make_error("internal", "not run yet");
       for (int i = 0; i < 3; ++i) {
         frame = renderer.render(settings, 0, options);
         seconds.push_back(frame->stats.seconds);

@@ -1,6 +1,7 @@
 // Joint fit of two overlapping edges (edge_pair.h): Levenberg-Marquardt over eight
 // parameters with the analytic Jacobian of the pixel-integrated pillbox model.
 #include "analysis/edge/edge_pair.h"
+#include "base/format.h"
 #include "analysis/edge/levenberg_marquardt.h"
 
 #include <algorithm>
@@ -32,11 +33,6 @@ struct Line {
   double px, py;  // guess point
 };
 
-std::string fmt(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", v);
-  return buf;
-}
 
 struct Normals {
   double cost = 0;
@@ -145,7 +141,7 @@ double mean_of(const std::vector<double>& v) {
 
 Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& guess_a,
                                           const EdgeLine& guess_b, const EdgePairFitOptions& o) {
-  const std::string invalid(kErrInvalidArgument);
+  constexpr ErrorCode invalid = kErrInvalidArgument;
   if (image.empty() || image.dims != 2 || image.channels() != 1 ||
       (image.depth() != CV_8U && image.depth() != CV_16U && image.depth() != CV_32F && image.depth() != CV_64F))
     return make_error(invalid, "image must be a non-empty single-channel CV_8U, CV_16U, CV_32F or CV_64F matrix");
@@ -160,7 +156,7 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
   if (std::cos(angle_b) * ta_x + std::sin(angle_b) * ta_y < 0) angle_b += kPi;
   const double tilt = std::fabs(std::remainder(angle_b - guess_a.angle_rad, 2 * kPi));
   if (tilt > 15.0 * kPi / 180.0)
-    return make_error(invalid, "the two edges are " + fmt(tilt * 180 / kPi) + " deg from parallel (at most 15)");
+    return make_error(invalid, "the two edges are " + format_significant(tilt * 180 / kPi, 3) + " deg from parallel (at most 15)");
   const double na_x = -ta_y, na_y = ta_x;
   const double c_b = (guess_b.x_px - guess_a.x_px) * na_x + (guess_b.y_px - guess_a.y_px) * na_y;
   if (std::fabs(c_b) < 0.25) return make_error(invalid, "the two guessed lines coincide");
@@ -176,9 +172,9 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
       min_y = std::min(min_y, y); max_y = std::max(max_y, y);
     }
   if (min_x < -1e-9 || min_y < -1e-9 || max_x > image.cols - 1 + 1e-9 || max_y > image.rows - 1 + 1e-9)
-    return make_error(std::string(kErrWindowOutsideImage), "the pair's fit window spans x " + fmt(min_x) + ".." +
-                                                               fmt(max_x) + ", y " + fmt(min_y) + ".." +
-                                                               fmt(max_y) + " px, beyond the image");
+    return make_error(kErrWindowOutsideImage, "the pair's fit window spans x " + format_significant(min_x, 3) + ".." +
+                                                               format_significant(max_x, 3) + ", y " + format_significant(min_y, 3) + ".." +
+                                                               format_significant(max_y, 3) + " px, beyond the image");
   const cv::Rect box(static_cast<int>(std::ceil(min_x - 1e-9)), static_cast<int>(std::ceil(min_y - 1e-9)), 0, 0);
   const int x1 = static_cast<int>(std::floor(max_x + 1e-9)), y1 = static_cast<int>(std::floor(max_y + 1e-9));
   cv::Mat roi;
@@ -195,7 +191,7 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
       across.push_back(ac);
     }
   if (samples.size() < 64)
-    return make_error(std::string(kErrTooFewPixels), "the pair's fit window holds " +
+    return make_error(kErrTooFewPixels, "the pair's fit window holds " +
                                                          std::to_string(samples.size()) + " pixels; 64 needed");
 
   // Internal order: line 1 on the -n side, line 2 on the +n side.
@@ -227,7 +223,7 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
     }
     if (before.size() < 4 || after.size() < 4 || middle.empty()) {
       start_error = "the pair's window leaves no flat level beyond one of the edges for a blur of about " +
-                    fmt(d0) + " px";
+                    format_significant(d0, 3) + " px";
       continue;
     }
     const double lev0 = mean_of(before), lev2 = mean_of(after), vmid = mean_of(middle);
@@ -244,8 +240,8 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
     }
   }
   if (!(best_cost < kInf)) {
-    if (!start_error.empty() && iterations == 0) return make_error(std::string(kErrWindowTooSmall), start_error);
-    return make_error(std::string(kErrNotConverged), "the joint fit of the two edges did not converge from any of " +
+    if (!start_error.empty() && iterations == 0) return make_error(kErrWindowTooSmall, start_error);
+    return make_error(kErrNotConverged, "the joint fit of the two edges did not converge from any of " +
                                                          std::to_string(starts.size()) + " starts");
   }
   const double diameter = std::fabs(p[kQ]);
@@ -272,20 +268,20 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
     margin2 = std::min(margin2, dist(f2, n2x, n2y, al, hi));
   }
   if (!(gap > 0.5))
-    return make_error("lines_crossed", "the joint fit put the two edges " + fmt(gap) +
+    return make_error("not_converged", "the joint fit put the two edges " + format_significant(gap, 3) +
                                            " px apart or through each other: no pair of edges in the data");
   if (margin1 < 0.5 * diameter + 2 || margin2 < 0.5 * diameter + 2)
-    return make_error(std::string(kErrWindowTooSmall),
-                      "the pair's window leaves " + fmt(std::min(margin1, margin2)) + " px beyond an edge; a blur of " +
-                          fmt(diameter) + " px needs " + fmt(0.5 * diameter + 2));
+    return make_error(kErrWindowTooSmall,
+                      "the pair's window leaves " + format_significant(std::min(margin1, margin2), 3) + " px beyond an edge; a blur of " +
+                          format_significant(diameter, 3) + " px needs " + format_significant(0.5 * diameter + 2, 3));
 
   const int n = static_cast<int>(samples.size());
   const Normals fin = evaluate(samples, l1, l2, p, true);
   const double rms = std::sqrt(fin.cost / std::max(1, n - kParams));
   const double smaller_step = std::min(std::fabs(p[kL1] - p[kL0]), std::fabs(p[kL2] - p[kL1]));
   if (!(smaller_step > 3 * rms))
-    return make_error(std::string(kErrNoContrast), "one of the two edges has a step of " + fmt(smaller_step) +
-                                                       ", not above 3x the residual noise " + fmt(rms));
+    return make_error(kErrNoContrast, "one of the two edges has a step of " + format_significant(smaller_step, 3) +
+                                                       ", not above 3x the residual noise " + format_significant(rms, 3));
   EdgePairFit out;
   out.diameter_px = diameter;
   out.diameter_sigma_px = kInf;

@@ -1,6 +1,7 @@
 // Pillbox edge model and its slanted-edge fit. The header is the reference; this file
 // says how the closed forms stay accurate and why the fit is set up as it is.
 #include "analysis/edge/edge_spread.h"
+#include "base/format.h"
 #include "analysis/edge/levenberg_marquardt.h"
 
 #include <algorithm>
@@ -242,11 +243,6 @@ bool solve_normals(const Normals& ne, double lambda, bool fit_angle, Params* ste
   return std::all_of(step->begin(), step->end(), [](double v) { return std::isfinite(v); });
 }
 
-std::string fmt(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", v);
-  return buf;
-}
 
 // Start values from the profile across the guessed edge (`across`: signed distance of
 // each sample from the guessed line). `ok` false: a side of the window is empty.
@@ -393,7 +389,7 @@ PixelEsf pillbox_esf_pixel_terms(double distance_px, double diameter_px, double 
 
 Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
                                  const EdgeFitOptions& options) {
-  const std::string invalid(kErrInvalidArgument);
+  constexpr ErrorCode invalid = kErrInvalidArgument;
   if (image.empty() || image.dims != 2 || image.channels() != 1 ||
       (image.depth() != CV_8U && image.depth() != CV_16U && image.depth() != CV_32F &&
        image.depth() != CV_64F)) {
@@ -407,7 +403,7 @@ Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
   const double hl = options.half_length_px, hw = options.half_width_px;
   if (!(hl >= 1.0 && hw >= 1.0) || !std::isfinite(hl) || !std::isfinite(hw)) {
     return make_error(invalid, "half_length_px and half_width_px must be finite and >= 1 "
-                               "(got " + fmt(hl) + ", " + fmt(hw) + ")");
+                               "(got " + format_significant(hl, 3) + ", " + format_significant(hw, 3) + ")");
   }
 
   // The window: |along| <= hl, |across| <= hw around the guess point; its bounding box
@@ -421,9 +417,9 @@ Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
   constexpr double kSlack_px = 1e-9;
   if (min_x < -kSlack_px || min_y < -kSlack_px || max_x > image.cols - 1 + kSlack_px ||
       max_y > image.rows - 1 + kSlack_px) {
-    return make_error(std::string(kErrWindowOutsideImage),
-                      "the fit window spans x " + fmt(min_x) + ".." + fmt(max_x) + ", y " +
-                          fmt(min_y) + ".." + fmt(max_y) + " px but the image's pixel "
+    return make_error(kErrWindowOutsideImage,
+                      "the fit window spans x " + format_significant(min_x, 3) + ".." + format_significant(max_x, 3) + ", y " +
+                          format_significant(min_y, 3) + ".." + format_significant(max_y, 3) + " px but the image's pixel "
                           "centres span 0.." + std::to_string(image.cols - 1) + ", 0.." +
                           std::to_string(image.rows - 1));
   }
@@ -447,22 +443,22 @@ Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
     }
   }
   if (static_cast<int>(samples.size()) < kMinSamples) {
-    return make_error(std::string(kErrTooFewPixels),
+    return make_error(kErrTooFewPixels,
                       "the fit window holds " + std::to_string(samples.size()) +
                           " usable pixels; at least " + std::to_string(kMinSamples) +
                           " are needed (enlarge half_length_px or half_width_px)");
   }
   const Start st = start_values(across, samples, hw);
   if (!st.ok) {
-    return make_error(std::string(kErrTooFewPixels),
+    return make_error(kErrTooFewPixels,
                       "a side of the fit window has fewer than 2 pixels in its outer "
                       "quarter; enlarge half_length_px");
   }
   const double level_scale = std::max({1.0, std::fabs(st.dark), std::fabs(st.light)});
   if (!(std::fabs(st.light - st.dark) > std::max(st.noise, 1e-12 * level_scale))) {
-    return make_error(std::string(kErrNoContrast),
-                      "the two sides of the window differ by " + fmt(st.light - st.dark) +
-                          ", not more than the noise " + fmt(st.noise) + "; no edge to fit");
+    return make_error(kErrNoContrast,
+                      "the two sides of the window differ by " + format_significant(st.light - st.dark, 3) +
+                          ", not more than the noise " + format_significant(st.noise, 3) + "; no edge to fit");
   }
 
   // Orient the normal towards the light side, so that light > dark throughout the fit.
@@ -486,15 +482,15 @@ Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
   if (hw < needed_px || sol.runaway) {
     const bool shifted = shift_px > 0.01;
     return make_error(
-        std::string(kErrWindowTooSmall),
-        "half_width_px " + fmt(hw) + " is too small for a blur diameter of " + fmt(diameter) +
-            " px" + (shifted ? " with the edge " + fmt(shift_px) + " px off centre" : "") +
-            ": need >= D/2 + 2" + (shifted ? " + shift" : "") + " = " + fmt(needed_px) + " px");
+        kErrWindowTooSmall,
+        "half_width_px " + format_significant(hw, 3) + " is too small for a blur diameter of " + format_significant(diameter, 3) +
+            " px" + (shifted ? " with the edge " + format_significant(shift_px, 3) + " px off centre" : "") +
+            ": need >= D/2 + 2" + (shifted ? " + shift" : "") + " = " + format_significant(needed_px, 3) + " px");
   }
   if (!sol.converged) {
-    return make_error(std::string(kErrNotConverged),
+    return make_error(kErrNotConverged,
                       "the edge fit did not converge in " + std::to_string(kMaxIterations) +
-                          " iterations (D = " + fmt(diameter) + " px); check the guess");
+                          " iterations (D = " + format_significant(diameter, 3) + " px); check the guess");
   }
 
   const int n_samples = static_cast<int>(samples.size());
@@ -503,9 +499,9 @@ Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
   const double rms = std::sqrt(fin.cost / std::max(1, n_samples - n_params));
   const double contrast = p[kLight] - p[kDark];
   if (!(contrast > rms)) {
-    return make_error(std::string(kErrNoContrast), "the fitted edge contrast " + fmt(contrast) +
+    return make_error(kErrNoContrast, "the fitted edge contrast " + format_significant(contrast, 3) +
                                                        " is below the residual noise " +
-                                                       fmt(rms));
+                                                       format_significant(rms, 3));
   }
   // sigma^2 = rms^2 (J^T J)^-1 at the solution, by D itself (not q). Singular (no
   // information on D): +infinity.

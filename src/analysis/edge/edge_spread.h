@@ -30,13 +30,13 @@
 
 namespace camlab::analysis {
 
-// Error codes of fit_pillbox_edge().
-inline constexpr std::string_view kErrInvalidArgument = "invalid_argument";  // bad option, type
-inline constexpr std::string_view kErrWindowOutsideImage = "window_outside_image";
-inline constexpr std::string_view kErrTooFewPixels = "too_few_pixels";
-inline constexpr std::string_view kErrNoContrast = "no_contrast";  // |light - dark| < noise
-inline constexpr std::string_view kErrWindowTooSmall = "window_too_small";  // blur not inside
-inline constexpr std::string_view kErrNotConverged = "not_converged";
+// The error codes of fit_pillbox_edge() (base/error_code.h).
+inline constexpr ErrorCode kErrInvalidArgument = ErrorCode::kInvalidArgument;  // option, type
+inline constexpr ErrorCode kErrWindowOutsideImage = ErrorCode::kWindowOutsideImage;
+inline constexpr ErrorCode kErrTooFewPixels = ErrorCode::kTooFewSamples;
+inline constexpr ErrorCode kErrNoContrast = ErrorCode::kNoContrast;  // |light - dark| < noise
+inline constexpr ErrorCode kErrWindowTooSmall = ErrorCode::kWindowTooSmall;  // blur not inside
+inline constexpr ErrorCode kErrNotConverged = ErrorCode::kNotConverged;
 
 // ---- The pillbox edge profile ---------------------------------------------------------
 

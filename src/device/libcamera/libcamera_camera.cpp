@@ -139,7 +139,7 @@ class LibcameraCamera final : public Camera {
     if (config->validate() == libcamera::CameraConfiguration::Invalid)
       return make_error("out_of_range", "libcamera rejected the configuration " + cfg.toString());
     if (int error = camera_->configure(config.get()); error < 0)
-      return make_error(error == -EBUSY ? "busy" : "io_error",
+      return make_error(error == -EBUSY ? ErrorCode::kBusy : ErrorCode::kIoError,
                         "cannot configure " + identity_.name + ": " + std::strerror(-error));
     config_ = std::move(config);
     return stream_format();
@@ -236,7 +236,7 @@ class LibcameraCamera final : public Camera {
     libcamera::Request* request = requests_[static_cast<size_t>(frame.buffer_index)].get();
     request->reuse(libcamera::Request::ReuseBuffers);
     if (int error = queue(request); error < 0)
-      return make_error(error == -ENODEV ? "no_device" : "io_error",
+      return make_error(error == -ENODEV ? ErrorCode::kNoDevice : ErrorCode::kIoError,
                         "cannot queue a request to " + identity_.name + ": " + std::strerror(-error));
     return {};
   }
@@ -269,7 +269,7 @@ class LibcameraCamera final : public Camera {
 
   Status fail_start(const std::string& what, int error) {
     (void)stop();
-    return make_error(error == -EBUSY ? "busy" : "io_error",
+    return make_error(error == -EBUSY ? ErrorCode::kBusy : ErrorCode::kIoError,
                       identity_.name + ": " + what + " (" + std::strerror(error < 0 ? -error : ENOMEM) + ")");
   }
 

@@ -54,7 +54,7 @@ Result<std::unique_ptr<V4l2Camera>> V4l2Camera::open(std::shared_ptr<V4l2Io> io,
     const int err = errno;
     // ENODEV/ENXIO: the node exists but its device is gone (unplugged).
     if (err == ENOENT || err == ENODEV || err == ENXIO) return make_error("no_device", path + ": no such device");
-    return make_error(err == EACCES ? "permission" : "io_error", path + ": cannot open: " + std::strerror(err));
+    return make_error(err == EACCES ? ErrorCode::kPermission : ErrorCode::kIoError, path + ": cannot open: " + std::strerror(err));
   }
   std::unique_ptr<V4l2Camera> camera(new V4l2Camera(std::move(io), fd));
   camera->identity_.path = path;
@@ -199,7 +199,7 @@ Result<int64_t> V4l2Camera::get_control(const std::string& name) {
 Result<int64_t> V4l2Camera::set_control(const std::string& name, int64_t value) {
   auto control = find_control(name);
   if (!control) return control.error();
-  if (control->read_only) return make_error("read_only", name + " is read-only");
+  if (control->read_only) return make_error("unsupported", name + " is read-only");
   if (value < control->minimum || value > control->maximum)
     return make_error("out_of_range", name + " = " + std::to_string(value) + " is outside [" +
                                           std::to_string(control->minimum) + ", " +

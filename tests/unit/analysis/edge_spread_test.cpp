@@ -519,7 +519,7 @@ TEST(FitPillboxEdge, RejectsAWindowNarrowerThanTheBlur) {
 TEST(FitPillboxEdge, RejectsInvalidArgumentsAndTinyWindows) {
   const Scene& scene = scene_for(2.0, 0.0);
   const EdgeLine good = scene.truth;
-  const auto code = [](const Result<EdgeFit>& r) { return r.ok() ? "ok" : r.error().code; };
+  const auto code = [](const Result<EdgeFit>& r) { return r.ok() ? std::string_view("ok") : name_of(r.error().code); };
   EXPECT_EQ(code(fit_pillbox_edge(cv::Mat(), good, options_for(2.0))), kErrInvalidArgument);
   EXPECT_EQ(code(fit_pillbox_edge(cv::Mat(50, 50, CV_8UC3), good, options_for(2.0))),
             kErrInvalidArgument);

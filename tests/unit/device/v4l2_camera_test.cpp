@@ -217,8 +217,8 @@ TEST_F(V4l2Backend, AStalledCameraTimesOut) {
   ASSERT_TRUE(camera_->start(3).ok());
   ASSERT_TRUE(camera_->dequeue(2000ms).ok());  // buffers 1 and 2 may already be full
   device_->stall(true);
-  Result<device::Frame> frame = make_error("none", "");
-  for (int i = 0; i < 4 && frame.ok() == false && frame.error().code == "none"; ++i) frame = camera_->dequeue(100ms);
+  Result<device::Frame> frame = make_error("internal", "not run yet");
+  for (int i = 0; i < 4 && frame.ok() == false && frame.error().code == "internal"; ++i) frame = camera_->dequeue(100ms);
   for (int i = 0; i < 4 && frame.ok(); ++i) frame = camera_->dequeue(100ms);
   ASSERT_FALSE(frame.ok());
   EXPECT_EQ(frame.error().code, "timeout");

@@ -16,7 +16,7 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 template <class T>
-void expect_error(const Result<T>& result, std::string_view code, std::string_view name) {
+void expect_error(const Result<T>& result, ErrorCode code, std::string_view name) {
   ASSERT_FALSE(result.ok()) << name;
   EXPECT_EQ(result.error().code, code) << result.error().message;
   EXPECT_NE(result.error().message.find(name), std::string::npos) << result.error().message;
