@@ -141,7 +141,7 @@ Result<std::string> model_name(const CalibrateOptions& options, const Calibratio
 
 // Outputs are written atomically (a reader, e.g. the daemon serving a job's files, never
 // sees half a file).
-Status write_text(const fs::path& path, const std::string& text) { return image::write_file_atomically(path, text); }
+Status write_text(const fs::path& path, const std::string& text) { return write_file_atomically(path, text); }
 
 }  // namespace
 

@@ -1,5 +1,7 @@
 #include "mock_device/broker/broker_protocol.h"
 
+#include "base/unique_fd.h"
+
 #include <linux/videodev2.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -100,8 +102,9 @@ int inject_fault(const char* socket_path, int index, Fault fault, int count) {
   address.sun_family = AF_UNIX;
   if (!socket_path || std::strlen(socket_path) >= sizeof address.sun_path) return -EINVAL;
   std::strcpy(address.sun_path, socket_path);
-  const int socket = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
-  if (socket < 0) return -errno;
+  const UniqueFd owned_socket(::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0));
+  if (!owned_socket) return -errno;
+  const int socket = owned_socket.get();
   int result = 0;
   if (::connect(socket, reinterpret_cast<sockaddr*>(&address), sizeof address) < 0) {
     result = -errno;
@@ -113,7 +116,7 @@ int inject_fault(const char* socket_path, int index, Fault fault, int count) {
     header.length = static_cast<uint64_t>(count);
     result = send_message(socket, &header, sizeof header, nullptr, 0);
     std::vector<uint8_t> reply;
-    std::vector<int> fds;
+    std::vector<UniqueFd> fds;  // none expected; closed with their owners
     if (result == 0) {
       const ssize_t n = receive_message(socket, &reply, &fds);
       ReplyHeader out;
@@ -124,9 +127,7 @@ int inject_fault(const char* socket_path, int index, Fault fault, int count) {
         result = n < 0 ? static_cast<int>(n) : -EIO;
       }
     }
-    for (int fd : fds) ::close(fd);
   }
-  ::close(socket);
   return result;
 }
 

@@ -111,5 +111,14 @@ int send_message(int socket, const void* data, size_t size, const int* fds, int 
 // Returns the size, 0 on an orderly shutdown of the peer, or -errno. MSG_CMSG_CLOEXEC
 // unless `cloexec` is false.
 ssize_t receive_message(int socket, std::vector<uint8_t>* data, std::vector<int>* fds, bool cloexec = true);
+// The same, with each received fd given at once to an owner (base/unique_fd.h):
+// UniqueFd in the broker, the preload library's RealFd in the clients.
+template <class Fd>
+ssize_t receive_message(int socket, std::vector<uint8_t>* data, std::vector<Fd>* fds, bool cloexec = true) {
+  std::vector<int> received;
+  const ssize_t n = receive_message(socket, data, &received, cloexec);
+  for (int fd : received) fds->emplace_back(fd);
+  return n;
+}
 
 }  // namespace camlab::mock::broker

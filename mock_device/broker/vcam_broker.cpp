@@ -24,11 +24,6 @@ using broker::ReplyHeader;
 using broker::RequestHeader;
 using broker::UserBuffer;
 
-void close_all(std::vector<int>& fds) {
-  for (int fd : fds) ::close(fd);
-  fds.clear();
-}
-
 int reply(int socket, const ReplyHeader& header, const std::vector<uint8_t>& body = {}, int fd = -1) {
   std::vector<uint8_t> message(sizeof header + body.size());
   std::memcpy(message.data(), &header, sizeof header);
@@ -60,7 +55,7 @@ class OpenFile {
   }
 
   // Answers one request; returns false when the connection must end.
-  bool handle(int socket, const std::vector<uint8_t>& message, std::vector<int>& fds) {
+  bool handle(int socket, const std::vector<uint8_t>& message, std::vector<UniqueFd>& fds) {
     RequestHeader header;
     std::memcpy(&header, message.data(), sizeof header);
     if (media_) return handle_media(socket, header, message);
@@ -144,7 +139,7 @@ class OpenFile {
     return reply(socket, out, body);
   }
 
-  int ioctl(int socket, const RequestHeader& header, const std::vector<uint8_t>& message, std::vector<int>& fds) {
+  int ioctl(int socket, const RequestHeader& header, const std::vector<uint8_t>& message, std::vector<UniqueFd>& fds) {
     const unsigned long request = header.ioctl_request;
     // Unknown ioctls are ENOTTY before the argument is looked at, as in the kernel.
     if (!VirtualV4l2Device::is_supported_ioctl(request)) return reply_result(socket, -ENOTTY);
@@ -189,14 +184,14 @@ class OpenFile {
     int dmabuf_fd = -1;
     if (broker::fd_in_field(request, arg.data()) != broker::kNoField) {
       if (fds.size() != 1) return reply_result(socket, -EBADF);
-      dmabuf_fd = fds[0];
+      dmabuf_fd = fds[0].get();
     }
 
     const int result = device_->ioctl(file_, request, arg.data(), dmabuf_fd);
 
     for (size_t i = 0; i < specs.size(); ++i)
       std::memcpy(reinterpret_cast<uint8_t*>(arg.data()) + specs[i].pointer_offset, &client_pointers[i], sizeof(void*));
-    int fd_out = -1;
+    int fd_out = -1;  // an fd the device made for the client (EXPBUF): ours until sent
     ReplyHeader out;
     out.result = result;
     out.arg_size = static_cast<uint32_t>(arg_size);
@@ -205,15 +200,14 @@ class OpenFile {
       out.fd_field_offset = broker::fd_out_field(request);
       std::memcpy(&fd_out, reinterpret_cast<uint8_t*>(arg.data()) + out.fd_field_offset, sizeof(int));
     }
+    const UniqueFd exported(fd_out);  // the client gets its own copy; ours closes here
     std::vector<uint8_t> body(arg_size);
     std::memcpy(body.data(), arg.data(), arg_size);
     for (size_t i = 0; i < specs.size(); ++i) {
       const auto* bytes = reinterpret_cast<const uint8_t*>(buffers[i].data());
       body.insert(body.end(), bytes, bytes + specs[i].size_bytes);
     }
-    const int sent = reply(socket, out, body, fd_out);
-    if (fd_out >= 0) ::close(fd_out);  // the client has its own copy now
-    return sent;
+    return reply(socket, out, body, fd_out);
   }
 
   int mmap(int socket, const RequestHeader& header) {
@@ -254,28 +248,26 @@ Result<std::unique_ptr<VcamBroker>> VcamBroker::start(std::vector<std::shared_pt
     return make_error("invalid_argument", "broker socket path too long (max " +
                                           std::to_string(sizeof address.sun_path - 1) + " bytes): " + socket_path);
   std::memcpy(address.sun_path, socket_path.c_str(), socket_path.size() + 1);
-  const int fd = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
-  if (fd < 0) return make_error("io_error", std::string("broker socket: ") + std::strerror(errno));
-  if (::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) < 0 || ::listen(fd, 64) < 0) {
-    const int error = errno;
-    ::close(fd);
-    return make_error("io_error", "broker cannot listen on " + socket_path + ": " + std::strerror(error));
-  }
-  std::unique_ptr<VcamBroker> broker(new VcamBroker(std::move(devices), socket_path, fd));
+  UniqueFd fd(::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0));
+  if (!fd) return make_error("io_error", std::string("broker socket: ") + std::strerror(errno));
+  if (::bind(fd.get(), reinterpret_cast<sockaddr*>(&address), sizeof address) < 0 || ::listen(fd.get(), 64) < 0)
+    return make_error("io_error", "broker cannot listen on " + socket_path + ": " + std::strerror(errno));
+  std::unique_ptr<VcamBroker> broker(new VcamBroker(std::move(devices), socket_path, std::move(fd)));
   for (const auto& device : broker->devices_) {
     auto media = make_media_device_for(*device);
     if (!media) continue;
     const std::string name = "camlab-media" + std::to_string(device->index());
-    const int memfd = ::memfd_create(name.c_str(), MFD_CLOEXEC);
-    if (memfd < 0) return make_error("io_error", std::string("broker memfd: ") + std::strerror(errno));
-    broker->media_.push_back({std::move(media), memfd});
+    UniqueFd memfd(::memfd_create(name.c_str(), MFD_CLOEXEC));
+    if (!memfd) return make_error("io_error", std::string("broker memfd: ") + std::strerror(errno));
+    broker->media_.push_back({std::move(media), std::move(memfd)});
   }
   broker->acceptor_ = std::thread([b = broker.get()] { b->accept_loop(); });
   return broker;
 }
 
-VcamBroker::VcamBroker(std::vector<std::shared_ptr<VirtualV4l2Device>> devices, std::string socket_path, int listen_fd)
-    : devices_(std::move(devices)), socket_path_(std::move(socket_path)), listen_fd_(listen_fd) {}
+VcamBroker::VcamBroker(std::vector<std::shared_ptr<VirtualV4l2Device>> devices, std::string socket_path,
+                       UniqueFd listen_fd)
+    : devices_(std::move(devices)), socket_path_(std::move(socket_path)), listen_fd_(std::move(listen_fd)) {}
 
 std::shared_ptr<VirtualMediaDevice> VcamBroker::media_device(int index) const {
   for (const auto& node : media_)
@@ -285,18 +277,16 @@ std::shared_ptr<VirtualMediaDevice> VcamBroker::media_device(int index) const {
 
 VcamBroker::~VcamBroker() {
   stopping_ = true;
-  ::shutdown(listen_fd_, SHUT_RDWR);  // wakes accept()
+  ::shutdown(listen_fd_.get(), SHUT_RDWR);  // wakes accept()
   if (acceptor_.joinable()) acceptor_.join();
-  ::close(listen_fd_);
+  listen_fd_.reset();
   ::unlink(socket_path_.c_str());
   std::lock_guard lock(mutex_);
   // Sockets stay open until their thread is joined, so these fds are still ours.
-  for (auto& c : connections_) ::shutdown(c.socket, SHUT_RDWR);  // wakes each recv()
-  for (auto& c : connections_) {
-    c.thread.join();
-    ::close(c.socket);
-  }
-  for (auto& node : media_) ::close(node.memfd);
+  for (auto& c : connections_) ::shutdown(c.socket.get(), SHUT_RDWR);  // wakes each recv()
+  for (auto& c : connections_) c.thread.join();
+  connections_.clear();  // closes the sockets
+  // The media nodes' memfds close with media_.
 }
 
 size_t VcamBroker::open_file_count() const {
@@ -313,36 +303,33 @@ void VcamBroker::reap_finished() {
       continue;
     }
     it->thread.join();
-    ::close(it->socket);
-    it = connections_.erase(it);
+    it = connections_.erase(it);  // closes its socket
   }
 }
 
 void VcamBroker::accept_loop() {
   while (!stopping_) {
-    const int socket = ::accept4(listen_fd_, nullptr, nullptr, SOCK_CLOEXEC);
-    if (socket < 0) {
+    UniqueFd socket(::accept4(listen_fd_.get(), nullptr, nullptr, SOCK_CLOEXEC));
+    if (!socket) {
       if (errno == EINTR || errno == ECONNABORTED) continue;
       return;  // shut down
     }
     std::lock_guard lock(mutex_);
     reap_finished();
-    if (stopping_) {
-      ::close(socket);
-      return;
-    }
+    if (stopping_) return;
     Connection& c = connections_.emplace_back();
-    c.socket = socket;
+    c.socket = std::move(socket);
     c.thread = std::thread([this, &c] { serve(&c); });
   }
 }
 
 void VcamBroker::serve(Connection* connection) {
-  const int socket = connection->socket;
+  const int socket = connection->socket.get();
   std::vector<uint8_t> message;
-  std::vector<int> fds;
+  std::vector<UniqueFd> fds;
   std::unique_ptr<OpenFile> open_file;
-  int readiness_fd = -1;
+  // The readiness eventfd of a video file: the device signals it; the client has a copy.
+  UniqueFd readiness_fd;
   ssize_t n = broker::receive_message(socket, &message, &fds);
   RequestHeader header;
   if (n >= static_cast<ssize_t>(sizeof header)) {
@@ -365,16 +352,16 @@ void VcamBroker::serve(Connection* connection) {
       // node, as the kernel's device inode): lockf() by one process then excludes
       // another, and O_NONBLOCK stays per open.
       const int file = media->device->open_file(header.flags & O_NONBLOCK);
-      const std::string self = "/proc/self/fd/" + std::to_string(media->memfd);
-      const int fd = file < 0 ? -1 : ::open(self.c_str(), O_RDWR | O_CLOEXEC | (header.flags & O_NONBLOCK));
-      if (file < 0 || fd < 0) {
+      const std::string self = "/proc/self/fd/" + std::to_string(media->memfd.get());
+      // Sent to the client, which has its own copy then; ours closes at the end of scope.
+      const UniqueFd fd(file < 0 ? -1 : ::open(self.c_str(), O_RDWR | O_CLOEXEC | (header.flags & O_NONBLOCK)));
+      if (file < 0 || !fd) {
         if (file >= 0) media->device->close_file(file);
         reply_result(socket, file < 0 ? file : -errno);
       } else {
         open_file = std::make_unique<OpenFile>(nullptr, media->device, file);
         ReplyHeader out;
-        if (reply(socket, out, {}, fd) != 0) open_file.reset();
-        ::close(fd);  // the client has its own copy now
+        if (reply(socket, out, {}, fd.get()) != 0) open_file.reset();
       }
     } else if (header.op != Op::kOpen || kind != broker::NodeKind::kVideo || !device) {
       reply_result(socket, -ENODEV);
@@ -382,28 +369,27 @@ void VcamBroker::serve(Connection* connection) {
       // The broker's side of every file is non-blocking; the client emulates blocking
       // DQBUF on the readiness fd, so no request ever waits here.
       const int file = device->open_file(true);
-      readiness_fd = file < 0 ? -1 : ::eventfd(0, EFD_CLOEXEC | ((header.flags & O_NONBLOCK) ? EFD_NONBLOCK : 0));
-      if (file < 0 || readiness_fd < 0) {
+      readiness_fd.reset(file < 0 ? -1 : ::eventfd(0, EFD_CLOEXEC | ((header.flags & O_NONBLOCK) ? EFD_NONBLOCK : 0)));
+      if (file < 0 || !readiness_fd) {
         if (file >= 0) device->close_file(file);
         reply_result(socket, file < 0 ? file : -errno);
       } else {
-        device->attach_eventfd(file, readiness_fd);
+        device->attach_eventfd(file, readiness_fd.get());
         open_file = std::make_unique<OpenFile>(device, nullptr, file);
         ReplyHeader out;
-        if (reply(socket, out, {}, readiness_fd) != 0) open_file.reset();
+        if (reply(socket, out, {}, readiness_fd.get()) != 0) open_file.reset();
       }
     }
   }
-  close_all(fds);
+  fds.clear();
   while (open_file) {
     n = broker::receive_message(socket, &message, &fds);
     if (n < static_cast<ssize_t>(sizeof(RequestHeader))) break;  // the client closed the file (or died)
     const bool keep = open_file->handle(socket, message, fds);
-    close_all(fds);
+    fds.clear();  // the device keeps no fd it was sent (it maps a DMABUF at QBUF)
     if (!keep) break;
   }
-  open_file.reset();
-  if (readiness_fd >= 0) ::close(readiness_fd);
+  open_file.reset();  // detaches the readiness fd before it closes
   ::shutdown(socket, SHUT_RDWR);  // the client sees EOF now; the fd is closed when reaped
   connection->finished = true;
 }

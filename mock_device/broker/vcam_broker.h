@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "base/result.h"
+#include "base/unique_fd.h"
 #include "mock_device/v4l2/virtual_media_device.h"
 #include "mock_device/v4l2/virtual_v4l2_device.h"
 
@@ -48,11 +49,11 @@ class VcamBroker {
 
  private:
   struct Connection {
-    int socket = -1;
+    UniqueFd socket;
     std::thread thread;
     std::atomic<bool> finished{false};
   };
-  VcamBroker(std::vector<std::shared_ptr<VirtualV4l2Device>> devices, std::string socket_path, int listen_fd);
+  VcamBroker(std::vector<std::shared_ptr<VirtualV4l2Device>> devices, std::string socket_path, UniqueFd listen_fd);
   void accept_loop();
   void serve(Connection* connection);
   void reap_finished();  // joins connections whose client went away; call with mutex_ held
@@ -62,11 +63,11 @@ class VcamBroker {
   // clients' fds of it (one inode per node, so lockf() excludes across processes).
   struct MediaNode {
     std::shared_ptr<VirtualMediaDevice> device;
-    int memfd = -1;
+    UniqueFd memfd;
   };
   std::vector<MediaNode> media_;
   std::string socket_path_;
-  int listen_fd_ = -1;
+  UniqueFd listen_fd_;
   std::atomic<bool> stopping_{false};
   mutable std::mutex mutex_;
   std::list<Connection> connections_;

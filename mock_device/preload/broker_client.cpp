@@ -17,7 +17,7 @@
 
 #include "mock_device/preload/real_libc.h"
 
-namespace camlab::vcam {
+namespace camlab::mock::preload {
 
 namespace {
 
@@ -58,14 +58,13 @@ void wait_readable(int fd, int timeout_ms) {
 
 }  // namespace
 
-RemoteFile::~RemoteFile() { real().close(socket_); }
-
 int RemoteFile::transact(const std::vector<uint8_t>& request, int fd_in, std::vector<uint8_t>* reply,
-                         std::vector<int>* fds_out, bool cloexec) {
+                         std::vector<RealFd>* fds_out, bool cloexec) {
   std::lock_guard lock(mutex_);
-  if (int error = broker::send_message(socket_, request.data(), request.size(), &fd_in, fd_in >= 0 ? 1 : 0); error < 0)
+  const int socket = socket_.get();
+  if (int error = broker::send_message(socket, request.data(), request.size(), &fd_in, fd_in >= 0 ? 1 : 0); error < 0)
     return error == -EPIPE || error == -ECONNRESET ? -ENODEV : error;
-  const ssize_t n = broker::receive_message(socket_, reply, fds_out, cloexec);
+  const ssize_t n = broker::receive_message(socket, reply, fds_out, cloexec);
   // A broker that went away is a device that went away.
   if (n < static_cast<ssize_t>(sizeof(ReplyHeader))) return n < 0 && n != -ECONNRESET ? static_cast<int>(n) : -ENODEV;
   ReplyHeader header;
@@ -125,7 +124,7 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
   if (request == VIDIOC_EXPBUF) cloexec = (reinterpret_cast<const v4l2_exportbuffer*>(arg.data())->flags & O_CLOEXEC) != 0;
 
   std::vector<uint8_t> reply;
-  std::vector<int> fds;
+  std::vector<RealFd> fds;
   const int result = transact(message, fd_in, &reply, &fds, cloexec);
   ReplyHeader out;
   if (reply.size() >= sizeof out) std::memcpy(&out, reply.data(), sizeof out);
@@ -158,7 +157,7 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
   if (has_body && copied_out) {
     // An fd the device handed out (EXPBUF) becomes one of ours.
     if (out.fd_field_offset != broker::kNoField && out.fd_field_offset + sizeof(int) <= size) {
-      const int fd = fds.empty() ? -1 : fds[0];
+      const int fd = fds.empty() ? -1 : fds[0].release();  // the application's now
       std::memcpy(reinterpret_cast<uint8_t*>(arg.data()) + out.fd_field_offset, &fd, sizeof fd);
       if (!fds.empty()) fds.erase(fds.begin());
     }
@@ -166,8 +165,7 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
     // friends are reported on failure too).
     if ((_IOC_DIR(request) & _IOC_READ) && size > 0 && !copy_to_user(user_arg, arg.data(), size)) error = EFAULT;
   }
-  for (int f : fds) real().close(f);
-  if (error) return fail(error);
+  if (error) return fail(error);  // any fd not handed over closes with `fds`
   return result;
 }
 
@@ -185,16 +183,15 @@ void* RemoteFile::mmap(void* address, size_t length, int prot, int flags, off_t 
   header.offset = offset;
   header.length = length;
   std::vector<uint8_t> reply;
-  std::vector<int> fds;
+  std::vector<RealFd> fds;
   const int result = transact(encode(header), -1, &reply, &fds);
   if (result < 0 || fds.empty()) {
-    for (int f : fds) real().close(f);
     errno = result < 0 ? -result : EIO;
     return MAP_FAILED;
   }
-  void* mapped = real().mmap(address, length, prot, flags, fds[0], 0);
+  void* mapped = real().mmap(address, length, prot, flags, fds[0].get(), 0);
   const int saved = errno;
-  for (int f : fds) real().close(f);
+  fds.clear();  // the mapping keeps the memory; the fd is not needed
   if (mapped == MAP_FAILED) {
     unmapped(offset);
     errno = saved;
@@ -203,10 +200,8 @@ void* RemoteFile::mmap(void* address, size_t length, int prot, int flags, off_t 
 }
 
 int RemoteFile::header_only_request(const RequestHeader& header, std::vector<uint8_t>* reply) {
-  std::vector<int> fds;
-  const int result = transact(encode(header), -1, reply, &fds);
-  for (int f : fds) real().close(f);  // none expected
-  return result;
+  std::vector<RealFd> fds;
+  return transact(encode(header), -1, reply, &fds);  // none expected; any closes with `fds`
 }
 
 void RemoteFile::unmapped(off_t offset) {
@@ -243,12 +238,11 @@ int BrokerClient::open(broker::NodeKind kind, int index, int flags) {
   address.sun_family = AF_UNIX;
   if (std::strlen(path) >= sizeof address.sun_path) return fail(ENAMETOOLONG);
   std::strcpy(address.sun_path, path);
-  const int socket = ::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0);
-  if (socket < 0) return -1;
-  if (::connect(socket, reinterpret_cast<sockaddr*>(&address), sizeof address) < 0) {
-    real().close(socket);
+  RealFd connection(::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0));
+  if (!connection) return -1;
+  const int socket = connection.get();
+  if (::connect(socket, reinterpret_cast<sockaddr*>(&address), sizeof address) < 0)
     return fail(ENODEV);  // the broker is gone: as if the device were unplugged
-  }
   RequestHeader header;
   header.op = Op::kOpen;
   header.offset = index;
@@ -256,7 +250,7 @@ int BrokerClient::open(broker::NodeKind kind, int index, int flags) {
   header.flags = flags;
   const std::vector<uint8_t> request = encode(header);
   std::vector<uint8_t> reply;
-  std::vector<int> fds;
+  std::vector<RealFd> fds;
   int result = broker::send_message(socket, request.data(), request.size(), nullptr, 0);
   if (result == 0) {
     const ssize_t n = broker::receive_message(socket, &reply, &fds, (flags & O_CLOEXEC) != 0);
@@ -268,14 +262,10 @@ int BrokerClient::open(broker::NodeKind kind, int index, int flags) {
       result = -ENODEV;
     }
   }
-  if (result < 0 || fds.size() != 1) {
-    for (int f : fds) real().close(f);
-    real().close(socket);
-    return fail(result < 0 ? -result : EIO);
-  }
-  const int fd = fds[0];
+  if (result < 0 || fds.size() != 1) return fail(result < 0 ? -result : EIO);
+  const int fd = fds[0].release();  // the application's fd from now on
   std::lock_guard lock(mutex_);
-  files_[fd] = std::make_shared<RemoteFile>(socket, kind, index);
+  files_[fd] = std::make_shared<RemoteFile>(std::move(connection), kind, index);
   open_fds_ = static_cast<int>(files_.size());
   return fd;
 }
@@ -382,4 +372,4 @@ int BrokerClient::poll(pollfd* fds, nfds_t count, const timespec* timeout, const
   }
 }
 
-}  // namespace camlab::vcam
+}  // namespace camlab::mock::preload

@@ -26,15 +26,16 @@
 #include <vector>
 
 #include "mock_device/broker/broker_protocol.h"
+#include "mock_device/preload/real_libc.h"
 
-namespace camlab::vcam {
+namespace camlab::mock::preload {
 
 namespace broker = camlab::mock::broker;
 
 class RemoteFile {
  public:
-  RemoteFile(int socket, broker::NodeKind kind, int index) : socket_(socket), kind_(kind), index_(index) {}
-  ~RemoteFile();
+  RemoteFile(RealFd socket, broker::NodeKind kind, int index)
+      : socket_(std::move(socket)), kind_(kind), index_(index) {}
   RemoteFile(const RemoteFile&) = delete;
   RemoteFile& operator=(const RemoteFile&) = delete;
 
@@ -53,12 +54,12 @@ class RemoteFile {
   // Sends one request and waits for its reply (serialised per file: the broker answers
   // each connection in order). Returns the reply's result (>= 0 or -errno).
   // `cloexec`: whether the fds received are close-on-exec.
-  int transact(const std::vector<uint8_t>& request, int fd_in, std::vector<uint8_t>* reply, std::vector<int>* fds_out,
-               bool cloexec = true);
+  int transact(const std::vector<uint8_t>& request, int fd_in, std::vector<uint8_t>* reply,
+               std::vector<RealFd>* fds_out, bool cloexec = true);
   int header_only_request(const broker::RequestHeader& header, std::vector<uint8_t>* reply);
   int ioctl_once(unsigned long request, void* user_arg);
 
-  int socket_;
+  RealFd socket_;  // the connection to the broker: the open file, closed with it
   broker::NodeKind kind_;
   int index_;
   std::mutex mutex_;
@@ -97,4 +98,4 @@ class BrokerClient {
   std::map<void*, Mapping> mappings_;
 };
 
-}  // namespace camlab::vcam
+}  // namespace camlab::mock::preload

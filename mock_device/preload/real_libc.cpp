@@ -2,7 +2,7 @@
 
 #include <dlfcn.h>
 
-namespace camlab::vcam {
+namespace camlab::mock::preload {
 
 namespace {
 
@@ -52,4 +52,4 @@ const RealLibc& real() {
   return r;
 }
 
-}  // namespace camlab::vcam
+}  // namespace camlab::mock::preload

@@ -13,7 +13,9 @@
 #include <sys/stat.h>
 #include <sys/types.h>
 
-namespace camlab::vcam {
+#include "base/unique_fd.h"
+
+namespace camlab::mock::preload {
 
 struct RealLibc {
   int (*open)(const char*, int, ...);
@@ -49,4 +51,11 @@ struct RealLibc {
 
 const RealLibc& real();
 
-}  // namespace camlab::vcam
+// Owners of the library's own fds (base/unique_fd.h): closed through the real close, so
+// that releasing one never re-enters the interposed close (and its locks).
+struct RealFdCloser {
+  void operator()(int fd) const noexcept { real().close(fd); }
+};
+using RealFd = BasicUniqueFd<RealFdCloser>;
+
+}  // namespace camlab::mock::preload

@@ -6,7 +6,7 @@
 
 #include "mock_device/v4l2/fake_sysfs.h"
 
-namespace camlab::vcam {
+namespace camlab::mock::preload {
 
 namespace {
 
@@ -50,4 +50,4 @@ void unredirect_sysfs_path(char* resolved) {
   std::memcpy(resolved, back.c_str(), back.size() + 1);  // root is longer than "/sys"
 }
 
-}  // namespace camlab::vcam
+}  // namespace camlab::mock::preload

@@ -11,7 +11,7 @@
 
 #include <string>
 
-namespace camlab::vcam {
+namespace camlab::mock::preload {
 
 // CAMLAB_VCAM_COUNT: how many virtual cameras the run has (1 when unset).
 int vcam_count();
@@ -24,4 +24,4 @@ const char* redirect_sysfs_path(const char* path, std::string* storage);
 // result is never longer).
 void unredirect_sysfs_path(char* resolved);
 
-}  // namespace camlab::vcam
+}  // namespace camlab::mock::preload

@@ -43,9 +43,9 @@
 
 namespace {
 
-using camlab::vcam::BrokerClient;
-using camlab::vcam::real;
-using camlab::vcam::RemoteFile;
+using camlab::mock::preload::BrokerClient;
+using camlab::mock::preload::real;
+using camlab::mock::preload::RemoteFile;
 using camlab::mock::broker::NodeKind;
 
 struct Node {
@@ -69,7 +69,7 @@ bool virtual_node(const char* path, Node* node) {
   for (const char* p = digits; *p; ++p)
     if (*p < '0' || *p > '9') return false;
   const int index = std::atoi(digits);
-  if (index >= camlab::vcam::vcam_count()) return false;
+  if (index >= camlab::mock::preload::vcam_count()) return false;
   *node = {kind, index};
   return true;
 }
@@ -92,7 +92,7 @@ void fill_node_stat(const Node& node, struct stat* st) {
 template <class Call>
 auto on_real_path(const char* path, Call call) {
   std::string storage;
-  const char* redirected = camlab::vcam::redirect_sysfs_path(path, &storage);
+  const char* redirected = camlab::mock::preload::redirect_sysfs_path(path, &storage);
   return call(redirected ? redirected : path);
 }
 
@@ -208,6 +208,10 @@ timespec from_ms(int timeout_ms) { return {timeout_ms / 1000, (timeout_ms % 1000
 
 }  // namespace
 
+// The interposed libc entry points: the only symbols the library exports (it is built
+// with hidden visibility), so it takes over exactly these and nothing of its own clashes
+// with the program it is loaded into.
+#pragma GCC visibility push(default)
 extern "C" {
 
 FILE* fopen(const char* path, const char* mode) {
@@ -235,7 +239,7 @@ char* realpath(const char* path, char* resolved) {
   }
   char* result = on_real_path(path, [&](const char* p) { return real().realpath(p, resolved); });
   // A path resolved inside the fake tree is reported where the client looked: /sys/...
-  if (result) camlab::vcam::unredirect_sysfs_path(result);
+  if (result) camlab::mock::preload::unredirect_sysfs_path(result);
   return result;
 }
 char* __realpath_chk(const char* path, char* resolved, size_t) { return realpath(path, resolved); }
@@ -438,3 +442,4 @@ udev_monitor* udev_monitor_new_from_netlink(udev*, const char*) {
 }
 
 }  // extern "C"
+#pragma GCC visibility pop

@@ -126,7 +126,7 @@ class JsonFields {
 
 // Reads a JSON spec file (comments allowed); errors name the path.
 inline Result<nlohmann::json> read_json_file(const std::filesystem::path& path) {
-  auto text = image::read_text_file(path);
+  auto text = read_text_file(path);
   if (!text) return text.error();
   nlohmann::json json = nlohmann::json::parse(*text, nullptr, false, /*ignore_comments=*/true);
   if (json.is_discarded()) return make_error("bad_json", path.string() + " is not valid JSON");

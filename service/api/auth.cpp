@@ -75,7 +75,7 @@ Result<TokenFile> load_or_create_token(const std::filesystem::path& data_dir) {
         return make_error("io_error", path.string() + " is readable by others and cannot be made 0600");
       result.warning = path.string() + " was readable by group or others; its mode is now 0600";
     }
-    auto text = image::read_text_file(path);
+    auto text = read_text_file(path);
     if (!text) return text.error();
     result.token = trim(*text);
     if (result.token.size() >= 16) return result;

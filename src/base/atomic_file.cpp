@@ -1,5 +1,7 @@
 #include "base/atomic_file.h"
 
+#include "base/unique_fd.h"
+
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -10,7 +12,7 @@
 #include <sstream>
 #include <string>
 
-namespace camlab::image {
+namespace camlab {
 
 namespace {
 
@@ -25,16 +27,15 @@ Status write_file_atomically(const std::filesystem::path& path,
   // mkstemp in the target's own directory, so the rename never crosses filesystems.
   std::string temp_name = (path.parent_path() / ("." + path.filename().string() + ".XXXXXX")).string();
   if (path.parent_path().empty()) temp_name = "." + path.filename().string() + ".XXXXXX";
-  int fd = ::mkstemp(temp_name.data());
-  if (fd < 0) return io_error(path, "cannot create a temporary file for", errno);
+  UniqueFd fd(::mkstemp(temp_name.data()));
+  if (!fd) return io_error(path, "cannot create a temporary file for", errno);
 
   size_t written = 0;
   while (written < bytes.size()) {
-    ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
+    ssize_t n = ::write(fd.get(), bytes.data() + written, bytes.size() - written);
     if (n < 0 && errno == EINTR) continue;
     if (n < 0) {
       int err = errno;
-      ::close(fd);
       ::unlink(temp_name.c_str());
       return io_error(path, "cannot write", err);
     }
@@ -42,13 +43,12 @@ Status write_file_atomically(const std::filesystem::path& path,
   }
   // Data must be on disk before the rename makes it visible, or a power cut could leave
   // an empty file under the final name.
-  if (::fsync(fd) != 0 || ::fchmod(fd, 0644) != 0) {
+  if (::fsync(fd.get()) != 0 || ::fchmod(fd.get(), 0644) != 0) {
     int err = errno;
-    ::close(fd);
     ::unlink(temp_name.c_str());
     return io_error(path, "cannot flush", err);
   }
-  ::close(fd);
+  fd.reset();
   if (::rename(temp_name.c_str(), path.c_str()) != 0) {
     int err = errno;
     ::unlink(temp_name.c_str());
@@ -71,4 +71,4 @@ Result<std::string> read_text_file(const std::filesystem::path& path) {
   return text.str();
 }
 
-}  // namespace camlab::image
+}  // namespace camlab

@@ -11,7 +11,7 @@
 
 #include "base/result.h"
 
-namespace camlab::image {
+namespace camlab {
 
 Status write_file_atomically(const std::filesystem::path& path, std::span<const unsigned char> bytes);
 Status write_file_atomically(const std::filesystem::path& path, std::string_view text);
@@ -19,4 +19,4 @@ Status write_file_atomically(const std::filesystem::path& path, std::string_view
 // Reads a whole file; errors name the path and the reason.
 Result<std::string> read_text_file(const std::filesystem::path& path);
 
-}  // namespace camlab::image
+}  // namespace camlab

@@ -15,6 +15,7 @@
 
 #include <sys/mman.h>
 
+#include <cerrno>
 #include <cstddef>
 #include <cstdint>
 #include <span>
@@ -59,9 +60,13 @@ class BasicMappedBuffer {
   bool is_mapped() const noexcept { return address_ != nullptr; }
   explicit operator bool() const noexcept { return is_mapped(); }
 
-  // Unmaps now (no-op when nothing is mapped).
+  // Unmaps now (no-op when nothing is mapped). errno is kept, as by UniqueFd::reset.
   void reset() noexcept {
-    if (address_) unmapper_(address_, length_);
+    if (address_) {
+      const int saved_errno = errno;
+      unmapper_(address_, length_);
+      errno = saved_errno;
+    }
     address_ = nullptr;
     length_ = 0;
   }

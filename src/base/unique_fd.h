@@ -17,6 +17,7 @@
 
 #include <unistd.h>
 
+#include <cerrno>
 #include <utility>
 
 namespace camlab {
@@ -51,9 +52,14 @@ class BasicUniqueFd {
 
   // Gives the descriptor up without closing it (to a transfer that closes it itself).
   [[nodiscard]] int release() noexcept { return std::exchange(fd_, -1); }
-  // Closes the descriptor held, if any, and holds `fd` instead.
+  // Closes the descriptor held, if any, and holds `fd` instead. errno is kept, so that an
+  // owner going out of scope after a failed call leaves the caller the call's errno.
   void reset(int fd = -1) noexcept {
-    if (fd_ >= 0 && fd_ != fd) closer_(fd_);
+    if (fd_ >= 0 && fd_ != fd) {
+      const int saved_errno = errno;
+      closer_(fd_);
+      errno = saved_errno;
+    }
     fd_ = fd;
   }
 

@@ -1,5 +1,6 @@
 // LibcameraCamera: a libcamera::Camera behind camlab's Camera interface, and the one
 // CameraManager per process they share.
+#include "base/mapped_buffer.h"
 #include "device/libcamera/libcamera_camera.h"
 
 #include <libcamera/camera.h>
@@ -163,9 +164,9 @@ class LibcameraCamera final : public Camera {
       size_t length = 0;
       for (const auto& p : buffers[i]->planes())
         if (p.fd.get() == plane.fd.get()) length = std::max<size_t>(length, p.offset + p.length);
-      void* address = mmap(nullptr, length, PROT_READ, MAP_SHARED, plane.fd.get(), 0);
-      if (address == MAP_FAILED) return fail_start("cannot map a buffer", -errno);
-      mappings_.push_back({static_cast<uint8_t*>(address), length, plane.offset});
+      MappedBuffer memory(mmap(nullptr, length, PROT_READ, MAP_SHARED, plane.fd.get(), 0), length);
+      if (!memory) return fail_start("cannot map a buffer", -errno);
+      mappings_.push_back({std::move(memory), plane.offset});
       requests_.push_back(std::move(request));
     }
     camera_->requestCompleted.connect(this, &LibcameraCamera::on_request_completed);
@@ -186,8 +187,7 @@ class LibcameraCamera final : public Camera {
       std::lock_guard lock(mutex_);
       completed_.clear();
     }
-    for (const auto& m : mappings_) munmap(m.address, m.length);
-    mappings_.clear();
+    mappings_.clear();  // unmapped by their owners
     requests_.clear();
     allocator_->free(config_->at(0).stream());
     allocator_.reset();
@@ -210,7 +210,7 @@ class LibcameraCamera final : public Camera {
     const libcamera::FrameMetadata& buffer_meta = buffer->metadata();
     Frame frame;
     frame.buffer_index = static_cast<int>(index);
-    frame.data = mappings_[index].address + mappings_[index].offset;
+    frame.data = mappings_[index].memory.data() + mappings_[index].offset;
     frame.size = buffer_meta.planes()[0].bytesused;
     frame.meta.sequence = buffer_meta.sequence;
     frame.meta.timestamp_ns = request->metadata()
@@ -243,9 +243,8 @@ class LibcameraCamera final : public Camera {
 
  private:
   struct Mapping {
-    uint8_t* address;
-    size_t length;
-    size_t offset;  // of plane 0 within the mapping
+    MappedBuffer memory;  // the planes' dmabuf, read-only
+    size_t offset;        // of plane 0 within the mapping
   };
 
   const ControlBinding* binding(const std::string& name) const {

@@ -74,8 +74,7 @@ Result<std::unique_ptr<V4l2Camera>> V4l2Camera::open(std::shared_ptr<V4l2Io> io,
 
 V4l2Camera::~V4l2Camera() {
   if (streaming_) (void)stop();
-  release_buffers();
-  if (fd_ >= 0) io_->close(fd_);
+  // The mappings and the fd go with their owners.
 }
 
 Result<std::vector<PixelFormatInfo>> V4l2Camera::formats() {
@@ -84,7 +83,7 @@ Result<std::vector<PixelFormatInfo>> V4l2Camera::formats() {
     v4l2_fmtdesc desc{};
     desc.index = i;
     desc.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    if (xioctl(*io_, fd_, VIDIOC_ENUM_FMT, &desc) != 0) {
+    if (xioctl(*io_, fd_.get(), VIDIOC_ENUM_FMT, &desc) != 0) {
       if (errno == EINVAL) break;
       return errno_error("VIDIOC_ENUM_FMT", errno);
     }
@@ -93,7 +92,7 @@ Result<std::vector<PixelFormatInfo>> V4l2Camera::formats() {
       v4l2_frmsizeenum size{};
       size.index = j;
       size.pixel_format = desc.pixelformat;
-      if (xioctl(*io_, fd_, VIDIOC_ENUM_FRAMESIZES, &size) != 0) break;
+      if (xioctl(*io_, fd_.get(), VIDIOC_ENUM_FRAMESIZES, &size) != 0) break;
       FrameSizeInfo info;
       if (size.type == V4L2_FRMSIZE_TYPE_DISCRETE) {
         info.width = size.discrete.width;
@@ -108,7 +107,7 @@ Result<std::vector<PixelFormatInfo>> V4l2Camera::formats() {
         interval.pixel_format = desc.pixelformat;
         interval.width = info.width;
         interval.height = info.height;
-        if (xioctl(*io_, fd_, VIDIOC_ENUM_FRAMEINTERVALS, &interval) != 0) break;
+        if (xioctl(*io_, fd_.get(), VIDIOC_ENUM_FRAMEINTERVALS, &interval) != 0) break;
         if (interval.type == V4L2_FRMIVAL_TYPE_DISCRETE)
           info.intervals.push_back({interval.discrete.numerator, interval.discrete.denominator});
         else
@@ -130,7 +129,7 @@ Result<int64_t> V4l2Camera::read_control(uint32_t id, bool is_64_bit) {
   controls.which = V4L2_CTRL_WHICH_CUR_VAL;
   controls.count = 1;
   controls.controls = &control;
-  if (xioctl(*io_, fd_, VIDIOC_G_EXT_CTRLS, &controls) != 0) return errno_error("VIDIOC_G_EXT_CTRLS", errno);
+  if (xioctl(*io_, fd_.get(), VIDIOC_G_EXT_CTRLS, &controls) != 0) return errno_error("VIDIOC_G_EXT_CTRLS", errno);
   return is_64_bit ? control.value64 : control.value;
 }
 
@@ -140,7 +139,7 @@ Result<std::vector<ControlInfo>> V4l2Camera::controls() {
   for (;;) {
     v4l2_query_ext_ctrl query{};
     query.id = next;
-    if (xioctl(*io_, fd_, VIDIOC_QUERY_EXT_CTRL, &query) != 0) {
+    if (xioctl(*io_, fd_.get(), VIDIOC_QUERY_EXT_CTRL, &query) != 0) {
       if (errno == EINVAL) break;
       return errno_error("VIDIOC_QUERY_EXT_CTRL", errno);
     }
@@ -163,7 +162,7 @@ Result<std::vector<ControlInfo>> V4l2Camera::controls() {
         v4l2_querymenu item{};
         item.id = query.id;
         item.index = static_cast<uint32_t>(i);
-        if (xioctl(*io_, fd_, VIDIOC_QUERYMENU, &item) != 0) continue;  // holes are allowed
+        if (xioctl(*io_, fd_.get(), VIDIOC_QUERYMENU, &item) != 0) continue;  // holes are allowed
         info.menu.emplace_back(i, info.type == ControlType::kMenu
                                       ? std::string(reinterpret_cast<const char*>(item.name))
                                       : std::to_string(item.value));
@@ -232,7 +231,7 @@ Status V4l2Camera::write_control(uint32_t id, int64_t value, bool is_64_bit) {
   controls.which = V4L2_CTRL_WHICH_CUR_VAL;
   controls.count = 1;
   controls.controls = &ext;
-  if (xioctl(*io_, fd_, VIDIOC_S_EXT_CTRLS, &controls) != 0) return errno_error("VIDIOC_S_EXT_CTRLS", errno);
+  if (xioctl(*io_, fd_.get(), VIDIOC_S_EXT_CTRLS, &controls) != 0) return errno_error("VIDIOC_S_EXT_CTRLS", errno);
   return {};
 }
 
@@ -244,7 +243,7 @@ Result<StreamFormat> V4l2Camera::configure(const StreamFormat& requested) {
   format.fmt.pix.height = requested.height;
   format.fmt.pix.pixelformat = fourcc_from_text(requested.fourcc);
   format.fmt.pix.field = V4L2_FIELD_NONE;
-  if (xioctl(*io_, fd_, VIDIOC_S_FMT, &format) != 0) return errno_error("VIDIOC_S_FMT", errno);
+  if (xioctl(*io_, fd_.get(), VIDIOC_S_FMT, &format) != 0) return errno_error("VIDIOC_S_FMT", errno);
   StreamFormat applied;
   applied.fourcc = fourcc_text(format.fmt.pix.pixelformat);
   applied.width = format.fmt.pix.width;
@@ -255,59 +254,55 @@ Result<StreamFormat> V4l2Camera::configure(const StreamFormat& requested) {
   parm.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   if (requested.interval.denominator != 0) {
     parm.parm.capture.timeperframe = {requested.interval.numerator, requested.interval.denominator};
-    if (xioctl(*io_, fd_, VIDIOC_S_PARM, &parm) != 0 && errno != ENOTTY)
+    if (xioctl(*io_, fd_.get(), VIDIOC_S_PARM, &parm) != 0 && errno != ENOTTY)
       return errno_error("VIDIOC_S_PARM", errno);
   }
-  if (xioctl(*io_, fd_, VIDIOC_G_PARM, &parm) == 0)
+  if (xioctl(*io_, fd_.get(), VIDIOC_G_PARM, &parm) == 0)
     applied.interval = {parm.parm.capture.timeperframe.numerator, parm.parm.capture.timeperframe.denominator};
   return applied;
 }
 
-void V4l2Camera::release_buffers() {
-  for (auto& buffer : buffers_)
-    if (buffer.address) io_->munmap(buffer.address, buffer.length);
-  buffers_.clear();
+void V4l2Camera::free_buffers() {
+  buffers_.clear();  // unmapped by their owners; the driver frees only unmapped buffers
+  v4l2_requestbuffers request{};
+  request.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  request.memory = V4L2_MEMORY_MMAP;
+  (void)xioctl(*io_, fd_.get(), VIDIOC_REQBUFS, &request);
 }
 
 Status V4l2Camera::start(int buffer_count) {
   if (streaming_) return make_error("busy", identity_.path + " is already streaming");
   if (buffer_count < 2 || buffer_count > 32)
     return make_error("out_of_range", "buffer count " + std::to_string(buffer_count) + " is not in [2, 32]");
+  const int fd = fd_.get();
   v4l2_requestbuffers request{};
   request.count = static_cast<uint32_t>(buffer_count);
   request.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   request.memory = V4L2_MEMORY_MMAP;
-  if (xioctl(*io_, fd_, VIDIOC_REQBUFS, &request) != 0) return errno_error("VIDIOC_REQBUFS", errno);
-  if (request.count < 2) return make_error("io_error", identity_.path + ": the driver granted fewer than 2 buffers");
+  if (xioctl(*io_, fd, VIDIOC_REQBUFS, &request) != 0) return errno_error("VIDIOC_REQBUFS", errno);
+  // From here until the stream is on, every failure gives the buffers back (unmapped, and
+  // REQBUFS 0), or the driver keeps them allocated to this fd and the next start, or
+  // another client, gets EBUSY. The error is made first: freeing changes errno.
+  auto give_back = [this](Error error) {
+    free_buffers();
+    return error;
+  };
+  if (request.count < 2)
+    return give_back(make_error("io_error", identity_.path + ": the driver granted fewer than 2 buffers"));
   for (uint32_t i = 0; i < request.count; ++i) {
     v4l2_buffer buffer{};
     buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
     buffer.memory = V4L2_MEMORY_MMAP;
     buffer.index = i;
-    if (xioctl(*io_, fd_, VIDIOC_QUERYBUF, &buffer) != 0) {
-      Error e = errno_error("VIDIOC_QUERYBUF", errno);
-      release_buffers();
-      return e;
-    }
-    void* address = io_->mmap(buffer.length, PROT_READ | PROT_WRITE, MAP_SHARED, fd_, buffer.m.offset);
-    if (address == MAP_FAILED) {
-      Error e = errno_error("mmap of buffer " + std::to_string(i), errno);
-      release_buffers();
-      return e;
-    }
-    buffers_.push_back({address, buffer.length});
-    if (xioctl(*io_, fd_, VIDIOC_QBUF, &buffer) != 0) {
-      Error e = errno_error("VIDIOC_QBUF", errno);
-      release_buffers();
-      return e;
-    }
+    if (xioctl(*io_, fd, VIDIOC_QUERYBUF, &buffer) != 0) return give_back(errno_error("VIDIOC_QUERYBUF", errno));
+    V4l2Mapping mapping(io_->mmap(buffer.length, PROT_READ | PROT_WRITE, MAP_SHARED, fd, buffer.m.offset),
+                        buffer.length, V4l2IoUnmapper{io_.get()});
+    if (!mapping) return give_back(errno_error("mmap of buffer " + std::to_string(i), errno));
+    buffers_.push_back(std::move(mapping));
+    if (xioctl(*io_, fd, VIDIOC_QBUF, &buffer) != 0) return give_back(errno_error("VIDIOC_QBUF", errno));
   }
   int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-  if (xioctl(*io_, fd_, VIDIOC_STREAMON, &type) != 0) {
-    Error e = errno_error("VIDIOC_STREAMON", errno);
-    release_buffers();
-    return e;
-  }
+  if (xioctl(*io_, fd, VIDIOC_STREAMON, &type) != 0) return give_back(errno_error("VIDIOC_STREAMON", errno));
   streaming_ = true;
   have_sequence_ = false;
   return {};
@@ -317,21 +312,17 @@ Status V4l2Camera::stop() {
   if (!streaming_) return {};
   streaming_ = false;
   int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-  const bool streamoff_ok = xioctl(*io_, fd_, VIDIOC_STREAMOFF, &type) == 0;
+  const bool streamoff_ok = xioctl(*io_, fd_.get(), VIDIOC_STREAMOFF, &type) == 0;
   const int streamoff_errno = errno;
-  release_buffers();
   // Freeing the buffers may fail when the device is gone; the mappings are released.
-  v4l2_requestbuffers request{};
-  request.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-  request.memory = V4L2_MEMORY_MMAP;
-  (void)xioctl(*io_, fd_, VIDIOC_REQBUFS, &request);
+  free_buffers();
   if (!streamoff_ok) return errno_error("VIDIOC_STREAMOFF", streamoff_errno);
   return {};
 }
 
 Result<Frame> V4l2Camera::dequeue(std::chrono::milliseconds timeout) {
   if (!streaming_) return make_error("not_streaming", identity_.path + " is not streaming");
-  pollfd pfd{fd_, POLLIN, 0};
+  pollfd pfd{fd_.get(), POLLIN, 0};
   int ready;
   do {
     ready = io_->poll(&pfd, 1, static_cast<int>(timeout.count()));
@@ -342,12 +333,12 @@ Result<Frame> V4l2Camera::dequeue(std::chrono::milliseconds timeout) {
   v4l2_buffer buffer{};
   buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   buffer.memory = V4L2_MEMORY_MMAP;
-  if (xioctl(*io_, fd_, VIDIOC_DQBUF, &buffer) != 0) return errno_error("VIDIOC_DQBUF", errno);
+  if (xioctl(*io_, fd_.get(), VIDIOC_DQBUF, &buffer) != 0) return errno_error("VIDIOC_DQBUF", errno);
   if (buffer.index >= buffers_.size())
     return make_error("io_error", identity_.path + ": driver returned buffer index " + std::to_string(buffer.index));
   Frame frame;
   frame.buffer_index = static_cast<int>(buffer.index);
-  frame.data = static_cast<const uint8_t*>(buffers_[buffer.index].address);
+  frame.data = buffers_[buffer.index].data();
   frame.size = buffer.bytesused;
   frame.meta.sequence = buffer.sequence;
   frame.meta.timestamp_ns = static_cast<int64_t>(buffer.timestamp.tv_sec) * 1'000'000'000 +
@@ -372,7 +363,7 @@ Status V4l2Camera::requeue(const Frame& frame) {
   buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   buffer.memory = V4L2_MEMORY_MMAP;
   buffer.index = static_cast<uint32_t>(frame.buffer_index);
-  if (xioctl(*io_, fd_, VIDIOC_QBUF, &buffer) != 0) return errno_error("VIDIOC_QBUF", errno);
+  if (xioctl(*io_, fd_.get(), VIDIOC_QBUF, &buffer) != 0) return errno_error("VIDIOC_QBUF", errno);
   return {};
 }
 

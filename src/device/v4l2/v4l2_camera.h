@@ -42,21 +42,21 @@ class V4l2Camera final : public Camera {
   size_t mapped_buffer_count() const { return buffers_.size(); }
 
  private:
-  struct Buffer {
-    void* address = nullptr;
-    size_t length = 0;
-  };
-  V4l2Camera(std::shared_ptr<V4l2Io> io, int fd) : io_(std::move(io)), fd_(fd) {}
+  V4l2Camera(std::shared_ptr<V4l2Io> io, int fd)
+      : io_(std::move(io)), fd_(fd, V4l2IoFdCloser{io_.get()}) {}
   Error errno_error(const std::string& what, int err) const;
   Result<ControlInfo> find_control(const std::string& name);
   Result<int64_t> read_control(uint32_t id, bool is_64_bit = false);
   Status write_control(uint32_t id, int64_t value, bool is_64_bit);
-  void release_buffers();
+  // Unmaps every buffer and asks the driver to free them (REQBUFS 0), so that the queue
+  // is free for the next start or another client; errors are ignored (a gone device
+  // has freed them already).
+  void free_buffers();
 
-  std::shared_ptr<V4l2Io> io_;
-  int fd_ = -1;
+  std::shared_ptr<V4l2Io> io_;  // first: the owners below close and unmap through it
+  V4l2Fd fd_;
   CameraIdentity identity_;
-  std::vector<Buffer> buffers_;
+  std::vector<V4l2Mapping> buffers_;
   bool streaming_ = false;
   bool have_sequence_ = false;
   uint64_t last_sequence_ = 0;

@@ -12,6 +12,9 @@
 
 #include <memory>
 
+#include "base/mapped_buffer.h"
+#include "base/unique_fd.h"
+
 namespace camlab::device {
 
 class V4l2Io {
@@ -30,5 +33,18 @@ std::shared_ptr<V4l2Io> system_v4l2_io();
 
 // ioctl retried on EINTR, as every V4L2 client must.
 int xioctl(V4l2Io& io, int fd, unsigned long request, void* arg);
+
+// Owners of what a V4l2Io opened or mapped: closed or unmapped through the same seam
+// (base/unique_fd.h, base/mapped_buffer.h). The V4l2Io must outlive them.
+struct V4l2IoFdCloser {
+  V4l2Io* io = nullptr;
+  void operator()(int fd) const noexcept { io->close(fd); }
+};
+struct V4l2IoUnmapper {
+  V4l2Io* io = nullptr;
+  void operator()(void* address, size_t length) const noexcept { io->munmap(address, length); }
+};
+using V4l2Fd = BasicUniqueFd<V4l2IoFdCloser>;
+using V4l2Mapping = BasicMappedBuffer<V4l2IoUnmapper>;
 
 }  // namespace camlab::device

@@ -74,5 +74,14 @@ TEST(UniqueFd, AnInvalidDescriptorOwnsNothing) {
   EXPECT_TRUE(closed.empty());
 }
 
+TEST(UniqueFd, ClosingKeepsTheCallersErrno) {
+  {
+    UniqueFd fd(::open("/dev/null", O_RDONLY | O_CLOEXEC));
+    ASSERT_TRUE(fd);
+    errno = ENODEV;  // what a failed call before the owner's end left
+  }
+  EXPECT_EQ(errno, ENODEV);
+}
+
 }  // namespace
 }  // namespace camlab
