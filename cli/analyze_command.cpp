@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "analysis/analyze_folder.h"
+#include "command_errors.h"
 #include "commands.h"
 
 namespace camlab::cli {
@@ -27,12 +28,8 @@ struct AnalyzeArgs {
   int window_px = 9;
 };
 
-[[noreturn]] void fail(const std::string& message) {
-  std::fprintf(stderr, "camlab analyze: %s\n", message.c_str());
-  throw CLI::RuntimeError(2);
-}
-
 void run(const char* kind, const AnalyzeArgs& args) {
+  const CommandErrors errors("camlab analyze", args.json);
   analysis::AnalyzeOptions o;
   o.defocus.baseline_sigma_px = args.baseline_sigma_px;
   o.defocus.min_diameter_px = args.min_diameter_px;
@@ -41,17 +38,16 @@ void run(const char* kind, const AnalyzeArgs& args) {
   o.focus.region_px = args.region_px;
   o.focus.window_px = args.window_px;
   o.plots_dir = args.plots_dir;
-  auto result = analysis::analyze(kind, args.dir, o);
-  if (!result) fail(result.error().message);
+  const auto result = errors.take(analysis::analyze(kind, args.dir, o));
   if (!args.report_path.empty()) {
     std::ofstream out(args.report_path);
-    out << result->report.dump(2) << "\n";
-    if (!out) fail("cannot write the report to " + args.report_path);
+    out << result.report.dump(2) << "\n";
+    if (!out) errors.fail("io_error", "cannot write the report to " + args.report_path);
   }
   if (args.json)
-    std::printf("%s\n", result->report.dump(2).c_str());
+    std::printf("%s\n", result.report.dump(2).c_str());
   else
-    std::printf("%s", result->text.c_str());
+    std::printf("%s", result.text.c_str());
 }
 
 void add_common(CLI::App* sub, AnalyzeArgs* args) {

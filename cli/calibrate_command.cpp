@@ -14,6 +14,7 @@
 #include "calib/calibrate.h"
 #include "calib/corners/chessboard_detector.h"
 #include "calib/report.h"
+#include "command_errors.h"
 #include "commands.h"
 
 namespace camlab::cli {
@@ -28,33 +29,29 @@ struct CalibrateArgs {
   bool json = false, quiet = false, no_board_warp = false;
 };
 
-[[noreturn]] void fail(const std::string& message) {
-  std::fprintf(stderr, "camlab calibrate: %s\n", message.c_str());
-  throw CLI::RuntimeError(2);
-}
-
 bool parse_wxh(const std::string& s, int* w, int* h) {
   char extra = 0;
   return std::sscanf(s.c_str(), "%dx%d%c", w, h, &extra) == 2 && *w > 0 && *h > 0;
 }
 
 void run_calibrate(const CalibrateArgs& a) {
+  const CommandErrors errors("camlab calibrate", a.json);
   calib::CalibrateOptions o;
   o.images_dir = a.images_dir;
   o.job_dir = a.job_dir;
   o.corners_vnl = a.corners_path;
   if (!parse_wxh(a.board, &o.board.cols, &o.board.rows) || o.board.cols < 2 || o.board.rows < 2)
-    fail("--board must be COLSxROWS inner corners, e.g. 14x10");
+    errors.fail("invalid_argument", "--board must be COLSxROWS inner corners, e.g. 14x10");
   o.board.spacing_m = a.spacing_m;
   // Checked here, before any image is read: an unknown name, or mrgingham on a board
   // it cannot find.
   if (auto s = calib::check_chessboard_detector(a.detector, o.board.cols, o.board.rows); !s)
-    fail("--detector: " + s.error().message);
+    errors.fail(s.error().with_context("--detector: "));
   o.detector = a.detector;
   if (!a.imager.empty() && !parse_wxh(a.imager, &o.imager_width_px, &o.imager_height_px))
-    fail("--imager must be WxH pixels");
+    errors.fail("invalid_argument", "--imager must be WxH pixels");
   if (!a.corners_path.empty() && a.imager.empty())
-    fail("--corners needs --imager WxH (corners.vnl does not record the imager size)");
+    errors.fail("invalid_argument", "--corners needs --imager WxH (corners.vnl does not record the imager size)");
   o.model = a.model;
   o.pixel_pitch_um = a.pixel_um;
   o.sensor = a.sensor;
@@ -75,7 +72,7 @@ void run_calibrate(const CalibrateArgs& a) {
     };
 
   auto run = calib::calibrate(o);
-  if (!run) fail(run.error().message);
+  if (!run) errors.fail(run.error());
   if (!a.quiet && run->images > 0) {
     const nlohmann::json by =
         run->report_json.value("detector", nlohmann::json::object()).value("views", nlohmann::json::object());
@@ -83,7 +80,7 @@ void run_calibrate(const CalibrateArgs& a) {
                  run->data.views.size(), run->images, by.value("mrgingham", 0), by.value("opencv", 0));
   }
   auto report = calib::write_calibration_outputs(&*run, o);
-  if (!report) fail(report.error().message);
+  if (!report) errors.fail(report.error());
   if (a.json)
     std::cout << report->dump(2) << "\n";
   else

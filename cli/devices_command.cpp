@@ -6,9 +6,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "command_errors.h"
 #include "commands.h"
 #include "device/camera_json.h"
 #include "device/device_registry.h"
+#include "mock_device/spec/default_specs.h"
 #include "mock_device/v4l2/virtual_v4l2_io.h"
 
 namespace camlab::cli {
@@ -21,11 +23,6 @@ struct DevicesArgs {
   bool json = false;
   bool no_libcamera = false;
 };
-
-[[noreturn]] void fail(const std::string& message) {
-  std::fprintf(stderr, "camlab devices: %s\n", message.c_str());
-  throw CLI::RuntimeError(2);
-}
 
 void print_text(const nlohmann::json& camera, const std::string& transport) {
   std::printf("%s  %s  (%s, %s, %s)\n", camera["id"].get<std::string>().c_str(),
@@ -55,6 +52,7 @@ void print_text(const nlohmann::json& camera, const std::string& transport) {
 }
 
 void run_devices(const DevicesArgs& args) {
+  const CommandErrors errors("camlab devices", args.json);
   device::DeviceRegistry registry;
   registry.add_v4l2(device::system_v4l2_io(), "kernel");
   // libcamera's cameras too: a UVC webcam is listed once per backend that reaches it.
@@ -63,19 +61,14 @@ void run_devices(const DevicesArgs& args) {
       std::fprintf(stderr, "camlab devices: libcamera: %s\n", status.error().message.c_str());
   std::shared_ptr<mock::VirtualV4l2Io> virtual_io;
   if (!args.virtual_camera.empty()) {
-    auto camera = mock::load_camera_spec(args.virtual_camera);
-    if (!camera) fail(camera.error().message);
-    nlohmann::json default_scene = {{"targets", {{{"type", "chessboard"}, {"inner_corners", {9, 6}}, {"square_m", 0.03},
-                                                 {"pose", {{"position_m", {-0.12, -0.075, 0.6}}}}}}}};
-    auto scene = args.virtual_scene.empty() ? mock::parse_scene_spec(default_scene)
-                                            : mock::load_scene_spec(args.virtual_scene);
-    if (!scene) fail(scene.error().message);
+    mock::CameraSpec camera = errors.take(mock::load_camera_spec(args.virtual_camera));
+    mock::SceneSpec scene = args.virtual_scene.empty() ? mock::default_scene_spec()
+                                                       : errors.take(mock::load_scene_spec(args.virtual_scene));
     mock::VirtualDeviceOptions options;
     options.index = static_cast<int>(registry.devices().size());
-    auto device = mock::VirtualV4l2Device::create(std::move(*camera), std::move(*scene), options);
-    if (!device) fail(device.error().message);
-    virtual_io = std::make_shared<mock::VirtualV4l2Io>(
-        std::vector<std::shared_ptr<mock::VirtualV4l2Device>>{std::move(*device)});
+    std::shared_ptr<mock::VirtualV4l2Device> device =
+        errors.take(mock::VirtualV4l2Device::create(std::move(camera), std::move(scene), options));
+    virtual_io = std::make_shared<mock::VirtualV4l2Io>(std::vector{std::move(device)});
     registry.add_v4l2(virtual_io, "in-process virtual camera", {"/dev/video" + std::to_string(options.index)});
   }
   nlohmann::json out = nlohmann::json::array();
@@ -110,7 +103,7 @@ void register_devices_command(CLI::App& app) {
   cmd->add_option("--virtual", args->virtual_camera,
                   "also list an in-process virtual camera with this camera spec (docs/virtual-camera.md)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--scene", args->virtual_scene, "scene spec for the virtual camera (default: a chessboard)")
+  cmd->add_option("--scene", args->virtual_scene, "scene spec for the virtual camera (default: slanted edges at 0.7, 1 and 2 m, as camlabd's)")
       ->check(CLI::ExistingFile);
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->add_flag("--no-libcamera", args->no_libcamera,

@@ -1,15 +1,20 @@
 // camlab: the command-line front end.
 #include <cstdio>
 #include <exception>
+#include <string_view>
 
 #include <CLI/CLI.hpp>
 
+#include "command_errors.h"
 #include "commands.h"
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "camlab: camera optics, virtual-camera rendering and (to come) calibration and "
-      "analysis.\nEvery subcommand explains itself with --help; most print JSON with --json."};
+      "camlab: camera optics, a physically based virtual camera, the cameras present, intrinsics\n"
+      "calibration with mrcal, and measurements of blur, exposure and focus from captures.\n"
+      "Every subcommand explains itself with --help; most print JSON with --json. An error is\n"
+      "one line on stderr ending in its code (docs/errors.md) and exit status 2; with --json\n"
+      "the error is also printed as JSON on stdout."};
   app.require_subcommand(1);
   app.set_version_flag("--version", "camlab 0.1.0");
   camlab::cli::register_optics_command(app);
@@ -20,10 +25,20 @@ int main(int argc, char** argv) {
   camlab::cli::register_analyze_command(app);
   try {
     app.parse(argc, argv);
+  } catch (const CLI::Success& e) {
+    return app.exit(e);  // --help, --version
+  } catch (const CLI::RuntimeError& e) {
+    // A subcommand's failure, reported already (cli/command_errors.h), or the exit status
+    // of the command `camlab vcam run` ran.
+    return e.get_exit_code();
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // Options the parser refuses are errors like any other: the same line and code, JSON
+    // too when --json was asked for, exit status 2.
+    bool json = false;
+    for (int i = 1; i < argc; ++i) json = json || std::string_view(argv[i]) == "--json";
+    camlab::cli::CommandErrors("camlab", json).report(camlab::make_error("invalid_argument", e.what()));
+    std::fprintf(stderr, "Run with --help for more information.\n");
+    return 2;
   }
-  // Subcommands run from their callbacks and report failure by throwing CLI::RuntimeError
-  // with the exit code, after printing a specific message to stderr.
   return 0;
 }

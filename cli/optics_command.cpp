@@ -18,6 +18,7 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "command_errors.h"
 #include "commands.h"
 #include "base/format.h"
 #include "optics/optics.h"
@@ -81,8 +82,9 @@ struct Context {
   std::vector<MetreOption> metres;
 };
 
-// Prints the error the way every camlab subcommand does and ends the command with exit
-// code 2; with --json, stdout also gets the service's error object.
+// Ends the command with the error, as every camlab subcommand does (cli/command_errors.h).
+// The library speaks of millimetres (focus_mm = 40); the message also names the flag the
+// user gave in metres, so that the value can be found on the command line.
 [[noreturn]] void fail(const Context& context, const Error& error) {
   std::string message = error.message;
   for (const MetreOption& option : context.metres) {
@@ -90,11 +92,8 @@ struct Context {
       message += " (from " + std::string(option.flag) + " " + format_significant(option.value_m) + ")";
     }
   }
-  std::cerr << "camlab optics " << context.subcommand << ": " << message << "\n";
-  if (context.json) {
-    std::cout << json{{"error", {{"code", error.code}, {"message", message}}}}.dump(2) << "\n";
-  }
-  throw CLI::RuntimeError(2);
+  CommandErrors("camlab optics " + std::string(context.subcommand), context.json)
+      .fail(make_error(error.code, message));
 }
 
 Error invalid(std::string message) {

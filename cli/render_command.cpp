@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "command_errors.h"
 #include "commands.h"
 #include "mock_device/render/render_capture.h"
 
@@ -33,42 +34,34 @@ struct RenderArgs {
   bool quiet = false;
 };
 
-[[noreturn]] void fail(const std::string& message) {
-  std::fprintf(stderr, "camlab render: %s\n", message.c_str());
-  throw CLI::RuntimeError(2);
-}
-
 void run_render(const RenderArgs& args) {
-  auto camera = mock::load_camera_spec(args.camera_path);
-  if (!camera) fail(camera.error().message);
-  auto scene = mock::load_scene_spec(args.scene_path);
-  if (!scene) fail(scene.error().message);
+  const CommandErrors errors("camlab render", args.json);
+  mock::CameraSpec camera = errors.take(mock::load_camera_spec(args.camera_path));
+  mock::SceneSpec scene = errors.take(mock::load_scene_spec(args.scene_path));
   if (!args.quiet) std::fprintf(stderr, "camlab render: preparing the lens model (%dx%d)...\n",
-                                camera->sensor.width_px, camera->sensor.height_px);
-  auto renderer = mock::Renderer::create(std::move(*camera), std::move(*scene));
-  if (!renderer) fail(renderer.error().message);
+                                camera.sensor.width_px, camera.sensor.height_px);
+  auto renderer = mock::Renderer::create(std::move(camera), std::move(scene));
+  if (!renderer) errors.fail(renderer.error());
 
   mock::RenderCaptureRequest request;
   request.out_dir = args.out_dir;
   request.base = renderer->default_settings();
   for (const auto& set : args.sets) {
     const auto eq = set.find('=');
-    if (eq == std::string::npos) fail("--set '" + set + "' must be name=value");
+    if (eq == std::string::npos) errors.fail("invalid_argument", "--set '" + set + "' must be name=value");
     double value = 0;
     try {
       size_t used = 0;
       value = std::stod(set.substr(eq + 1), &used);
       if (used != set.size() - eq - 1) throw std::invalid_argument(set);
     } catch (const std::exception&) {
-      fail("--set '" + set + "': the value is not a number");
+      errors.fail("invalid_argument", "--set '" + set + "': the value is not a number");
     }
     if (Status ok = mock::apply_setting(*renderer, set.substr(0, eq), value, &request.base); !ok)
-      fail("--set " + set + ": " + ok.error().message);
+      errors.fail(ok.error().with_context("--set " + set + ": "));
   }
   if (!args.sweep.empty()) {
-    auto sweep = mock::parse_sweep(args.sweep);
-    if (!sweep) fail(sweep.error().message);
-    request.sweep = std::move(*sweep);
+    request.sweep = errors.take(mock::parse_sweep(args.sweep));
   }
   request.repeats = args.repeats;
   request.views = args.views;
@@ -87,7 +80,7 @@ void run_render(const RenderArgs& args) {
     };
   }
   auto summary = mock::render_capture(*renderer, request);
-  if (!summary) fail(summary.error().message);
+  if (!summary) errors.fail(summary.error());
 
   if (args.json) {
     nlohmann::json out = {{"out_dir", summary->out_dir.string()},

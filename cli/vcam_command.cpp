@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "command_errors.h"
 #include "commands.h"
 #include "mock_device/broker/broker_protocol.h"
 #include "mock_device/broker/vcam_broker.h"
@@ -40,24 +41,8 @@ struct VcamArgs {
 
 volatile pid_t forwarded_child = 0;  // for the signal handler
 
-[[noreturn]] void fail(const std::string& message) {
-  std::fprintf(stderr, "camlab vcam run: %s\n", message.c_str());
-  throw CLI::RuntimeError(2);
-}
-
-// The default camera when none is given: 640x480, 10 bits, an 8 mm lens at f/2.8
-// focused near 1 m, 3 frames of control latency.
-const char* kDefaultCamera = R"({
-  "name": "camlab virtual 640x480",
-  "sensor": {"width_px": 640, "height_px": 480, "pixel_pitch_um": 4.0, "bit_depth": 10,
-             "black_level_dn": 32, "full_well_e": 12000, "read_noise_e": 3.0, "quantum_efficiency": 0.65},
-  "lens": {"focal_mm": 8.0, "model": "LENSMODEL_OPENCV4", "distortion": [-0.05, 0.01, 0.0, 0.0],
-           "f_number_min": 1.4, "f_number_max": 16.0,
-           "focus": {"position_min": 0, "position_max": 1000, "extension_mm_per_step": 0.001}},
-  "timing": {"frame_interval_us": 33333, "control_latency_frames": 3},
-  "controls": {"exposure_time_absolute": {"min": 1, "max": 333, "default": 50},
-               "focus_absolute": {"default": 65}}
-})";
+// The vcam subcommands print no JSON: their errors are lines on stderr.
+CommandErrors errors_of(const char* subcommand) { return CommandErrors(std::string("camlab vcam ") + subcommand, false); }
 
 // The preload library: CAMLAB_VCAM_PRELOAD, else beside this executable in the build
 // tree (cli/ -> mock_device/) or an install (bin/ -> lib/camlab/).
@@ -91,35 +76,32 @@ struct VcamSession {
   std::vector<std::pair<std::string, std::string>> environment;
 };
 
-std::unique_ptr<VcamSession> start_session(const VcamArgs& args) {
+std::unique_ptr<VcamSession> start_session(const VcamArgs& args, const CommandErrors& errors) {
   const std::string preload = find_preload_library();
   if (preload.empty())
-    fail("libcamlab_vcam_preload.so not found beside camlab; set CAMLAB_VCAM_PRELOAD to its path");
+    errors.fail("not_found", "libcamlab_vcam_preload.so not found beside camlab; set CAMLAB_VCAM_PRELOAD to its path");
   auto session = std::make_unique<VcamSession>();
   char dir_template[] = "/tmp/camlab-vcam-XXXXXX";
-  if (!mkdtemp(dir_template)) fail(std::string("cannot create a temporary folder: ") + std::strerror(errno));
+  if (!mkdtemp(dir_template))
+    errors.fail("io_error", std::string("cannot create a temporary folder: ") + std::strerror(errno));
   const fs::path work(dir_template);
   session->folder.path = work;
 
-  std::string camera_path = args.camera;
-  if (camera_path.empty()) {
-    camera_path = (work / "camera.json").string();
-    std::ofstream(camera_path) << kDefaultCamera;
-  }
   // The devices live here, in the broker, for every process of the run.
-  auto devices = mock::create_vcam_devices(camera_path, args.scene, args.count, !args.unpaced);
-  if (!devices) fail(devices.error().message);
+  auto devices = mock::create_vcam_devices(args.camera, args.scene, args.count, !args.unpaced);
+  if (!devices) errors.fail(devices.error());
   // The sysfs names are the cameras' names as VIDIOC_QUERYCAP's card reports them (at
   // most 31 bytes), so that the two agree as on a real uvcvideo device.
   std::vector<std::string> camera_names;
   for (const auto& device : *devices) camera_names.push_back(device->camera().name.substr(0, 31));
   // The broker serves /dev/videoN and its media controller node /dev/mediaN.
   auto broker = mock::VcamBroker::start(std::move(*devices), (work / "broker.sock").string());
-  if (!broker) fail(broker.error().message);
+  if (!broker) errors.fail(broker.error());
   session->broker = std::move(*broker);
   const fs::path sysfs = work / "sys";
   fs::create_directories(sysfs);
-  if (!mock::write_sysfs_tree(sysfs.string(), camera_names)) fail("cannot write the fake sysfs in " + sysfs.string());
+  if (!mock::write_sysfs_tree(sysfs.string(), camera_names))
+    errors.fail("io_error", "cannot write the fake sysfs in " + sysfs.string());
 
   const char* existing_preload = std::getenv("LD_PRELOAD");
   session->environment = {
@@ -139,22 +121,27 @@ struct FaultArgs {
 
 int inject_vcam_fault(const FaultArgs& args) {
   const char* socket = std::getenv("CAMLAB_VCAM_BROKER");
-  if (!socket) fail("no virtual cameras here: run this inside `camlab vcam run` or with `camlab vcam serve`'s environment");
+  const CommandErrors errors = errors_of("fault");
+  if (!socket)
+    errors.fail("no_device",
+                "no virtual cameras here: run this inside `camlab vcam run` or with `camlab vcam serve`'s environment");
   static const std::map<std::string, mock::broker::Fault> kFaults = {
       {"unplug", mock::broker::Fault::kUnplug},   {"eio", mock::broker::Fault::kDequeueEio},
       {"drop", mock::broker::Fault::kDropFrames}, {"stall", mock::broker::Fault::kStall},
       {"resume", mock::broker::Fault::kResume}};
   const int result = mock::broker::inject_fault(socket, args.device, kFaults.at(args.fault), args.count);
   if (result < 0)
-    fail("cannot inject '" + args.fault + "' into /dev/video" + std::to_string(args.device) + ": " +
-         std::strerror(-result));
+    errors.fail(result == -ENODEV || result == -ECONNREFUSED || result == -ENOENT ? ErrorCode::kNoDevice
+                                                                                  : ErrorCode::kIoError,
+                "cannot inject '" + args.fault + "' into /dev/video" + std::to_string(args.device) + ": " +
+                    std::strerror(-result));
   return 0;
 }
 
 volatile sig_atomic_t stop_serving = 0;
 
 int serve_vcam(const VcamArgs& args) {
-  auto session = start_session(args);
+  auto session = start_session(args, errors_of("serve"));
   std::printf("# %d virtual camera(s) served as /dev/video0..%d until this process ends (Ctrl-C).\n"
               "# In another shell, for any V4L2 program:\n",
               args.count, args.count - 1);
@@ -171,8 +158,10 @@ int serve_vcam(const VcamArgs& args) {
 }
 
 int run_vcam(const VcamArgs& args) {
-  if (args.command.empty()) fail("give the command to run after --, e.g. camlab vcam run -- v4l2-ctl --all");
-  auto session = start_session(args);
+  const CommandErrors errors = errors_of("run");
+  if (args.command.empty())
+    errors.fail("invalid_argument", "give the command to run after --, e.g. camlab vcam run -- v4l2-ctl --all");
+  auto session = start_session(args, errors);
   std::vector<std::string> env_strings;
   for (char** e = environ; *e; ++e) {
     const std::string entry = *e;
@@ -193,7 +182,7 @@ int run_vcam(const VcamArgs& args) {
   // directly, so this process ignores them while it waits (as system(3) does).
   const pid_t parent = getpid();
   const pid_t child = fork();
-  if (child < 0) fail(std::string("cannot fork: ") + std::strerror(errno));
+  if (child < 0) errors.fail("io_error", std::string("cannot fork: ") + std::strerror(errno));
   if (child == 0) {
     prctl(PR_SET_PDEATHSIG, SIGKILL);
     if (getppid() != parent) _exit(127);
@@ -230,9 +219,9 @@ void register_vcam_command(CLI::App& app) {
       "Example: camlab vcam run -- v4l2-ctl -d /dev/video0 --stream-mmap --stream-count=30 --stream-to=f.raw\n"
       "All processes of COMMAND (it may be a shell running several) share the same devices:\n"
       "a control one process sets is what the next one reads, as with a kernel driver.");
-  run->add_option("--camera", args->camera, "camera spec JSON (default: a 640x480 10-bit camera)")
+  run->add_option("--camera", args->camera, "camera spec JSON (default: camlab's 640x480 10-bit virtual camera, as camlabd's)")
       ->check(CLI::ExistingFile);
-  run->add_option("--scene", args->scene, "scene spec JSON (default: a chessboard at 0.6 m)")->check(CLI::ExistingFile);
+  run->add_option("--scene", args->scene, "scene spec JSON (default: slanted edges at 0.7, 1 and 2 m, as camlabd's)")->check(CLI::ExistingFile);
   run->add_option("--count", args->count, "number of virtual cameras")->check(CLI::Range(1, 8));
   run->add_flag("--unpaced", args->unpaced,
                 "no frame clock: a frame is made as soon as a buffer is queued (fast tests; no dropped frames)");
@@ -245,9 +234,9 @@ void register_vcam_command(CLI::App& app) {
       "Serve N virtual cameras until interrupted, and print the environment (LD_PRELOAD and\n"
       "CAMLAB_VCAM_*) under which any program in any shell sees them as /dev/video0.. .\n"
       "Keep it running in one shell and paste the export lines into another.");
-  serve->add_option("--camera", serve_args->camera, "camera spec JSON (default: a 640x480 10-bit camera)")
+  serve->add_option("--camera", serve_args->camera, "camera spec JSON (default: camlab's 640x480 10-bit virtual camera, as camlabd's)")
       ->check(CLI::ExistingFile);
-  serve->add_option("--scene", serve_args->scene, "scene spec JSON (default: a chessboard at 0.6 m)")
+  serve->add_option("--scene", serve_args->scene, "scene spec JSON (default: slanted edges at 0.7, 1 and 2 m, as camlabd's)")
       ->check(CLI::ExistingFile);
   serve->add_option("--count", serve_args->count, "number of virtual cameras")->check(CLI::Range(1, 8));
   serve->callback([serve_args] { throw CLI::RuntimeError(serve_vcam(*serve_args)); });

@@ -13,11 +13,9 @@
 
 namespace camlab::mock {
 
-// The scene when none is given: a 9x6 chessboard of 30 mm squares 0.6 m in front.
-SceneSpec default_vcam_scene();
-
-// `scene_path` empty: default_vcam_scene(). Device i is /dev/video<i>. `realtime` false:
-// frames are made as fast as buffers are queued (no frame clock), for quick tests.
+// An empty path stands for the default camera or scene (mock_device/spec/default_specs.h).
+// Device i is /dev/video<i>. `realtime` false: frames are made as fast as buffers are
+// queued (no frame clock), for quick tests.
 Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_devices(const std::string& camera_path,
                                                                            const std::string& scene_path, int count,
                                                                            bool realtime = true);

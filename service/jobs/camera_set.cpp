@@ -1,38 +1,12 @@
 #include "service/jobs/camera_set.h"
 
 #include "mock_device/spec/camera_spec.h"
+#include "mock_device/spec/default_specs.h"
 #include "mock_device/v4l2/capture_traits.h"
 #include "mock_device/spec/scene_spec.h"
 #include "base/log.h"
 
 namespace camlab::service {
-
-const char* const kBuiltinCameraSpec = R"json({
-  "name": "camlab virtual 640x480 (OPENCV4, 8 mm)",
-  "sensor": {"width_px": 640, "height_px": 480, "pixel_pitch_um": 4.0, "bit_depth": 10, "black_level_dn": 32,
-             "full_well_e": 12000, "read_noise_e": 3.0, "shot_noise": true, "quantum_efficiency": 0.65},
-  "lens": {"focal_mm": 8.0, "model": "LENSMODEL_OPENCV4", "distortion": [-0.05, 0.01, 0.0, 0.0],
-           "f_number_min": 1.4, "f_number_max": 16.0, "iris": {"f_numbers": [16, 11, 8, 5.6, 4, 2.8, 2, 1.4]},
-           "focus": {"position_min": 0, "position_max": 1000, "extension_mm_per_step": 0.001}},
-  "timing": {"frame_interval_us": 33333, "control_latency_frames": 3},
-  "controls": {"exposure_time_absolute": {"min": 1, "max": 333, "default": 50},
-               "gain": {"min": 100, "max": 1600, "default": 100, "unity": 100},
-               "focus_absolute": {"default": 65}, "iris_absolute": {"default": 5}}
-})json";
-
-// Three of the example's four edges: the 0.4 m one is 8.6 px out of focus and costs the
-// renderer 4x the aperture samples, too slow for the frame clock on a small machine.
-const char* const kBuiltinSceneSpec = R"json({
-  "name": "slanted edges at 0.7, 1 and 2 m (5 degrees), for blur and CoC measurement",
-  "illuminance_lux": 1000, "background_reflectance": 0.18,
-  "targets": [
-    {"type": "slanted_edge", "name": "edge_0.7m", "size_m": [0.07, 0.07], "angle_deg": 5,
-     "dark_reflectance": 0.1, "light_reflectance": 0.8, "pose": {"position_m": [0.06, -0.035, 0.7]}},
-    {"type": "slanted_edge", "name": "edge_1.0m", "size_m": [0.1, 0.1], "angle_deg": 5,
-     "dark_reflectance": 0.1, "light_reflectance": 0.8, "pose": {"position_m": [-0.09, 0.06, 1.0]}},
-    {"type": "slanted_edge", "name": "edge_2.0m", "size_m": [0.2, 0.2], "angle_deg": 5,
-     "dark_reflectance": 0.1, "light_reflectance": 0.8, "pose": {"position_m": [0.17, 0.11, 2.0]}}]
-})json";
 
 Result<std::unique_ptr<CameraSet>> CameraSet::create(const CameraSetOptions& options, JobStore& store,
                                                      Metrics& metrics) {
@@ -77,14 +51,14 @@ Result<std::unique_ptr<CameraSet>> CameraSet::create(const CameraSetOptions& opt
 Status CameraSet::add_virtual_cameras(const CameraSetOptions& options, int first_index) {
   nlohmann::json camera_json, scene_json;
   if (options.camera_spec.empty()) {
-    camera_json = nlohmann::json::parse(kBuiltinCameraSpec);
+    camera_json = mock::default_camera_spec_json();
   } else {
     auto spec = mock::load_camera_spec(options.camera_spec);
     if (!spec) return spec.error();
     camera_json = spec->source;
   }
   if (options.scene_spec.empty()) {
-    scene_json = nlohmann::json::parse(kBuiltinSceneSpec);
+    scene_json = mock::default_scene_spec_json();
   } else {
     auto spec = mock::load_scene_spec(options.scene_spec);
     if (!spec) return spec.error();
