@@ -206,6 +206,17 @@ int run_vcam(const VcamArgs& args) {
   return 1;
 }
 
+// The devices of `vcam run` and `vcam serve`.
+void add_device_options(CLI::App* command, VcamArgs* args) {
+  command->add_option("--camera", args->camera,
+                      "camera spec JSON (default: camlab's 640x480 10-bit virtual camera, as camlabd's)")
+      ->check(CLI::ExistingFile);
+  command->add_option("--scene", args->scene,
+                      "scene spec JSON (default: slanted edges at 0.7, 1 and 2 m, as camlabd's)")
+      ->check(CLI::ExistingFile);
+  command->add_option("--count", args->count, "number of virtual cameras")->check(CLI::Range(1, 8));
+}
+
 }  // namespace
 
 void register_vcam_command(CLI::App& app) {
@@ -219,10 +230,7 @@ void register_vcam_command(CLI::App& app) {
       "Example: camlab vcam run -- v4l2-ctl -d /dev/video0 --stream-mmap --stream-count=30 --stream-to=f.raw\n"
       "All processes of COMMAND (it may be a shell running several) share the same devices:\n"
       "a control one process sets is what the next one reads, as with a kernel driver.");
-  run->add_option("--camera", args->camera, "camera spec JSON (default: camlab's 640x480 10-bit virtual camera, as camlabd's)")
-      ->check(CLI::ExistingFile);
-  run->add_option("--scene", args->scene, "scene spec JSON (default: slanted edges at 0.7, 1 and 2 m, as camlabd's)")->check(CLI::ExistingFile);
-  run->add_option("--count", args->count, "number of virtual cameras")->check(CLI::Range(1, 8));
+  add_device_options(run, args.get());
   run->add_flag("--unpaced", args->unpaced,
                 "no frame clock: a frame is made as soon as a buffer is queued (fast tests; no dropped frames)");
   run->add_option("command", args->command, "the command and its arguments (after --)")->required();
@@ -234,11 +242,7 @@ void register_vcam_command(CLI::App& app) {
       "Serve N virtual cameras until interrupted, and print the environment (LD_PRELOAD and\n"
       "CAMLAB_VCAM_*) under which any program in any shell sees them as /dev/video0.. .\n"
       "Keep it running in one shell and paste the export lines into another.");
-  serve->add_option("--camera", serve_args->camera, "camera spec JSON (default: camlab's 640x480 10-bit virtual camera, as camlabd's)")
-      ->check(CLI::ExistingFile);
-  serve->add_option("--scene", serve_args->scene, "scene spec JSON (default: slanted edges at 0.7, 1 and 2 m, as camlabd's)")
-      ->check(CLI::ExistingFile);
-  serve->add_option("--count", serve_args->count, "number of virtual cameras")->check(CLI::Range(1, 8));
+  add_device_options(serve, serve_args.get());
   serve->callback([serve_args] { throw CLI::RuntimeError(serve_vcam(*serve_args)); });
 
   auto fault_args = std::make_shared<FaultArgs>();

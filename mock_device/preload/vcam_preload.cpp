@@ -204,6 +204,11 @@ int poll_fds(pollfd* fds, nfds_t count, const timespec* timeout, const sigset_t*
   return BrokerClient::get().poll(fds, count, timeout, mask);
 }
 
+// open(2)'s optional third argument: there only when the flags create a file.
+mode_t creation_mode(int flags, va_list args) {
+  return (flags & (O_CREAT | O_TMPFILE)) ? va_arg(args, mode_t) : 0;
+}
+
 timespec from_ms(int timeout_ms) { return {timeout_ms / 1000, (timeout_ms % 1000) * 1000000L}; }
 
 }  // namespace
@@ -245,13 +250,10 @@ char* realpath(const char* path, char* resolved) {
 char* __realpath_chk(const char* path, char* resolved, size_t) { return realpath(path, resolved); }
 
 int open(const char* path, int flags, ...) {
-  mode_t mode = 0;
-  if (flags & (O_CREAT | O_TMPFILE)) {
-    va_list args;
-    va_start(args, flags);
-    mode = va_arg(args, mode_t);
-    va_end(args);
-  }
+  va_list args;
+  va_start(args, flags);
+  const mode_t mode = creation_mode(flags, args);
+  va_end(args);
   return open_path(path, flags, mode, AT_FDCWD, false);
 }
 int open64(const char* path, int flags, ...) __attribute__((alias("open")));
@@ -259,13 +261,10 @@ int __open_2(const char* path, int flags) { return open_path(path, flags, 0, AT_
 int __open64_2(const char* path, int flags) { return open_path(path, flags, 0, AT_FDCWD, false); }
 
 int openat(int dirfd, const char* path, int flags, ...) {
-  mode_t mode = 0;
-  if (flags & (O_CREAT | O_TMPFILE)) {
-    va_list args;
-    va_start(args, flags);
-    mode = va_arg(args, mode_t);
-    va_end(args);
-  }
+  va_list args;
+  va_start(args, flags);
+  const mode_t mode = creation_mode(flags, args);
+  va_end(args);
   return open_path(path, flags, mode, dirfd, true);
 }
 int openat64(int dirfd, const char* path, int flags, ...) __attribute__((alias("openat")));

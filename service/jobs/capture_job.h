@@ -22,8 +22,8 @@ namespace camlab::service {
 
 class Metrics;
 
-// Used when neither a probe nor a specification gives the latency: the slowest sensors
-// of the range ("sensors take 2-6 frames"), so no frame is kept too early.
+// Used when neither a probe nor a specification gives the latency: the top of the range
+// sensors take (2-6 frames), so no frame is kept too early.
 inline constexpr int kFallbackLatencyFrames = 6;
 
 struct JobOutcome {

@@ -140,32 +140,21 @@ void write(Category category, Level level, const char* format, ...) {
 
 namespace camlab {
 
-void log_debug(log::Category category, const char* format, ...) {
-  va_list args;
-  va_start(args, format);
-  log::vwrite(category, log::Level::kDebug, format, args);
-  va_end(args);
-}
+// The four levels' calls differ only in their level; printf-style arguments cannot be
+// forwarded through a template, hence the macro.
+#define CAMLAB_DEFINE_LOG_CALL(function, level)                     \
+  void function(log::Category category, const char* format, ...) { \
+    va_list args;                                                   \
+    va_start(args, format);                                         \
+    log::vwrite(category, level, format, args);                     \
+    va_end(args);                                                   \
+  }
 
-void log_info(log::Category category, const char* format, ...) {
-  va_list args;
-  va_start(args, format);
-  log::vwrite(category, log::Level::kInfo, format, args);
-  va_end(args);
-}
+CAMLAB_DEFINE_LOG_CALL(log_debug, log::Level::kDebug)
+CAMLAB_DEFINE_LOG_CALL(log_info, log::Level::kInfo)
+CAMLAB_DEFINE_LOG_CALL(log_warning, log::Level::kWarning)
+CAMLAB_DEFINE_LOG_CALL(log_error, log::Level::kError)
 
-void log_warning(log::Category category, const char* format, ...) {
-  va_list args;
-  va_start(args, format);
-  log::vwrite(category, log::Level::kWarning, format, args);
-  va_end(args);
-}
-
-void log_error(log::Category category, const char* format, ...) {
-  va_list args;
-  va_start(args, format);
-  log::vwrite(category, log::Level::kError, format, args);
-  va_end(args);
-}
+#undef CAMLAB_DEFINE_LOG_CALL
 
 }  // namespace camlab

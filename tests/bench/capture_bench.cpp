@@ -1,5 +1,5 @@
 // Capture through camlab's V4L2 backend against v4l2-ctl, on the same virtual device in
-// the same run (device issue): frames per second and CPU time per frame.
+// the same run: frames per second and CPU time per frame.
 //
 //   capture_bench [--frames N]            runs both under `camlab vcam run` and prints
 //   capture_bench --child N               (internal) the camlab side: N frames via V4l2Camera

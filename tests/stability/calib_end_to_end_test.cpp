@@ -1,4 +1,4 @@
-// The acceptance test, end to end on the virtual camera: chessboard views rendered
+// Calibration's acceptance test, end to end on the virtual camera: chessboard views rendered
 // through the known OPENCV8 wide lens (mock_device/examples, 1280x800) are calibrated
 // from the images by `camlab calibrate --job`; the result must project within 0.2 px RMS
 // of the truth over the central 80% of the imager, and its FOV must be within 0.2 deg.

@@ -1,4 +1,4 @@
-# `camlab calibrate --corners` on datasets camlab has never seen (calibration issue):
+# `camlab calibrate --corners` on datasets camlab has never seen:
 # corners.vnl and truth models made by mrcal's own Python (tests/calib_eval, its README),
 # checked against the truth (projection over the central 80% of the imager, FOV, fx) and
 # against camlab's documented warnings. The quick subset (7 cases, about 10 s) generates its

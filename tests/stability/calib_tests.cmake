@@ -1,5 +1,5 @@
-# Calibration hard cases (calibration issue): synthetic corners from a known lens, and the
-# issue's end-to-end acceptance test on rendered views.
+# Calibration hard cases: synthetic corners from a known lens, and the end-to-end
+# acceptance test on rendered views.
 camlab_add_test(calib_stability_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/calib_stability_test.cpp
   LIBS camlab_calib mrcal::mrcal
