@@ -64,6 +64,26 @@ void errors_vs_truth(const LensModel& truth, const LensModel& fit, Row* row) {
   if (ft.ok() && f.ok()) row->fov_err_deg = std::fabs(f->horizontal_deg - ft->horizontal_deg);
 }
 
+// Solves `repeats` times: the median solve time and the errors of the last solve, or why
+// it failed.
+void time_solve(const CalibrationData& data, const SolveOptions& options, int repeats,
+                const LensModel& truth, Row* row) {
+  std::vector<double> times;
+  Result<Solution> s = make_error("internal", "not run yet");
+  for (int r = 0; r < repeats; ++r) {
+    s = solve(data, options);
+    if (!s) break;
+    times.push_back(s->solve_s);
+  }
+  if (!s) {
+    row->note = "failed: " + s.error().message;
+    return;
+  }
+  row->time_s = median(times);
+  row->rms_px = s->rms_px;
+  errors_vs_truth(truth, s->model, row);
+}
+
 Row opencv_calibrate(const CalibrationData& data, const LensModel& truth, int repeats) {
   Row row;
   row.method = "OpenCV calibrateCamera (rational, 8 coeffs)";
@@ -215,20 +235,7 @@ int main(int argc, char** argv) {
     row.params = *lensmodel_param_count(name);
     SolveOptions o;
     o.lensmodel = name;
-    std::vector<double> times;
-    Result<Solution> s = make_error("internal", "not run yet");
-    for (int r = 0; r < repeats; ++r) {
-      s = solve(data, o);
-      if (!s) break;
-      times.push_back(s->solve_s);
-    }
-    if (!s) {
-      row.note = "failed: " + s.error().message;
-    } else {
-      row.time_s = median(times);
-      row.rms_px = s->rms_px;
-      errors_vs_truth(truth, s->model, &row);
-    }
+    time_solve(data, o, repeats, truth, &row);
     rows.push_back(row);
   }
   {
@@ -239,20 +246,7 @@ int main(int argc, char** argv) {
     SolveOptions o;
     o.lensmodel = "LENSMODEL_OPENCV8";
     o.board_warp = false;
-    std::vector<double> times;
-    Result<Solution> s = make_error("internal", "not run yet");
-    for (int r = 0; r < repeats; ++r) {
-      s = solve(data, o);
-      if (!s) break;
-      times.push_back(s->solve_s);
-    }
-    if (s) {
-      row.time_s = median(times);
-      row.rms_px = s->rms_px;
-      errors_vs_truth(truth, s->model, &row);
-    } else {
-      row.note = "failed: " + s.error().message;
-    }
+    time_solve(data, o, repeats, truth, &row);
     rows.push_back(row);
   }
   {
