@@ -52,7 +52,7 @@ VirtualV4l2Device::~VirtualV4l2Device() {
 int VirtualV4l2Device::open_file(bool nonblocking) {
   std::lock_guard lock(mutex_);
   if (unplugged_) return -ENODEV;
-  return files_.open(nonblocking);
+  return files_.add(nonblocking);
 }
 
 void VirtualV4l2Device::attach_eventfd(int file, int eventfd) {
@@ -71,7 +71,7 @@ void VirtualV4l2Device::signal_readiness() {
 void VirtualV4l2Device::close_file(int file) {
   std::lock_guard lock(mutex_);
   queue_.release(file);
-  files_.close(file);
+  files_.remove(file);
   signal_readiness();
   changed_.notify_all();
 }

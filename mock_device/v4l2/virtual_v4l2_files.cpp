@@ -18,13 +18,13 @@ timespec monotonic_now() {
 
 }  // namespace
 
-int VirtualV4l2Files::open(bool nonblocking) {
+int VirtualV4l2Files::add(bool nonblocking) {
   const int id = next_file_++;
   files_[id].nonblocking = nonblocking;
   return id;
 }
 
-void VirtualV4l2Files::close(int file) { files_.erase(file); }
+void VirtualV4l2Files::remove(int file) { files_.erase(file); }
 
 bool VirtualV4l2Files::nonblocking(int file) const {
   auto it = files_.find(file);

@@ -18,8 +18,8 @@ namespace camlab::mock {
 class VirtualV4l2Files {
  public:
   // A new open file's id (from 1 up, never reused).
-  int open(bool nonblocking);
-  void close(int file);
+  int add(bool nonblocking);
+  void remove(int file);
   bool contains(int file) const { return files_.count(file) != 0; }
   bool nonblocking(int file) const;
 
