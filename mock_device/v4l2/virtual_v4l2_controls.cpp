@@ -38,20 +38,18 @@ VirtualV4l2Controls::VirtualV4l2Controls(const ControlsSpec& c, int latency_fram
   add(make_query(V4L2_CID_USER_CLASS, V4L2_CTRL_TYPE_CTRL_CLASS, "User Controls", 0, 0, 0, 0,
                  class_flags),
       0);
-  add(make_query(V4L2_CID_GAIN, V4L2_CTRL_TYPE_INTEGER, "Gain", c.gain.min, c.gain.max,
-                 c.gain.step, c.gain.default_value),
+  add(make_query(V4L2_CID_GAIN, V4L2_CTRL_TYPE_INTEGER, "Gain", c.gain.min, c.gain.max, c.gain.step,
+                 c.gain.default_value),
       c.gain.default_value);
   add(make_query(V4L2_CID_CAMERA_CLASS, V4L2_CTRL_TYPE_CTRL_CLASS, "Camera Controls", 0, 0, 0, 0,
                  class_flags),
       0);
   const int exposure_mode =
       c.exposure_auto ? V4L2_EXPOSURE_APERTURE_PRIORITY : V4L2_EXPOSURE_MANUAL;
-  add(make_query(V4L2_CID_EXPOSURE_AUTO, V4L2_CTRL_TYPE_MENU, "Auto Exposure",
-                 V4L2_EXPOSURE_MANUAL, V4L2_EXPOSURE_APERTURE_PRIORITY, 1, exposure_mode,
-                 V4L2_CTRL_FLAG_UPDATE),
+  add(make_query(V4L2_CID_EXPOSURE_AUTO, V4L2_CTRL_TYPE_MENU, "Auto Exposure", V4L2_EXPOSURE_MANUAL,
+                 V4L2_EXPOSURE_APERTURE_PRIORITY, 1, exposure_mode, V4L2_CTRL_FLAG_UPDATE),
       exposure_mode);
-  controls_[V4L2_CID_EXPOSURE_AUTO].menu.assign(std::begin(kExposureMenu),
-                                                std::end(kExposureMenu));
+  controls_[V4L2_CID_EXPOSURE_AUTO].menu.assign(std::begin(kExposureMenu), std::end(kExposureMenu));
   const ControlRange& e = c.exposure_time_absolute;
   add(make_query(V4L2_CID_EXPOSURE_ABSOLUTE, V4L2_CTRL_TYPE_INTEGER, "Exposure Time, Absolute",
                  e.min, e.max, e.step, e.default_value,
@@ -183,9 +181,8 @@ int VirtualV4l2Controls::get(v4l2_ext_controls* controls) const {
   for (uint32_t i = 0; i < controls->count; ++i) {
     v4l2_ext_control& ext = controls->controls[i];
     const Control& c = *find(ext.id);
-    ext.value = static_cast<int32_t>(controls->which == V4L2_CTRL_WHICH_DEF_VAL
-                                         ? c.query.default_value
-                                         : c.value);
+    ext.value = static_cast<int32_t>(
+        controls->which == V4L2_CTRL_WHICH_DEF_VAL ? c.query.default_value : c.value);
   }
   return 0;
 }

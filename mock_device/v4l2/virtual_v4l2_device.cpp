@@ -12,8 +12,9 @@
 
 namespace camlab::mock {
 
-Result<std::unique_ptr<VirtualV4l2Device>> VirtualV4l2Device::create(
-    CameraSpec camera, SceneSpec scene, VirtualDeviceOptions options) {
+Result<std::unique_ptr<VirtualV4l2Device>> VirtualV4l2Device::create(CameraSpec camera,
+                                                                     SceneSpec scene,
+                                                                     VirtualDeviceOptions options) {
   if (options.view < 0 || options.view >= scene.view_count)
     return make_error("out_of_range",
                       "view " + std::to_string(options.view) + " is not in the scene");

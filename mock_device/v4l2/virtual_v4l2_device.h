@@ -40,10 +40,10 @@
 namespace camlab::mock {
 
 struct VirtualDeviceOptions {
-  int index = 0;              // /dev/videoN
+  int index = 0;  // /dev/videoN
   uint64_t seed = 1;
-  int view = 0;               // which view of the scene the device looks at
-  bool realtime = true;       // pace frames at the frame interval (false: as fast as rendered)
+  int view = 0;          // which view of the scene the device looks at
+  bool realtime = true;  // pace frames at the frame interval (false: as fast as rendered)
 };
 
 class VirtualV4l2Device {
@@ -106,7 +106,7 @@ class VirtualV4l2Device {
   struct Call {
     int file;
     void* arg;
-    int dmabuf_fd;                        // QBUF: see ioctl(file, request, arg, dmabuf_fd)
+    int dmabuf_fd;                       // QBUF: see ioctl(file, request, arg, dmabuf_fd)
     std::unique_lock<std::mutex>& lock;  // the device mutex, held; DQBUF waits on it
     template <class T>
     T* arg_as() const {

@@ -70,8 +70,7 @@ int VirtualV4l2Files::unsubscribe(int file, const v4l2_event_subscription& subsc
   return 0;
 }
 
-void VirtualV4l2Files::queue_control_event(const v4l2_event& body, int originator,
-                                           int only_file) {
+void VirtualV4l2Files::queue_control_event(const v4l2_event& body, int originator, int only_file) {
   const uint32_t id = body.id;
   for (auto& [file_id, file] : files_) {
     if (only_file != 0 && file_id != only_file) continue;

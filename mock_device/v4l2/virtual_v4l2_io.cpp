@@ -23,13 +23,19 @@ namespace {
 int copy_from_self(uint64_t address, void* local, size_t bytes) {
   iovec here{local, bytes};
   iovec there{reinterpret_cast<void*>(static_cast<uintptr_t>(address)), bytes};
-  return bytes == 0 || process_vm_readv(getpid(), &here, 1, &there, 1, 0) == static_cast<ssize_t>(bytes) ? 0 : -EFAULT;
+  return bytes == 0 ||
+                 process_vm_readv(getpid(), &here, 1, &there, 1, 0) == static_cast<ssize_t>(bytes)
+             ? 0
+             : -EFAULT;
 }
 
 int copy_to_self(uint64_t address, const void* local, size_t bytes) {
   iovec here{const_cast<void*>(local), bytes};
   iovec there{reinterpret_cast<void*>(static_cast<uintptr_t>(address)), bytes};
-  return bytes == 0 || process_vm_writev(getpid(), &here, 1, &there, 1, 0) == static_cast<ssize_t>(bytes) ? 0 : -EFAULT;
+  return bytes == 0 ||
+                 process_vm_writev(getpid(), &here, 1, &there, 1, 0) == static_cast<ssize_t>(bytes)
+             ? 0
+             : -EFAULT;
 }
 
 }  // namespace
@@ -87,8 +93,10 @@ int VirtualV4l2Io::media_ioctl(const OpenFile& file, unsigned long request, void
   if (!VirtualMediaDevice::is_supported_ioctl(request)) return -ENOTTY;
   const auto address = static_cast<uint64_t>(reinterpret_cast<uintptr_t>(arg));
   std::vector<uint8_t> local(_IOC_SIZE(request));
-  if (int error = copy_from_self(address, local.data(), local.size()); error < 0 || arg == nullptr) return -EFAULT;
-  const int result = file.media->ioctl_marshalled(file.file, request, local.data(), copy_from_self, copy_to_self);
+  if (int error = copy_from_self(address, local.data(), local.size()); error < 0 || arg == nullptr)
+    return -EFAULT;
+  const int result =
+      file.media->ioctl_marshalled(file.file, request, local.data(), copy_from_self, copy_to_self);
   if (result < 0) return result;  // the struct reaches the caller only on success
   return copy_to_self(address, local.data(), local.size());
 }
@@ -144,7 +152,8 @@ int VirtualV4l2Io::close(int fd) {
 int VirtualV4l2Io::ioctl(int fd, unsigned long request, void* arg) {
   OpenFile file;
   if (!find(fd, &file)) return ::ioctl(fd, request, arg);
-  const int result = file.media ? media_ioctl(file, request, arg) : file.device->ioctl(file.file, request, arg);
+  const int result =
+      file.media ? media_ioctl(file, request, arg) : file.device->ioctl(file.file, request, arg);
   if (result < 0) {
     errno = -result;
     return -1;
@@ -218,7 +227,8 @@ int VirtualV4l2Io::poll(struct pollfd* fds, nfds_t count, int timeout_ms) {
       }
       ready += fds[i].revents != 0;
     }
-    if (ready > 0 || timeout_ms == 0 || (timeout_ms > 0 && std::chrono::steady_clock::now() >= deadline))
+    if (ready > 0 || timeout_ms == 0 ||
+        (timeout_ms > 0 && std::chrono::steady_clock::now() >= deadline))
       return ready;
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }

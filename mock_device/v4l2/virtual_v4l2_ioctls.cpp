@@ -90,9 +90,9 @@ int VirtualV4l2Device::enum_frameintervals(Call& call) {
   if (!size_ok || interval->index > 1 || !is_format(interval->pixel_format)) return -EINVAL;
   interval->type = V4L2_FRMIVAL_TYPE_DISCRETE;
   // The sensor's frame interval, and twice it (for longer exposures).
-  interval->discrete = {
-      static_cast<uint32_t>(std::lround(camera.timing.frame_interval_us)) << interval->index,
-      1000000};
+  interval->discrete = {static_cast<uint32_t>(std::lround(camera.timing.frame_interval_us))
+                            << interval->index,
+                        1000000};
   return 0;
 }
 
@@ -105,8 +105,8 @@ int VirtualV4l2Device::set_format(v4l2_format* format, bool apply) {
   // Two sizes: the full sensor, and 2x2 binned. Pick the nearer by area.
   const uint32_t full_w = sensor.width_px, full_h = sensor.height_px;
   const double asked = static_cast<double>(pix.width) * pix.height;
-  const bool binned = asked > 0 && std::abs(asked - full_w * full_h / 4.0) <
-                                       std::abs(asked - full_w * full_h);
+  const bool binned =
+      asked > 0 && std::abs(asked - full_w * full_h / 4.0) < std::abs(asked - full_w * full_h);
   pix.width = binned ? full_w / 2 : full_w;
   pix.height = binned ? full_h / 2 : full_h;
   if (pix.pixelformat == V4L2_PIX_FMT_YUYV) pix.width &= ~1u;  // YUYV pairs pixels
@@ -219,8 +219,8 @@ int VirtualV4l2Device::old_ctrl(Call& call, unsigned long request) {
   // The old ioctls know no control classes.
   const VirtualV4l2Controls::Control* c = controls_.find(old->id);
   if (!c || c->query.type == V4L2_CTRL_TYPE_CTRL_CLASS) return -EINVAL;
-  const int error = request == VIDIOC_G_EXT_CTRLS ? controls_.get(&controls)
-                                                  : set_controls(call.file, &controls);
+  const int error =
+      request == VIDIOC_G_EXT_CTRLS ? controls_.get(&controls) : set_controls(call.file, &controls);
   if (error == 0) old->value = ext.value;
   return error;
 }
@@ -268,8 +268,7 @@ int VirtualV4l2Device::subscribe_event(Call& call) {
   files_.subscribe(call.file, sub->id, sub->flags);
   // A control class has no value to report.
   if ((sub->flags & V4L2_EVENT_SUB_FL_SEND_INITIAL) && c->query.type != V4L2_CTRL_TYPE_CTRL_CLASS)
-    queue_control_event(sub->id, V4L2_EVENT_CTRL_CH_VALUE | V4L2_EVENT_CTRL_CH_FLAGS, 0,
-                        call.file);
+    queue_control_event(sub->id, V4L2_EVENT_CTRL_CH_VALUE | V4L2_EVENT_CTRL_CH_FLAGS, 0, call.file);
   return 0;
 }
 

@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-
 #include <opencv2/imgproc.hpp>
 
 #include "base/log.h"
@@ -20,8 +19,8 @@ RenderSettings VirtualV4l2Device::settings_in_effect() const {
   const CameraSpec& camera = renderer_.camera();
   RenderSettings s;
   s.gain = static_cast<double>(controls_.in_effect(V4L2_CID_GAIN)) / camera.controls.gain_unity;
-  s.f_number = camera.lens.iris.f_numbers[static_cast<size_t>(
-      controls_.in_effect(V4L2_CID_IRIS_ABSOLUTE))];
+  s.f_number =
+      camera.lens.iris.f_numbers[static_cast<size_t>(controls_.in_effect(V4L2_CID_IRIS_ABSOLUTE))];
   s.focus_position = static_cast<int>(controls_.in_effect(V4L2_CID_FOCUS_ABSOLUTE));
   if (controls_.in_effect(V4L2_CID_FOCUS_AUTO) != 0 && !renderer_.scene().targets.empty()) {
     // Autofocus: on the first target's distance, to the nearest motor step.
@@ -29,10 +28,10 @@ RenderSettings VirtualV4l2Device::settings_in_effect() const {
     const double distance_mm = renderer_.scene().pose(target, options_.view)[5] * 1e3;
     auto z_s = optics::lens_to_sensor_mm(camera.lens.focal_mm, distance_mm);
     if (z_s)
-      s.focus_position = std::clamp(
-          static_cast<int>(std::lround((*z_s - camera.lens.focal_mm) /
-                                       camera.lens.focus.extension_mm_per_step)),
-          camera.lens.focus.position_min, camera.lens.focus.position_max);
+      s.focus_position =
+          std::clamp(static_cast<int>(std::lround((*z_s - camera.lens.focal_mm) /
+                                                  camera.lens.focus.extension_mm_per_step)),
+                     camera.lens.focus.position_min, camera.lens.focus.position_max);
   }
   const ControlRange& range = camera.controls.exposure_time_absolute;
   if (controls_.in_effect(V4L2_CID_EXPOSURE_AUTO) != V4L2_EXPOSURE_MANUAL) {

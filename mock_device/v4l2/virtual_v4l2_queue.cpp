@@ -47,8 +47,7 @@ int VirtualV4l2Queue::check_reqbufs(int file, v4l2_requestbuffers* request) cons
   request->capabilities = V4L2_BUF_CAP_SUPPORTS_MMAP | V4L2_BUF_CAP_SUPPORTS_DMABUF;
   request->flags = 0;  // no cache hints: V4L2_MEMORY_FLAG_NON_COHERENT is not supported
   std::memset(request->reserved, 0, sizeof request->reserved);
-  if (request->memory != V4L2_MEMORY_MMAP && request->memory != V4L2_MEMORY_DMABUF)
-    return -EINVAL;
+  if (request->memory != V4L2_MEMORY_MMAP && request->memory != V4L2_MEMORY_DMABUF) return -EINVAL;
   return check_busy(file);
 }
 
@@ -144,8 +143,7 @@ int VirtualV4l2Queue::qbuf(int file, v4l2_buffer* buffer, int dmabuf_fd, uint32_
   return querybuf(buffer, sizeimage);
 }
 
-int VirtualV4l2Queue::import_dmabuf(Buffer& b, int fd, uint32_t asked_length,
-                                    uint32_t sizeimage) {
+int VirtualV4l2Queue::import_dmabuf(Buffer& b, int fd, uint32_t asked_length, uint32_t sizeimage) {
   // As vb2's __prepare_dmabuf: a length of 0 means the whole buffer; less than the
   // format's sizeimage is EINVAL, more than the buffer has is EFAULT (attach_dmabuf).
   struct stat st {};
@@ -194,8 +192,7 @@ void VirtualV4l2Queue::dqbuf(v4l2_buffer* buffer) {
 int VirtualV4l2Queue::expbuf(v4l2_exportbuffer* exported) const {
   // vb2_core_expbuf's checks, in its order.
   if (exported->flags & ~(O_CLOEXEC | O_ACCMODE)) return -EINVAL;
-  if (exported->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || memory_ != V4L2_MEMORY_MMAP)
-    return -EINVAL;
+  if (exported->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || memory_ != V4L2_MEMORY_MMAP) return -EINVAL;
   if (exported->index >= buffers_.size() || exported->plane != 0) return -EINVAL;
   const int memfd = buffers_[exported->index].memfd.get();
   // A new open file description of the memfd, so the access mode asked for holds; a dup
@@ -247,7 +244,8 @@ int VirtualV4l2Queue::buffer_for_mmap(off_t offset, size_t length, BufferMemory*
 void VirtualV4l2Queue::note_mapping(off_t offset, int delta) {
   if (stride_bytes_ == 0) return;
   const size_t index = static_cast<size_t>(offset) / stride_bytes_;
-  if (index < buffers_.size()) buffers_[index].mappings = std::max(0, buffers_[index].mappings + delta);
+  if (index < buffers_.size())
+    buffers_[index].mappings = std::max(0, buffers_[index].mappings + delta);
 }
 
 int VirtualV4l2Queue::start_filling() {

@@ -142,9 +142,9 @@ TEST_F(VirtualV4l2ControlsTest, RequestChecksComeFirst) {
 TEST_F(VirtualV4l2ControlsTest, AutoModesReportTheirManualControlInactive) {
   ASSERT_EQ(set(V4L2_CID_EXPOSURE_AUTO, V4L2_EXPOSURE_APERTURE_PRIORITY),
             V4L2_EXPOSURE_APERTURE_PRIORITY);
-  EXPECT_EQ(changes, (std::vector<Change>{{V4L2_CID_EXPOSURE_AUTO, V4L2_EVENT_CTRL_CH_VALUE, true},
-                                          {V4L2_CID_EXPOSURE_ABSOLUTE, V4L2_EVENT_CTRL_CH_FLAGS,
-                                           false}}));
+  EXPECT_EQ(changes,
+            (std::vector<Change>{{V4L2_CID_EXPOSURE_AUTO, V4L2_EVENT_CTRL_CH_VALUE, true},
+                                 {V4L2_CID_EXPOSURE_ABSOLUTE, V4L2_EVENT_CTRL_CH_FLAGS, false}}));
   EXPECT_TRUE(controls.find(V4L2_CID_EXPOSURE_ABSOLUTE)->query.flags & V4L2_CTRL_FLAG_INACTIVE);
   const v4l2_event event = controls.event(V4L2_CID_EXPOSURE_ABSOLUTE, V4L2_EVENT_CTRL_CH_FLAGS);
   EXPECT_EQ(event.type, V4L2_EVENT_CTRL);
