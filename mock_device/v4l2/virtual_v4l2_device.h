@@ -13,32 +13,37 @@
 // Faults for tests: unplug (ENODEV from then on, POLLERR), EIO on the next dequeues,
 // dropped frames (sequence gaps), a stall (no frames until cleared).
 //
-// Thread-safe: every entry point takes the device mutex.
+// The parts: VirtualV4l2Files (per open file: priority, events, eventfd),
+// VirtualV4l2Controls, VirtualV4l2Queue (buffers) and VirtualV4l2FrameClock; the device
+// dispatches the ioctls to them through one table (find_ioctl, as v4l2-ioctl.c's
+// v4l2_ioctls[]), makes the checks that span them (priorities, stream state) and renders.
+//
+// Thread-safe: every entry point takes the device mutex, which serialises the parts.
 #pragma once
 
 #include <linux/videodev2.h>
 #include <sys/types.h>
 
-#include <atomic>
 #include <condition_variable>
 #include <cstdint>
-#include <deque>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <thread>
-#include <vector>
 
 #include "base/result.h"
 #include "mock_device/render/renderer.h"
+#include "mock_device/v4l2/virtual_v4l2_controls.h"
+#include "mock_device/v4l2/virtual_v4l2_files.h"
+#include "mock_device/v4l2/virtual_v4l2_frame_clock.h"
+#include "mock_device/v4l2/virtual_v4l2_queue.h"
 
 namespace camlab::mock {
 
 struct VirtualDeviceOptions {
-  int index = 0;              // /dev/videoN
+  int index = 0;  // /dev/videoN
   uint64_t seed = 1;
-  int view = 0;               // which view of the scene the device looks at
-  bool realtime = true;       // pace frames at the frame interval (false: as fast as rendered)
+  int view = 0;          // which view of the scene the device looks at
+  bool realtime = true;  // pace frames at the frame interval (false: as fast as rendered)
 };
 
 class VirtualV4l2Device {
@@ -76,11 +81,7 @@ class VirtualV4l2Device {
 
   // The buffer memory an mmap at `offset` of `length` bytes maps (a memfd and its
   // offset within it), or -errno.
-  struct BufferMemory {
-    int memfd;
-    uint8_t* address;  // the device's own mapping
-    size_t length;
-  };
+  using BufferMemory = VirtualV4l2Queue::BufferMemory;  // memfd, address, length
   int buffer_for_mmap(off_t offset, size_t length, BufferMemory* out);
   void note_mapping(off_t offset, int delta);  // mmap (+1) / munmap (-1) bookkeeping
 
@@ -100,68 +101,79 @@ class VirtualV4l2Device {
   int index() const { return options_.index; }
 
  private:
-  struct Control {
-    v4l2_query_ext_ctrl query{};
-    int64_t value = 0;
-    std::vector<const char*> menu;  // for menus: names by index (nullptr = hole)
+  // One ioctl being answered: the open file, its argument (not null: checked before
+  // dispatch), and what a few handlers need beyond it.
+  struct Call {
+    int file;
+    void* arg;
+    int dmabuf_fd;                       // QBUF: see ioctl(file, request, arg, dmabuf_fd)
+    std::unique_lock<std::mutex>& lock;  // the device mutex, held; DQBUF waits on it
+    template <class T>
+    T* arg_as() const {
+      return static_cast<T*>(arg);
+    }
   };
-  struct File {
-    bool nonblocking = false;
-    v4l2_priority priority = V4L2_PRIORITY_DEFAULT;
-    std::map<uint32_t, uint32_t> subscriptions;  // control id -> V4L2_EVENT_SUB_FL_* flags
-    std::deque<v4l2_event> events;
-    uint32_t event_sequence = 0;
-    int eventfd = -1;
-    bool signalled = false;
+  using Handler = int (VirtualV4l2Device::*)(Call& call);
+  struct IoctlInfo {
+    unsigned long request;
+    Handler handler;
   };
-  struct Buffer {
-    int memfd = -1;               // MMAP: the device's memory; DMABUF: -1
-    uint8_t* address = nullptr;   // the device's mapping (of the memfd, or of the import)
-    size_t length = 0;            // bytes mapped at address
-    // DMABUF: the client's fd number (reported back), the imported file (to map it once
-    // however often it is queued) and the plane length vb2 reports.
-    int user_fd = 0;
-    dev_t import_device = 0;
-    ino_t import_inode = 0;
-    uint32_t dmabuf_length = 0;
-    enum class State { kDequeued, kQueued, kFilling, kDone } state = State::kDequeued;
-    v4l2_buffer done{};  // filled when State::kDone
-    int mappings = 0;
-  };
-  struct PendingControl {
-    uint64_t apply_at_sequence;
-    uint32_t id;
-    int64_t value;
-  };
+  // The ioctl table (virtual_v4l2_device.cpp): the one list of what the device answers.
+  static const IoctlInfo* find_ioctl(unsigned long request);
 
   VirtualV4l2Device(Renderer renderer, VirtualDeviceOptions options);
-  void add_controls();
-  Control* control(uint32_t id);
-  int query_ext_ctrl(v4l2_query_ext_ctrl* query);
-  int control_ioctl(int file, unsigned long request, void* arg);
-  int ext_ctrls(int file, unsigned long request, v4l2_ext_controls* controls);
-  int set_control_value(int file, Control& c, int64_t value);
+
+  // The handlers, one per ioctl (virtual_v4l2_ioctls.cpp): 0 or -errno, with the mutex
+  // held.
+  int querycap(Call& call);
+  int enum_fmt(Call& call);
+  int enum_framesizes(Call& call);
+  int enum_frameintervals(Call& call);
+  int g_fmt(Call& call);
+  int s_fmt(Call& call);
+  int try_fmt(Call& call);
+  int g_parm(Call& call);
+  int s_parm(Call& call);
+  int enuminput(Call& call);
+  int g_input(Call& call);
+  int s_input(Call& call);
+  int g_priority(Call& call);
+  int s_priority(Call& call);
+  int queryctrl(Call& call);
+  int query_ext_ctrl(Call& call);
+  int querymenu(Call& call);
+  int g_ctrl(Call& call);
+  int s_ctrl(Call& call);
+  int g_ext_ctrls(Call& call);
+  int s_ext_ctrls(Call& call);
+  int try_ext_ctrls(Call& call);
+  int subscribe_event(Call& call);
+  int unsubscribe_event(Call& call);
+  int dqevent(Call& call);
+  int reqbufs(Call& call);
+  int querybuf(Call& call);
+  int qbuf(Call& call);
+  int dqbuf(Call& call);
+  int expbuf(Call& call);
+  int streamon(Call& call);
+  int streamoff(Call& call);
+
+  // Helpers of the handlers.
+  int set_format(v4l2_format* format, bool apply);
+  // G/S_CTRL through the extended ioctl `request` with one control, as v4l2-ctrls does.
+  int old_ctrl(Call& call, unsigned long request);
+  int set_controls(int file, v4l2_ext_controls* controls);
   // Queues a V4L2_EVENT_CTRL for every subscribed file (or only `only_file`), except the
   // originator of the change unless it subscribed with ALLOW_FEEDBACK.
   void queue_control_event(uint32_t id, uint32_t changes, int originator, int only_file = 0);
-  int check_priority(int file) const;
-  v4l2_priority max_priority() const;
+  short poll_events_locked(int file, short requested) const;
+  void signal_readiness();  // updates every attached eventfd; call with the mutex held
 
-  int set_format(v4l2_format* format, bool apply);
-  int reqbufs(int file, v4l2_requestbuffers* request);
-  int querybuf(v4l2_buffer* buffer) const;
-  int qbuf(int file, v4l2_buffer* buffer, int dmabuf_fd);
-  int import_dmabuf(Buffer& buffer, int fd, uint32_t asked_length);
-  int expbuf(v4l2_exportbuffer* exported) const;
-  int dqbuf(int file, v4l2_buffer* buffer, std::unique_lock<std::mutex>& lock);
-  int streamon(int file);
-  int streamoff(int file);
-  void free_buffers();
+  // The producer thread (virtual_v4l2_producer.cpp).
   void produce_frames();
   // Renders frame `sequence` into buffer `index` (unlocking while rendering); false when
   // the stream stopped or the buffers changed meanwhile.
   // A frame that cannot be rendered sets *failed and is returned flagged with an error.
-  void signal_readiness();  // updates every attached eventfd; call with the mutex held
   bool render_into(int index, uint64_t sequence, std::unique_lock<std::mutex>& lock, bool* failed);
   RenderSettings settings_in_effect() const;
 
@@ -169,26 +181,13 @@ class VirtualV4l2Device {
   VirtualDeviceOptions options_;
   mutable std::mutex mutex_;
   std::condition_variable changed_;  // frame done, event, unplug, stream state
-  std::map<int, File> files_;
-  int next_file_ = 1;
-  std::map<uint32_t, Control> controls_;       // by id, in id order (NEXT_CTRL walks it)
-  std::map<uint32_t, int64_t> in_effect_;      // control values the sensor uses now
-  std::vector<PendingControl> pending_;
+  VirtualV4l2Files files_;
+  VirtualV4l2Controls controls_;
+  VirtualV4l2Queue queue_;
+  VirtualV4l2FrameClock clock_;
   v4l2_pix_format format_{};
-  v4l2_fract time_per_frame_{};
-  std::vector<Buffer> buffers_;
-  v4l2_memory memory_ = V4L2_MEMORY_MMAP;  // of the allocated buffers
-  size_t buffer_stride_ = 0;
-  uint64_t buffers_generation_ = 0;        // mmap offset of buffer i is i * buffer_stride_
-  std::deque<int> queued_order_;    // buffers waiting to be filled, oldest first
-  std::deque<int> done_order_;      // filled buffers waiting for DQBUF, oldest first
-  int queue_owner_ = 0;  // file that allocated the buffers (0: none)
-  bool streaming_ = false;
-  uint64_t next_sequence_ = 0;
   bool unplugged_ = false;
   int fail_dequeues_ = 0;
-  int drop_frames_ = 0;
-  bool stalled_ = false;
   bool render_error_reported_ = false;
   std::thread producer_;
   bool stop_producer_ = false;

@@ -23,13 +23,19 @@ namespace {
 int copy_from_self(uint64_t address, void* local, size_t bytes) {
   iovec here{local, bytes};
   iovec there{reinterpret_cast<void*>(static_cast<uintptr_t>(address)), bytes};
-  return bytes == 0 || process_vm_readv(getpid(), &here, 1, &there, 1, 0) == static_cast<ssize_t>(bytes) ? 0 : -EFAULT;
+  return bytes == 0 ||
+                 process_vm_readv(getpid(), &here, 1, &there, 1, 0) == static_cast<ssize_t>(bytes)
+             ? 0
+             : -EFAULT;
 }
 
 int copy_to_self(uint64_t address, const void* local, size_t bytes) {
   iovec here{const_cast<void*>(local), bytes};
   iovec there{reinterpret_cast<void*>(static_cast<uintptr_t>(address)), bytes};
-  return bytes == 0 || process_vm_writev(getpid(), &here, 1, &there, 1, 0) == static_cast<ssize_t>(bytes) ? 0 : -EFAULT;
+  return bytes == 0 ||
+                 process_vm_writev(getpid(), &here, 1, &there, 1, 0) == static_cast<ssize_t>(bytes)
+             ? 0
+             : -EFAULT;
 }
 
 }  // namespace
@@ -39,20 +45,20 @@ VirtualV4l2Io::VirtualV4l2Io(std::vector<std::shared_ptr<VirtualV4l2Device>> dev
   for (const auto& device : devices_) {
     auto media = make_media_device_for(*device);
     if (!media) continue;
-    const int memfd = memfd_create("camlab-vcam-media", MFD_CLOEXEC);
-    if (memfd < 0) continue;
-    media_.push_back({std::move(media), memfd});
+    UniqueFd memfd(memfd_create("camlab-vcam-media", MFD_CLOEXEC));
+    if (!memfd) continue;
+    media_.push_back({std::move(media), std::move(memfd)});
   }
 }
 
 VirtualV4l2Io::~VirtualV4l2Io() {
-  for (auto& [address, mapping] : mappings_) ::munmap(address, mapping.length);
-  for (auto& [fd, file] : files_) {
-    if (file.device) file.device->close_file(file.file);
-    if (file.media) file.media->close_file(file.file);
-    ::close(fd);
+  mappings_.clear();  // unmapped by their owners
+  for (auto& [fd, owned] : files_) {
+    if (owned.file.device) owned.file.device->close_file(owned.file.file);
+    if (owned.file.media) owned.file.media->close_file(owned.file.file);
+    owned.fd.reset();
   }
-  for (auto& node : media_) ::close(node.lock_memfd);
+  // The media nodes' memfds close with media_.
 }
 
 std::shared_ptr<VirtualMediaDevice> VirtualV4l2Io::media_device(int index) const {
@@ -69,16 +75,17 @@ int VirtualV4l2Io::open_media(const MediaNode& node, int flags) {
   }
   // A new open file description of the node's memfd: one inode per media node, so
   // POSIX locks taken through any of its fds see each other, as on /dev/mediaN.
-  const std::string self = "/proc/self/fd/" + std::to_string(node.lock_memfd);
-  int fd = ::open(self.c_str(), O_RDWR | O_CLOEXEC | (flags & O_NONBLOCK));
-  if (fd < 0) fd = ::fcntl(node.lock_memfd, F_DUPFD_CLOEXEC, 0);
-  if (fd < 0) {
+  const std::string self = "/proc/self/fd/" + std::to_string(node.lock_memfd.get());
+  UniqueFd fd(::open(self.c_str(), O_RDWR | O_CLOEXEC | (flags & O_NONBLOCK)));
+  if (!fd) fd.reset(::fcntl(node.lock_memfd.get(), F_DUPFD_CLOEXEC, 0));
+  if (!fd) {
     node.device->close_file(file);
     return -1;
   }
+  const int number = fd.get();
   std::lock_guard lock(mutex_);
-  files_[fd] = {nullptr, node.device, file};
-  return fd;
+  files_[number] = {std::move(fd), {nullptr, node.device, file}};
+  return number;
 }
 
 int VirtualV4l2Io::media_ioctl(const OpenFile& file, unsigned long request, void* arg) {
@@ -86,8 +93,10 @@ int VirtualV4l2Io::media_ioctl(const OpenFile& file, unsigned long request, void
   if (!VirtualMediaDevice::is_supported_ioctl(request)) return -ENOTTY;
   const auto address = static_cast<uint64_t>(reinterpret_cast<uintptr_t>(arg));
   std::vector<uint8_t> local(_IOC_SIZE(request));
-  if (int error = copy_from_self(address, local.data(), local.size()); error < 0 || arg == nullptr) return -EFAULT;
-  const int result = file.media->ioctl_marshalled(file.file, request, local.data(), copy_from_self, copy_to_self);
+  if (int error = copy_from_self(address, local.data(), local.size()); error < 0 || arg == nullptr)
+    return -EFAULT;
+  const int result =
+      file.media->ioctl_marshalled(file.file, request, local.data(), copy_from_self, copy_to_self);
   if (result < 0) return result;  // the struct reaches the caller only on success
   return copy_to_self(address, local.data(), local.size());
 }
@@ -96,7 +105,7 @@ bool VirtualV4l2Io::find(int fd, OpenFile* out) const {
   std::lock_guard lock(mutex_);
   auto it = files_.find(fd);
   if (it == files_.end()) return false;
-  *out = it->second;
+  *out = it->second.file;
   return true;
 }
 
@@ -111,37 +120,40 @@ int VirtualV4l2Io::open(const char* path, int flags) {
       errno = -file;
       return -1;
     }
-    const int fd = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
-    if (fd < 0) {
+    UniqueFd fd(::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK));
+    if (!fd) {
       device->close_file(file);
       return -1;
     }
-    device->attach_eventfd(file, fd);
+    device->attach_eventfd(file, fd.get());  // lent: the device writes readiness to it
+    const int number = fd.get();
     std::lock_guard lock(mutex_);
-    files_[fd] = {device, nullptr, file};
-    return fd;
+    files_[number] = {std::move(fd), {device, nullptr, file}};
+    return number;
   }
   return ::open(path, flags | O_CLOEXEC);
 }
 
 int VirtualV4l2Io::close(int fd) {
-  OpenFile file;
+  OwnedFile owned;
   {
     std::lock_guard lock(mutex_);
     auto it = files_.find(fd);
-    if (it == files_.end()) return ::close(fd);
-    file = it->second;
+    if (it == files_.end()) return ::close(fd);  // not ours: the system call
+    owned = std::move(it->second);
     files_.erase(it);
   }
-  if (file.device) file.device->close_file(file.file);
-  if (file.media) file.media->close_file(file.file);
-  return ::close(fd);
+  if (owned.file.device) owned.file.device->close_file(owned.file.file);
+  if (owned.file.media) owned.file.media->close_file(owned.file.file);
+  owned.fd.reset();
+  return 0;
 }
 
 int VirtualV4l2Io::ioctl(int fd, unsigned long request, void* arg) {
   OpenFile file;
   if (!find(fd, &file)) return ::ioctl(fd, request, arg);
-  const int result = file.media ? media_ioctl(file, request, arg) : file.device->ioctl(file.file, request, arg);
+  const int result =
+      file.media ? media_ioctl(file, request, arg) : file.device->ioctl(file.file, request, arg);
   if (result < 0) {
     errno = -result;
     return -1;
@@ -165,11 +177,12 @@ void* VirtualV4l2Io::mmap(size_t length, int prot, int flags, int fd, off_t offs
     errno = -error;
     return MAP_FAILED;
   }
-  void* address = ::mmap(nullptr, length, prot, flags, memory.memfd, 0);
-  if (address == MAP_FAILED) return MAP_FAILED;
+  MappedBuffer mapped(::mmap(nullptr, length, prot, flags, memory.memfd, 0), length);
+  if (!mapped) return MAP_FAILED;
   file.device->note_mapping(offset, +1);
+  void* address = mapped.data();
   std::lock_guard lock(mutex_);
-  mappings_[address] = {file.device, offset, length};
+  mappings_[address] = {file.device, offset, std::move(mapped)};
   return address;
 }
 
@@ -178,12 +191,13 @@ int VirtualV4l2Io::munmap(void* address, size_t length) {
   {
     std::lock_guard lock(mutex_);
     auto it = mappings_.find(address);
-    if (it == mappings_.end()) return ::munmap(address, length);
-    mapping = it->second;
+    if (it == mappings_.end()) return ::munmap(address, length);  // not ours: the system call
+    mapping = std::move(it->second);
     mappings_.erase(it);
   }
   mapping.device->note_mapping(mapping.offset, -1);
-  return ::munmap(address, length);
+  mapping.memory.reset();  // the whole mapping, as made
+  return 0;
 }
 
 int VirtualV4l2Io::poll(struct pollfd* fds, nfds_t count, int timeout_ms) {
@@ -213,7 +227,8 @@ int VirtualV4l2Io::poll(struct pollfd* fds, nfds_t count, int timeout_ms) {
       }
       ready += fds[i].revents != 0;
     }
-    if (ready > 0 || timeout_ms == 0 || (timeout_ms > 0 && std::chrono::steady_clock::now() >= deadline))
+    if (ready > 0 || timeout_ms == 0 ||
+        (timeout_ms > 0 && std::chrono::steady_clock::now() >= deadline))
       return ready;
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
@@ -232,7 +247,7 @@ bool VirtualV4l2Io::owns_mapping(void* address) const {
 int VirtualV4l2Io::device_index_of(int fd) const {
   std::lock_guard lock(mutex_);
   auto it = files_.find(fd);
-  return it == files_.end() || !it->second.device ? -1 : it->second.device->index();
+  return it == files_.end() || !it->second.file.device ? -1 : it->second.file.device->index();
 }
 
 size_t VirtualV4l2Io::open_fd_count() const {

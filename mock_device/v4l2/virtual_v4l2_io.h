@@ -9,6 +9,9 @@
 // and out with process_vm_readv/writev, arrays included, so a bad pointer is EFAULT as
 // from the kernel. Any other path or fd goes to the real system calls.
 //
+// Every fd and mapping it makes has an owner (UniqueFd, MappedBuffer); close and munmap
+// forward to the system calls only what it does not own.
+//
 // Thread-safe.
 #pragma once
 
@@ -17,6 +20,8 @@
 #include <mutex>
 #include <vector>
 
+#include "base/mapped_buffer.h"
+#include "base/unique_fd.h"
 #include "device/v4l2/v4l2_io.h"
 #include "mock_device/v4l2/virtual_media_device.h"
 #include "mock_device/v4l2/virtual_v4l2_device.h"
@@ -56,24 +61,31 @@ class VirtualV4l2Io final : public device::V4l2Io {
     std::shared_ptr<VirtualMediaDevice> media;  // set for a media fd
     int file;
   };
+  // An fd this transport made (a video fd's eventfd, a media fd's open of the node's
+  // memfd) and the device's open file it stands for.
+  struct OwnedFile {
+    UniqueFd fd;
+    OpenFile file;
+  };
   struct MediaNode {
     std::shared_ptr<VirtualMediaDevice> device;
-    int lock_memfd;  // the inode every open of this node refers to
+    UniqueFd lock_memfd;  // the inode every open of this node refers to
   };
-  int open_media(const MediaNode& node, int flags);
-  int media_ioctl(const OpenFile& file, unsigned long request, void* arg);
+  // A client's mapping of a device buffer, made here and unmapped by its owner.
   struct Mapping {
     std::shared_ptr<VirtualV4l2Device> device;
     off_t offset;
-    size_t length;
+    MappedBuffer memory;
   };
+  int open_media(const MediaNode& node, int flags);
+  int media_ioctl(const OpenFile& file, unsigned long request, void* arg);
   bool find(int fd, OpenFile* out) const;
 
   std::vector<std::shared_ptr<VirtualV4l2Device>> devices_;
   std::vector<MediaNode> media_;
   mutable std::mutex mutex_;
-  std::map<int, OpenFile> files_;
-  std::map<void*, Mapping> mappings_;
+  std::map<int, OwnedFile> files_;     // by fd number
+  std::map<void*, Mapping> mappings_;  // by address
 };
 
 }  // namespace camlab::mock

@@ -1,0 +1,49 @@
+#include "mock_device/v4l2/virtual_v4l2_frame_clock.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace camlab::mock {
+
+VirtualV4l2FrameClock::VirtualV4l2FrameClock(double sensor_frame_interval_us, bool realtime)
+    : sensor_frame_interval_us_(sensor_frame_interval_us), realtime_(realtime) {
+  time_per_frame_ = {static_cast<uint32_t>(std::lround(sensor_frame_interval_us_)), 1000000};
+}
+
+void VirtualV4l2FrameClock::set_time_per_frame(v4l2_fract asked) {
+  const double base_s = sensor_frame_interval_us_ * 1e-6;
+  const double asked_s =
+      asked.denominator ? static_cast<double>(asked.numerator) / asked.denominator : base_s;
+  const uint32_t multiple = asked_s > 1.5 * base_s ? 2 : 1;
+  time_per_frame_ = {static_cast<uint32_t>(std::lround(sensor_frame_interval_us_)) * multiple,
+                     1000000};
+}
+
+std::chrono::microseconds VirtualV4l2FrameClock::interval() const {
+  return std::chrono::microseconds(static_cast<int64_t>(
+      1e6 * time_per_frame_.numerator / std::max<uint32_t>(time_per_frame_.denominator, 1)));
+}
+
+void VirtualV4l2FrameClock::start() {
+  next_tick_ = Clock::now();
+  running_ = true;
+}
+
+void VirtualV4l2FrameClock::advance() {
+  const auto step = interval();
+  next_tick_ += step;
+  // A frame that took longer than the interval to render costs ticks, as a sensor that
+  // cannot keep up would: the skipped ticks show as sequence gaps.
+  while (next_tick_ + step < Clock::now()) {
+    next_tick_ += step;
+    ++next_sequence_;
+  }
+}
+
+bool VirtualV4l2FrameClock::take_drop() {
+  if (drop_frames_ <= 0) return false;
+  --drop_frames_;
+  return true;
+}
+
+}  // namespace camlab::mock

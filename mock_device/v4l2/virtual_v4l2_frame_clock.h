@@ -1,0 +1,67 @@
+// The virtual sensor's frame clock: the frame interval (the sensor's, or twice it for
+// longer exposures, as S_PARM picks), the sequence number of the next frame, and the
+// pacing of the device's producer thread. In real time it ticks once per interval, and a
+// tick that comes late (a frame that took longer than the interval to render) skips
+// sequence numbers, as a sensor that cannot keep up would; otherwise frames come as fast
+// as they render. Faults for tests: frames to drop (gaps in the sequence) and a stall (no
+// ticks until cleared).
+//
+// Thread-compatible: the device's mutex serialises every call; the producer thread waits
+// for next_tick() on the device's condition variable.
+#pragma once
+
+#include <linux/videodev2.h>
+
+#include <chrono>
+#include <cstdint>
+
+namespace camlab::mock {
+
+class VirtualV4l2FrameClock {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  VirtualV4l2FrameClock(double sensor_frame_interval_us, bool realtime);
+
+  v4l2_fract time_per_frame() const { return time_per_frame_; }
+  // S_PARM: the sensor's interval, or twice it when more than 1.5 times it is asked for
+  // (a zero denominator asks for the sensor's).
+  void set_time_per_frame(v4l2_fract asked);
+  std::chrono::microseconds interval() const;
+  bool realtime() const { return realtime_; }
+
+  // STREAMON: frames count from 0 again.
+  void restart_sequence() { next_sequence_ = 0; }
+  uint64_t next_sequence() const { return next_sequence_; }
+
+  // Ticking: from start() (the first tick at once) until stop().
+  bool running() const { return running_; }
+  void start();
+  void stop() { running_ = false; }
+  Clock::time_point next_tick() const { return next_tick_; }
+  // Past the tick just waited for, to the next one; ticks already missed cost their
+  // sequence numbers.
+  void advance();
+  // The sequence number of the frame starting now.
+  uint64_t take_sequence() { return next_sequence_++; }
+
+  void drop_next_frames(int count) { drop_frames_ = count; }
+  bool dropping() const { return drop_frames_ > 0; }
+  // Whether the frame starting now is to be dropped (counts it off).
+  bool take_drop();
+
+  void stall(bool stalled) { stalled_ = stalled; }
+  bool stalled() const { return stalled_; }
+
+ private:
+  double sensor_frame_interval_us_;
+  bool realtime_;
+  v4l2_fract time_per_frame_{};
+  uint64_t next_sequence_ = 0;
+  bool running_ = false;
+  Clock::time_point next_tick_{};
+  int drop_frames_ = 0;
+  bool stalled_ = false;
+};
+
+}  // namespace camlab::mock

@@ -1,0 +1,171 @@
+// VirtualV4l2Device: the producer thread. At each tick of the frame clock it applies the
+// control values whose latency has passed, and renders the frame into the oldest queued
+// buffer (a tick without one is a lost frame, as on hardware).
+#include <time.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <opencv2/imgproc.hpp>
+
+#include "base/log.h"
+#include "mock_device/render/sensor_model.h"
+#include "mock_device/v4l2/virtual_v4l2_device.h"
+#include "optics/optics.h"
+
+namespace camlab::mock {
+
+RenderSettings VirtualV4l2Device::settings_in_effect() const {
+  const CameraSpec& camera = renderer_.camera();
+  RenderSettings s;
+  s.gain = static_cast<double>(controls_.in_effect(V4L2_CID_GAIN)) / camera.controls.gain_unity;
+  s.f_number =
+      camera.lens.iris.f_numbers[static_cast<size_t>(controls_.in_effect(V4L2_CID_IRIS_ABSOLUTE))];
+  s.focus_position = static_cast<int>(controls_.in_effect(V4L2_CID_FOCUS_ABSOLUTE));
+  if (controls_.in_effect(V4L2_CID_FOCUS_AUTO) != 0 && !renderer_.scene().targets.empty()) {
+    // Autofocus: on the first target's distance, to the nearest motor step.
+    const auto& target = renderer_.scene().targets.front();
+    const double distance_mm = renderer_.scene().pose(target, options_.view)[5] * 1e3;
+    auto z_s = optics::lens_to_sensor_mm(camera.lens.focal_mm, distance_mm);
+    if (z_s)
+      s.focus_position =
+          std::clamp(static_cast<int>(std::lround((*z_s - camera.lens.focal_mm) /
+                                                  camera.lens.focus.extension_mm_per_step)),
+                     camera.lens.focus.position_min, camera.lens.focus.position_max);
+  }
+  const ControlRange& range = camera.controls.exposure_time_absolute;
+  if (controls_.in_effect(V4L2_CID_EXPOSURE_AUTO) != V4L2_EXPOSURE_MANUAL) {
+    // Aperture priority: put a mid-grey (18% reflectance) at 18% of the DN range.
+    const double lens_to_sensor_mm =
+        camera.lens.focal_mm + s.focus_position * camera.lens.focus.extension_mm_per_step;
+    const double e_per_us = electrons_per_unit_reflectance(
+        camera, renderer_.scene().illuminance_lux, 1.0, s.f_number, lens_to_sensor_mm);
+    const double range_dn = (1 << camera.sensor.bit_depth) - 1 - camera.sensor.black_level_dn;
+    const double t_us = range_dn / (e_per_us * camera.sensor.conversion_gain_dn_per_e * s.gain);
+    s.exposure_us = std::clamp(t_us, range.min * 100.0, range.max * 100.0);
+  } else {
+    s.exposure_us = static_cast<double>(controls_.in_effect(V4L2_CID_EXPOSURE_ABSOLUTE)) * 100.0;
+  }
+  return s;
+}
+
+bool VirtualV4l2Device::render_into(int index, uint64_t sequence,
+                                    std::unique_lock<std::mutex>& lock, bool* failed) {
+  *failed = false;
+  const RenderSettings settings = settings_in_effect();
+  const v4l2_pix_format format = format_;
+  RenderOptions options;
+  options.seed = options_.seed;
+  options.frame_number = sequence;
+  const int bit_depth = renderer_.camera().sensor.bit_depth;
+  const uint64_t generation = queue_.generation();
+  // Render without the lock: ioctls (controls, status) must not wait on a frame.
+  lock.unlock();
+  auto frame = renderer_.render(settings, options_.view, options);
+  cv::Mat dn;
+  if (frame) {
+    frame->image.convertTo(dn, CV_32F);
+    if (dn.cols != static_cast<int>(format.width) || dn.rows != static_cast<int>(format.height))
+      cv::resize(dn, dn, cv::Size(static_cast<int>(format.width), static_cast<int>(format.height)),
+                 0, 0, cv::INTER_AREA);  // 2x2 binning
+  }
+  lock.lock();
+  // The stream may have stopped, or the buffers been freed, while the frame rendered.
+  uint8_t* out = queue_.filling_memory(index, generation);
+  if (out == nullptr) return false;
+  if (!frame) {
+    // A driver that cannot fill a buffer returns it flagged, never keeps it: the client
+    // sees V4L2_BUF_FLAG_ERROR instead of waiting forever.
+    if (!render_error_reported_) {
+      log_warning(log::Category::kVcam, "cannot render frame %llu: %s",
+                  static_cast<unsigned long long>(sequence), frame.error().message.c_str());
+      render_error_reported_ = true;  // a repeating error is logged once
+    }
+    std::memset(out, 0, format.sizeimage);
+    *failed = true;
+    return true;
+  }
+  for (uint32_t y = 0; y < format.height; ++y) {
+    const float* row = dn.ptr<float>(static_cast<int>(y));
+    uint8_t* line = out + static_cast<size_t>(y) * format.bytesperline;
+    for (uint32_t x = 0; x < format.width; ++x) {
+      const float v = row[x];
+      if (format.pixelformat == V4L2_PIX_FMT_Y16) {
+        // Y16 carries the DN scaled to the full 16 bits (MSB-aligned), little endian.
+        const auto value = static_cast<uint16_t>(std::lround(std::ldexp(v, 16 - bit_depth)));
+        line[2 * x] = static_cast<uint8_t>(value & 0xff);
+        line[2 * x + 1] = static_cast<uint8_t>(value >> 8);
+      } else {
+        const auto y8 =
+            static_cast<uint8_t>(std::clamp(std::lround(std::ldexp(v, 8 - bit_depth)), 0L, 255L));
+        if (format.pixelformat == V4L2_PIX_FMT_GREY) {
+          line[x] = y8;
+        } else {  // YUYV: grey, so U = V = 128
+          line[2 * x] = y8;
+          line[2 * x + 1] = 128;
+        }
+      }
+    }
+  }
+  return true;
+}
+
+void VirtualV4l2Device::produce_frames() {
+  std::unique_lock lock(mutex_);
+  while (!stop_producer_) {
+    if (!queue_.streaming() || clock_.stalled() || unplugged_) {
+      clock_.stop();
+      changed_.wait(lock);
+      continue;
+    }
+    if (!clock_.running()) {
+      // The scene integral for the settings in effect is the slow part of a first frame;
+      // computing it before the clock starts keeps it from costing the first ticks.
+      const RenderSettings settings = settings_in_effect();
+      RenderOptions options;
+      options.seed = options_.seed;
+      lock.unlock();
+      (void)renderer_.render(settings, options_.view, options);
+      lock.lock();
+      clock_.start();
+      continue;  // re-check the stream state after the unlocked render
+    }
+    if (!clock_.realtime() && !queue_.has_queued() && !clock_.dropping()) {
+      // As fast as rendered, but a frame is only started when a buffer waits for it.
+      changed_.wait(lock);
+      continue;
+    }
+    if (clock_.realtime()) {
+      if (changed_.wait_until(lock, clock_.next_tick(), [&] {
+            return stop_producer_ || !queue_.streaming() || clock_.stalled();
+          }))
+        continue;
+      clock_.advance();
+    }
+    const uint64_t sequence = clock_.take_sequence();
+    // Control values whose latency has passed reach the sensor with this frame.
+    controls_.apply_due(sequence);
+    if (clock_.take_drop()) continue;
+    if (!queue_.has_queued()) continue;  // no buffer: the frame is lost, its number too
+    const int index = queue_.start_filling();
+    timespec start{};
+    clock_gettime(CLOCK_MONOTONIC, &start);
+    bool failed = false;
+    if (!render_into(index, sequence, lock, &failed)) continue;  // stream stopped meanwhile
+    v4l2_buffer done{};
+    done.index = static_cast<uint32_t>(index);
+    done.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    done.bytesused = format_.sizeimage;
+    done.flags = V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | V4L2_BUF_FLAG_TSTAMP_SRC_SOE |
+                 (failed ? V4L2_BUF_FLAG_ERROR : 0u);
+    done.field = V4L2_FIELD_NONE;
+    done.timestamp.tv_sec = start.tv_sec;
+    done.timestamp.tv_usec = start.tv_nsec / 1000;
+    done.sequence = static_cast<uint32_t>(sequence);
+    queue_.complete(index, done, format_.sizeimage);
+    signal_readiness();
+    changed_.notify_all();
+  }
+}
+
+}  // namespace camlab::mock

@@ -1,0 +1,69 @@
+// The virtual sensor's frame clock on its own: the intervals S_PARM may choose, late
+// ticks that cost sequence numbers, and the dropped-frame and stall faults.
+#include "mock_device/v4l2/virtual_v4l2_frame_clock.h"
+
+#include <gtest/gtest.h>
+
+#include <thread>
+
+namespace camlab::mock {
+namespace {
+
+TEST(VirtualV4l2FrameClock, TimePerFrameIsTheSensorsIntervalOrTwiceIt) {
+  VirtualV4l2FrameClock clock(33333.4, true);
+  EXPECT_EQ(clock.time_per_frame().numerator, 33333u);
+  EXPECT_EQ(clock.time_per_frame().denominator, 1000000u);
+  EXPECT_EQ(clock.interval(), std::chrono::microseconds(33333));
+  clock.set_time_per_frame({1, 15});  // 66.7 ms
+  EXPECT_EQ(clock.time_per_frame().numerator, 66666u);
+  clock.set_time_per_frame({1, 25});  // 40 ms: nearer the sensor's
+  EXPECT_EQ(clock.time_per_frame().numerator, 33333u);
+  clock.set_time_per_frame({1, 15});
+  clock.set_time_per_frame({1, 0});  // no denominator: the sensor's
+  EXPECT_EQ(clock.time_per_frame().numerator, 33333u);
+}
+
+TEST(VirtualV4l2FrameClock, SequenceNumbersCountFromStreamon) {
+  VirtualV4l2FrameClock clock(10000, false);
+  EXPECT_EQ(clock.take_sequence(), 0u);
+  EXPECT_EQ(clock.take_sequence(), 1u);
+  EXPECT_EQ(clock.next_sequence(), 2u);
+  clock.restart_sequence();
+  EXPECT_EQ(clock.take_sequence(), 0u);
+}
+
+TEST(VirtualV4l2FrameClock, LateTicksCostSequenceNumbers) {
+  VirtualV4l2FrameClock clock(50000, true);
+  EXPECT_FALSE(clock.running());
+  clock.start();
+  EXPECT_TRUE(clock.running());
+  const auto first_tick = clock.next_tick();
+  EXPECT_LE(first_tick, VirtualV4l2FrameClock::Clock::now());
+  clock.advance();  // on time: the next tick, no gap
+  EXPECT_EQ(clock.next_tick(), first_tick + std::chrono::milliseconds(50));
+  EXPECT_EQ(clock.next_sequence(), 0u);
+  // A frame that took 3.5 intervals: the ticks it missed are lost frames.
+  std::this_thread::sleep_until(clock.next_tick() + std::chrono::milliseconds(175));
+  clock.advance();
+  EXPECT_GE(clock.next_sequence(), 2u);
+  clock.stop();
+  EXPECT_FALSE(clock.running());
+}
+
+TEST(VirtualV4l2FrameClock, DropsAndStallsAreFaultsForTests) {
+  VirtualV4l2FrameClock clock(10000, true);
+  EXPECT_FALSE(clock.take_drop());
+  clock.drop_next_frames(2);
+  EXPECT_TRUE(clock.dropping());
+  EXPECT_TRUE(clock.take_drop());
+  EXPECT_TRUE(clock.take_drop());
+  EXPECT_FALSE(clock.take_drop());
+  EXPECT_FALSE(clock.dropping());
+  clock.stall(true);
+  EXPECT_TRUE(clock.stalled());
+  clock.stall(false);
+  EXPECT_FALSE(clock.stalled());
+}
+
+}  // namespace
+}  // namespace camlab::mock
