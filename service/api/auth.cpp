@@ -10,6 +10,7 @@
 #include <cstring>
 
 #include "base/atomic_file.h"
+#include "base/unique_fd.h"
 
 namespace camlab::service {
 
@@ -48,18 +49,18 @@ Result<TokenFile> load_or_create_token(const std::filesystem::path& data_dir) {
   const std::filesystem::path path = data_dir / "token";
   TokenFile result;
   for (int attempt = 0; attempt < 2; ++attempt) {
-    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    if (fd >= 0) {
+    // Closed on every way out of this attempt (unlinking an open file is fine).
+    UniqueFd fd(::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600));
+    if (fd) {
       auto token = random_hex(32);
       if (!token) {
-        ::close(fd);
         ::unlink(path.c_str());
         return token.error();
       }
       const std::string text = *token + "\n";
-      const bool written = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
-      const bool synced = ::fsync(fd) == 0;
-      ::close(fd);
+      const bool written =
+          ::write(fd.get(), text.data(), text.size()) == static_cast<ssize_t>(text.size());
+      const bool synced = ::fsync(fd.get()) == 0;
       if (!written || !synced) {
         ::unlink(path.c_str());
         return make_error("io_error", "cannot write the token file " + path.string());
