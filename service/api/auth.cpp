@@ -69,11 +69,13 @@ Result<TokenFile> load_or_create_token(const std::filesystem::path& data_dir) {
       result.created = true;
       return result;
     }
-    if (errno != EEXIST) return make_error("io_error", "cannot create " + path.string() + ": " + std::strerror(errno));
+    if (errno != EEXIST)
+      return make_error("io_error", "cannot create " + path.string() + ": " + std::strerror(errno));
     struct stat st {};
     if (::stat(path.c_str(), &st) == 0 && (st.st_mode & 077) != 0) {
       if (::chmod(path.c_str(), 0600) != 0)
-        return make_error("io_error", path.string() + " is readable by others and cannot be made 0600");
+        return make_error("io_error",
+                          path.string() + " is readable by others and cannot be made 0600");
       result.warning = path.string() + " was readable by group or others; its mode is now 0600";
     }
     auto text = read_text_file(path);
@@ -96,7 +98,8 @@ bool TokenAuth::accepts(const std::string& authorization) const {
   const std::string given = trim(authorization.substr(kScheme.size()));
   if (given.size() != token_.size()) return false;
   unsigned char difference = 0;
-  for (size_t i = 0; i < given.size(); ++i) difference |= static_cast<unsigned char>(given[i] ^ token_[i]);
+  for (size_t i = 0; i < given.size(); ++i)
+    difference |= static_cast<unsigned char>(given[i] ^ token_[i]);
   return difference == 0;
 }
 

@@ -41,8 +41,8 @@ CREATE TABLE IF NOT EXISTS devices (
 )sql";
 
 const char* kJobColumns =
-    "id, kind, camera_id, state, request, folder, created_ms, started_ms, finished_ms, frames_done, "
-    "frames_total, frames_discarded, error_code, error_message, result";
+    "id, kind, camera_id, state, request, folder, created_ms, started_ms, finished_ms, "
+    "frames_done, frames_total, frames_discarded, error_code, error_message, result";
 
 nlohmann::json parse_or_null(const std::string& text) {
   if (text.empty()) return nullptr;
@@ -56,8 +56,9 @@ std::string iso_time(int64_t ms) {
   std::tm tm{};
   gmtime_r(&seconds, &tm);
   char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900, tm.tm_mon + 1,
-                tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, static_cast<int>(ms % 1000));
+  std::snprintf(buffer, sizeof buffer, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900,
+                tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec,
+                static_cast<int>(ms % 1000));
   return buffer;
 }
 
@@ -93,18 +94,25 @@ Error in_database(const Error& error, const char* what) {
 }  // namespace
 
 int64_t unix_time_ms() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
 
 const char* job_state_name(JobState state) {
   switch (state) {
-    case JobState::kQueued: return "queued";
-    case JobState::kRunning: return "running";
-    case JobState::kSucceeded: return "succeeded";
-    case JobState::kFailed: return "failed";
-    case JobState::kCancelled: return "cancelled";
-    case JobState::kInterrupted: return "interrupted";
+    case JobState::kQueued:
+      return "queued";
+    case JobState::kRunning:
+      return "running";
+    case JobState::kSucceeded:
+      return "succeeded";
+    case JobState::kFailed:
+      return "failed";
+    case JobState::kCancelled:
+      return "cancelled";
+    case JobState::kInterrupted:
+      return "interrupted";
   }
   return "failed";
 }
@@ -116,25 +124,31 @@ std::optional<JobState> parse_job_state(const std::string& name) {
   return std::nullopt;
 }
 
-bool is_finished(JobState state) { return state != JobState::kQueued && state != JobState::kRunning; }
+bool is_finished(JobState state) {
+  return state != JobState::kQueued && state != JobState::kRunning;
+}
 
 nlohmann::json to_json(const JobRecord& job) {
-  nlohmann::json json = {{"id", job.id},
-                         {"kind", job.kind},
-                         {"state", job_state_name(job.state)},
-                         {"request", job.request},
-                         {"created_at", iso_time(job.created_ms)},
-                         {"progress",
-                          {{"frames_done", job.frames_done},
-                           {"frames_total", job.frames_total},
-                           {"frames_discarded", job.frames_discarded},
-                           {"fraction", job.frames_total > 0 ? static_cast<double>(job.frames_done) / job.frames_total
-                                                             : (is_finished(job.state) ? 1.0 : 0.0)}}}};
+  nlohmann::json json = {
+      {"id", job.id},
+      {"kind", job.kind},
+      {"state", job_state_name(job.state)},
+      {"request", job.request},
+      {"created_at", iso_time(job.created_ms)},
+      {"progress",
+       {{"frames_done", job.frames_done},
+        {"frames_total", job.frames_total},
+        {"frames_discarded", job.frames_discarded},
+        {"fraction", job.frames_total > 0 ? static_cast<double>(job.frames_done) / job.frames_total
+                                          : (is_finished(job.state) ? 1.0 : 0.0)}}}};
   if (!job.camera_id.empty()) json["camera_id"] = job.camera_id;
   if (!job.folder.empty()) json["folder"] = job.folder;
-  json["started_at"] = job.started_ms ? nlohmann::json(iso_time(job.started_ms)) : nlohmann::json(nullptr);
-  json["finished_at"] = job.finished_ms ? nlohmann::json(iso_time(job.finished_ms)) : nlohmann::json(nullptr);
-  if (!job.error_code.empty()) json["error"] = {{"code", job.error_code}, {"message", job.error_message}};
+  json["started_at"] =
+      job.started_ms ? nlohmann::json(iso_time(job.started_ms)) : nlohmann::json(nullptr);
+  json["finished_at"] =
+      job.finished_ms ? nlohmann::json(iso_time(job.finished_ms)) : nlohmann::json(nullptr);
+  if (!job.error_code.empty())
+    json["error"] = {{"code", job.error_code}, {"message", job.error_message}};
   json["result"] = job.result;
   return json;
 }
@@ -189,18 +203,18 @@ Result<Statement*> JobStore::statement(std::string_view sql) {
 
 template <class... Args>
 Result<int> JobStore::execute(const char* what, const char* sql, const Args&... args) {
-  Statement* stmt;
-  CAMLAB_ASSIGN(stmt, statement(sql));
-  Result<int> changed = stmt->execute(args...);
+  Result<Statement*> stmt = statement(sql);
+  if (!stmt) return in_database(stmt.error(), what);
+  Result<int> changed = (*stmt)->execute(args...);
   if (!changed) return in_database(changed.error(), what);
   return changed;
 }
 
 template <class OnRow, class... Args>
 Status JobStore::query(const char* what, const char* sql, OnRow&& on_row, const Args&... args) {
-  Statement* stmt;
-  CAMLAB_ASSIGN(stmt, statement(sql));
-  if (Status read = stmt->query(std::forward<OnRow>(on_row), args...); !read)
+  Result<Statement*> stmt = statement(sql);
+  if (!stmt) return in_database(stmt.error(), what);
+  if (Status read = (*stmt)->query(std::forward<OnRow>(on_row), args...); !read)
     return in_database(read.error(), what);
   return {};
 }
@@ -230,8 +244,8 @@ Result<JobRecord> JobStore::create(const std::string& kind, const std::string& c
   job.request = request;
   job.created_ms = unix_time_ms();
   job.frames_total = frames_total;
-  if (auto inserted =
-          execute("insert job", kInsert, kind, camera_id, dump(request), job.created_ms, frames_total);
+  if (auto inserted = execute("insert job", kInsert, kind, camera_id, dump(request), job.created_ms,
+                              frames_total);
       !inserted)
     return inserted.error();
   job.id = db_.last_insert_rowid();
@@ -259,8 +273,9 @@ Result<std::vector<JobRecord>> JobStore::list(std::optional<JobState> state, int
   std::lock_guard lock(mutex_);
   static const std::string all =
       std::string("SELECT ") + kJobColumns + " FROM jobs ORDER BY id DESC LIMIT ? OFFSET ?";
-  static const std::string by_state = std::string("SELECT ") + kJobColumns +
-                                      " FROM jobs WHERE state = ? ORDER BY id DESC LIMIT ? OFFSET ?";
+  static const std::string by_state =
+      std::string("SELECT ") + kJobColumns +
+      " FROM jobs WHERE state = ? ORDER BY id DESC LIMIT ? OFFSET ?";
   if (state) return query_jobs(by_state.c_str(), job_state_name(*state), limit, offset);
   return query_jobs(all.c_str(), limit, offset);
 }
@@ -268,10 +283,9 @@ Result<std::vector<JobRecord>> JobStore::list(std::optional<JobState> state, int
 Result<std::map<std::string, int64_t>> JobStore::count_by_state() {
   std::lock_guard lock(mutex_);
   std::map<std::string, int64_t> counts;
-  if (Status read = query("count jobs", "SELECT state, COUNT(*) FROM jobs GROUP BY state",
-                          [&](const Statement& row) {
-                            counts[row.column_text(0)] = row.column_int64(1);
-                          });
+  if (Status read =
+          query("count jobs", "SELECT state, COUNT(*) FROM jobs GROUP BY state",
+                [&](const Statement& row) { counts[row.column_text(0)] = row.column_int64(1); });
       !read)
     return read.error();
   return counts;

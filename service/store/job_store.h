@@ -44,7 +44,7 @@ struct JobRecord {
   std::string camera_id;  // capture and probe jobs; empty otherwise
   JobState state = JobState::kQueued;
   nlohmann::json request = nlohmann::json::object();
-  std::string folder;     // relative to the data folder; empty when the job writes none
+  std::string folder;  // relative to the data folder; empty when the job writes none
   int64_t created_ms = 0, started_ms = 0, finished_ms = 0;  // Unix time, 0 = not yet
   int frames_done = 0, frames_total = 0, frames_discarded = 0;
   std::string error_code, error_message;
@@ -72,8 +72,9 @@ class JobStore {
 
   // Inserts a queued job; `folder_prefix` (e.g. "captures/job-") + the zero-padded id
   // becomes its folder when non-empty. Returns the stored record.
-  Result<JobRecord> create(const std::string& kind, const std::string& camera_id, const nlohmann::json& request,
-                           const std::string& folder_prefix, int frames_total);
+  Result<JobRecord> create(const std::string& kind, const std::string& camera_id,
+                           const nlohmann::json& request, const std::string& folder_prefix,
+                           int frames_total);
 
   Result<std::optional<JobRecord>> get(int64_t id);
   // Newest first; `state` filters when set; at most `limit` from `offset`.
@@ -84,7 +85,8 @@ class JobStore {
   Result<bool> start(int64_t id);
   Status progress(int64_t id, int frames_done, int frames_total, int frames_discarded);
   // queued|running -> a final state; false when it had already finished.
-  Result<bool> finish(int64_t id, JobState state, const std::optional<Error>& error, const nlohmann::json& result);
+  Result<bool> finish(int64_t id, JobState state, const std::optional<Error>& error,
+                      const nlohmann::json& result);
   // queued -> cancelled; false when the job is not queued.
   Result<bool> cancel_queued(int64_t id);
   // Every queued or running job -> interrupted with `message`; returns how many.

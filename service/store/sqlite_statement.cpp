@@ -30,9 +30,8 @@ Error never_prepared() {
 
 Result<Connection> Connection::open(const std::filesystem::path& path) {
   sqlite3* db = nullptr;
-  const int rc = sqlite3_open_v2(path.c_str(), &db,
-                                 SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
-                                 nullptr);
+  const int rc = sqlite3_open_v2(
+      path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr);
   // Owned from here: even a failed open may leave a handle to close.
   Connection connection(db);
   if (rc != SQLITE_OK) {
@@ -76,9 +75,7 @@ Status Connection::execute_script(const std::string& sql) {
   return {};
 }
 
-int64_t Connection::last_insert_rowid() const {
-  return db_ ? sqlite3_last_insert_rowid(db_) : 0;
-}
+int64_t Connection::last_insert_rowid() const { return db_ ? sqlite3_last_insert_rowid(db_) : 0; }
 
 // --- Statement ---
 

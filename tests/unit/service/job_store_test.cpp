@@ -132,8 +132,8 @@ TEST_F(JobStoreTest, TransitionsGoOnlyTheDocumentedWays) {
   EXPECT_EQ(running.frames_discarded, 1);
 
   const nlohmann::json result = {{"frames", 3}, {"mean", 0.5}};
-  EXPECT_TRUE(*store_->finish(id, JobState::kFailed, make_error("timeout", "no frame in 2 s"),
-                              result));
+  EXPECT_TRUE(
+      *store_->finish(id, JobState::kFailed, make_error("timeout", "no frame in 2 s"), result));
   // A finished job is never overwritten.
   EXPECT_FALSE(*store_->finish(id, JobState::kSucceeded, std::nullopt, nullptr));
   const JobRecord finished = **store_->get(id);
@@ -154,7 +154,8 @@ TEST_F(JobStoreTest, TransitionsGoOnlyTheDocumentedWays) {
 
 TEST_F(JobStoreTest, ListsCountsAndInterrupts) {
   std::vector<int64_t> ids;
-  for (int i = 0; i < 5; ++i) ids.push_back(store_->create("capture", "vcam0", {{"i", i}}, "", 1)->id);
+  for (int i = 0; i < 5; ++i)
+    ids.push_back(store_->create("capture", "vcam0", {{"i", i}}, "", 1)->id);
   ASSERT_TRUE(*store_->start(ids[1]));
   ASSERT_TRUE(*store_->finish(ids[2], JobState::kSucceeded, std::nullopt, {{"ok", true}}));
 
@@ -174,8 +175,8 @@ TEST_F(JobStoreTest, ListsCountsAndInterrupts) {
 
   auto counts = store_->count_by_state();
   ASSERT_TRUE(counts.ok());
-  EXPECT_EQ(*counts, (std::map<std::string, int64_t>{{"queued", 3}, {"running", 1},
-                                                     {"succeeded", 1}}));
+  EXPECT_EQ(*counts,
+            (std::map<std::string, int64_t>{{"queued", 3}, {"running", 1}, {"succeeded", 1}}));
 
   // A restart after a crash: every unfinished job becomes interrupted, once.
   reopen();
@@ -218,8 +219,9 @@ TEST_F(JobStoreTest, LatencyReadsBackAndIsReplaced) {
 TEST_F(JobStoreTest, TheDatabaseIsInWalModeWithTheSchemaVersion) {
   auto db = sqlite::Connection::open(database());
   ASSERT_TRUE(db.ok());
-  for (const auto& [sql, expected] : {std::pair<const char*, std::string>{"PRAGMA journal_mode", "wal"},
-                                      {"PRAGMA user_version", std::to_string(kSchemaVersion)}}) {
+  for (const auto& [sql, expected] :
+       {std::pair<const char*, std::string>{"PRAGMA journal_mode", "wal"},
+        {"PRAGMA user_version", std::to_string(kSchemaVersion)}}) {
     auto read = sqlite::Statement::prepare(*db, sql);
     ASSERT_TRUE(read.ok());
     std::string value;

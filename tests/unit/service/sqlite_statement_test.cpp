@@ -68,8 +68,8 @@ TEST_F(StatementTest, Int64ExtremesRoundTrip) {
 
 TEST_F(StatementTest, SmallIntegersAndBoolsBindAsIntegers) {
   Statement select = prepare("SELECT ?, ?, ?, ?");
-  ASSERT_TRUE(select.bind_all(std::numeric_limits<int>::min(), true, uint32_t{4000000000u},
-                              short{-7}));
+  ASSERT_TRUE(
+      select.bind_all(std::numeric_limits<int>::min(), true, uint32_t{4000000000u}, short{-7}));
   auto step = select.step();
   ASSERT_TRUE(step.ok());
   ASSERT_EQ(*step, Step::kRow);
@@ -115,8 +115,7 @@ TEST_F(StatementTest, TextRoundTripsWithQuotesAndEmbeddedNuls) {
   Statement insert = prepare("INSERT INTO t (s) VALUES (?)");
   for (const std::string& value : values) ASSERT_TRUE(insert.execute(value).ok());
   std::vector<std::string> read;
-  Statement select =
-      prepare("SELECT s, length(CAST(s AS BLOB)), typeof(s) FROM t ORDER BY rowid");
+  Statement select = prepare("SELECT s, length(CAST(s AS BLOB)), typeof(s) FROM t ORDER BY rowid");
   ASSERT_TRUE(select.query([&](const Statement& row) {
     read.push_back(row.column_text(0));
     // SQLite holds every byte (not a C string cut at the first NUL), as text, not NULL.
@@ -135,8 +134,9 @@ TEST_F(StatementTest, TextRoundTripsWithQuotesAndEmbeddedNuls) {
 TEST_F(StatementTest, NullsAndOptionalsRoundTrip) {
   Statement insert = prepare("INSERT INTO t (i, r, s) VALUES (?, ?, ?)");
   ASSERT_TRUE(insert.execute(nullptr, std::nullopt, std::optional<std::string>()).ok());
-  ASSERT_TRUE(insert.execute(std::optional<int64_t>(42), std::optional<double>(2.5),
-                             std::optional<std::string>("here")).ok());
+  const auto present = insert.execute(std::optional<int64_t>(42), std::optional<double>(2.5),
+                                      std::optional<std::string>("here"));
+  ASSERT_TRUE(present.ok());
   Statement null_by_hand = prepare("INSERT INTO t (i, r, s) VALUES (?, ?, ?)");
   ASSERT_TRUE(null_by_hand.bind_null(1));
   ASSERT_TRUE(null_by_hand.bind_null(2));
@@ -210,8 +210,7 @@ TEST_F(StatementTest, ConstraintViolationIsAnErrorValueAndChangesNothing) {
   EXPECT_NE(negative.error().message.find("CHECK constraint failed"), std::string::npos);
   auto null = checked.execute(nullptr);
   ASSERT_FALSE(null.ok());
-  EXPECT_NE(null.error().message.find("NOT NULL constraint failed: checked.x"),
-            std::string::npos);
+  EXPECT_NE(null.error().message.find("NOT NULL constraint failed: checked.x"), std::string::npos);
 }
 
 TEST_F(StatementTest, WrongBindsAreErrorValues) {
@@ -271,8 +270,8 @@ TEST_F(StatementTest, StatementsResetAndAreReusable) {
   Statement below = prepare("SELECT i FROM t WHERE i < ? ORDER BY i");
   for (int64_t limit : {10, 3, 10, 0}) {
     std::vector<int64_t> read;
-    ASSERT_TRUE(below.query([&](const Statement& row) { read.push_back(row.column_int64(0)); },
-                            limit));
+    ASSERT_TRUE(
+        below.query([&](const Statement& row) { read.push_back(row.column_int64(0)); }, limit));
     ASSERT_EQ(read.size(), static_cast<size_t>(limit));
     for (int64_t i = 0; i < limit; ++i) EXPECT_EQ(read[i], i);
   }
@@ -308,8 +307,8 @@ TEST_F(StatementTest, ExecuteCountsTheRowsChanged) {
 }
 
 TEST_F(StatementTest, PersistentStatementsBehaveTheSame) {
-  auto insert = Statement::prepare(db_, "INSERT INTO t (i) VALUES (?)",
-                                   Statement::Lifetime::kPersistent);
+  auto insert =
+      Statement::prepare(db_, "INSERT INTO t (i) VALUES (?)", Statement::Lifetime::kPersistent);
   ASSERT_TRUE(insert.ok());
   for (int64_t i = 0; i < 3; ++i) ASSERT_TRUE(insert->execute(i).ok());
   EXPECT_EQ(count_rows(), 3);
