@@ -10,6 +10,7 @@
 #include <cstring>
 
 #include "base/atomic_file.h"
+#include "base/unique_fd.h"
 
 namespace camlab::service {
 
@@ -48,18 +49,18 @@ Result<TokenFile> load_or_create_token(const std::filesystem::path& data_dir) {
   const std::filesystem::path path = data_dir / "token";
   TokenFile result;
   for (int attempt = 0; attempt < 2; ++attempt) {
-    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
-    if (fd >= 0) {
+    // Closed on every way out of this attempt (unlinking an open file is fine).
+    UniqueFd fd(::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600));
+    if (fd) {
       auto token = random_hex(32);
       if (!token) {
-        ::close(fd);
         ::unlink(path.c_str());
         return token.error();
       }
       const std::string text = *token + "\n";
-      const bool written = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
-      const bool synced = ::fsync(fd) == 0;
-      ::close(fd);
+      const bool written =
+          ::write(fd.get(), text.data(), text.size()) == static_cast<ssize_t>(text.size());
+      const bool synced = ::fsync(fd.get()) == 0;
       if (!written || !synced) {
         ::unlink(path.c_str());
         return make_error("io_error", "cannot write the token file " + path.string());
@@ -68,11 +69,13 @@ Result<TokenFile> load_or_create_token(const std::filesystem::path& data_dir) {
       result.created = true;
       return result;
     }
-    if (errno != EEXIST) return make_error("io_error", "cannot create " + path.string() + ": " + std::strerror(errno));
+    if (errno != EEXIST)
+      return make_error("io_error", "cannot create " + path.string() + ": " + std::strerror(errno));
     struct stat st {};
     if (::stat(path.c_str(), &st) == 0 && (st.st_mode & 077) != 0) {
       if (::chmod(path.c_str(), 0600) != 0)
-        return make_error("io_error", path.string() + " is readable by others and cannot be made 0600");
+        return make_error("io_error",
+                          path.string() + " is readable by others and cannot be made 0600");
       result.warning = path.string() + " was readable by group or others; its mode is now 0600";
     }
     auto text = read_text_file(path);
@@ -95,7 +98,8 @@ bool TokenAuth::accepts(const std::string& authorization) const {
   const std::string given = trim(authorization.substr(kScheme.size()));
   if (given.size() != token_.size()) return false;
   unsigned char difference = 0;
-  for (size_t i = 0; i < given.size(); ++i) difference |= static_cast<unsigned char>(given[i] ^ token_[i]);
+  for (size_t i = 0; i < given.size(); ++i)
+    difference |= static_cast<unsigned char>(given[i] ^ token_[i]);
   return difference == 0;
 }
 

@@ -3,10 +3,13 @@
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <utility>
 
 namespace camlab::service {
 
 namespace {
+
+using sqlite::Statement;
 
 const char* kSchema = R"sql(
 CREATE TABLE IF NOT EXISTS jobs (
@@ -38,19 +41,8 @@ CREATE TABLE IF NOT EXISTS devices (
 )sql";
 
 const char* kJobColumns =
-    "id, kind, camera_id, state, request, folder, created_ms, started_ms, finished_ms, frames_done, "
-    "frames_total, frames_discarded, error_code, error_message, result";
-
-// Resets a statement when leaving scope, so no read snapshot stays open between calls.
-struct ResetOnExit {
-  sqlite3_stmt* stmt;
-  ~ResetOnExit() { sqlite3_reset(stmt); }
-};
-
-std::string column_text(sqlite3_stmt* stmt, int column) {
-  const unsigned char* text = sqlite3_column_text(stmt, column);
-  return text ? reinterpret_cast<const char*>(text) : "";
-}
+    "id, kind, camera_id, state, request, folder, created_ms, started_ms, finished_ms, "
+    "frames_done, frames_total, frames_discarded, error_code, error_message, result";
 
 nlohmann::json parse_or_null(const std::string& text) {
   if (text.empty()) return nullptr;
@@ -64,8 +56,9 @@ std::string iso_time(int64_t ms) {
   std::tm tm{};
   gmtime_r(&seconds, &tm);
   char buffer[64];
-  std::snprintf(buffer, sizeof buffer, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900, tm.tm_mon + 1,
-                tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, static_cast<int>(ms % 1000));
+  std::snprintf(buffer, sizeof buffer, "%04d-%02d-%02dT%02d:%02d:%02d.%03dZ", tm.tm_year + 1900,
+                tm.tm_mon + 1, tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec,
+                static_cast<int>(ms % 1000));
   return buffer;
 }
 
@@ -73,14 +66,42 @@ std::string dump(const nlohmann::json& json) {
   return json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
+// A row of SELECT kJobColumns.
+JobRecord job_from_row(const Statement& row) {
+  JobRecord job;
+  job.id = row.column_int64(0);
+  job.kind = row.column_text(1);
+  job.camera_id = row.column_text(2);
+  job.state = parse_job_state(row.column_text(3)).value_or(JobState::kFailed);
+  job.request = parse_or_null(row.column_text(4));
+  job.folder = row.column_text(5);
+  job.created_ms = row.column_int64(6);
+  job.started_ms = row.column_int64(7);
+  job.finished_ms = row.column_int64(8);
+  job.frames_done = row.column_int(9);
+  job.frames_total = row.column_int(10);
+  job.frames_discarded = row.column_int(11);
+  job.error_code = row.column_text(12);
+  job.error_message = row.column_text(13);
+  job.result = parse_or_null(row.column_text(14));
+  return job;
+}
+
+Error in_database(const Error& error, const char* what) {
+  return error.with_context(std::string("database: ") + what + ": ");
+}
+
 }  // namespace
 
 int64_t unix_time_ms() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::system_clock::now().time_since_epoch())
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
 
 const char* job_state_name(JobState state) {
+  // A switch, so that the compiler names a state left out; one line each, as a table.
+  // clang-format off
   switch (state) {
     case JobState::kQueued: return "queued";
     case JobState::kRunning: return "running";
@@ -89,6 +110,7 @@ const char* job_state_name(JobState state) {
     case JobState::kCancelled: return "cancelled";
     case JobState::kInterrupted: return "interrupted";
   }
+  // clang-format on
   return "failed";
 }
 
@@ -99,121 +121,109 @@ std::optional<JobState> parse_job_state(const std::string& name) {
   return std::nullopt;
 }
 
-bool is_finished(JobState state) { return state != JobState::kQueued && state != JobState::kRunning; }
+bool is_finished(JobState state) {
+  return state != JobState::kQueued && state != JobState::kRunning;
+}
 
 nlohmann::json to_json(const JobRecord& job) {
-  nlohmann::json json = {{"id", job.id},
-                         {"kind", job.kind},
-                         {"state", job_state_name(job.state)},
-                         {"request", job.request},
-                         {"created_at", iso_time(job.created_ms)},
-                         {"progress",
-                          {{"frames_done", job.frames_done},
-                           {"frames_total", job.frames_total},
-                           {"frames_discarded", job.frames_discarded},
-                           {"fraction", job.frames_total > 0 ? static_cast<double>(job.frames_done) / job.frames_total
-                                                             : (is_finished(job.state) ? 1.0 : 0.0)}}}};
+  nlohmann::json json = {
+      {"id", job.id},
+      {"kind", job.kind},
+      {"state", job_state_name(job.state)},
+      {"request", job.request},
+      {"created_at", iso_time(job.created_ms)},
+      {"progress",
+       {{"frames_done", job.frames_done},
+        {"frames_total", job.frames_total},
+        {"frames_discarded", job.frames_discarded},
+        {"fraction", job.frames_total > 0 ? static_cast<double>(job.frames_done) / job.frames_total
+                                          : (is_finished(job.state) ? 1.0 : 0.0)}}}};
   if (!job.camera_id.empty()) json["camera_id"] = job.camera_id;
   if (!job.folder.empty()) json["folder"] = job.folder;
-  json["started_at"] = job.started_ms ? nlohmann::json(iso_time(job.started_ms)) : nlohmann::json(nullptr);
-  json["finished_at"] = job.finished_ms ? nlohmann::json(iso_time(job.finished_ms)) : nlohmann::json(nullptr);
-  if (!job.error_code.empty()) json["error"] = {{"code", job.error_code}, {"message", job.error_message}};
+  json["started_at"] =
+      job.started_ms ? nlohmann::json(iso_time(job.started_ms)) : nlohmann::json(nullptr);
+  json["finished_at"] =
+      job.finished_ms ? nlohmann::json(iso_time(job.finished_ms)) : nlohmann::json(nullptr);
+  if (!job.error_code.empty())
+    json["error"] = {{"code", job.error_code}, {"message", job.error_message}};
   json["result"] = job.result;
   return json;
 }
 
 Result<std::unique_ptr<JobStore>> JobStore::open(const std::filesystem::path& path) {
-  sqlite3* db = nullptr;
-  const int rc = sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX,
-                                 nullptr);
-  if (rc != SQLITE_OK) {
-    std::string message = db ? sqlite3_errmsg(db) : sqlite3_errstr(rc);
-    sqlite3_close(db);
-    return make_error("io_error", "cannot open the database " + path.string() + ": " + message);
-  }
-  std::unique_ptr<JobStore> store(new JobStore(db));
-  sqlite3_busy_timeout(db, 5000);
+  sqlite::Connection db;
+  CAMLAB_ASSIGN(db, sqlite::Connection::open(path));
+  db.set_busy_timeout(5000);
   // WAL: readers never block the writer and a crash leaves the database consistent;
   // synchronous=NORMAL is durable across a process crash (kill -9), which is the case
   // that matters here.
   for (const char* pragma : {"PRAGMA journal_mode=WAL", "PRAGMA synchronous=NORMAL"})
-    if (auto s = store->exec(pragma); !s) return s.error();
-  sqlite3_stmt* version_stmt = nullptr;
+    if (auto s = db.execute_script(pragma); !s) return in_database(s.error(), pragma);
   int version = 0;
-  if (sqlite3_prepare_v2(db, "PRAGMA user_version", -1, &version_stmt, nullptr) == SQLITE_OK &&
-      sqlite3_step(version_stmt) == SQLITE_ROW)
-    version = sqlite3_column_int(version_stmt, 0);
-  sqlite3_finalize(version_stmt);
+  {
+    Statement read_version;
+    CAMLAB_ASSIGN(read_version, Statement::prepare(db, "PRAGMA user_version"));
+    sqlite::Step step;
+    CAMLAB_ASSIGN(step, read_version.step());
+    if (step == sqlite::Step::kRow) version = read_version.column_int(0);
+  }
   if (version > kSchemaVersion)
     return make_error("unsupported", "the database " + path.string() + " has schema version " +
                                          std::to_string(version) + ", newer than this camlabd's " +
                                          std::to_string(kSchemaVersion));
-  if (auto s = store->exec("BEGIN IMMEDIATE"); !s) return s.error();
-  if (auto s = store->exec(kSchema); !s) {
-    (void)store->exec("ROLLBACK");
-    return s.error();
+  // The schema and its version in one transaction; a failure before COMMIT rolls back
+  // (explicitly, or when the connection closes).
+  if (auto s = db.execute_script("BEGIN IMMEDIATE"); !s) return in_database(s.error(), "begin");
+  if (auto s = db.execute_script(kSchema); !s) {
+    (void)db.execute_script("ROLLBACK");
+    return in_database(s.error(), "create the schema");
   }
-  if (auto s = store->exec(("PRAGMA user_version=" + std::to_string(kSchemaVersion)).c_str()); !s) return s.error();
-  if (auto s = store->exec("COMMIT"); !s) return s.error();
-  return store;
+  if (auto s = db.execute_script("PRAGMA user_version=" + std::to_string(kSchemaVersion)); !s)
+    return in_database(s.error(), "set the schema version");
+  if (auto s = db.execute_script("COMMIT"); !s) return in_database(s.error(), "commit");
+  return std::unique_ptr<JobStore>(new JobStore(std::move(db)));
 }
 
-JobStore::~JobStore() {
-  for (auto& [sql, stmt] : statements_) sqlite3_finalize(stmt);
-  sqlite3_close(db_);
-}
+JobStore::JobStore(sqlite::Connection db) : db_(std::move(db)) {}
 
-Error JobStore::db_error(const std::string& what) const {
-  return make_error("io_error", "database: " + what + ": " + sqlite3_errmsg(db_));
-}
+JobStore::~JobStore() = default;  // statements_ go first, then the connection
 
-Status JobStore::exec(const char* sql) {
-  char* message = nullptr;
-  if (sqlite3_exec(db_, sql, nullptr, nullptr, &message) != SQLITE_OK) {
-    Error e = make_error("io_error", std::string("database: ") + (message ? message : "error"));
-    sqlite3_free(message);
-    return e;
+Result<Statement*> JobStore::statement(std::string_view sql) {
+  auto it = statements_.find(sql);
+  if (it == statements_.end()) {
+    Statement prepared;
+    CAMLAB_ASSIGN(prepared, Statement::prepare(db_, sql, Statement::Lifetime::kPersistent));
+    it = statements_.emplace(std::string(sql), std::move(prepared)).first;
   }
+  return &it->second;
+}
+
+template <class... Args>
+Result<int> JobStore::execute(const char* what, const char* sql, const Args&... args) {
+  Result<Statement*> stmt = statement(sql);
+  if (!stmt) return in_database(stmt.error(), what);
+  Result<int> changed = (*stmt)->execute(args...);
+  if (!changed) return in_database(changed.error(), what);
+  return changed;
+}
+
+template <class OnRow, class... Args>
+Status JobStore::query(const char* what, const char* sql, OnRow&& on_row, const Args&... args) {
+  Result<Statement*> stmt = statement(sql);
+  if (!stmt) return in_database(stmt.error(), what);
+  if (Status read = (*stmt)->query(std::forward<OnRow>(on_row), args...); !read)
+    return in_database(read.error(), what);
   return {};
 }
 
-Result<sqlite3_stmt*> JobStore::statement(const char* sql) {
-  auto it = statements_.find(sql);
-  if (it != statements_.end()) {
-    sqlite3_reset(it->second);
-    sqlite3_clear_bindings(it->second);
-    return it->second;
-  }
-  sqlite3_stmt* stmt = nullptr;
-  if (sqlite3_prepare_v3(db_, sql, -1, SQLITE_PREPARE_PERSISTENT, &stmt, nullptr) != SQLITE_OK)
-    return db_error("prepare");
-  statements_[sql] = stmt;
-  return stmt;
-}
-
-Result<std::vector<JobRecord>> JobStore::query_jobs(sqlite3_stmt* stmt) {
+template <class... Args>
+Result<std::vector<JobRecord>> JobStore::query_jobs(const char* sql, const Args&... args) {
   std::vector<JobRecord> jobs;
-  int rc;
-  while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) {
-    JobRecord j;
-    j.id = sqlite3_column_int64(stmt, 0);
-    j.kind = column_text(stmt, 1);
-    j.camera_id = column_text(stmt, 2);
-    j.state = parse_job_state(column_text(stmt, 3)).value_or(JobState::kFailed);
-    j.request = parse_or_null(column_text(stmt, 4));
-    j.folder = column_text(stmt, 5);
-    j.created_ms = sqlite3_column_int64(stmt, 6);
-    j.started_ms = sqlite3_column_int64(stmt, 7);
-    j.finished_ms = sqlite3_column_int64(stmt, 8);
-    j.frames_done = sqlite3_column_int(stmt, 9);
-    j.frames_total = sqlite3_column_int(stmt, 10);
-    j.frames_discarded = sqlite3_column_int(stmt, 11);
-    j.error_code = column_text(stmt, 12);
-    j.error_message = column_text(stmt, 13);
-    j.result = parse_or_null(column_text(stmt, 14));
-    jobs.push_back(std::move(j));
-  }
-  if (rc != SQLITE_DONE) return db_error("read jobs");
+  if (Status read = query(
+          "read jobs", sql, [&](const Statement& row) { jobs.push_back(job_from_row(row)); },
+          args...);
+      !read)
+    return read.error();
   return jobs;
 }
 
@@ -222,35 +232,26 @@ Result<JobRecord> JobStore::create(const std::string& kind, const std::string& c
                                    int frames_total) {
   std::lock_guard lock(mutex_);
   static const char* kInsert =
-      "INSERT INTO jobs (kind, camera_id, state, request, created_ms, frames_total) VALUES (?, ?, 'queued', ?, ?, ?)";
+      "INSERT INTO jobs (kind, camera_id, state, request, created_ms, frames_total) "
+      "VALUES (?, ?, 'queued', ?, ?, ?)";
   static const char* kSetFolder = "UPDATE jobs SET folder = ? WHERE id = ?";
-  sqlite3_stmt* insert;
-  CAMLAB_ASSIGN(insert, statement(kInsert));
-  ResetOnExit reset_insert{insert};
-  const std::string request_text = dump(request);
   JobRecord job;
   job.kind = kind;
   job.camera_id = camera_id;
   job.request = request;
   job.created_ms = unix_time_ms();
   job.frames_total = frames_total;
-  sqlite3_bind_text(insert, 1, kind.c_str(), -1, SQLITE_TRANSIENT);
-  sqlite3_bind_text(insert, 2, camera_id.c_str(), -1, SQLITE_TRANSIENT);
-  sqlite3_bind_text(insert, 3, request_text.c_str(), -1, SQLITE_TRANSIENT);
-  sqlite3_bind_int64(insert, 4, job.created_ms);
-  sqlite3_bind_int(insert, 5, frames_total);
-  if (sqlite3_step(insert) != SQLITE_DONE) return db_error("insert job");
-  job.id = sqlite3_last_insert_rowid(db_);
+  if (auto inserted = execute("insert job", kInsert, kind, camera_id, dump(request), job.created_ms,
+                              frames_total);
+      !inserted)
+    return inserted.error();
+  job.id = db_.last_insert_rowid();
   if (!folder_prefix.empty()) {
     char number[32];
     std::snprintf(number, sizeof number, "%06lld", static_cast<long long>(job.id));
     job.folder = folder_prefix + number;
-    sqlite3_stmt* update;
-    CAMLAB_ASSIGN(update, statement(kSetFolder));
-    ResetOnExit reset_update{update};
-    sqlite3_bind_text(update, 1, job.folder.c_str(), -1, SQLITE_TRANSIENT);
-    sqlite3_bind_int64(update, 2, job.id);
-    if (sqlite3_step(update) != SQLITE_DONE) return db_error("set job folder");
+    if (auto updated = execute("set job folder", kSetFolder, job.folder, job.id); !updated)
+      return updated.error();
   }
   return job;
 }
@@ -258,160 +259,129 @@ Result<JobRecord> JobStore::create(const std::string& kind, const std::string& c
 Result<std::optional<JobRecord>> JobStore::get(int64_t id) {
   std::lock_guard lock(mutex_);
   static const std::string sql = std::string("SELECT ") + kJobColumns + " FROM jobs WHERE id = ?";
-  sqlite3_stmt* stmt;
-  CAMLAB_ASSIGN(stmt, statement(sql.c_str()));
-  ResetOnExit reset_stmt{stmt};
-  sqlite3_bind_int64(stmt, 1, id);
   std::vector<JobRecord> jobs;
-  CAMLAB_ASSIGN(jobs, query_jobs(stmt));
+  CAMLAB_ASSIGN(jobs, query_jobs(sql.c_str(), id));
   if (jobs.empty()) return std::optional<JobRecord>();
   return std::optional<JobRecord>(std::move(jobs.front()));
 }
 
-Result<std::vector<JobRecord>> JobStore::list(std::optional<JobState> state, int limit, int offset) {
+Result<std::vector<JobRecord>> JobStore::list(std::optional<JobState> state, int limit,
+                                              int offset) {
   std::lock_guard lock(mutex_);
   static const std::string all =
       std::string("SELECT ") + kJobColumns + " FROM jobs ORDER BY id DESC LIMIT ? OFFSET ?";
   static const std::string by_state =
-      std::string("SELECT ") + kJobColumns + " FROM jobs WHERE state = ? ORDER BY id DESC LIMIT ? OFFSET ?";
-  sqlite3_stmt* stmt;
-  CAMLAB_ASSIGN(stmt, statement(state ? by_state.c_str() : all.c_str()));
-  ResetOnExit reset_stmt{stmt};
-  int index = 1;
-  if (state) sqlite3_bind_text(stmt, index++, job_state_name(*state), -1, SQLITE_STATIC);
-  sqlite3_bind_int(stmt, index++, limit);
-  sqlite3_bind_int(stmt, index++, offset);
-  return query_jobs(stmt);
+      std::string("SELECT ") + kJobColumns +
+      " FROM jobs WHERE state = ? ORDER BY id DESC LIMIT ? OFFSET ?";
+  if (state) return query_jobs(by_state.c_str(), job_state_name(*state), limit, offset);
+  return query_jobs(all.c_str(), limit, offset);
 }
 
 Result<std::map<std::string, int64_t>> JobStore::count_by_state() {
   std::lock_guard lock(mutex_);
-  static const char* sql = "SELECT state, COUNT(*) FROM jobs GROUP BY state";
-  sqlite3_stmt* stmt;
-  CAMLAB_ASSIGN(stmt, statement(sql));
-  ResetOnExit reset_stmt{stmt};
   std::map<std::string, int64_t> counts;
-  int rc;
-  while ((rc = sqlite3_step(stmt)) == SQLITE_ROW) counts[column_text(stmt, 0)] = sqlite3_column_int64(stmt, 1);
-  if (rc != SQLITE_DONE) return db_error("count jobs");
+  if (Status read =
+          query("count jobs", "SELECT state, COUNT(*) FROM jobs GROUP BY state",
+                [&](const Statement& row) { counts[row.column_text(0)] = row.column_int64(1); });
+      !read)
+    return read.error();
   return counts;
 }
 
 Result<bool> JobStore::start(int64_t id) {
   std::lock_guard lock(mutex_);
-  static const char* sql = "UPDATE jobs SET state = 'running', started_ms = ? WHERE id = ? AND state = 'queued'";
-  sqlite3_stmt* stmt;
-  CAMLAB_ASSIGN(stmt, statement(sql));
-  ResetOnExit reset_stmt{stmt};
-  sqlite3_bind_int64(stmt, 1, unix_time_ms());
-  sqlite3_bind_int64(stmt, 2, id);
-  if (sqlite3_step(stmt) != SQLITE_DONE) return db_error("start job");
-  return sqlite3_changes(db_) == 1;
+  int changed;
+  CAMLAB_ASSIGN(changed, execute("start job",
+                                 "UPDATE jobs SET state = 'running', started_ms = ? "
+                                 "WHERE id = ? AND state = 'queued'",
+                                 unix_time_ms(), id));
+  return changed == 1;
 }
 
 Status JobStore::progress(int64_t id, int frames_done, int frames_total, int frames_discarded) {
   std::lock_guard lock(mutex_);
-  static const char* sql =
-      "UPDATE jobs SET frames_done = ?, frames_total = ?, frames_discarded = ? WHERE id = ? AND state = 'running'";
-  sqlite3_stmt* stmt;
-  CAMLAB_ASSIGN(stmt, statement(sql));
-  ResetOnExit reset_stmt{stmt};
-  sqlite3_bind_int(stmt, 1, frames_done);
-  sqlite3_bind_int(stmt, 2, frames_total);
-  sqlite3_bind_int(stmt, 3, frames_discarded);
-  sqlite3_bind_int64(stmt, 4, id);
-  if (sqlite3_step(stmt) != SQLITE_DONE) return db_error("update progress");
+  if (auto updated = execute("update progress",
+                             "UPDATE jobs SET frames_done = ?, frames_total = ?, "
+                             "frames_discarded = ? WHERE id = ? AND state = 'running'",
+                             frames_done, frames_total, frames_discarded, id);
+      !updated)
+    return updated.error();
   return {};
 }
 
 Result<bool> JobStore::finish(int64_t id, JobState state, const std::optional<Error>& error,
                               const nlohmann::json& result) {
   std::lock_guard lock(mutex_);
-  static const char* sql =
-      "UPDATE jobs SET state = ?, finished_ms = ?, error_code = ?, error_message = ?, result = ? "
-      "WHERE id = ? AND state IN ('queued', 'running')";
-  sqlite3_stmt* stmt;
-  CAMLAB_ASSIGN(stmt, statement(sql));
-  ResetOnExit reset_stmt{stmt};
-  const std::string result_text = result.is_null() ? "" : dump(result);
-  sqlite3_bind_text(stmt, 1, job_state_name(state), -1, SQLITE_STATIC);
-  sqlite3_bind_int64(stmt, 2, unix_time_ms());
-  sqlite3_bind_text(stmt, 3, error ? std::string(name_of(error->code)).c_str() : "", -1, SQLITE_TRANSIENT);
-  sqlite3_bind_text(stmt, 4, error ? error->message.c_str() : "", -1, SQLITE_TRANSIENT);
-  if (result_text.empty())
-    sqlite3_bind_null(stmt, 5);
-  else
-    sqlite3_bind_text(stmt, 5, result_text.c_str(), -1, SQLITE_TRANSIENT);
-  sqlite3_bind_int64(stmt, 6, id);
-  if (sqlite3_step(stmt) != SQLITE_DONE) return db_error("finish job");
-  return sqlite3_changes(db_) == 1;
+  const std::string error_code = error ? std::string(name_of(error->code)) : "";
+  const std::string error_message = error ? error->message : "";
+  // A job without a result stores NULL, which reads back as null.
+  const std::optional<std::string> result_text =
+      result.is_null() ? std::nullopt : std::optional<std::string>(dump(result));
+  int changed;
+  CAMLAB_ASSIGN(changed, execute("finish job",
+                                 "UPDATE jobs SET state = ?, finished_ms = ?, error_code = ?, "
+                                 "error_message = ?, result = ? "
+                                 "WHERE id = ? AND state IN ('queued', 'running')",
+                                 job_state_name(state), unix_time_ms(), error_code, error_message,
+                                 result_text, id));
+  return changed == 1;
 }
 
 Result<bool> JobStore::cancel_queued(int64_t id) {
   std::lock_guard lock(mutex_);
-  static const char* sql =
-      "UPDATE jobs SET state = 'cancelled', finished_ms = ?, error_code = 'cancelled', "
-      "error_message = 'cancelled before it started' WHERE id = ? AND state = 'queued'";
-  sqlite3_stmt* stmt;
-  CAMLAB_ASSIGN(stmt, statement(sql));
-  ResetOnExit reset_stmt{stmt};
-  sqlite3_bind_int64(stmt, 1, unix_time_ms());
-  sqlite3_bind_int64(stmt, 2, id);
-  if (sqlite3_step(stmt) != SQLITE_DONE) return db_error("cancel job");
-  return sqlite3_changes(db_) == 1;
+  int changed;
+  CAMLAB_ASSIGN(changed, execute("cancel job",
+                                 "UPDATE jobs SET state = 'cancelled', finished_ms = ?, "
+                                 "error_code = 'cancelled', error_message = "
+                                 "'cancelled before it started' WHERE id = ? AND state = 'queued'",
+                                 unix_time_ms(), id));
+  return changed == 1;
 }
 
 Result<int> JobStore::interrupt_unfinished(const std::string& message) {
   std::lock_guard lock(mutex_);
-  static const char* sql =
-      "UPDATE jobs SET state = 'interrupted', finished_ms = ?, error_code = 'interrupted', error_message = ? "
-      "WHERE state IN ('queued', 'running')";
-  sqlite3_stmt* stmt;
-  CAMLAB_ASSIGN(stmt, statement(sql));
-  ResetOnExit reset_stmt{stmt};
-  sqlite3_bind_int64(stmt, 1, unix_time_ms());
-  sqlite3_bind_text(stmt, 2, message.c_str(), -1, SQLITE_TRANSIENT);
-  if (sqlite3_step(stmt) != SQLITE_DONE) return db_error("interrupt jobs");
-  return sqlite3_changes(db_);
+  return execute("interrupt jobs",
+                 "UPDATE jobs SET state = 'interrupted', finished_ms = ?, "
+                 "error_code = 'interrupted', error_message = ? "
+                 "WHERE state IN ('queued', 'running')",
+                 unix_time_ms(), message);
 }
 
 Status JobStore::put_latency(const LatencyRecord& record) {
   std::lock_guard lock(mutex_);
-  static const char* sql =
-      "INSERT INTO devices (camera_id, latency_frames, latency_source, measured_ms, details) VALUES (?, ?, ?, ?, ?) "
-      "ON CONFLICT (camera_id) DO UPDATE SET latency_frames = excluded.latency_frames, "
-      "latency_source = excluded.latency_source, measured_ms = excluded.measured_ms, details = excluded.details";
-  sqlite3_stmt* stmt;
-  CAMLAB_ASSIGN(stmt, statement(sql));
-  ResetOnExit reset_stmt{stmt};
-  const std::string details = dump(record.details);
-  sqlite3_bind_text(stmt, 1, record.camera_id.c_str(), -1, SQLITE_TRANSIENT);
-  sqlite3_bind_int(stmt, 2, record.latency_frames);
-  sqlite3_bind_text(stmt, 3, record.source.c_str(), -1, SQLITE_TRANSIENT);
-  sqlite3_bind_int64(stmt, 4, record.measured_ms);
-  sqlite3_bind_text(stmt, 5, details.c_str(), -1, SQLITE_TRANSIENT);
-  if (sqlite3_step(stmt) != SQLITE_DONE) return db_error("store latency");
+  if (auto stored = execute(
+          "store latency",
+          "INSERT INTO devices (camera_id, latency_frames, latency_source, measured_ms, details) "
+          "VALUES (?, ?, ?, ?, ?) "
+          "ON CONFLICT (camera_id) DO UPDATE SET latency_frames = excluded.latency_frames, "
+          "latency_source = excluded.latency_source, measured_ms = excluded.measured_ms, "
+          "details = excluded.details",
+          record.camera_id, record.latency_frames, record.source, record.measured_ms,
+          dump(record.details));
+      !stored)
+    return stored.error();
   return {};
 }
 
 Result<std::optional<LatencyRecord>> JobStore::latency(const std::string& camera_id) {
   std::lock_guard lock(mutex_);
-  static const char* sql =
-      "SELECT latency_frames, latency_source, measured_ms, details FROM devices WHERE camera_id = ?";
-  sqlite3_stmt* stmt;
-  CAMLAB_ASSIGN(stmt, statement(sql));
-  ResetOnExit reset_stmt{stmt};
-  sqlite3_bind_text(stmt, 1, camera_id.c_str(), -1, SQLITE_TRANSIENT);
-  const int rc = sqlite3_step(stmt);
-  if (rc == SQLITE_DONE) return std::optional<LatencyRecord>();
-  if (rc != SQLITE_ROW) return db_error("read latency");
-  LatencyRecord r;
-  r.camera_id = camera_id;
-  r.latency_frames = sqlite3_column_int(stmt, 0);
-  r.source = column_text(stmt, 1);
-  r.measured_ms = sqlite3_column_int64(stmt, 2);
-  r.details = parse_or_null(column_text(stmt, 3));
-  return std::optional<LatencyRecord>(std::move(r));
+  std::optional<LatencyRecord> found;
+  if (Status read = query(
+          "read latency",
+          "SELECT latency_frames, latency_source, measured_ms, details FROM devices "
+          "WHERE camera_id = ?",
+          [&](const Statement& row) {
+            LatencyRecord& r = found.emplace();
+            r.camera_id = camera_id;
+            r.latency_frames = row.column_int(0);
+            r.source = row.column_text(1);
+            r.measured_ms = row.column_int64(2);
+            r.details = parse_or_null(row.column_text(3));
+          },
+          camera_id);
+      !read)
+    return read.error();
+  return found;
 }
 
 }  // namespace camlab::service

@@ -1,6 +1,6 @@
 // The job store: every job (capture, latency probe, calibration, analysis) and every
-// device's measured control latency, in SQLite (sqlite3 C API, WAL mode, prepared
-// statements, schema version in PRAGMA user_version).
+// device's measured control latency, in SQLite (WAL mode, cached prepared statements
+// through sqlite_statement.h, schema version in PRAGMA user_version).
 //
 // States: queued -> running -> succeeded | failed | cancelled | interrupted; a queued job
 // may also go straight to cancelled or interrupted. Transitions are conditional UPDATEs
@@ -9,23 +9,25 @@
 // their folders stay as written (each frame file was renamed into place atomically).
 //
 // Thread-safe: one connection behind a mutex; every statement is short (no capture work
-// is done under it), so status requests never wait on a capture.
+// is done under it, and each is reset after use so no read stays open), so status
+// requests never wait on a capture.
 #pragma once
-
-#include <sqlite3.h>
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "base/result.h"
+#include "service/store/sqlite_statement.h"
 
 namespace camlab::service {
 
@@ -42,7 +44,7 @@ struct JobRecord {
   std::string camera_id;  // capture and probe jobs; empty otherwise
   JobState state = JobState::kQueued;
   nlohmann::json request = nlohmann::json::object();
-  std::string folder;     // relative to the data folder; empty when the job writes none
+  std::string folder;  // relative to the data folder; empty when the job writes none
   int64_t created_ms = 0, started_ms = 0, finished_ms = 0;  // Unix time, 0 = not yet
   int frames_done = 0, frames_total = 0, frames_discarded = 0;
   std::string error_code, error_message;
@@ -70,8 +72,9 @@ class JobStore {
 
   // Inserts a queued job; `folder_prefix` (e.g. "captures/job-") + the zero-padded id
   // becomes its folder when non-empty. Returns the stored record.
-  Result<JobRecord> create(const std::string& kind, const std::string& camera_id, const nlohmann::json& request,
-                           const std::string& folder_prefix, int frames_total);
+  Result<JobRecord> create(const std::string& kind, const std::string& camera_id,
+                           const nlohmann::json& request, const std::string& folder_prefix,
+                           int frames_total);
 
   Result<std::optional<JobRecord>> get(int64_t id);
   // Newest first; `state` filters when set; at most `limit` from `offset`.
@@ -82,7 +85,8 @@ class JobStore {
   Result<bool> start(int64_t id);
   Status progress(int64_t id, int frames_done, int frames_total, int frames_discarded);
   // queued|running -> a final state; false when it had already finished.
-  Result<bool> finish(int64_t id, JobState state, const std::optional<Error>& error, const nlohmann::json& result);
+  Result<bool> finish(int64_t id, JobState state, const std::optional<Error>& error,
+                      const nlohmann::json& result);
   // queued -> cancelled; false when the job is not queued.
   Result<bool> cancel_queued(int64_t id);
   // Every queued or running job -> interrupted with `message`; returns how many.
@@ -92,16 +96,24 @@ class JobStore {
   Result<std::optional<LatencyRecord>> latency(const std::string& camera_id);
 
  private:
-  explicit JobStore(sqlite3* db) : db_(db) {}
-  // A cached prepared statement, reset and with its bindings cleared.
-  Result<sqlite3_stmt*> statement(const char* sql);
-  Error db_error(const std::string& what) const;
-  Status exec(const char* sql);
-  Result<std::vector<JobRecord>> query_jobs(sqlite3_stmt* stmt);
+  explicit JobStore(sqlite::Connection db);
+  // The statement for `sql`, prepared on first use and kept (keyed by its text).
+  Result<sqlite::Statement*> statement(std::string_view sql);
+  // The cached statement `sql` with `args` bound, run to its end (execute: returns the rows
+  // changed) or read row by row (query, query_jobs). `what` names the step in errors
+  // ("database: start job: ..."). Callers hold mutex_. Defined in job_store.cpp, the only
+  // user.
+  template <class... Args>
+  Result<int> execute(const char* what, const char* sql, const Args&... args);
+  template <class OnRow, class... Args>
+  Status query(const char* what, const char* sql, OnRow&& on_row, const Args&... args);
+  template <class... Args>
+  Result<std::vector<JobRecord>> query_jobs(const char* sql, const Args&... args);
 
-  sqlite3* db_;
+  sqlite::Connection db_;
   std::mutex mutex_;
-  std::map<const char*, sqlite3_stmt*> statements_;  // keyed by the SQL literal's address
+  // Declared after db_, so finalized before the connection closes.
+  std::map<std::string, sqlite::Statement, std::less<>> statements_;
 };
 
 int64_t unix_time_ms();

@@ -1,0 +1,262 @@
+// The job store (service/store/job_store.h) on a database in a temporary folder: what is
+// written reads back the same, across a reopen too, and the state transitions only go the
+// documented ways.
+#include "service/store/job_store.h"
+
+#include <gtest/gtest.h>
+#include <stdlib.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "service/store/sqlite_statement.h"
+
+namespace camlab::service {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A fresh folder per test, removed afterwards.
+class TempFolder {
+ public:
+  TempFolder() {
+    std::string pattern = (fs::temp_directory_path() / "camlab_job_store_XXXXXX").string();
+    if (::mkdtemp(pattern.data())) path_ = pattern;
+  }
+  ~TempFolder() {
+    std::error_code ignored;
+    if (!path_.empty()) fs::remove_all(path_, ignored);
+  }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+class JobStoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_FALSE(folder_.path().empty());
+    reopen();
+  }
+  void reopen() {
+    store_.reset();
+    auto opened = JobStore::open(database());
+    ASSERT_TRUE(opened.ok()) << opened.error().message;
+    store_ = std::move(*opened);
+  }
+  fs::path database() const { return folder_.path() / "camlabd.sqlite"; }
+
+  TempFolder folder_;
+  std::unique_ptr<JobStore> store_;
+};
+
+TEST_F(JobStoreTest, AJobReadsBackAsWritten) {
+  const nlohmann::json request = {{"kind", "single"},
+                                  {"note", "it's \"quoted\"; DROP TABLE jobs; --"},
+                                  {"unicode", "\xc3\xa9t\xc3\xa9"},
+                                  {"frames", 3},
+                                  {"gain", 1.25}};
+  const int64_t before_ms = unix_time_ms();
+  auto created = store_->create("capture", "vcam0", request, "captures/job-", 3);
+  ASSERT_TRUE(created.ok()) << created.error().message;
+  const JobRecord& job = *created;
+  EXPECT_GT(job.id, 0);
+  EXPECT_EQ(job.folder, "captures/job-" + std::string(6 - std::to_string(job.id).size(), '0') +
+                            std::to_string(job.id));
+  EXPECT_GE(job.created_ms, before_ms);
+  EXPECT_LE(job.created_ms, unix_time_ms());
+
+  auto read = store_->get(job.id);
+  ASSERT_TRUE(read.ok()) << read.error().message;
+  ASSERT_TRUE(read->has_value());
+  const JobRecord& stored = **read;
+  EXPECT_EQ(stored.id, job.id);
+  EXPECT_EQ(stored.kind, "capture");
+  EXPECT_EQ(stored.camera_id, "vcam0");
+  EXPECT_EQ(stored.state, JobState::kQueued);
+  EXPECT_EQ(stored.request, request);
+  EXPECT_EQ(stored.folder, job.folder);
+  EXPECT_EQ(stored.created_ms, job.created_ms);
+  EXPECT_EQ(stored.started_ms, 0);
+  EXPECT_EQ(stored.finished_ms, 0);
+  EXPECT_EQ(stored.frames_total, 3);
+  EXPECT_EQ(stored.frames_done, 0);
+  EXPECT_TRUE(stored.error_code.empty());
+  EXPECT_TRUE(stored.result.is_null());
+  EXPECT_EQ(to_json(stored), to_json(job));
+
+  // The same after the daemon restarts.
+  reopen();
+  auto again = store_->get(job.id);
+  ASSERT_TRUE(again.ok() && again->has_value());
+  EXPECT_EQ(to_json(**again), to_json(stored));
+}
+
+TEST_F(JobStoreTest, AJobWithoutAFolderPrefixHasNoFolder) {
+  auto created = store_->create("analysis", "", nlohmann::json::object(), "", 0);
+  ASSERT_TRUE(created.ok());
+  EXPECT_TRUE(created->folder.empty());
+  auto read = store_->get(created->id);
+  ASSERT_TRUE(read.ok() && read->has_value());
+  EXPECT_TRUE((*read)->folder.empty());
+  EXPECT_TRUE((*read)->camera_id.empty());
+}
+
+TEST_F(JobStoreTest, AMissingJobIsNoJob) {
+  auto read = store_->get(12345);
+  ASSERT_TRUE(read.ok());
+  EXPECT_FALSE(read->has_value());
+}
+
+TEST_F(JobStoreTest, TransitionsGoOnlyTheDocumentedWays) {
+  const int64_t id = store_->create("capture", "vcam0", {{"n", 1}}, "captures/job-", 4)->id;
+  EXPECT_TRUE(store_->progress(id, 1, 4, 0).ok());  // not running yet: ignored
+  EXPECT_EQ((*store_->get(id))->frames_done, 0);
+
+  EXPECT_TRUE(*store_->start(id));
+  EXPECT_FALSE(*store_->start(id));  // already running
+  EXPECT_FALSE(*store_->cancel_queued(id));
+  ASSERT_TRUE(store_->progress(id, 3, 4, 1).ok());
+  JobRecord running = **store_->get(id);
+  EXPECT_EQ(running.state, JobState::kRunning);
+  EXPECT_GT(running.started_ms, 0);
+  EXPECT_EQ(running.frames_done, 3);
+  EXPECT_EQ(running.frames_discarded, 1);
+
+  const nlohmann::json result = {{"frames", 3}, {"mean", 0.5}};
+  EXPECT_TRUE(
+      *store_->finish(id, JobState::kFailed, make_error("timeout", "no frame in 2 s"), result));
+  // A finished job is never overwritten.
+  EXPECT_FALSE(*store_->finish(id, JobState::kSucceeded, std::nullopt, nullptr));
+  const JobRecord finished = **store_->get(id);
+  EXPECT_EQ(finished.state, JobState::kFailed);
+  EXPECT_EQ(finished.error_code, "timeout");
+  EXPECT_EQ(finished.error_message, "no frame in 2 s");
+  EXPECT_EQ(finished.result, result);
+  EXPECT_GE(finished.finished_ms, finished.started_ms);
+
+  const int64_t queued = store_->create("capture", "vcam0", {{"n", 2}}, "", 1)->id;
+  EXPECT_TRUE(*store_->cancel_queued(queued));
+  EXPECT_FALSE(*store_->start(queued));
+  const JobRecord cancelled = **store_->get(queued);
+  EXPECT_EQ(cancelled.state, JobState::kCancelled);
+  EXPECT_EQ(cancelled.error_code, "cancelled");
+  EXPECT_TRUE(cancelled.result.is_null());
+}
+
+TEST_F(JobStoreTest, ListsCountsAndInterrupts) {
+  std::vector<int64_t> ids;
+  for (int i = 0; i < 5; ++i)
+    ids.push_back(store_->create("capture", "vcam0", {{"i", i}}, "", 1)->id);
+  ASSERT_TRUE(*store_->start(ids[1]));
+  ASSERT_TRUE(*store_->finish(ids[2], JobState::kSucceeded, std::nullopt, {{"ok", true}}));
+
+  auto all = store_->list(std::nullopt, 10, 0);
+  ASSERT_TRUE(all.ok());
+  ASSERT_EQ(all->size(), 5u);
+  for (size_t i = 0; i < 5; ++i) EXPECT_EQ((*all)[i].id, ids[4 - i]);  // newest first
+  auto page = store_->list(std::nullopt, 2, 1);
+  ASSERT_TRUE(page.ok());
+  ASSERT_EQ(page->size(), 2u);
+  EXPECT_EQ((*page)[0].id, ids[3]);
+  EXPECT_EQ((*page)[1].id, ids[2]);
+  auto queued = store_->list(JobState::kQueued, 10, 0);
+  ASSERT_TRUE(queued.ok());
+  EXPECT_EQ(queued->size(), 3u);
+  for (const JobRecord& job : *queued) EXPECT_EQ(job.state, JobState::kQueued);
+
+  auto counts = store_->count_by_state();
+  ASSERT_TRUE(counts.ok());
+  EXPECT_EQ(*counts,
+            (std::map<std::string, int64_t>{{"queued", 3}, {"running", 1}, {"succeeded", 1}}));
+
+  // A restart after a crash: every unfinished job becomes interrupted, once.
+  reopen();
+  auto interrupted = store_->interrupt_unfinished("camlabd stopped");
+  ASSERT_TRUE(interrupted.ok());
+  EXPECT_EQ(*interrupted, 4);
+  EXPECT_EQ(*store_->interrupt_unfinished("again"), 0);
+  const JobRecord was_running = **store_->get(ids[1]);
+  EXPECT_EQ(was_running.state, JobState::kInterrupted);
+  EXPECT_EQ(was_running.error_message, "camlabd stopped");
+  EXPECT_EQ((**store_->get(ids[2])).state, JobState::kSucceeded);
+}
+
+TEST_F(JobStoreTest, LatencyReadsBackAndIsReplaced) {
+  auto none = store_->latency("vcam0");
+  ASSERT_TRUE(none.ok());
+  EXPECT_FALSE(none->has_value());
+
+  LatencyRecord probe{"vcam0", 2, "probe", 1700000000123, {{"trace", {1, 2, 3}}}};
+  ASSERT_TRUE(store_->put_latency(probe).ok());
+  auto read = store_->latency("vcam0");
+  ASSERT_TRUE(read.ok() && read->has_value());
+  EXPECT_EQ((*read)->camera_id, "vcam0");
+  EXPECT_EQ((*read)->latency_frames, 2);
+  EXPECT_EQ((*read)->source, "probe");
+  EXPECT_EQ((*read)->measured_ms, 1700000000123);
+  EXPECT_EQ((*read)->details, probe.details);
+
+  LatencyRecord spec{"vcam0", 1, "spec", 1700000000999, nlohmann::json::object()};
+  ASSERT_TRUE(store_->put_latency(spec).ok());
+  reopen();
+  read = store_->latency("vcam0");
+  ASSERT_TRUE(read.ok() && read->has_value());
+  EXPECT_EQ((*read)->latency_frames, 1);
+  EXPECT_EQ((*read)->source, "spec");
+  EXPECT_EQ((*read)->details, nlohmann::json::object());
+  EXPECT_FALSE(store_->latency("vcam1")->has_value());
+}
+
+TEST_F(JobStoreTest, TheDatabaseIsInWalModeWithTheSchemaVersion) {
+  auto db = sqlite::Connection::open(database());
+  ASSERT_TRUE(db.ok());
+  for (const auto& [sql, expected] :
+       {std::pair<const char*, std::string>{"PRAGMA journal_mode", "wal"},
+        {"PRAGMA user_version", std::to_string(kSchemaVersion)}}) {
+    auto read = sqlite::Statement::prepare(*db, sql);
+    ASSERT_TRUE(read.ok());
+    std::string value;
+    ASSERT_TRUE(read->query([&](const sqlite::Statement& row) { value = row.column_text(0); }));
+    EXPECT_EQ(value, expected) << sql;
+  }
+}
+
+TEST_F(JobStoreTest, ANewerSchemaIsRefused) {
+  store_.reset();
+  {
+    auto db = sqlite::Connection::open(database());
+    ASSERT_TRUE(db.ok());
+    ASSERT_TRUE(db->execute_script("PRAGMA user_version=" + std::to_string(kSchemaVersion + 1)));
+  }
+  auto opened = JobStore::open(database());
+  ASSERT_FALSE(opened.ok());
+  EXPECT_EQ(opened.error().code, ErrorCode::kUnsupported);
+}
+
+TEST_F(JobStoreTest, AFileThatIsNoDatabaseIsAnErrorValue) {
+  const fs::path junk = folder_.path() / "junk.sqlite";
+  {
+    std::FILE* file = std::fopen(junk.c_str(), "wb");
+    ASSERT_NE(file, nullptr);
+    const std::string text(4096, 'j');
+    std::fwrite(text.data(), 1, text.size(), file);
+    std::fclose(file);
+  }
+  auto opened = JobStore::open(junk);
+  ASSERT_FALSE(opened.ok());
+  EXPECT_EQ(opened.error().code, ErrorCode::kIoError);
+  EXPECT_NE(opened.error().message.find("not a database"), std::string::npos)
+      << opened.error().message;
+}
+
+}  // namespace
+}  // namespace camlab::service
