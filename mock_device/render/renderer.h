@@ -1,7 +1,7 @@
 // The virtual camera's physically based renderer.
 //
 // For every pixel it integrates the scene's radiance over the pixel's area and over the
-// lens aperture, as the lecture's thin-lens recipe does: a sample point x' on the sensor
+// lens aperture, as the thin-lens recipe of docs/physics.md does: a sample point x' on the sensor
 // defines the chief ray (through the lens centre, bent by the exact mrcal lens model),
 // which meets the plane of focus at x'''; a sample point x'' on the aperture disk
 // (diameter A = f / N) sends the ray x'' -> x''' into the scene. Stratified samples

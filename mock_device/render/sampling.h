@@ -41,7 +41,7 @@ inline uint64_t mix_seed(uint64_t a, uint64_t b) {
 
 // Shirley and Chiu's concentric map from the square [0,1)^2 to the unit disk. It keeps
 // strata compact and adjacent, which is why stratified lens samples converge as about
-// n^-3/4 (PHYSICS.md) instead of n^-1/2.
+// n^-3/4 (docs/physics.md) instead of n^-1/2.
 inline void concentric_disk(double u, double v, double* x, double* y) {
   const double a = 2 * u - 1, b = 2 * v - 1;
   if (a == 0 && b == 0) {

@@ -1,4 +1,4 @@
-// Bounds on everything an HTTP client sends (ARCHITECTURE.md: everything from outside is
+// Bounds on everything an HTTP client sends (docs/architecture.md: everything from outside is
 // bounded). Plain values.
 #pragma once
 

@@ -1,5 +1,5 @@
 // The thin lens's two laws of blur, fitted to measured disk diameters
-// (shared/PHYSICS.md, "Circle of confusion"):
+// (docs/physics.md, "Circle of confusion"):
 //  - against the aperture: C = A |z_s - z_i| / z_i with A = f / N, so C = k / N and
 //    C x N = k is constant across an aperture series;
 //  - against the focus: C is proportional to |z_s - z_i|, and z_s is linear in the focus

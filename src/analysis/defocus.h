@@ -1,7 +1,7 @@
 // Per-edge blur-disk diameter from a slanted edge in a frame: chooses the fit window from
 // the edge's geometry and the blur it finds, rejects edges whose window cannot hold the
 // blur (target too small, neighbour too close, image border), removes the lens's in-focus
-// baseline blur, and flags diameters below the diffraction floor (shared/PHYSICS.md,
+// baseline blur, and flags diameters below the diffraction floor (docs/physics.md,
 // "Measuring blur"). The exact pillbox fit itself is fit_pillbox_edge() (edge_spread.h).
 //
 // Baseline blur: a real lens (and the virtual camera's lens.baseline_blur_sigma_px) adds

@@ -1,4 +1,4 @@
-// Exposure analysis on linear raw frames (shared/PHYSICS.md, "Exposure"):
+// Exposure analysis on linear raw frames (docs/physics.md, "Exposure"):
 //  - photon transfer per EMVA 1288 from pairs of frames at the same setting: the temporal
 //    variance of the signal (half the variance of the pair's difference, which removes
 //    fixed pattern) against its mean above dark is a line of slope K, the system gain in

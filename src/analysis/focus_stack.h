@@ -1,4 +1,4 @@
-// Focus stacks (shared/PHYSICS.md, "Focus stacks"): a Laplacian focus measure per pixel
+// Focus stacks (docs/physics.md, "Focus stacks and depth from focus"): a Laplacian focus measure per pixel
 // and per region, best focus by log-parabola interpolation between frames, a depth map
 // where the focus distance of each frame is known, and an all-in-focus image.
 //

@@ -40,7 +40,7 @@
 
 namespace camlab::capture {
 
-// Bounds on what one request may ask (ARCHITECTURE.md: everything from outside is bounded).
+// Bounds on what one request may ask (docs/architecture.md: everything from outside is bounded).
 inline constexpr int kMaxStepsPerPlan = 1000;
 inline constexpr int kMaxRepeats = 100;
 inline constexpr int kMaxFramesPerPlan = 5000;

@@ -2,7 +2,7 @@
 // and fsync never hold the frame loop: the loop must dequeue promptly, or frames pile up
 // in the driver and every control change lands later (more frames consumed).
 //
-// The queue is bounded (ARCHITECTURE.md): push() blocks while it is full, so a disk
+// The queue is bounded (docs/architecture.md): push() blocks while it is full, so a disk
 // slower than the camera slows the capture rather than growing memory.
 //
 // Thread-safe between one producer (the camera's worker) and the internal writer thread;

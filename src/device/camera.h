@@ -1,7 +1,7 @@
 // The Camera interface: what camlab needs of any camera (V4L2, libcamera, the virtual
 // one), in the units a camera engineer reads.
 //
-// A Camera is thread-bound: one thread (the camera's worker, ARCHITECTURE.md) owns it.
+// A Camera is thread-bound: one thread (the camera's worker, docs/architecture.md) owns it.
 // Errors are values (Result/Status) with stable codes: "no_device" (unplugged: ENODEV),
 // "timeout", "io_error", "out_of_range", "busy", "not_streaming", "unsupported".
 #pragma once

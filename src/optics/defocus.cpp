@@ -1,5 +1,5 @@
 // Circle of confusion, the diffraction floor, hyperfocal distance and depth of field,
-// in forms that neither cancel nor produce NaN at infinite distances (PHYSICS.md).
+// in forms that neither cancel nor produce NaN at infinite distances (docs/physics.md).
 #include <cmath>
 #include <string>
 #include <string_view>

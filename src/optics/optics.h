@@ -1,4 +1,4 @@
-// The optics of the lecture notes (shared/seeds, shared/PHYSICS.md) as pure functions.
+// The optics of docs/physics.md as pure functions.
 //
 // Conventions: every length is in millimetres (`_mm`), angles in degrees (`_deg`),
 // times in seconds (`_s`) unless the name says otherwise. An infinite distance is
@@ -8,7 +8,7 @@
 // exists) returns an Error whose code is stable and whose message names the value and
 // the allowed range.
 //
-// Reentrant: no state. Depends on the standard library only (ARCHITECTURE.md).
+// Reentrant: no state. Depends on base/ and the standard library only (docs/architecture.md).
 #pragma once
 
 #include <limits>
@@ -48,16 +48,16 @@ Status require_finite_result(std::string_view name, double value);
 
 // ---- Sensor formats ------------------------------------------------------------------
 
-// A sensor format of the lecture's table (medium format through 1/3.2").
+// A common sensor format (medium format through 1/3.2").
 struct SensorFormat {
   std::string_view name;   // canonical CLI name: "medium-format", "full-frame", "aps-h",
                            // "aps-c", "four-thirds", "1in", "1/1.63in", "1/2.3in", "1/3.2in"
-  std::string_view label;  // as printed in the lecture: "Medium Format", "1/2.3\"", ...
+  std::string_view label;  // as usually printed: "Medium Format", "1/2.3\"", ...
   double width_mm;
   double height_mm;
 };
 
-// The table in the lecture's order, largest first.
+// The table, largest first.
 std::span<const SensorFormat> sensor_formats();
 
 // Looks a format up by name, case-insensitively, accepting common spellings

@@ -1,4 +1,4 @@
-// The sensor formats of the lecture's table and crop factors relative to full frame.
+// The common sensor formats (docs/physics.md) and crop factors relative to full frame.
 #include <array>
 #include <cctype>
 #include <cmath>
@@ -12,7 +12,7 @@ namespace camlab::optics {
 
 namespace {
 
-// Width x height in mm as printed in the lecture, except full frame: the lecture prints
+// Width x height in mm as commonly tabulated, except full frame: tables print
 // 36 x 23.9, but crop factors and the FOV figures everyone quotes (17 mm -> 103.7 deg)
 // use the nominal 36 x 24, the same as kFullFrameDiagonal_mm.
 constexpr std::array<SensorFormat, 9> kSensorFormats = {{

@@ -1,4 +1,4 @@
-// analysis_bench: speed against error for the optics measurements (MEASURING.md).
+// analysis_bench: speed against error for the optics measurements (docs/measuring.md).
 //  1. Edge fit: time per fit and diameter error (bias, spread over noise draws) against the
 //     window's length and width, at contrast-to-noise 50, for D = 2, 8, 20 px.
 //  2. Baseline-blur removal: its cost per edge and the error it removes.

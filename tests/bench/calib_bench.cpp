@@ -1,4 +1,4 @@
-// Calibration speed against error (MEASURING.md). On one set of corners (40 views of a
+// Calibration speed against error (docs/measuring.md). On one set of corners (40 views of a
 // 14x10 board, 40 mm squares, through the OPENCV8 wide lens of
 // mock_device/examples/camera_wide_1280x800.json, Gaussian noise, fixed seed; or a
 // corners.vnl given with --corners), prints per lens model: median solve time, RMS,

@@ -1,4 +1,4 @@
-// Render speed against error (MEASURING.md).
+// Render speed against error (docs/measuring.md).
 //
 //   render_bench [--quick]
 //

@@ -1,4 +1,4 @@
-// camlabd benchmarks (MEASURING.md: figures, never pass/fail):
+// camlabd benchmarks (docs/measuring.md: figures, never pass/fail):
 //   1. a 9-exposure bracket on in-process virtual cameras: frames consumed and wall time
 //      against the minimum (9 + control latency frames, at the frame interval);
 //   2. status-request throughput and p99 latency (GET /v1/jobs/{id}) on loopback, idle

@@ -1,4 +1,4 @@
-// Hard cases for the optics measurements (shared/PHYSICS.md, issue 6): each gives the
+// Hard cases for the optics measurements (docs/physics.md): each gives the
 // right answer or a specific status/error, and never a NaN.
 #include <cmath>
 #include <limits>

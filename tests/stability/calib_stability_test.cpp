@@ -1,4 +1,4 @@
-// Hard calibration cases (MEASURING.md): each must give the right answer or a specific
+// Hard calibration cases (docs/measuring.md): each must give the right answer or a specific
 // warning, never NaN and never a silent wrong number. Synthetic corners from a known lens
 // (mrcal's testing style): fixed-seed poses and Gaussian noise.
 #include <algorithm>

@@ -1,6 +1,6 @@
 // Blur diameter from a slanted edge: the exact edge spread function (ESF) of a uniform
 // disk (pillbox) blur, its average over a square pixel, and a Levenberg-Marquardt fit of
-// that model to the pixels around an edge (shared/PHYSICS.md, "Measuring blur").
+// that model to the pixels around an edge (docs/physics.md, "Measuring blur from an edge").
 //
 // Why an exact model: a defocused thin lens spreads a point into a uniform disk of
 // diameter D. A Gaussian fit converted to a diameter is biased by 3-32% depending on D;

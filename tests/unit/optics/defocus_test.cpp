@@ -1,5 +1,5 @@
 // Circle of confusion, Airy disk, hyperfocal distance and depth of field: the stable
-// forms against the image-side and lecture forms in long double, the exact and infinite
+// forms against the image-side and textbook forms in long double, the exact and infinite
 // cases, and invariants over a random sweep.
 #include <cmath>
 #include <limits>
@@ -34,11 +34,11 @@ long double coc_image_side_reference_mm(long double f, long double n, long doubl
   return (f / n) * std::fabs(sensor_offset - image_offset) / (f + image_offset);
 }
 
-// The lecture's D_F = D_S f^2 / (f^2 - N C (D_S - f)) and D_N = D_S f^2 / (f^2 + N C (D_S - f)).
-long double lecture_far_mm(long double f, long double n, long double s, long double c) {
+// The textbook D_F = D_S f^2 / (f^2 - N C (D_S - f)) and D_N = D_S f^2 / (f^2 + N C (D_S - f)).
+long double textbook_far_mm(long double f, long double n, long double s, long double c) {
   return s * f * f / (f * f - n * c * (s - f));
 }
-long double lecture_near_mm(long double f, long double n, long double s, long double c) {
+long double textbook_near_mm(long double f, long double n, long double s, long double c) {
   return s * f * f / (f * f + n * c * (s - f));
 }
 
@@ -235,13 +235,13 @@ TEST(OpticsDepthOfField, AgreesWithLectureForms) {
     for (const double n : {1.4, 4.0, 16.0}) {
       const double c = 0.03;
       const double H = *hyperfocal_mm(f, n, c);
-      // The lecture's far form cancels near H; compare away from it.
+      // The textbook far form cancels near H; compare away from it.
       for (const double s : {1.5 * f, 3.0 * f, 1000.0, 0.5 * H, 0.9 * H}) {
         if (s <= f) continue;
         auto dof = depth_of_field(f, n, s, c);
         ASSERT_TRUE(dof.ok());
-        EXPECT_LT(relative_error(dof->near_mm, lecture_near_mm(f, n, s, c)), 1e-13);
-        EXPECT_LT(relative_error(dof->far_mm, lecture_far_mm(f, n, s, c)), 1e-12);
+        EXPECT_LT(relative_error(dof->near_mm, textbook_near_mm(f, n, s, c)), 1e-13);
+        EXPECT_LT(relative_error(dof->far_mm, textbook_far_mm(f, n, s, c)), 1e-12);
         EXPECT_DOUBLE_EQ(dof->total_mm, dof->far_mm - dof->near_mm);
       }
     }

@@ -1,5 +1,5 @@
-// Field of view, sensor formats and crop factors against the lecture's table, the figures
-// quoted in PHYSICS.md and closed forms computed another way.
+// Field of view, sensor formats and crop factors against the common format table, the figures
+// quoted in docs/physics.md and closed forms computed another way.
 #include <array>
 #include <cmath>
 #include <limits>
@@ -123,7 +123,7 @@ TEST(OpticsSensorFormats, FullFrameIsNominalAndMatchesReferenceDiagonal) {
 }
 
 TEST(OpticsSensorFormats, CropFactorsMatchLectureTable) {
-  // The lecture's printed row, in the table's order; each to its printed decimals.
+  // The table's printed row, in the table's order; each to its printed decimals.
   struct Printed {
     double crop;
     int decimals;
@@ -135,7 +135,7 @@ TEST(OpticsSensorFormats, CropFactorsMatchLectureTable) {
   ASSERT_EQ(formats.size(), kPrinted.size());
   for (std::size_t i = 0; i < formats.size(); ++i) {
     const double crop = *crop_factor(formats[i].width_mm, formats[i].height_mm);
-    // Half a unit of the last printed digit, plus slack for the lecture's own rounding
+    // Half a unit of the last printed digit, plus slack for the table's own rounding
     // of medium format (0.6450 printed as 0.64).
     const double half_unit = 0.5 * std::pow(10.0, -kPrinted[i].decimals);
     EXPECT_NEAR(crop, kPrinted[i].crop, half_unit * 1.01) << formats[i].name;
