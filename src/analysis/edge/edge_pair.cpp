@@ -1,11 +1,13 @@
 // Joint fit of two overlapping edges (edge_pair.h): Levenberg-Marquardt over eight
 // parameters with the analytic Jacobian of the pixel-integrated pillbox model.
 #include "analysis/edge/edge_pair.h"
-#include "base/format.h"
+#include "analysis/edge/edge_fit_core.h"
 #include "analysis/edge/levenberg_marquardt.h"
+#include "base/format.h"
 
 #include <algorithm>
 #include <array>
+#include <bitset>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -33,12 +35,7 @@ struct Line {
   double px, py;  // guess point
 };
 
-
-struct Normals {
-  double cost = 0;
-  std::array<double, kParams * kParams> jtj{};
-  Params jtr{};
-};
+using Normals = edge_fit::NormalEquations<kParams>;
 
 // Model, residuals and normal equations at p. `by_diameter`: the last column is d/dD
 // (for the covariance) instead of d/dq.
@@ -58,7 +55,6 @@ Normals evaluate(const std::vector<Sample>& samples, const Line& l1, const Line&
     const PixelEsf e2 = pillbox_esf_pixel_terms(d2, d, p[kAng2]);
     const double model = p[kL0] + step1 * e1.value + step2 * e2.value;
     const double r = s.value - model;
-    out.cost += r * r;
     // Along each line (its direction (cos a, sin a)): the lever arm of the angle.
     const double along1 = rx1 * n1y - ry1 * n1x, along2 = rx2 * n2y - ry2 * n2x;
     row[kOff1] = -step1 * e1.d_distance;
@@ -69,35 +65,18 @@ Normals evaluate(const std::vector<Sample>& samples, const Line& l1, const Line&
     row[kL1] = e1.value - e2.value;
     row[kL2] = e2.value;
     row[kQ] = (step1 * e1.d_diameter + step2 * e2.d_diameter) * dd_dq;
-    for (int i = 0; i < kParams; ++i) {
-      out.jtr[i] += row[i] * r;
-      for (int j = 0; j <= i; ++j) out.jtj[i * kParams + j] += row[i] * row[j];
-    }
+    out.add(row, r);
   }
-  for (int i = 0; i < kParams; ++i)
-    for (int j = i + 1; j < kParams; ++j) out.jtj[i * kParams + j] = out.jtj[j * kParams + i];
+  out.symmetrise();
   return out;
 }
 
-// (J^T J + lambda diag) step = J^T r; a zero column (D at exactly 0) keeps its value, and
-// so does D when `pin_diameter` (the profile of the cost in D).
+// The damped step (edge_fit::solve_damped); with `pin_diameter` D keeps its value (the
+// profile of the cost in D).
 bool solve_step(const Normals& ne, double lambda, bool pin_diameter, Params* step) {
-  std::array<double, kParams * kParams> a = ne.jtj;
-  Params rhs = ne.jtr;
-  if (pin_diameter) {
-    for (int i = 0; i < kParams; ++i) a[i * kParams + kQ] = a[kQ * kParams + i] = 0.0;
-    rhs[kQ] = 0.0;
-  }
-  for (int i = 0; i < kParams; ++i) {
-    double& diagonal = a[i * kParams + i];
-    diagonal *= 1.0 + lambda;
-    if (diagonal == 0.0) diagonal = 1.0;
-  }
-  cv::Mat x(kParams, 1, CV_64F, step->data());
-  if (!cv::solve(cv::Mat(kParams, kParams, CV_64F, a.data()), cv::Mat(kParams, 1, CV_64F, rhs.data()), x,
-                 cv::DECOMP_CHOLESKY))
-    return false;
-  return std::all_of(step->begin(), step->end(), [](double v) { return std::isfinite(v); });
+  std::bitset<kParams> pinned;
+  pinned[kQ] = pin_diameter;
+  return edge_fit::solve_damped(ne, lambda, pinned, step);
 }
 
 struct Solution {
@@ -142,9 +121,7 @@ double mean_of(const std::vector<double>& v) {
 Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& guess_a,
                                           const EdgeLine& guess_b, const EdgePairFitOptions& o) {
   constexpr ErrorCode invalid = kErrInvalidArgument;
-  if (image.empty() || image.dims != 2 || image.channels() != 1 ||
-      (image.depth() != CV_8U && image.depth() != CV_16U && image.depth() != CV_32F && image.depth() != CV_64F))
-    return make_error(invalid, "image must be a non-empty single-channel CV_8U, CV_16U, CV_32F or CV_64F matrix");
+  if (Status checked = edge_fit::check_fittable_image(image); !checked) return checked.error();
   for (double v : {guess_a.x_px, guess_a.y_px, guess_a.angle_rad, guess_b.x_px, guess_b.y_px, guess_b.angle_rad,
                    o.half_length_px, o.across_min_px, o.across_max_px, o.diameter_guess_px})
     if (!std::isfinite(v)) return make_error(invalid, "the guessed lines and the window must be finite");
@@ -164,32 +141,18 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
 
   // The window's pixels: |along| <= hl, across in [min, max], about line a's point.
   const double hl = o.half_length_px;
-  double min_x = kInf, max_x = -kInf, min_y = kInf, max_y = -kInf;
-  for (double al : {-hl, hl})
-    for (double ac : {o.across_min_px, o.across_max_px}) {
-      const double x = guess_a.x_px + al * ta_x + ac * na_x, y = guess_a.y_px + al * ta_y + ac * na_y;
-      min_x = std::min(min_x, x); max_x = std::max(max_x, x);
-      min_y = std::min(min_y, y); max_y = std::max(max_y, y);
-    }
-  if (min_x < -1e-9 || min_y < -1e-9 || max_x > image.cols - 1 + 1e-9 || max_y > image.rows - 1 + 1e-9)
-    return make_error(kErrWindowOutsideImage, "the pair's fit window spans x " + format_significant(min_x, 3) + ".." +
-                                                               format_significant(max_x, 3) + ", y " + format_significant(min_y, 3) + ".." +
-                                                               format_significant(max_y, 3) + " px, beyond the image");
-  const cv::Rect box(static_cast<int>(std::ceil(min_x - 1e-9)), static_cast<int>(std::ceil(min_y - 1e-9)), 0, 0);
-  const int x1 = static_cast<int>(std::floor(max_x + 1e-9)), y1 = static_cast<int>(std::floor(max_y + 1e-9));
-  cv::Mat roi;
-  image(cv::Range(box.y, y1 + 1), cv::Range(box.x, x1 + 1)).convertTo(roi, CV_64F);
+  auto window = edge_fit::sample_window(
+      image, {guess_a.x_px, guess_a.y_px, guess_a.angle_rad, hl, o.across_min_px, o.across_max_px},
+      "the pair's fit window");
+  if (!window) return window.error();
   std::vector<Sample> samples;
   std::vector<double> across;  // from line a's guess
-  for (int y = box.y; y <= y1; ++y)
-    for (int x = box.x; x <= x1; ++x) {
-      const double rx = x - guess_a.x_px, ry = y - guess_a.y_px;
-      const double al = rx * ta_x + ry * ta_y, ac = rx * na_x + ry * na_y;
-      const double v = roi.at<double>(y - box.y, x - box.x);
-      if (std::fabs(al) > hl || ac < o.across_min_px || ac > o.across_max_px || !std::isfinite(v)) continue;
-      samples.push_back({static_cast<double>(x), static_cast<double>(y), v});
-      across.push_back(ac);
-    }
+  samples.reserve(window->size());
+  across.reserve(window->size());
+  for (const edge_fit::WindowPixel& pixel : *window) {
+    samples.push_back({static_cast<double>(pixel.col), static_cast<double>(pixel.row), pixel.value});
+    across.push_back(pixel.across_px);
+  }
   if (samples.size() < 64)
     return make_error(kErrTooFewPixels, "the pair's fit window holds " +
                                                          std::to_string(samples.size()) + " pixels; 64 needed");
@@ -287,8 +250,7 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
   out.diameter_sigma_px = kInf;
   out.diameter_vif = kInf;
   cv::Mat cov;
-  std::array<double, kParams * kParams> a = fin.jtj;
-  if (cv::invert(cv::Mat(kParams, kParams, CV_64F, a.data()), cov, cv::DECOMP_CHOLESKY) != 0.0) {
+  if (edge_fit::invert_normals(fin, {}, &cov)) {
     const double var = rms * rms * cov.at<double>(kQ, kQ);
     if (var >= 0 && std::isfinite(var)) out.diameter_sigma_px = std::sqrt(var);
     out.diameter_vif = cov.at<double>(kQ, kQ) * fin.jtj[kQ * kParams + kQ];

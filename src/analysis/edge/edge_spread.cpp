@@ -1,11 +1,13 @@
 // Pillbox edge model and its slanted-edge fit. The header is the reference; this file
 // says how the closed forms stay accurate and why the fit is set up as it is.
 #include "analysis/edge/edge_spread.h"
-#include "base/format.h"
+#include "analysis/edge/edge_fit_core.h"
 #include "analysis/edge/levenberg_marquardt.h"
+#include "base/format.h"
 
 #include <algorithm>
 #include <array>
+#include <bitset>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -178,13 +180,8 @@ Normal normal_for(double angle_rad) {
   return {nx, ny, trapezoid_for(nx, ny), x_major ? dax : day, x_major ? day : dax};
 }
 
-// cost = sum r^2, jtj = J^T J (row-major 5 x 5), jtr = J^T r, for r = value - model and
-// J = d model / d params. A fixed angle has a zero column.
-struct Normals {
-  double cost = 0;
-  std::array<double, kParams * kParams> jtj{};
-  Params jtr{};
-};
+// A fixed angle has a zero column.
+using Normals = edge_fit::NormalEquations<kParams>;
 
 // Evaluates the model and its Jacobian at every sample; with `by_diameter` the last
 // column is d/dD rather than d/dq (for the covariance of D).
@@ -200,7 +197,6 @@ Normals evaluate(const std::vector<Sample>& samples, const Params& p, bool fit_a
     const double d = s.dx_px * nm.nx + s.dy_px * nm.ny - p[kOffset];
     const PixelModel m = pixel_model(d, radius, nm.tz);
     const double r = s.value - (p[kDark] + contrast * m.p);
-    out.cost += r * r;
     row[kOffset] = -contrast * m.dp_dd;
     if (fit_angle) {
       // d moves with the angle through the lever arm (-along); the pixel's footprint
@@ -212,37 +208,21 @@ Normals evaluate(const std::vector<Sample>& samples, const Params& p, bool fit_a
     row[kDark] = 1.0 - m.p;
     row[kLight] = m.p;
     row[kQ] = contrast * m.dp_dr * dr_dq;
-    for (int i = 0; i < kParams; ++i) {
-      out.jtr[i] += row[i] * r;
-      for (int j = 0; j <= i; ++j) out.jtj[i * kParams + j] += row[i] * row[j];
-    }
+    out.add(row, r);
   }
-  for (int i = 0; i < kParams; ++i)
-    for (int j = i + 1; j < kParams; ++j) out.jtj[i * kParams + j] = out.jtj[j * kParams + i];
+  out.symmetrise();
   return out;
 }
 
-// (J^T J + lambda diag(J^T J)) step = J^T r by Cholesky. A zero column (a fixed angle, or
-// D at exactly 0) is pinned to the identity, so that parameter keeps its value and the
-// rest is unaffected. With `inverse`, returns (J^T J)^-1 instead, pinning only a fixed
-// angle, so that no information on D shows as a singular matrix. False if singular.
+// The damped step (edge_fit::solve_damped) with the angle pinned when it is not fitted;
+// with `inverse`, (J^T J)^-1 instead (edge_fit::invert_normals). False if singular.
 bool solve_normals(const Normals& ne, double lambda, bool fit_angle, Params* step,
                    cv::Mat* inverse = nullptr) {
-  std::array<double, kParams * kParams> a = ne.jtj;
-  for (int i = 0; i < kParams; ++i) {
-    double& diagonal = a[i * kParams + i];
-    diagonal *= 1.0 + lambda;
-    if ((i == kAngle && !fit_angle) || (!inverse && diagonal == 0.0)) diagonal = 1.0;
-  }
-  const cv::Mat a_mat(kParams, kParams, CV_64F, a.data());
-  if (inverse) return cv::invert(a_mat, *inverse, cv::DECOMP_CHOLESKY) != 0.0;
-  Params rhs = ne.jtr;
-  cv::Mat x(kParams, 1, CV_64F, step->data());
-  if (!cv::solve(a_mat, cv::Mat(kParams, 1, CV_64F, rhs.data()), x, cv::DECOMP_CHOLESKY))
-    return false;
-  return std::all_of(step->begin(), step->end(), [](double v) { return std::isfinite(v); });
+  std::bitset<kParams> pinned;
+  pinned[kAngle] = !fit_angle;
+  if (inverse) return edge_fit::invert_normals(ne, pinned, inverse);
+  return edge_fit::solve_damped(ne, lambda, pinned, step);
 }
-
 
 // Start values from the profile across the guessed edge (`across`: signed distance of
 // each sample from the guessed line). `ok` false: a side of the window is empty.
@@ -390,12 +370,7 @@ PixelEsf pillbox_esf_pixel_terms(double distance_px, double diameter_px, double 
 Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
                                  const EdgeFitOptions& options) {
   constexpr ErrorCode invalid = kErrInvalidArgument;
-  if (image.empty() || image.dims != 2 || image.channels() != 1 ||
-      (image.depth() != CV_8U && image.depth() != CV_16U && image.depth() != CV_32F &&
-       image.depth() != CV_64F)) {
-    return make_error(invalid, "image must be a non-empty single-channel CV_8U, CV_16U, "
-                               "CV_32F or CV_64F matrix");
-  }
+  if (Status checked = edge_fit::check_fittable_image(image); !checked) return checked.error();
   if (!std::isfinite(guess.x_px) || !std::isfinite(guess.y_px) ||
       !std::isfinite(guess.angle_rad)) {
     return make_error(invalid, "the guessed edge line must be finite");
@@ -406,41 +381,18 @@ Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
                                "(got " + format_significant(hl, 3) + ", " + format_significant(hw, 3) + ")");
   }
 
-  // The window: |along| <= hl, |across| <= hw around the guess point; its bounding box
-  // must lie within the image's pixel centres, so every pixel it covers exists.
-  const Normal guess_normal = normal_for(guess.angle_rad);
-  const double tx = guess_normal.ny, ty = -guess_normal.nx;  // direction of the line
-  const double extent_x = hl * std::fabs(tx) + hw * std::fabs(guess_normal.nx);
-  const double extent_y = hl * std::fabs(ty) + hw * std::fabs(guess_normal.ny);
-  const double min_x = guess.x_px - extent_x, max_x = guess.x_px + extent_x;
-  const double min_y = guess.y_px - extent_y, max_y = guess.y_px + extent_y;
-  constexpr double kSlack_px = 1e-9;
-  if (min_x < -kSlack_px || min_y < -kSlack_px || max_x > image.cols - 1 + kSlack_px ||
-      max_y > image.rows - 1 + kSlack_px) {
-    return make_error(kErrWindowOutsideImage,
-                      "the fit window spans x " + format_significant(min_x, 3) + ".." + format_significant(max_x, 3) + ", y " +
-                          format_significant(min_y, 3) + ".." + format_significant(max_y, 3) + " px but the image's pixel "
-                          "centres span 0.." + std::to_string(image.cols - 1) + ", 0.." +
-                          std::to_string(image.rows - 1));
-  }
-
-  const cv::Range rows(static_cast<int>(std::ceil(min_y - kSlack_px)),
-                       static_cast<int>(std::floor(max_y + kSlack_px)) + 1);
-  const cv::Range cols(static_cast<int>(std::ceil(min_x - kSlack_px)),
-                       static_cast<int>(std::floor(max_x + kSlack_px)) + 1);
-  cv::Mat box;  // the window's bounding box, in doubles
-  image(rows, cols).convertTo(box, CV_64F);
+  // The window: |along| <= hl, |across| <= hw around the guess point.
+  auto window =
+      edge_fit::sample_window(image, {guess.x_px, guess.y_px, guess.angle_rad, hl, -hw, hw},
+                              "the fit window");
+  if (!window) return window.error();
   std::vector<Sample> samples;
   std::vector<double> across;  // signed distance from the guessed line, px
-  for (int row = rows.start; row < rows.end; ++row) {
-    for (int col = cols.start; col < cols.end; ++col) {
-      const double dx = col - guess.x_px, dy = row - guess.y_px;
-      const double a = dx * tx + dy * ty, c = dx * guess_normal.nx + dy * guess_normal.ny;
-      const double v = box.at<double>(row - rows.start, col - cols.start);
-      if (std::fabs(a) > hl || std::fabs(c) > hw || !std::isfinite(v)) continue;
-      samples.push_back({dx, dy, v});
-      across.push_back(c);
-    }
+  samples.reserve(window->size());
+  across.reserve(window->size());
+  for (const edge_fit::WindowPixel& pixel : *window) {
+    samples.push_back({pixel.col - guess.x_px, pixel.row - guess.y_px, pixel.value});
+    across.push_back(pixel.across_px);
   }
   if (static_cast<int>(samples.size()) < kMinSamples) {
     return make_error(kErrTooFewPixels,
