@@ -8,7 +8,8 @@
 // exists) returns an Error whose code is stable and whose message names the value and
 // the allowed range.
 //
-// Reentrant: no state. Depends on base/ and the standard library only (docs/architecture.md).
+// Reentrant: no state. Depends on the standard library and the header-only base/result.h
+// only (docs/architecture.md).
 #pragma once
 
 #include <limits>

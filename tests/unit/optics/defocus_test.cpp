@@ -35,10 +35,10 @@ long double coc_image_side_reference_mm(long double f, long double n, long doubl
 }
 
 // The textbook D_F = D_S f^2 / (f^2 - N C (D_S - f)) and D_N = D_S f^2 / (f^2 + N C (D_S - f)).
-long double textbook_far_mm(long double f, long double n, long double s, long double c) {
+long double lecture_far_mm(long double f, long double n, long double s, long double c) {
   return s * f * f / (f * f - n * c * (s - f));
 }
-long double textbook_near_mm(long double f, long double n, long double s, long double c) {
+long double lecture_near_mm(long double f, long double n, long double s, long double c) {
   return s * f * f / (f * f + n * c * (s - f));
 }
 
@@ -240,8 +240,8 @@ TEST(OpticsDepthOfField, AgreesWithLectureForms) {
         if (s <= f) continue;
         auto dof = depth_of_field(f, n, s, c);
         ASSERT_TRUE(dof.ok());
-        EXPECT_LT(relative_error(dof->near_mm, textbook_near_mm(f, n, s, c)), 1e-13);
-        EXPECT_LT(relative_error(dof->far_mm, textbook_far_mm(f, n, s, c)), 1e-12);
+        EXPECT_LT(relative_error(dof->near_mm, lecture_near_mm(f, n, s, c)), 1e-13);
+        EXPECT_LT(relative_error(dof->far_mm, lecture_far_mm(f, n, s, c)), 1e-12);
         EXPECT_DOUBLE_EQ(dof->total_mm, dof->far_mm - dof->near_mm);
       }
     }
