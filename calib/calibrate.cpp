@@ -9,6 +9,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "base/atomic_file.h"
 #include "calib/corners/chessboard_detector.h"
 #include "calib/corners/corners_vnl.h"
 #include "calib/lens_model.h"
@@ -16,7 +17,6 @@
 #include "calib/model_selection.h"
 #include "calib/plots.h"
 #include "calib/solver.h"
-#include "base/atomic_file.h"
 #include "image/capture_folder.h"
 #include "optics/optics.h"
 
@@ -39,7 +39,8 @@ Result<std::vector<NamedImage>> load_images_dir(const fs::path& dir) {
   }
   if (ec) return make_error("io_error", "cannot list '" + dir.string() + "': " + ec.message());
   std::sort(files.begin(), files.end());
-  if (files.empty()) return make_error("io_error", "no images (png, jpg, tif, pgm, bmp) in '" + dir.string() + "'");
+  if (files.empty())
+    return make_error("io_error", "no images (png, jpg, tif, pgm, bmp) in '" + dir.string() + "'");
   std::vector<NamedImage> out;
   for (const auto& f : files) {
     cv::Mat m;
@@ -63,22 +64,27 @@ Result<std::vector<NamedImage>> load_job(const fs::path& dir) {
     CAMLAB_ASSIGN(m, folder.load_image(static_cast<int>(i)));
     out.emplace_back(folder.frames()[i].image_file, m);
   }
-  if (out.empty()) return make_error("io_error", "the capture folder '" + dir.string() + "' holds no frames");
+  if (out.empty())
+    return make_error("io_error", "the capture folder '" + dir.string() + "' holds no frames");
   return out;
 }
 
 // Detects the board in each image on `threads` threads (images are independent) with
 // options.detector; views keep the images' order and record which detector found them.
-Status detect(const std::vector<NamedImage>& images, const CalibrateOptions& options, CalibrationData* data) {
+Status detect(const std::vector<NamedImage>& images, const CalibrateOptions& options,
+              CalibrationData* data) {
   // Before any image is searched: a wrong choice is the caller's to fix, not a lost view.
-  if (Status s = check_chessboard_detector(options.detector, data->board.cols, data->board.rows); !s) return s;
+  if (Status s = check_chessboard_detector(options.detector, data->board.cols, data->board.rows);
+      !s)
+    return s;
   for (const auto& [name, image] : images) {
     if (data->imager_width_px == 0) {
       data->imager_width_px = image.cols;
       data->imager_height_px = image.rows;
     } else if (image.cols != data->imager_width_px || image.rows != data->imager_height_px) {
-      return make_error("imager_mismatch", "image '" + name + "' is " + std::to_string(image.cols) + "x" +
-                                               std::to_string(image.rows) + "; the first image was " +
+      return make_error("imager_mismatch", "image '" + name + "' is " + std::to_string(image.cols) +
+                                               "x" + std::to_string(image.rows) +
+                                               "; the first image was " +
                                                std::to_string(data->imager_width_px) + "x" +
                                                std::to_string(data->imager_height_px));
     }
@@ -89,7 +95,8 @@ Status detect(const std::vector<NamedImage>& images, const CalibrateOptions& opt
   std::mutex progress_mutex;
   auto worker = [&] {
     for (size_t i; (i = next++) < images.size();) {
-      auto corners = find_chessboard(images[i].second, data->board.cols, data->board.rows, options.detector);
+      auto corners =
+          find_chessboard(images[i].second, data->board.cols, data->board.rows, options.detector);
       if (corners) {
         found[i] = std::move(*corners);
         ++boards;
@@ -102,8 +109,8 @@ Status detect(const std::vector<NamedImage>& images, const CalibrateOptions& opt
     }
   };
   const unsigned hw = std::max(1u, std::thread::hardware_concurrency());
-  const unsigned threads = std::clamp(options.detect_threads > 0 ? static_cast<unsigned>(options.detect_threads) : hw,
-                                      1u, 16u);
+  const unsigned threads = std::clamp(
+      options.detect_threads > 0 ? static_cast<unsigned>(options.detect_threads) : hw, 1u, 16u);
   std::vector<std::thread> pool;
   for (unsigned t = 1; t < threads && t < images.size(); ++t) pool.emplace_back(worker);
   worker();
@@ -124,38 +131,47 @@ Status detect(const std::vector<NamedImage>& images, const CalibrateOptions& opt
 Result<std::string> model_name(const CalibrateOptions& options, const CalibrationData& data,
                                const SolveOptions& solve_options) {
   std::string name;
-  CAMLAB_ASSIGN(name, configured_lensmodel(options.model, data.imager_width_px, data.imager_height_px, 90));
+  CAMLAB_ASSIGN(
+      name, configured_lensmodel(options.model, data.imager_width_px, data.imager_height_px, 90));
   // A bare splined model needs the field of view for its default grid: from a first
   // OPENCV8 solve.
-  if (name.find("SPLINED") != std::string::npos && options.model.find("fov_x_deg") == std::string::npos) {
+  if (name.find("SPLINED") != std::string::npos &&
+      options.model.find("fov_x_deg") == std::string::npos) {
     SolveOptions o = solve_options;
     o.lensmodel = "LENSMODEL_OPENCV8";
     o.compute_covariance = false;
     if (auto s = solve(data, o); s.ok())
       if (auto fov = field_of_view(s->model); fov.ok())
-        CAMLAB_ASSIGN(name, configured_lensmodel(options.model, data.imager_width_px, data.imager_height_px,
-                                                 fov->horizontal_deg));
+        CAMLAB_ASSIGN(name, configured_lensmodel(options.model, data.imager_width_px,
+                                                 data.imager_height_px, fov->horizontal_deg));
   }
   return name;
 }
 
 // Outputs are written atomically (a reader, e.g. the daemon serving a job's files, never
 // sees half a file).
-Status write_text(const fs::path& path, const std::string& text) { return write_file_atomically(path, text); }
+Status write_text(const fs::path& path, const std::string& text) {
+  return write_file_atomically(path, text);
+}
 
 }  // namespace
 
 Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
-  const int sources = !options.images_dir.empty() + !options.job_dir.empty() + !options.corners_vnl.empty();
+  const int sources =
+      !options.images_dir.empty() + !options.job_dir.empty() + !options.corners_vnl.empty();
   if (sources != 1)
-    return make_error("invalid_argument", "give exactly one source: a folder of images, a capture folder, or corners.vnl");
+    return make_error(
+        "invalid_argument",
+        "give exactly one source: a folder of images, a capture folder, or corners.vnl");
   if (options.board.cols < 2 || options.board.rows < 2)
-    return make_error("invalid_argument", "the board needs 2 x 2 or more inner corners (COLSxROWS)");
+    return make_error("invalid_argument",
+                      "the board needs 2 x 2 or more inner corners (COLSxROWS)");
   if (!(options.board.spacing_m > 0) || options.board.spacing_m > 10)
     return make_error("invalid_argument", "the corner spacing must be in (0, 10] metres");
   if (options.imager_width_px < 0 || options.imager_height_px < 0 ||
       (options.imager_width_px > 0) != (options.imager_height_px > 0))
-    return make_error("invalid_argument", "the imager size must be given as both width and height in px");
+    return make_error("invalid_argument",
+                      "the imager size must be given as both width and height in px");
   if (!(options.pixel_pitch_um >= 0) || options.pixel_pitch_um > 100)
     return make_error("invalid_argument", "the pixel pitch must be in (0, 100] um");
 
@@ -164,22 +180,27 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
   data.board = options.board;
   if (!options.corners_vnl.empty()) {
     if (options.imager_width_px == 0)
-      return make_error("invalid_argument", "corners.vnl needs the imager size (it does not record it)");
+      return make_error("invalid_argument",
+                        "corners.vnl needs the imager size (it does not record it)");
     CAMLAB_ASSIGN(data.views, read_corners_vnl(options.corners_vnl.string(), data.board));
   } else {
     std::vector<NamedImage> images;
-    CAMLAB_ASSIGN(images, options.images_dir.empty() ? load_job(options.job_dir) : load_images_dir(options.images_dir));
+    CAMLAB_ASSIGN(images, options.images_dir.empty() ? load_job(options.job_dir)
+                                                     : load_images_dir(options.images_dir));
     run.images = static_cast<int>(images.size());
     if (Status s = detect(images, options, &data); !s) return s.error();
     if (data.views.empty())
-      return make_error("no_board", "no " + std::to_string(data.board.cols) + "x" + std::to_string(data.board.rows) +
+      return make_error("no_board", "no " + std::to_string(data.board.cols) + "x" +
+                                        std::to_string(data.board.rows) +
                                         " inner-corner chessboard found in any of the " +
-                                        std::to_string(images.size()) + " images (check --board: inner corners, "
+                                        std::to_string(images.size()) +
+                                        " images (check --board: inner corners, "
                                         "not squares)");
   }
   // Written before the solve, so the corners survive a solve that fails.
   if (!options.out_corners_vnl.empty())
-    if (Status s = write_text(options.out_corners_vnl, to_corners_vnl(data.views)); !s) return s.error();
+    if (Status s = write_text(options.out_corners_vnl, to_corners_vnl(data.views)); !s)
+      return s.error();
   if (options.imager_width_px > 0) {
     data.imager_width_px = options.imager_width_px;
     data.imager_height_px = options.imager_height_px;
@@ -216,14 +237,17 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
     // Boards found per detector: under "auto", the "opencv" count on a square board is
     // the images mrgingham missed.
     nlohmann::json views_by_detector = {{"mrgingham", 0}, {"opencv", 0}};
-    for (const auto& v : data.views) views_by_detector[v.detector] = views_by_detector.value(v.detector, 0) + 1;
+    for (const auto& v : data.views)
+      views_by_detector[v.detector] = views_by_detector.value(v.detector, 0) + 1;
     run.report_json["detector"] = {{"requested", options.detector}, {"views", views_by_detector}};
   }
   // With mrcal's optimization_inputs, so mrcal's uncertainty and residual tools read it.
   CAMLAB_ASSIGN(run.cameramodel_text,
-                cameramodel_text_with_inputs(solution, data, "camlab calibrate: " + solution.model.lensmodel));
+                cameramodel_text_with_inputs(solution, data,
+                                             "camlab calibrate: " + solution.model.lensmodel));
   if (has_opencv_equivalent(solution.model))
-    if (auto yaml = opencv_yaml_text(solution.model); yaml.ok()) run.opencv_yaml_text = std::move(*yaml);
+    if (auto yaml = opencv_yaml_text(solution.model); yaml.ok())
+      run.opencv_yaml_text = std::move(*yaml);
   return run;
 }
 
@@ -233,7 +257,8 @@ Result<nlohmann::json> calibrate_folder(const CalibrateOptions& options) {
   return write_calibration_outputs(&run, options);
 }
 
-Result<nlohmann::json> write_calibration_outputs(CalibrationRun* run_ptr, const CalibrateOptions& options) {
+Result<nlohmann::json> write_calibration_outputs(CalibrationRun* run_ptr,
+                                                 const CalibrateOptions& options) {
   CalibrationRun& run = *run_ptr;
   nlohmann::json& j = run.report_json;
   nlohmann::json files = nlohmann::json::object();
@@ -243,12 +268,16 @@ Result<nlohmann::json> write_calibration_outputs(CalibrationRun* run_ptr, const 
     files[key] = path.string();
     return {};
   };
-  if (Status s = write(options.out_cameramodel, run.cameramodel_text, "cameramodel"); !s) return s.error();
+  if (Status s = write(options.out_cameramodel, run.cameramodel_text, "cameramodel"); !s)
+    return s.error();
   if (!options.out_opencv_yaml.empty()) {
     if (!run.opencv_yaml_text)
-      return make_error("unsupported", run.report.solution.model.lensmodel +
-                                                    " has no OpenCV equivalent; OpenCV YAML needs PINHOLE or OPENCV4/5/8/12");
-    if (Status s = write(options.out_opencv_yaml, *run.opencv_yaml_text, "opencv_yaml"); !s) return s.error();
+      return make_error(
+          "unsupported",
+          run.report.solution.model.lensmodel +
+              " has no OpenCV equivalent; OpenCV YAML needs PINHOLE or OPENCV4/5/8/12");
+    if (Status s = write(options.out_opencv_yaml, *run.opencv_yaml_text, "opencv_yaml"); !s)
+      return s.error();
   }
   if (!options.out_corners_vnl.empty()) files["corners_vnl"] = options.out_corners_vnl.string();
   if (!options.plots_dir.empty()) {

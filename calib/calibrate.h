@@ -23,8 +23,8 @@ namespace camlab::calib {
 
 struct CalibrateOptions {
   // Exactly one source.
-  std::filesystem::path images_dir;  // png/jpg/tif/pgm/bmp, 8- or 16-bit grey or colour
-  std::filesystem::path job_dir;     // a camlab capture folder (docs/capture-folder.md)
+  std::filesystem::path images_dir;   // png/jpg/tif/pgm/bmp, 8- or 16-bit grey or colour
+  std::filesystem::path job_dir;      // a camlab capture folder (docs/capture-folder.md)
   std::filesystem::path corners_vnl;  // mrcal corners.vnl; needs imager_width/height_px
   BoardSpec board;                    // inner corners and spacing (required)
   int imager_width_px = 0, imager_height_px = 0;  // 0: from the images
@@ -33,10 +33,11 @@ struct CalibrateOptions {
   std::string sensor;          // a sensor format name instead of the pitch (optics)
   double focal_guess_px = 0;   // searched around, never trusted
   bool board_warp = true;
-  int detect_threads = 0;      // 0: hardware concurrency, at most 16
+  int detect_threads = 0;         // 0: hardware concurrency, at most 16
   std::string detector = "auto";  // auto | opencv | mrgingham (calib/corners/chessboard_detector.h)
   // Outputs written by calibrate_folder() when not empty.
-  std::filesystem::path out_cameramodel, out_report_json, out_opencv_yaml, out_corners_vnl, plots_dir;
+  std::filesystem::path out_cameramodel, out_report_json, out_opencv_yaml, out_corners_vnl,
+      plots_dir;
   // Called after each image's detection (done, total, boards found so far), from the
   // detection threads one at a time. May be empty.
   std::function<void(size_t done, size_t total, int boards)> progress;
@@ -47,7 +48,7 @@ struct CalibrationRun {
   int images = 0;            // images read (0 for corners.vnl)
   CalibrationReport report;  // report.solution holds the model
   nlohmann::json report_json;
-  std::string cameramodel_text;  // full precision (model_io.h)
+  std::string cameramodel_text;                 // full precision (model_io.h)
   std::optional<std::string> opencv_yaml_text;  // when the model has an OpenCV equivalent
 };
 
@@ -63,7 +64,8 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options);
 // written) and "plots_skipped" (plots that could not be made, with the reason). Error
 // "no_opencv_equivalent" when OpenCV YAML is asked for a model OpenCV cannot represent,
 // "io_error".
-Result<nlohmann::json> write_calibration_outputs(CalibrationRun* run, const CalibrateOptions& options);
+Result<nlohmann::json> write_calibration_outputs(CalibrationRun* run,
+                                                 const CalibrateOptions& options);
 
 // calibrate() then write_calibration_outputs(): the daemon's entry point for
 // POST /v1/calibrations. Returns the JSON report (what `--report` writes).

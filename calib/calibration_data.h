@@ -26,9 +26,9 @@ struct CornerObservation {
 };
 
 struct BoardView {
-  std::string name;                       // image file name, or a label
+  std::string name;                        // image file name, or a label
   std::vector<CornerObservation> corners;  // cols * rows, row-major
-  std::string detector;                    // "opencv" or "mrgingham"; empty when read from corners.vnl
+  std::string detector;  // "opencv" or "mrgingham"; empty when read from corners.vnl
   int present_count() const;
 };
 

@@ -15,7 +15,8 @@ Result<mrcal_lensmodel_t> parse_model(const std::string& name) {
   if (!mrcal_lensmodel_from_name(&m, name.c_str()) || m.type < 0)
     return make_error("bad_lensmodel", "unknown or unconfigured mrcal lens model '" + name + "'");
   if (m.type == MRCAL_LENSMODEL_CAHVORE || !mrcal_lensmodel_metadata(&m).has_core)
-    return make_error("bad_lensmodel", "lens model '" + name + "' is not supported (no intrinsics core)");
+    return make_error("bad_lensmodel",
+                      "lens model '" + name + "' is not supported (no intrinsics core)");
   return m;
 }
 
@@ -85,8 +86,8 @@ Result<std::vector<double>> unproject(const LensModel& model, const std::vector<
     const double norm = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
     if (!std::isfinite(norm) || norm <= 0)
       return make_error("projection_failed", "the model does not unproject pixel (" +
-                                                std::to_string(q_px[2 * i]) + ", " +
-                                                std::to_string(q_px[2 * i + 1]) + ")");
+                                                 std::to_string(q_px[2 * i]) + ", " +
+                                                 std::to_string(q_px[2 * i + 1]) + ")");
     for (int k = 0; k < 3; ++k) p[k] /= norm;
   }
   return v;
@@ -132,7 +133,7 @@ Result<std::vector<double>> unproject_each(const LensModel& model, const std::ve
 Result<FieldOfView> field_of_view(const LensModel& model) {
   const double w = model.width_px, h = model.height_px;
   const double xm = (w - 1) / 2, ym = (h - 1) / 2;
-  const std::vector<double> q = {-0.5, ym, w - 0.5, ym,  xm, -0.5, xm, h - 0.5,
+  const std::vector<double> q = {-0.5, ym,   w - 0.5, ym,      xm,      -0.5, xm,   h - 0.5,
                                  -0.5, -0.5, w - 0.5, h - 0.5, w - 0.5, -0.5, -0.5, h - 0.5};
   std::vector<double> v;
   CAMLAB_ASSIGN(v, unproject(model, q));
@@ -221,7 +222,8 @@ Result<ProjectionDifference> projection_difference(const LensModel& a, const Len
           for (int y = 0; y < 3; ++y) M[x][y] = y == k ? -g[x] : A[x][y];
         d[k] = (M[0][0] * (M[1][1] * M[2][2] - M[1][2] * M[2][1]) -
                 M[0][1] * (M[1][0] * M[2][2] - M[1][2] * M[2][0]) +
-                M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0])) / det;
+                M[0][2] * (M[1][0] * M[2][1] - M[1][1] * M[2][0])) /
+               det;
       }
       for (int k = 0; k < 3; ++k) r[k] += d[k];
       if (std::fabs(d[0]) + std::fabs(d[1]) + std::fabs(d[2]) < 1e-12) break;

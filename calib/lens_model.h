@@ -34,7 +34,7 @@ Result<std::string> configured_lensmodel(const std::string& name, int width_px, 
 struct FieldOfView {
   double horizontal_deg = 0;  // between the left and right image edges, through the centre row
   double vertical_deg = 0;
-  double diagonal_deg = 0;    // between opposite image corners
+  double diagonal_deg = 0;  // between opposite image corners
 };
 
 // FOV by unprojecting the image edges (pixel edges at -0.5 and W - 0.5) through the model.

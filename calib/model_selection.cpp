@@ -23,7 +23,8 @@ std::vector<std::string> default_candidate_models() {
 namespace {
 
 // The full data's solution as a warm start for a fold whose views are data.views[fold_views[k]].
-std::shared_ptr<const WarmStart> warm_start_for(const Solution& full, const std::vector<int>& fold_views) {
+std::shared_ptr<const WarmStart> warm_start_for(const Solution& full,
+                                                const std::vector<int>& fold_views) {
   auto warm = std::make_shared<WarmStart>();
   warm->model = full.model;
   warm->calobject_warp = full.calobject_warp;
@@ -48,7 +49,8 @@ std::shared_ptr<const WarmStart> warm_start_for(const Solution& full, const std:
 // Held-out residuals in units of each corner's own noise: the residual times the corner's
 // weight (mrcal's weight = 1 / relative noise, 0.5^level for mrgingham), so a corner found
 // at a coarse level does not outweigh the finer ones it is noisier than.
-std::vector<CornerResidual> weighted(const CalibrationData& data, std::vector<CornerResidual> residuals) {
+std::vector<CornerResidual> weighted(const CalibrationData& data,
+                                     std::vector<CornerResidual> residuals) {
   for (auto& r : residuals) {
     const double w = data.views[r.view].corners[r.corner].weight;
     r.dx_px *= w;
@@ -72,8 +74,8 @@ std::vector<CornerResidual> weighted(const CalibrationData& data, std::vector<Co
 // fixed share of the held-out RMS alone cannot see a lens error that the poses mostly
 // absorb: on a 30-deg lens, OPENCV4's k1 changes the held-out RMS by 4% and the
 // projection by 3.7 px.
-bool significantly_better(const std::vector<CornerResidual>& lean, const std::vector<CornerResidual>& rich,
-                          bool blocks_are_views) {
+bool significantly_better(const std::vector<CornerResidual>& lean,
+                          const std::vector<CornerResidual>& rich, bool blocks_are_views) {
   std::map<std::pair<int, int>, double> lean_e2;
   std::vector<double> all;
   for (const auto& r : lean) {
@@ -89,7 +91,8 @@ bool significantly_better(const std::vector<CornerResidual>& lean, const std::ve
     const auto it = lean_e2.find({r.view, r.corner});
     if (it == lean_e2.end()) continue;
     const double e2 = r.dx_px * r.dx_px + r.dy_px * r.dy_px;
-    per_block[{r.view, blocks_are_views ? 0 : r.corner}] += std::min(it->second, cap) - std::min(e2, cap);
+    per_block[{r.view, blocks_are_views ? 0 : r.corner}] +=
+        std::min(it->second, cap) - std::min(e2, cap);
   }
   const int n = static_cast<int>(per_block.size());
   if (n < 2) return false;
@@ -97,15 +100,16 @@ bool significantly_better(const std::vector<CornerResidual>& lean, const std::ve
   for (const auto& [b, d] : per_block) mean += d / n;
   double var = 0;
   for (const auto& [b, d] : per_block) var += (d - mean) * (d - mean) / (n - 1);
-  log_debug(log::Category::kCalib, "paired test: %d blocks, mean gain %.4g, standard error %.4g",
-            n, mean, std::sqrt(var / n));
+  log_debug(log::Category::kCalib, "paired test: %d blocks, mean gain %.4g, standard error %.4g", n,
+            mean, std::sqrt(var / n));
   return mean > 0 && mean > 3 * std::sqrt(var / n);
 }
 
 // Held-out residuals of one model: views split into `folds` interleaved groups.
-Result<std::vector<CornerResidual>> heldout_residuals(const CalibrationData& data, const SolveOptions& options,
-                                                      const Solution& full, const std::vector<int>& views,
-                                                      int folds) {
+Result<std::vector<CornerResidual>> heldout_residuals(const CalibrationData& data,
+                                                      const SolveOptions& options,
+                                                      const Solution& full,
+                                                      const std::vector<int>& views, int folds) {
   std::vector<CornerResidual> all;
   for (int f = 0; f < folds; ++f) {
     CalibrationData train = data;
@@ -141,7 +145,8 @@ Result<std::vector<CornerResidual>> heldout_residuals(const CalibrationData& dat
 Result<std::vector<CornerResidual>> heldout_residuals_by_corners(const CalibrationData& data,
                                                                  const SolveOptions& options,
                                                                  const Solution& full,
-                                                                 const std::vector<int>& views, int folds) {
+                                                                 const std::vector<int>& views,
+                                                                 int folds) {
   std::vector<CornerResidual> all;
   const int cols = data.board.cols;
   for (int f = 0; f < folds; ++f) {
@@ -203,8 +208,8 @@ double weighted_mean_square_px2(const CalibrationData& data, const Solution& s) 
 // views, fronto-parallel, centre-only or far boards): there the spline extrapolates
 // where no board was, differs for that reason alone, and was 3-50x further from the
 // truth than the OpenCV model.
-void cross_check_with_spline(const CalibrationData& data, const SolveOptions& options, bool by_views,
-                             ModelSelection* out) {
+void cross_check_with_spline(const CalibrationData& data, const SolveOptions& options,
+                             bool by_views, ModelSelection* out) {
   constexpr double kSplineCheckSigmas = 2.5;
   constexpr double kSplineCheckF = 1.5;
   if (!by_views || out->chosen.model.lensmodel.find("SPLINED") != std::string::npos) return;
@@ -248,7 +253,8 @@ void cross_check_with_spline(const CalibrationData& data, const SolveOptions& op
   // F 2.2; the rendered OPENCV8 views 0.5.
   const double chosen_ms = weighted_mean_square_px2(data, out->chosen);
   const double spline_ms = weighted_mean_square_px2(data, *spline);
-  const int extra_params = static_cast<int>(spline->model.intrinsics.size() - out->chosen.model.intrinsics.size());
+  const int extra_params =
+      static_cast<int>(spline->model.intrinsics.size() - out->chosen.model.intrinsics.size());
   const int dof = 2 * spline->inliers - static_cast<int>(spline->model.intrinsics.size()) -
                   6 * static_cast<int>(spline->views_used.size());
   const double f_stat = spline_ms > 0 && extra_params > 0 && dof > 0

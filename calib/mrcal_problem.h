@@ -33,8 +33,8 @@ struct MrcalProblem {
 MrcalProblem make_mrcal_problem(const CalibrationData& data, const std::vector<int>& views);
 
 // What a stage optimises. The camera never moves (it is the reference frame).
-mrcal_problem_selections_t mrcal_selections(bool core, bool distortions, bool warp,
-                                            bool regularize, bool outliers);
+mrcal_problem_selections_t mrcal_selections(bool core, bool distortions, bool warp, bool regularize,
+                                            bool outliers);
 
 struct StateCovariance;
 // The state covariance of the solved problem `p` (uncertainty.h), from mrcal's Jacobian

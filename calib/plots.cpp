@@ -7,8 +7,8 @@
 #include <limits>
 #include <system_error>
 
-#include "base/format.h"
 #include "analysis/plot.h"
+#include "base/format.h"
 #include "calib/lens_model.h"
 #include "calib/uncertainty.h"
 
@@ -21,7 +21,6 @@ using analysis::PlotSeries;
 using analysis::PlotSpec;
 
 constexpr int kRed = 0x0000d0, kBlue = 0xc04000, kGreen = 0x008000;
-
 
 // The imager as an image-coordinate panel: pixel centres 0..W-1, y down, equal aspect.
 PlotSpec imager_panel(const CalibrationData& data, const std::string& title) {
@@ -62,7 +61,8 @@ Status residual_vectors(const fs::path& path, const CalibrationData& data, const
   const double diag = std::hypot(data.imager_width_px, data.imager_height_px);
   // A 95th-percentile residual draws 2% of the imager's diagonal long.
   const double scale = std::isfinite(p95) && p95 > 0 ? nice(0.02 * diag / p95) : 1.0;
-  PlotSpec spec = imager_panel(data, "residuals (predicted - observed) x " + format_printf("%g", scale));
+  PlotSpec spec =
+      imager_panel(data, "residuals (predicted - observed) x " + format_printf("%g", scale));
   PlotSeries in{"inliers", {}, {}, {}, false, kBlue}, out{"outliers", {}, {}, {}, false, kRed};
   for (const auto& r : s.residuals) {
     const auto& c = data.views[r.view].corners[r.corner];
@@ -92,16 +92,20 @@ Status residual_histogram(const fs::path& path, const Solution& s, double sigma_
   int beyond = 0;
   for (double v : comp) {
     const int b = static_cast<int>(std::floor((v + half) / bin));
-    if (b < 0 || b >= kBins) ++beyond;
-    else counts[b] += 1;
+    if (b < 0 || b >= kBins)
+      ++beyond;
+    else
+      counts[b] += 1;
   }
   PlotSpec spec;
-  spec.title = "inlier residuals, x and y components (" + std::to_string(beyond) + " beyond 4 sigma)";
+  spec.title =
+      "inlier residuals, x and y components (" + std::to_string(beyond) + " beyond 4 sigma)";
   spec.x_label = "residual (px)";
   spec.y_label = "corners per bin";
   PlotSeries bars{"observed", {}, {}, {}, false, kBlue};
   bars.bar_width = 0.9 * bin;
-  PlotSeries normal{"normal, sigma " + format_printf("%.3f", sigma_px) + " px", {}, {}, {}, true, kRed};
+  PlotSeries normal{
+      "normal, sigma " + format_printf("%.3f", sigma_px) + " px", {}, {}, {}, true, kRed};
   for (int b = 0; b < kBins; ++b) {
     bars.x.push_back(-half + (b + 0.5) * bin);
     bars.y.push_back(counts[b]);
@@ -117,9 +121,9 @@ Status residual_histogram(const fs::path& path, const Solution& s, double sigma_
 }
 
 Status coverage(const fs::path& path, const CalibrationData& data, const CalibrationReport& r) {
-  PlotSpec spec = imager_panel(data, "observed corners: " + format_printf("%.0f", 100 * r.coverage) +
-                                         "% of the imager, " + format_printf("%.0f", 100 * r.edge_coverage) +
-                                         "% of its border");
+  PlotSpec spec = imager_panel(
+      data, "observed corners: " + format_printf("%.0f", 100 * r.coverage) + "% of the imager, " +
+                format_printf("%.0f", 100 * r.edge_coverage) + "% of its border");
   PlotSeries in{"inliers", {}, {}, {}, false, kBlue}, out{"outliers", {}, {}, {}, false, kRed};
   in.marker_px = 1;
   out.marker_px = 2;
@@ -133,8 +137,8 @@ Status coverage(const fs::path& path, const CalibrationData& data, const Calibra
 }
 
 // A field over the imager on a grid of nodes at pixel centres 0..W-1, 0..H-1.
-PlotHeatmap imager_heatmap(const CalibrationData& data, int cols, int rows, std::vector<double> values,
-                           const std::string& label) {
+PlotHeatmap imager_heatmap(const CalibrationData& data, int cols, int rows,
+                           std::vector<double> values, const std::string& label) {
   PlotHeatmap h;
   h.cols = cols;
   h.rows = rows;
@@ -151,7 +155,8 @@ Status uncertainty_map(const fs::path& path, const CalibrationData& data, const 
   constexpr int kCols = 48, kRows = 30;
   std::vector<double> grid;
   CAMLAB_ASSIGN(grid, uncertainty_grid(s, kCols, kRows, std::numeric_limits<double>::infinity()));
-  PlotSpec spec = imager_panel(data, "projection uncertainty at infinity (worst-direction 1 sigma, px)");
+  PlotSpec spec =
+      imager_panel(data, "projection uncertainty at infinity (worst-direction 1 sigma, px)");
   spec.heatmap = imager_heatmap(data, kCols, kRows, grid, "px");
   // Extrapolated corners can be orders of magnitude above the centre: a log scale, capped
   // at 100x the least value.
@@ -176,10 +181,12 @@ Status distortion_map(const fs::path& path, const CalibrationData& data, const S
   std::vector<double> magnitude(kCols * kRows, std::nan(""));
   for (int i = 0; i < kCols * kRows; ++i) {
     if (!valid[i] || !(v[3 * i + 2] > 1e-6)) continue;  // behind the pinhole's plane
-    const double xp = in[0] * v[3 * i] / v[3 * i + 2] + in[2], yp = in[1] * v[3 * i + 1] / v[3 * i + 2] + in[3];
+    const double xp = in[0] * v[3 * i] / v[3 * i + 2] + in[2],
+                 yp = in[1] * v[3 * i + 1] / v[3 * i + 2] + in[3];
     magnitude[i] = std::hypot(q[2 * i] - xp, q[2 * i + 1] - yp);
   }
-  PlotSpec spec = imager_panel(data, "distortion: shift from the pinhole core, px (" + s.model.lensmodel + ")");
+  PlotSpec spec =
+      imager_panel(data, "distortion: shift from the pinhole core, px (" + s.model.lensmodel + ")");
   spec.heatmap = imager_heatmap(data, kCols, kRows, magnitude, "px");
   return analysis::write_plot(path, spec);
 }

@@ -29,7 +29,8 @@ struct PlotFiles {
   std::vector<std::filesystem::path> written;
   std::vector<std::string> skipped;
 };
-Result<PlotFiles> write_calibration_plots(const std::filesystem::path& dir, const CalibrationData& data,
+Result<PlotFiles> write_calibration_plots(const std::filesystem::path& dir,
+                                          const CalibrationData& data,
                                           const CalibrationReport& report);
 
 }  // namespace camlab::calib

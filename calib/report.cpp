@@ -15,7 +15,6 @@ namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
 
-
 }  // namespace
 
 CalibrationReport make_report(const CalibrationData& data, const Solution& s,
@@ -98,8 +97,10 @@ CalibrationReport make_report(const CalibrationData& data, const Solution& s,
     double x0 = 1e18, y0 = 1e18, x1 = -1e18, y1 = -1e18;
     for (const auto& c : data.views[s.views_used[i]].corners) {
       if (!c.present) continue;
-      x0 = std::min(x0, c.x_px); x1 = std::max(x1, c.x_px);
-      y0 = std::min(y0, c.y_px); y1 = std::max(y1, c.y_px);
+      x0 = std::min(x0, c.x_px);
+      x1 = std::max(x1, c.x_px);
+      y0 = std::min(y0, c.y_px);
+      y1 = std::max(y1, c.y_px);
     }
     spans.push_back(std::hypot(x1 - x0, y1 - y0) / diag);
   }
@@ -115,56 +116,63 @@ CalibrationReport make_report(const CalibrationData& data, const Solution& s,
 
   const int used = static_cast<int>(s.views_used.size());
   if (used < 8)
-    r.warnings.push_back({"too_few_views", "only " + std::to_string(used) +
-                                               " views were solved; capture 15-30 views of the board "
-                                               "at varied positions, distances and tilts"});
+    r.warnings.push_back(
+        {"too_few_views", "only " + std::to_string(used) +
+                              " views were solved; capture 15-30 views of the board "
+                              "at varied positions, distances and tilts"});
   if (r.tilt_max_deg < 12 || r.tilt_plane_max_deg < 12)
-    r.warnings.push_back({"fronto_parallel",
-                          (r.tilt_plane_max_deg < 12
-                               ? "every board is within " + format_printf("%.1f", r.tilt_plane_max_deg) +
-                                     " deg of parallel to the image plane"
-                               : "every board faces the camera within " + format_printf("%.1f", r.tilt_max_deg) +
-                                     " deg") +
-                              ", so focal length and distance cannot be told apart; capture "
-                              "views with the board tilted 20-45 deg in different directions"});
+    r.warnings.push_back(
+        {"fronto_parallel",
+         (r.tilt_plane_max_deg < 12
+              ? "every board is within " + format_printf("%.1f", r.tilt_plane_max_deg) +
+                    " deg of parallel to the image plane"
+              : "every board faces the camera within " + format_printf("%.1f", r.tilt_max_deg) +
+                    " deg") +
+             ", so focal length and distance cannot be told apart; capture "
+             "views with the board tilted 20-45 deg in different directions"});
   if (r.edge_coverage < 1.0 / 3)
-    r.warnings.push_back({"centre_only",
-                          "corners cover only " + format_printf("%.0f", 100 * r.edge_coverage) +
-                              "% of the imager's border; distortion near the edges is extrapolated. "
-                              "Capture views with the board reaching into the corners and edges"});
+    r.warnings.push_back(
+        {"centre_only", "corners cover only " + format_printf("%.0f", 100 * r.edge_coverage) +
+                            "% of the imager's border; distortion near the edges is extrapolated. "
+                            "Capture views with the board reaching into the corners and edges"});
   if (r.board_span_median < 0.25)
-    r.warnings.push_back({"far_boards",
-                          "the boards span a median " + format_printf("%.0f", 100 * r.board_span_median) +
-                              "% of the imager diagonal; capture views closer to the camera so the "
-                              "board fills a third or more of the image"});
+    r.warnings.push_back(
+        {"far_boards", "the boards span a median " +
+                           format_printf("%.0f", 100 * r.board_span_median) +
+                           "% of the imager diagonal; capture views closer to the camera so the "
+                           "board fills a third or more of the image"});
   if (r.outlier_share > 0.05)
-    r.warnings.push_back({"many_outliers",
-                          format_printf("%.1f", 100 * r.outlier_share) +
-                              "% of the corners were rejected as outliers; check the board size and "
-                              "flatness, focus and motion blur, and recapture the worst views"});
+    r.warnings.push_back(
+        {"many_outliers",
+         format_printf("%.1f", 100 * r.outlier_share) +
+             "% of the corners were rejected as outliers; check the board size and "
+             "flatness, focus and motion blur, and recapture the worst views"});
   // Judged on the weighted residuals (mrcal's x = weight x residual: each corner in units
   // of the noise expected at its detection level). The plain RMS mixes in corners that
   // were found at coarse levels and are noisier by design (mrgingham's level 2: 4x), so
   // it passes 1 px on a lens the model describes exactly.
   if (r.rms_weighted_px > 1.0)
-    r.warnings.push_back({"high_residuals",
-                          "the residual RMS is " + format_printf("%.2f", r.rms_weighted_px) +
-                              " px (each corner weighted by its detection level): the lens model "
-                              "cannot describe this lens or the corners are poor; try a richer "
-                              "model (OPENCV8, SPLINED_STEREOGRAPHIC)"});
+    r.warnings.push_back(
+        {"high_residuals", "the residual RMS is " + format_printf("%.2f", r.rms_weighted_px) +
+                               " px (each corner weighted by its detection level): the lens model "
+                               "cannot describe this lens or the corners are poor; try a richer "
+                               "model (OPENCV8, SPLINED_STEREOGRAPHIC)"});
   // Pixels are square to a fraction of a percent on every sensor we know, and the optical
   // axis meets the sensor inside it: intrinsics that say otherwise come from a wrong
   // board size, mislabelled corners or too little data, not from the lens.
   const auto& k = s.model.intrinsics;
   if (k.size() >= 4) {
     const double aspect = k[1] != 0 ? k[0] / k[1] : 0;
-    const bool centre_inside = k[2] >= 0 && k[2] <= s.model.width_px - 1 && k[3] >= 0 && k[3] <= s.model.height_px - 1;
+    const bool centre_inside =
+        k[2] >= 0 && k[2] <= s.model.width_px - 1 && k[3] >= 0 && k[3] <= s.model.height_px - 1;
     if (!(aspect > 0.8 && aspect < 1.25) || !centre_inside)
-      r.warnings.push_back({"implausible_intrinsics",
-                            "fx/fy = " + format_printf("%.3g", aspect) + " and the principal point (" + format_printf("%.1f", k[2]) + ", " +
-                                format_printf("%.1f", k[3]) + ") px describe no ordinary camera (square pixels, axis inside "
-                                "the imager): check --board (inner corners), the spacing and the corners; "
-                                "an anamorphic lens is the one exception"});
+      r.warnings.push_back(
+          {"implausible_intrinsics",
+           "fx/fy = " + format_printf("%.3g", aspect) + " and the principal point (" +
+               format_printf("%.1f", k[2]) + ", " + format_printf("%.1f", k[3]) +
+               ") px describe no ordinary camera (square pixels, axis inside "
+               "the imager): check --board (inner corners), the spacing and the corners; "
+               "an anamorphic lens is the one exception"});
   }
   if (!r.fov)
     r.warnings.push_back({"fov_undefined", fov.error().message +
@@ -200,8 +208,10 @@ nlohmann::json to_json(const CalibrationReport& r) {
     j["crop_factor"] = r.crop_factor;
     j["focal_35mm_equiv_mm"] = r.focal_35mm_equiv_mm;
   }
-  j["residuals"] = {{"rms_px", s.rms_px}, {"rms_weighted_px", r.rms_weighted_px},
-                    {"worst_px", s.worst_px}, {"inliers", s.inliers}};
+  j["residuals"] = {{"rms_px", s.rms_px},
+                    {"rms_weighted_px", r.rms_weighted_px},
+                    {"worst_px", s.worst_px},
+                    {"inliers", s.inliers}};
   j["outliers"] = {{"count", s.outliers}, {"share", r.outlier_share}};
   j["views"] = {{"total", r.views_total}, {"used", s.views_used.size()}};
   j["coverage"] = {{"imager", r.coverage}, {"border", r.edge_coverage}};
@@ -229,14 +239,19 @@ nlohmann::json to_json(const CalibrationReport& r) {
   if (!r.cross_validation.empty()) j["cross_validation"] = r.cross_validation;
   if (r.uncertainty) {
     nlohmann::json pts = nlohmann::json::array();
-    auto opt = [](const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(); };
+    auto opt = [](const std::optional<double>& v) {
+      return v ? nlohmann::json(*v) : nlohmann::json();
+    };
     for (const auto& p : r.uncertainty->points)
-      pts.push_back({{"where", p.where}, {"x_px", p.x_px}, {"y_px", p.y_px},
+      pts.push_back({{"where", p.where},
+                     {"x_px", p.x_px},
+                     {"y_px", p.y_px},
                      {"at_infinity_px", opt(p.at_infinity_px)},
                      {"at_working_distance_px", opt(p.at_working_distance_px)}});
     j["projection_uncertainty"] = {
-        {"method", "mrcal mean-frames: observation noise through J to intrinsics and board poses; "
-                   "worst-direction 1-sigma"},
+        {"method",
+         "mrcal mean-frames: observation noise through J to intrinsics and board poses; "
+         "worst-direction 1-sigma"},
         {"observed_sigma_px", r.uncertainty->observed_sigma_px},
         {"working_distance_m", r.uncertainty->working_distance_m},
         {"points", pts}};
@@ -255,17 +270,19 @@ std::string to_text(const CalibrationReport& r) {
   char buf[768];
   if (!r.evidence.empty()) {
     t += r.cross_validation == "corners"
-             ? "model selection (held-out: every third corner left out of the fit; fewer than 6 views):\n"
+             ? "model selection (held-out: every third corner left out of the fit; fewer than 6 "
+               "views):\n"
              : "model selection (held-out: views left out of the fit, poses refitted):\n";
     t += "  model                      params   rms_px  heldout_px  solve_s     cv_s\n";
     for (const auto& e : r.evidence) {
       if (e.ok)
-        std::snprintf(buf, sizeof buf, "  %-26s %6d %8.4f %11.4f %8.3f %8.3f%s\n", e.lensmodel.c_str(),
-                      e.params, e.rms_px, e.heldout_px, e.solve_s, e.cv_s,
+        std::snprintf(buf, sizeof buf, "  %-26s %6d %8.4f %11.4f %8.3f %8.3f%s\n",
+                      e.lensmodel.c_str(), e.params, e.rms_px, e.heldout_px, e.solve_s, e.cv_s,
                       e.lensmodel == s.model.lensmodel ? "  <- chosen" : "");
       else if (!e.note.empty())
-        std::snprintf(buf, sizeof buf, "  %-26s %6d %8.4f  %s%s\n", e.lensmodel.c_str(), e.params, e.rms_px,
-                      e.note.c_str(), e.lensmodel == s.model.lensmodel ? "  <- chosen" : "");
+        std::snprintf(buf, sizeof buf, "  %-26s %6d %8.4f  %s%s\n", e.lensmodel.c_str(), e.params,
+                      e.rms_px, e.note.c_str(),
+                      e.lensmodel == s.model.lensmodel ? "  <- chosen" : "");
       else
         std::snprintf(buf, sizeof buf, "  %-26s %6d  failed: %s\n", e.lensmodel.c_str(), e.params,
                       e.error.c_str());
@@ -278,12 +295,14 @@ std::string to_text(const CalibrationReport& r) {
                 s.model.intrinsics[3]);
   t += buf;
   if (r.fov) {
-    std::snprintf(buf, sizeof buf, "FOV (unprojected image edges): %.3f x %.3f deg, diagonal %.3f deg\n",
+    std::snprintf(buf, sizeof buf,
+                  "FOV (unprojected image edges): %.3f x %.3f deg, diagonal %.3f deg\n",
                   r.fov->horizontal_deg, r.fov->vertical_deg, r.fov->diagonal_deg);
     t += buf;
   }
   if (r.pixel_pitch_um > 0) {
-    std::snprintf(buf, sizeof buf, "focal length %.4f mm (pixel %.3f um), 35-mm equivalent %.2f mm (crop %.3f)\n",
+    std::snprintf(buf, sizeof buf,
+                  "focal length %.4f mm (pixel %.3f um), 35-mm equivalent %.2f mm (crop %.3f)\n",
                   r.focal_mm, r.pixel_pitch_um, r.focal_35mm_equiv_mm, r.crop_factor);
     t += buf;
   }
@@ -291,10 +310,11 @@ std::string to_text(const CalibrationReport& r) {
                 "residuals: rms %.4f px, worst %.3f px over %d corners; outliers %d (%.2f%%)\n",
                 s.rms_px, s.worst_px, s.inliers, s.outliers, 100 * r.outlier_share);
   t += buf;
-  std::snprintf(buf, sizeof buf,
-                "views %zu of %d; coverage %.0f%% of the imager, %.0f%% of its border; tilt %.1f-%.1f deg\n",
-                s.views_used.size(), r.views_total, 100 * r.coverage, 100 * r.edge_coverage,
-                r.tilt_min_deg, r.tilt_max_deg);
+  std::snprintf(
+      buf, sizeof buf,
+      "views %zu of %d; coverage %.0f%% of the imager, %.0f%% of its border; tilt %.1f-%.1f deg\n",
+      s.views_used.size(), r.views_total, 100 * r.coverage, 100 * r.edge_coverage, r.tilt_min_deg,
+      r.tilt_max_deg);
   t += buf;
   if (r.uncertainty) {
     std::snprintf(buf, sizeof buf,
@@ -302,7 +322,9 @@ std::string to_text(const CalibrationReport& r) {
                   "infinity / at %.3g m:\n",
                   r.uncertainty->observed_sigma_px, r.uncertainty->working_distance_m);
     t += buf;
-    auto v = [](const std::optional<double>& x) { return x ? format_printf("%.4f", *x) : std::string("n/a"); };
+    auto v = [](const std::optional<double>& x) {
+      return x ? format_printf("%.4f", *x) : std::string("n/a");
+    };
     for (const auto& p : r.uncertainty->points) {
       std::snprintf(buf, sizeof buf, "  %-13s (%7.1f, %7.1f)  %s / %s\n", p.where.c_str(), p.x_px,
                     p.y_px, v(p.at_infinity_px).c_str(), v(p.at_working_distance_px).c_str());

@@ -43,8 +43,8 @@ struct ModelEvidence {
   int params = 0;
   double rms_px = 0;
   double heldout_px = 0;  // trimmed RMS on held-out data (model_selection.h)
-  double solve_s = 0;  // the solve on all views
-  double cv_s = 0;     // the cross-validation folds
+  double solve_s = 0;     // the solve on all views
+  double cv_s = 0;        // the cross-validation folds
   bool ok = false;
   std::string error;
   std::string note;  // a check that is not a cross-validated candidate (the spline cross-check)
@@ -58,9 +58,9 @@ struct CalibrationReport {
   int views_total = 0;
   double rms_weighted_px = 0;  // inlier RMS of weight x residual (mrcal's x), px at level 0
   double outlier_share = 0;
-  double coverage = 0;        // share of a 16 x 10 grid of imager cells holding an inlier
-  double edge_coverage = 0;   // the same over the outer ring of cells
-  double tilt_min_deg = 0, tilt_max_deg = 0;  // board normal off the line of sight
+  double coverage = 0;       // share of a 16 x 10 grid of imager cells holding an inlier
+  double edge_coverage = 0;  // the same over the outer ring of cells
+  double tilt_min_deg = 0, tilt_max_deg = 0;              // board normal off the line of sight
   double tilt_plane_min_deg = 0, tilt_plane_max_deg = 0;  // board normal off the optical axis
   double board_span_median = 0;  // board extent / imager diagonal, median over views
   std::optional<UncertaintySummary> uncertainty;  // empty: uncertainty_error says why

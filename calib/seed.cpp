@@ -14,8 +14,8 @@ namespace {
 
 // Pinhole-normalised coordinates (x/z, y/z) of pixel q under a core-only projection, or
 // false beyond 80 deg off-axis (tan explodes; the seed does not need those corners).
-bool normalise(SeedProjection proj, double f, double cx, double cy, double qx, double qy,
-               double* x, double* y) {
+bool normalise(SeedProjection proj, double f, double cx, double cy, double qx, double qy, double* x,
+               double* y) {
   const double ux = (qx - cx) / f, uy = (qy - cy) / f;
   if (proj == SeedProjection::kPinhole) {
     *x = ux;
@@ -134,16 +134,23 @@ std::optional<FocalSeed> seed_focal(const CalibrationData& data, double focal_gu
   if (!std::isfinite(best.cost)) return std::nullopt;
   // Golden-section refinement in log f over the neighbouring grid steps.
   const double g = (std::sqrt(5.0) - 1) / 2;
-  double a = std::log(best.focal_px) - std::log(2.0) / 4, b = std::log(best.focal_px) + std::log(2.0) / 4;
+  double a = std::log(best.focal_px) - std::log(2.0) / 4,
+         b = std::log(best.focal_px) + std::log(2.0) / 4;
   double x1 = b - g * (b - a), x2 = a + g * (b - a);
   double f1 = candidate_cost(data, views, best.projection, std::exp(x1));
   double f2 = candidate_cost(data, views, best.projection, std::exp(x2));
   for (int it = 0; it < 14; ++it) {
     if (f1 < f2) {
-      b = x2; x2 = x1; f2 = f1; x1 = b - g * (b - a);
+      b = x2;
+      x2 = x1;
+      f2 = f1;
+      x1 = b - g * (b - a);
       f1 = candidate_cost(data, views, best.projection, std::exp(x1));
     } else {
-      a = x1; x1 = x2; f1 = f2; x2 = a + g * (b - a);
+      a = x1;
+      x1 = x2;
+      f1 = f2;
+      x2 = a + g * (b - a);
       f2 = candidate_cost(data, views, best.projection, std::exp(x2));
     }
   }

@@ -2,14 +2,14 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cmath>
 #include <numeric>
 #include <optional>
 
-#include "base/log.h"
 #include "base/format.h"
+#include "base/log.h"
 #include "calib/mrcal_api.h"
 #include "calib/mrcal_problem.h"
 #include "calib/seed.h"
@@ -25,16 +25,16 @@ using Problem = MrcalProblem;
 bool optimize(Problem* p, const BoardSpec& board, mrcal_problem_selections_t sel) {
   const int nobs = static_cast<int>(p->observations.size());
   const int nframes = static_cast<int>(p->frames.size());
-  const int nx = mrcal_num_measurements(nobs, 0, board.cols, board.rows, 1, 0, nframes, 0, 0,
-                                        sel, &p->lensmodel);
+  const int nx = mrcal_num_measurements(nobs, 0, board.cols, board.rows, 1, 0, nframes, 0, 0, sel,
+                                        &p->lensmodel);
   p->x.assign(nx, 0.0);
   const mrcal_problem_constants_t constants = {-1.0, -1.0};
   const auto t0 = std::chrono::steady_clock::now();
   const mrcal_stats_t stats = mrcal_optimize(
-      nullptr, 0, p->x.data(), nx * static_cast<int>(sizeof(double)), p->intrinsics.data(), nullptr, p->frames.data(), nullptr,
-      &p->warp, 1, 0, nframes, 0, 0, p->observations.data(), nullptr, nobs, 0, p->pool.data(),
-      &p->lensmodel, p->imagersize, sel, &constants, board.spacing_m, board.cols, board.rows,
-      false, false);
+      nullptr, 0, p->x.data(), nx * static_cast<int>(sizeof(double)), p->intrinsics.data(), nullptr,
+      p->frames.data(), nullptr, &p->warp, 1, 0, nframes, 0, 0, p->observations.data(), nullptr,
+      nobs, 0, p->pool.data(), &p->lensmodel, p->imagersize, sel, &constants, board.spacing_m,
+      board.cols, board.rows, false, false);
   if (!(stats.rms_reproj_error__pixels >= 0) || !std::isfinite(stats.rms_reproj_error__pixels))
     return false;
   for (double v : p->intrinsics)
@@ -147,7 +147,8 @@ bool update_suspects(Problem* p, const CalibrationData& data, const std::vector<
   }
   w->suspect = find_stragglers(*p, per);
   apply_weights(p, *w, per);
-  return w->suspect != saved_suspect || std::any_of(bad.begin(), bad.end(), [](char c) { return c; });
+  return w->suspect != saved_suspect ||
+         std::any_of(bad.begin(), bad.end(), [](char c) { return c; });
 }
 
 // k1, k2 of a radial polynomial that mimics the stereographic core over the field the
@@ -165,7 +166,11 @@ void seed_k1_k2_from_stereographic(const Problem& p, std::vector<double>* intrin
   for (int i = 1; i <= 50; ++i) {
     const double th = theta_max * i / 50, rp = std::tan(th), rs = 2 * std::tan(th / 2);
     const double g1 = rp * rp * rp, g2 = g1 * rp * rp, y = rs - rp;
-    a11 += g1 * g1; a12 += g1 * g2; a22 += g2 * g2; b1 += g1 * y; b2 += g2 * y;
+    a11 += g1 * g1;
+    a12 += g1 * g2;
+    a22 += g2 * g2;
+    b1 += g1 * y;
+    b2 += g2 * y;
   }
   const double det = a11 * a22 - a12 * a12;
   if (!(std::fabs(det) > 1e-300)) return;
@@ -178,7 +183,8 @@ void seed_k1_k2_from_stereographic(const Problem& p, std::vector<double>* intrin
 // (the first stages start farthest from the optimum and take the most iterations). The
 // coarse board is corners (2i, 2j) of the real one: spacing doubled, same origin, so
 // its poses are the real board's. Used only when each view keeps 8+ coarse corners.
-std::optional<CalibrationData> coarse_data(const CalibrationData& data, const std::vector<int>& views) {
+std::optional<CalibrationData> coarse_data(const CalibrationData& data,
+                                           const std::vector<int>& views) {
   const BoardSpec& b = data.board;
   CalibrationData coarse;
   coarse.board = {(b.cols + 1) / 2, (b.rows + 1) / 2, 2 * b.spacing_m};
@@ -235,10 +241,14 @@ Status solve_stage(Problem* p, const CalibrationData& data, const std::vector<in
 // a wide lens falls into a local minimum, a chain does not.
 std::vector<std::string> model_chain(const mrcal_lensmodel_t& target, const std::string& name) {
   switch (target.type) {
-    case MRCAL_LENSMODEL_OPENCV12: return {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV8", "LENSMODEL_OPENCV12"};
-    case MRCAL_LENSMODEL_OPENCV8: return {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV8"};
-    case MRCAL_LENSMODEL_OPENCV5: return {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV5"};
-    default: return {name};
+    case MRCAL_LENSMODEL_OPENCV12:
+      return {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV8", "LENSMODEL_OPENCV12"};
+    case MRCAL_LENSMODEL_OPENCV8:
+      return {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV8"};
+    case MRCAL_LENSMODEL_OPENCV5:
+      return {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV5"};
+    default:
+      return {name};
   }
 }
 
@@ -251,8 +261,8 @@ Status fit_chain_model(Problem* p, const CalibrationData& data, const std::vecto
   mrcal_lensmodel_from_name(&m, name.c_str());
   std::vector<double> next(mrcal_lensmodel_num_params(&m), 0.0);
   // OpenCV models share their leading parameters (fx fy cx cy k1 k2 p1 p2 k3 ...).
-  const bool opencv_to_opencv = p->lensmodel.type >= MRCAL_LENSMODEL_OPENCV4 &&
-                                p->lensmodel.type <= MRCAL_LENSMODEL_OPENCV12;
+  const bool opencv_to_opencv =
+      p->lensmodel.type >= MRCAL_LENSMODEL_OPENCV4 && p->lensmodel.type <= MRCAL_LENSMODEL_OPENCV12;
   const size_t keep = opencv_to_opencv ? std::min(next.size(), p->intrinsics.size()) : 4;
   std::copy(p->intrinsics.begin(), p->intrinsics.begin() + keep, next.begin());
   if (stereographic_core && m.type == MRCAL_LENSMODEL_OPENCV4 &&
@@ -304,11 +314,11 @@ void fill_solution(const Problem& p, const CalibrationData& data, const std::vec
 void fill_outlier_residuals(const Problem& p, const CalibrationData& data, Solution* s) {
   for (auto& r : s->residuals) {
     if (!r.outlier || r.dx_px != 0 || r.dy_px != 0) continue;
-    const size_t i = std::find(s->views_used.begin(), s->views_used.end(), r.view) - s->views_used.begin();
+    const size_t i =
+        std::find(s->views_used.begin(), s->views_used.end(), r.view) - s->views_used.begin();
     const auto& f = p.frames[i];
-    auto q = project_board_corner(s->model, data.board,
-                                  {f.r.x, f.r.y, f.r.z, f.t.x, f.t.y, f.t.z}, {p.warp.x2, p.warp.y2},
-                                  r.corner);
+    auto q = project_board_corner(s->model, data.board, {f.r.x, f.r.y, f.r.z, f.t.x, f.t.y, f.t.z},
+                                  {p.warp.x2, p.warp.y2}, r.corner);
     if (!q) continue;
     const auto& obs = data.views[r.view].corners[r.corner];
     r.dx_px = (*q)[0] - obs.x_px;
@@ -318,9 +328,10 @@ void fill_outlier_residuals(const Problem& p, const CalibrationData& data, Solut
 
 // Stages 3 and 4 (outlier rejection, board warp) on the solved model, then the
 // Solution with its residuals and, when asked, the state covariance.
-Result<Solution> finish_solve(Problem* p, const CalibrationData& data, const std::vector<int>& views,
-                              const std::vector<char>& suspect, const SolveOptions& options,
-                              const FocalSeed& seed, std::chrono::steady_clock::time_point t0) {
+Result<Solution> finish_solve(Problem* p, const CalibrationData& data,
+                              const std::vector<int>& views, const std::vector<char>& suspect,
+                              const SolveOptions& options, const FocalSeed& seed,
+                              std::chrono::steady_clock::time_point t0) {
   const BoardSpec& board = data.board;
   const bool has_distortions = p->intrinsics.size() > 4;
   // Views still far off after the full model are mis-observed (or not this board): they
@@ -335,8 +346,8 @@ Result<Solution> finish_solve(Problem* p, const CalibrationData& data, const std
     return make_error("solve_failed", "the solve with outlier rejection did not converge");
   // Stage 4: the board's warp.
   if (options.board_warp &&
-      !optimize(p, board, selections(true, has_distortions, true, has_distortions,
-                                      options.reject_outliers)))
+      !optimize(p, board,
+                selections(true, has_distortions, true, has_distortions, options.reject_outliers)))
     return make_error("solve_failed", "the solve with board warp did not converge");
 
   Solution s;
@@ -352,9 +363,9 @@ Result<Solution> finish_solve(Problem* p, const CalibrationData& data, const std
   s.view_downweighted = suspect;
   if (options.compute_covariance) {
     // The Jacobian of the last stage's problem, at its optimum (uncertainty.h).
-    auto cov = state_covariance(*p, board, selections(true, has_distortions, options.board_warp,
-                                                     has_distortions, false),
-                                suspect);
+    auto cov = state_covariance(
+        *p, board, selections(true, has_distortions, options.board_warp, has_distortions, false),
+        suspect);
     if (cov)
       s.covariance = std::make_shared<const StateCovariance>(std::move(*cov));
     else
@@ -366,7 +377,6 @@ Result<Solution> finish_solve(Problem* p, const CalibrationData& data, const std
   return s;
 }
 
-
 // The problem of every view with a whole corner array, 8+ present corners and a pose:
 // known[v] when given, else planar PnP on its present corners through `model` (missing
 // corners never enter a pose). Starts at `model`'s intrinsics; *views gets the data
@@ -377,7 +387,8 @@ Result<Problem> posed_problem(const CalibrationData& data, const LensModel& mode
   views->clear();
   std::vector<std::array<double, 6>> poses;
   for (int v = 0; v < static_cast<int>(data.views.size()); ++v) {
-    if (static_cast<int>(data.views[v].corners.size()) != data.board.cols * data.board.rows) continue;
+    if (static_cast<int>(data.views[v].corners.size()) != data.board.cols * data.board.rows)
+      continue;
     if (data.views[v].present_count() < 8) continue;
     std::optional<std::array<double, 6>> pose;
     if (v < static_cast<int>(known.size())) pose = known[v];
@@ -387,7 +398,8 @@ Result<Problem> posed_problem(const CalibrationData& data, const LensModel& mode
     poses.push_back(*pose);
   }
   if (views->size() < 2)
-    return make_error("too_few_views", "fewer than 2 views have a usable board (8+ corners and a pose)");
+    return make_error("too_few_views",
+                      "fewer than 2 views have a usable board (8+ corners and a pose)");
   Problem p = make_mrcal_problem(data, *views);
   mrcal_lensmodel_from_name(&p.lensmodel, model.lensmodel.c_str());
   p.intrinsics = model.intrinsics;
@@ -449,8 +461,8 @@ MrcalProblem make_mrcal_problem(const CalibrationData& data, const std::vector<i
   return p;
 }
 
-mrcal_problem_selections_t mrcal_selections(bool core, bool distortions, bool warp,
-                                            bool regularize, bool outliers) {
+mrcal_problem_selections_t mrcal_selections(bool core, bool distortions, bool warp, bool regularize,
+                                            bool outliers) {
   mrcal_problem_selections_t s{};
   s.do_optimize_intrinsics_core = core;
   s.do_optimize_intrinsics_distortions = distortions;
@@ -463,9 +475,9 @@ mrcal_problem_selections_t mrcal_selections(bool core, bool distortions, bool wa
 }
 
 Result<std::array<double, 2>> project_board_corner(const LensModel& model, const BoardSpec& board,
-                                                  const std::array<double, 6>& rt_cam_board,
-                                                  const std::array<double, 2>& calobject_warp,
-                                                  int corner) {
+                                                   const std::array<double, 6>& rt_cam_board,
+                                                   const std::array<double, 2>& calobject_warp,
+                                                   int corner) {
   if (corner < 0 || corner >= board.cols * board.rows)
     return make_error("invalid_argument", "corner index outside the board");
   const int ci = corner % board.cols, cj = corner / board.cols;
@@ -494,7 +506,8 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
   const auto t0 = std::chrono::steady_clock::now();
   const BoardSpec& board = data.board;
   if (board.cols < 2 || board.rows < 2 || !(board.spacing_m > 0))
-    return make_error("invalid_argument", "the board needs 2 x 2 or more inner corners and a positive spacing");
+    return make_error("invalid_argument",
+                      "the board needs 2 x 2 or more inner corners and a positive spacing");
   if (data.imager_width_px <= 0 || data.imager_height_px <= 0)
     return make_error("invalid_argument", "the imager size is unknown");
   mrcal_lensmodel_t target;
@@ -502,17 +515,20 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
       !mrcal_lensmodel_metadata(&target).has_core || target.type == MRCAL_LENSMODEL_CAHVORE)
     return make_error("bad_lensmodel", "unsupported lens model '" + options.lensmodel + "'");
   if (options.warm_start && options.warm_start->model.lensmodel == options.lensmodel &&
-      options.warm_start->model.intrinsics.size() == static_cast<size_t>(mrcal_lensmodel_num_params(&target)))
+      options.warm_start->model.intrinsics.size() ==
+          static_cast<size_t>(mrcal_lensmodel_num_params(&target)))
     return solve_warm(data, options, t0);
 
   auto seed = seed_focal(data, options.focal_guess_px);
   log_debug(log::Category::kCalib, "seed %.3f s",
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  if (!seed) return make_error("solve_failed", "no view gave a board pose: check the board size and the corners");
+  if (!seed)
+    return make_error("solve_failed",
+                      "no view gave a board pose: check the board size and the corners");
   const double cx = (data.imager_width_px - 1) / 2.0, cy = (data.imager_height_px - 1) / 2.0;
   LensModel seed_model;
   seed_model.lensmodel = seed->projection == SeedProjection::kPinhole ? "LENSMODEL_PINHOLE"
-                                                                        : "LENSMODEL_STEREOGRAPHIC";
+                                                                      : "LENSMODEL_STEREOGRAPHIC";
   seed_model.intrinsics = {seed->focal_px, seed->focal_px, cx, cy};
   seed_model.width_px = data.imager_width_px;
   seed_model.height_px = data.imager_height_px;

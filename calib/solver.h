@@ -59,20 +59,20 @@ struct SolveOptions {
 struct StateCovariance;  // uncertainty.h
 
 struct CornerResidual {
-  int view = 0;    // index into CalibrationData::views
-  int corner = 0;  // row-major corner index
+  int view = 0;                 // index into CalibrationData::views
+  int corner = 0;               // row-major corner index
   double dx_px = 0, dy_px = 0;  // predicted - observed
-  bool outlier = false;          // rejected by the solve
+  bool outlier = false;         // rejected by the solve
 };
 
 struct Solution {
   LensModel model;
-  std::vector<int> views_used;                     // indices into CalibrationData::views
+  std::vector<int> views_used;                      // indices into CalibrationData::views
   std::vector<std::array<double, 6>> rt_cam_board;  // per used view
   std::array<double, 2> calobject_warp{};           // mrcal's x2, y2 (m)
-  std::vector<CornerResidual> residuals;           // every present corner of the used views
-  double rms_px = 0;    // over inliers, sqrt(mean(dx^2 + dy^2))
-  double worst_px = 0;  // largest inlier residual
+  std::vector<CornerResidual> residuals;            // every present corner of the used views
+  double rms_px = 0;                                // over inliers, sqrt(mean(dx^2 + dy^2))
+  double worst_px = 0;                              // largest inlier residual
   int inliers = 0;
   int outliers = 0;
   double seed_focal_px = 0;
@@ -99,9 +99,9 @@ Result<Solution> fit_poses(const CalibrationData& data, const LensModel& model,
 // The pixel of board corner `corner` (row-major index) for a board at rt_cam_board with
 // mrcal's warp, through `model`. Errors from the projection are passed on.
 Result<std::array<double, 2>> project_board_corner(const LensModel& model, const BoardSpec& board,
-                                                  const std::array<double, 6>& rt_cam_board,
-                                                  const std::array<double, 2>& calobject_warp,
-                                                  int corner);
+                                                   const std::array<double, 6>& rt_cam_board,
+                                                   const std::array<double, 2>& calobject_warp,
+                                                   int corner);
 
 // Root mean square of the smallest `keep` share of the residual lengths (keep = 0.98
 // ignores up to 2% gross outliers when comparing models on held-out views).

@@ -29,7 +29,8 @@ struct cholmod_sparse_struct {
 namespace camlab::calib {
 
 double PixelCovariance::worst_px() const {
-  return std::sqrt(std::max(0.0, 0.5 * (xx + yy) + std::sqrt(0.25 * (xx - yy) * (xx - yy) + xy * xy)));
+  return std::sqrt(
+      std::max(0.0, 0.5 * (xx + yy) + std::sqrt(0.25 * (xx - yy) * (xx - yy) + xy * xy)));
 }
 
 double PixelCovariance::rms_px() const { return std::sqrt(std::max(0.0, 0.5 * (xx + yy))); }
@@ -56,15 +57,17 @@ Result<StateCovariance> state_covariance(const MrcalProblem& p, const BoardSpec&
   jt.x = val.data();
   jt.sorted = jt.packed = 1;
   const mrcal_problem_constants_t constants = {-1.0, -1.0};
-  if (!mrcal_optimizer_callback(b_packed.data(), nstate * static_cast<int>(sizeof(double)), x.data(),
-                                nmeas * static_cast<int>(sizeof(double)), &jt, p.intrinsics.data(),
-                                nullptr, p.frames.data(), nullptr, &p.warp, 1, 0, nframes, 0, 0,
-                                p.observations.data(), nullptr, nobs, 0, p.pool.data(), &p.lensmodel,
-                                p.imagersize, sel, &constants, board.spacing_m, W, H, false))
+  if (!mrcal_optimizer_callback(b_packed.data(), nstate * static_cast<int>(sizeof(double)),
+                                x.data(), nmeas * static_cast<int>(sizeof(double)), &jt,
+                                p.intrinsics.data(), nullptr, p.frames.data(), nullptr, &p.warp, 1,
+                                0, nframes, 0, 0, p.observations.data(), nullptr, nobs, 0,
+                                p.pool.data(), &p.lensmodel, p.imagersize, sel, &constants,
+                                board.spacing_m, W, H, false))
     return make_error("solve_failed", "mrcal_optimizer_callback failed on the solved problem");
 
   // J^T J over all rows, and J_obs^T J_obs over the board observations' rows.
-  cv::Mat jtj = cv::Mat::zeros(nstate, nstate, CV_64F), jobs = cv::Mat::zeros(nstate, nstate, CV_64F);
+  cv::Mat jtj = cv::Mat::zeros(nstate, nstate, CV_64F),
+          jobs = cv::Mat::zeros(nstate, nstate, CV_64F);
   for (int r = 0; r < nmeas; ++r) {
     cv::Mat& m = r < nmeas_boards ? jobs : jtj;
     for (int a = row_start[r]; a < row_start[r + 1]; ++a) {
@@ -75,8 +78,9 @@ Result<StateCovariance> state_covariance(const MrcalProblem& p, const BoardSpec&
   jtj += jobs;
   cv::Mat jtj_inv;
   if (cv::invert(jtj, jtj_inv, cv::DECOMP_CHOLESKY) == 0)
-    return make_error("singular", "J^T J of the solve is singular: the data do not determine every "
-                                  "parameter, so no projection uncertainty can be given");
+    return make_error("singular",
+                      "J^T J of the solve is singular: the data do not determine every "
+                      "parameter, so no projection uncertainty can be given");
   const cv::Mat var_packed = jtj_inv * jobs * jtj_inv;  // Var(b*) / sigma^2
 
   // b = D b*: D from unpacking ones.
@@ -91,7 +95,8 @@ Result<StateCovariance> state_covariance(const MrcalProblem& p, const BoardSpec&
     int k = i_intr;
     for (int j = 0; j < nintr; ++j) {
       const bool core = j < 4;
-      if (core ? sel.do_optimize_intrinsics_core : sel.do_optimize_intrinsics_distortions) index[j] = k++;
+      if (core ? sel.do_optimize_intrinsics_core : sel.do_optimize_intrinsics_distortions)
+        index[j] = k++;
     }
   }
   for (int f = 0; f < nframes; ++f) {
@@ -105,10 +110,12 @@ Result<StateCovariance> state_covariance(const MrcalProblem& p, const BoardSpec&
     if (index[a] < 0) continue;
     const double* row = var_packed.ptr<double>(index[a]);
     for (int b = 0; b < c.n; ++b)
-      if (index[b] >= 0) c.values[static_cast<size_t>(a) * c.n + b] = d[index[a]] * row[index[b]] * d[index[b]];
+      if (index[b] >= 0)
+        c.values[static_cast<size_t>(a) * c.n + b] = d[index[a]] * row[index[b]] * d[index[b]];
   }
   c.in_reference.resize(nframes);
-  for (int f = 0; f < nframes; ++f) c.in_reference[f] = f < static_cast<int>(downweighted.size()) ? !downweighted[f] : 1;
+  for (int f = 0; f < nframes; ++f)
+    c.in_reference[f] = f < static_cast<int>(downweighted.size()) ? !downweighted[f] : 1;
   if (std::none_of(c.in_reference.begin(), c.in_reference.end(), [](char v) { return v; }))
     std::fill(c.in_reference.begin(), c.in_reference.end(), 1);
 
@@ -223,7 +230,7 @@ Result<PixelCovariance> projection_uncertainty(const Solution& s, double x_px, d
                                                double distance_m, double observed_sigma_px) {
   if (!s.covariance)
     return make_error("no_covariance", s.covariance_error.empty() ? "the solve kept no covariance"
-                                                                   : s.covariance_error);
+                                                                  : s.covariance_error);
   if (!std::isfinite(x_px) || !std::isfinite(y_px) || !(distance_m > 0))
     return make_error("invalid_argument", "the pixel must be finite and the distance > 0");
   auto v = unproject(s.model, {x_px, y_px});
@@ -240,20 +247,26 @@ Result<PixelCovariance> projection_uncertainty(const Solution& s, double x_px, d
 Result<UncertaintySummary> summarize_uncertainty(const Solution& s) {
   if (!s.covariance)
     return make_error("no_covariance", s.covariance_error.empty() ? "the solve kept no covariance"
-                                                                   : s.covariance_error);
+                                                                  : s.covariance_error);
   UncertaintySummary out;
   out.observed_sigma_px = s.covariance->observed_sigma_px;
   out.working_distance_m = working_distance_m(s, s.board.cols > 0 ? &s.board : nullptr);
   const double w = s.model.width_px - 1, h = s.model.height_px - 1;
-  const struct { const char* name; double x, y; } where[] = {
-      {"centre", 0.5 * w, 0.5 * h}, {"top_left", 0, 0}, {"top_right", w, 0},
-      {"bottom_left", 0, h}, {"bottom_right", w, h}};
+  const struct {
+    const char* name;
+    double x, y;
+  } where[] = {{"centre", 0.5 * w, 0.5 * h},
+               {"top_left", 0, 0},
+               {"top_right", w, 0},
+               {"bottom_left", 0, h},
+               {"bottom_right", w, h}};
   for (const auto& wh : where) {
     UncertaintyPoint pt;
     pt.where = wh.name;
     pt.x_px = wh.x;
     pt.y_px = wh.y;
-    if (auto u = projection_uncertainty(s, wh.x, wh.y, std::numeric_limits<double>::infinity()); u.ok())
+    if (auto u = projection_uncertainty(s, wh.x, wh.y, std::numeric_limits<double>::infinity());
+        u.ok())
       pt.at_infinity_px = u->worst_px();
     if (out.working_distance_m > 0)
       if (auto u = projection_uncertainty(s, wh.x, wh.y, out.working_distance_m); u.ok())
@@ -263,7 +276,8 @@ Result<UncertaintySummary> summarize_uncertainty(const Solution& s) {
   return out;
 }
 
-Result<std::vector<double>> uncertainty_grid(const Solution& s, int cols, int rows, double distance_m) {
+Result<std::vector<double>> uncertainty_grid(const Solution& s, int cols, int rows,
+                                             double distance_m) {
   if (cols < 2 || rows < 2 || cols * rows > 1 << 16)
     return make_error("invalid_argument", "the grid needs 2..65536 points, at least 2 per side");
   if (!s.covariance) return make_error("no_covariance", s.covariance_error);
@@ -303,22 +317,23 @@ Result<nlohmann::json> mrcal_optimization_inputs(const CalibrationData& data, co
   }
   nlohmann::json frames = nlohmann::json::array();
   for (const auto& rt : s.rt_cam_board) frames.push_back(rt);
-  return nlohmann::json{{"lensmodel", s.model.lensmodel},
-                        {"intrinsics", {s.model.intrinsics}},
-                        {"frames_rt_toref", frames},
-                        {"observations_board", obs},
-                        {"indices_frame_camintrinsics_camextrinsics", indices},
-                        {"imagersizes", {{s.model.width_px, s.model.height_px}}},
-                        {"calobject_warp", s.calobject_warp},
-                        {"calibration_object_spacing", data.board.spacing_m},
-                        {"do_optimize_intrinsics_core", c.optimized_core},
-                        {"do_optimize_intrinsics_distortions", c.optimized_distortions},
-                        {"do_optimize_extrinsics", true},  // no extrinsics: the camera is the reference
-                        {"do_optimize_frames", true},
-                        {"do_optimize_calobject_warp", c.optimized_warp},
-                        {"do_apply_regularization", c.regularized},
-                        {"do_apply_outlier_rejection", false},
-                        {"observed_sigma_px", c.observed_sigma_px}};
+  return nlohmann::json{
+      {"lensmodel", s.model.lensmodel},
+      {"intrinsics", {s.model.intrinsics}},
+      {"frames_rt_toref", frames},
+      {"observations_board", obs},
+      {"indices_frame_camintrinsics_camextrinsics", indices},
+      {"imagersizes", {{s.model.width_px, s.model.height_px}}},
+      {"calobject_warp", s.calobject_warp},
+      {"calibration_object_spacing", data.board.spacing_m},
+      {"do_optimize_intrinsics_core", c.optimized_core},
+      {"do_optimize_intrinsics_distortions", c.optimized_distortions},
+      {"do_optimize_extrinsics", true},  // no extrinsics: the camera is the reference
+      {"do_optimize_frames", true},
+      {"do_optimize_calobject_warp", c.optimized_warp},
+      {"do_apply_regularization", c.regularized},
+      {"do_apply_outlier_rejection", false},
+      {"observed_sigma_px", c.observed_sigma_px}};
 }
 
 }  // namespace camlab::calib

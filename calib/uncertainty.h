@@ -50,8 +50,8 @@ struct StateCovariance {
   int n = 0;
   std::vector<double> values;
   std::vector<char> in_reference;  // per used view: part of the mean of the boards
-  double observed_sigma_px = 0;     // estimated detection noise (see the header)
-  int state_count = 0;              // mrcal's Nstate (board warp included)
+  double observed_sigma_px = 0;    // estimated detection noise (see the header)
+  int state_count = 0;             // mrcal's Nstate (board warp included)
   // The final problem, for exporting it to mrcal's tools: the pool's weights (N views x
   // corners, < 0 = outlier or missing) and what the last stage optimised.
   std::vector<double> pool_weight;

@@ -61,24 +61,30 @@ void add_common(CLI::App* sub, AnalyzeArgs* args) {
 
 void register_analyze_command(CLI::App& app) {
   auto args = std::make_shared<AnalyzeArgs>();
-  CLI::App* analyze = app.add_subcommand("analyze", "measure optics from a capture folder: defocus, exposure, focus");
+  CLI::App* analyze = app.add_subcommand(
+      "analyze", "measure optics from a capture folder: defocus, exposure, focus");
   analyze->require_subcommand(1);
 
   CLI::App* defocus = analyze->add_subcommand(
-      "defocus", "blur-disk diameter per slanted edge; C = k/N over an aperture series, the "
-                 "V-curve over a focus sweep");
+      "defocus",
+      "blur-disk diameter per slanted edge; C = k/N over an aperture series, the "
+      "V-curve over a focus sweep");
   add_common(defocus, args.get());
-  defocus->add_option("--baseline-sigma", args->baseline_sigma_px,
-                      "in-focus Gaussian blur of the lens in px (default: from the capture)")
+  defocus
+      ->add_option("--baseline-sigma", args->baseline_sigma_px,
+                   "in-focus Gaussian blur of the lens in px (default: from the capture)")
       ->check(CLI::Range(0.0, 50.0));
-  defocus->add_option("--min-diameter", args->min_diameter_px,
-                      "smallest blur (px) used in the fits")->capture_default_str()
+  defocus
+      ->add_option("--min-diameter", args->min_diameter_px, "smallest blur (px) used in the fits")
+      ->capture_default_str()
       ->check(CLI::Range(0.0, 1000.0));
-  defocus->add_option("--coc", args->acceptable_coc_px,
-                      "acceptable CoC (px) for the depth of field")->capture_default_str()
+  defocus
+      ->add_option("--coc", args->acceptable_coc_px, "acceptable CoC (px) for the depth of field")
+      ->capture_default_str()
       ->check(CLI::Range(0.01, 1000.0));
   defocus->add_option("--threads", args->threads, "frames measured in parallel")
-      ->capture_default_str()->check(CLI::Range(1, 16));
+      ->capture_default_str()
+      ->check(CLI::Range(1, 16));
   defocus->callback([args] { run("defocus", *args); });
 
   CLI::App* exposure = analyze->add_subcommand(
@@ -89,10 +95,12 @@ void register_analyze_command(CLI::App& app) {
   CLI::App* focus = analyze->add_subcommand(
       "focus", "focus stack: best focus per region and pixel, depth map, all-in-focus image");
   add_common(focus, args.get());
-  focus->add_option("--region", args->region_px, "region size in px")->capture_default_str()
+  focus->add_option("--region", args->region_px, "region size in px")
+      ->capture_default_str()
       ->check(CLI::Range(4, 4096));
   focus->add_option("--window", args->window_px, "per-pixel measure window in px (odd)")
-      ->capture_default_str()->check(CLI::Range(1, 255));
+      ->capture_default_str()
+      ->check(CLI::Range(1, 255));
   focus->callback([args] { run("focus", *args); });
 }
 

@@ -24,7 +24,7 @@ namespace {
 struct CalibrateArgs {
   std::string images_dir, job_dir, corners_path;
   std::string board, imager, model = "auto", detector = "auto", sensor, out, report_path, yaml_path,
-              write_corners, plots_dir;
+                             write_corners, plots_dir;
   double spacing_m = 0, pixel_um = 0, focal_guess_px = 0;
   bool json = false, quiet = false, no_board_warp = false;
 };
@@ -51,7 +51,8 @@ void run_calibrate(const CalibrateArgs& a) {
   if (!a.imager.empty() && !parse_wxh(a.imager, &o.imager_width_px, &o.imager_height_px))
     errors.fail("invalid_argument", "--imager must be WxH pixels");
   if (!a.corners_path.empty() && a.imager.empty())
-    errors.fail("invalid_argument", "--corners needs --imager WxH (corners.vnl does not record the imager size)");
+    errors.fail("invalid_argument",
+                "--corners needs --imager WxH (corners.vnl does not record the imager size)");
   o.model = a.model;
   o.pixel_pitch_um = a.pixel_um;
   o.sensor = a.sensor;
@@ -67,17 +68,18 @@ void run_calibrate(const CalibrateArgs& a) {
     o.progress = [](size_t done, size_t total, int boards) {
       const int width = 30, bar = static_cast<int>(width * done / std::max<size_t>(1, total));
       std::fprintf(stderr, "\rcamlab calibrate: corners [%s%s] %zu/%zu images, %d boards%s",
-                   std::string(bar, '#').c_str(), std::string(width - bar, '.').c_str(), done, total,
-                   boards, done == total ? "\n" : "");
+                   std::string(bar, '#').c_str(), std::string(width - bar, '.').c_str(), done,
+                   total, boards, done == total ? "\n" : "");
     };
 
   auto run = calib::calibrate(o);
   if (!run) errors.fail(run.error());
   if (!a.quiet && run->images > 0) {
-    const nlohmann::json by =
-        run->report_json.value("detector", nlohmann::json::object()).value("views", nlohmann::json::object());
-    std::fprintf(stderr, "camlab calibrate: found the board in %zu of %d images (mrgingham %d, opencv %d)\n",
-                 run->data.views.size(), run->images, by.value("mrgingham", 0), by.value("opencv", 0));
+    const nlohmann::json by = run->report_json.value("detector", nlohmann::json::object())
+                                  .value("views", nlohmann::json::object());
+    std::fprintf(
+        stderr, "camlab calibrate: found the board in %zu of %d images (mrgingham %d, opencv %d)\n",
+        run->data.views.size(), run->images, by.value("mrgingham", 0), by.value("opencv", 0));
   }
   auto report = calib::write_calibration_outputs(&*run, o);
   if (!report) errors.fail(report.error());
@@ -91,28 +93,34 @@ void run_calibrate(const CalibrateArgs& a) {
 
 void register_calibrate_command(CLI::App& app) {
   auto args = std::make_shared<CalibrateArgs>();
-  CLI::App* cmd = app.add_subcommand("calibrate", "Calibrate a camera's intrinsics with mrcal from chessboard views");
+  CLI::App* cmd = app.add_subcommand(
+      "calibrate", "Calibrate a camera's intrinsics with mrcal from chessboard views");
   cmd->add_option("--images", args->images_dir, "Folder of chessboard images");
   cmd->add_option("--job", args->job_dir, "camlab capture folder of chessboard frames");
   cmd->add_option("--corners", args->corners_path, "mrcal corners.vnl (# filename x y level)");
   cmd->add_option("--board", args->board, "Inner corners COLSxROWS, e.g. 14x10")->required();
   cmd->add_option("--spacing-m", args->spacing_m, "Corner spacing in metres")->required();
   cmd->add_option("--model", args->model, "auto (default) or a mrcal LENSMODEL_... name");
-  cmd->add_option("--detector", args->detector,
-                  "Chessboard corner detector for --images/--job: auto (default), opencv or mrgingham. "
-                  "auto uses mrgingham (mrcal's detector) on a square board and OpenCV's "
-                  "findChessboardCornersSB + cornerSubPix on an image where mrgingham finds no board; "
-                  "non-square boards always use OpenCV (mrgingham 1.22 finds N x N boards only)");
+  cmd->add_option(
+      "--detector", args->detector,
+      "Chessboard corner detector for --images/--job: auto (default), opencv or mrgingham. "
+      "auto uses mrgingham (mrcal's detector) on a square board and OpenCV's "
+      "findChessboardCornersSB + cornerSubPix on an image where mrgingham finds no board; "
+      "non-square boards always use OpenCV (mrgingham 1.22 finds N x N boards only)");
   cmd->add_option("--imager", args->imager, "Imager size WxH (px); default: from the images");
   auto pixel = cmd->add_option("--pixel-um", args->pixel_um, "Pixel pitch in micrometres");
-  cmd->add_option("--sensor", args->sensor, "Sensor format (full-frame, aps-c, 1/2.3in, ...)")->excludes(pixel);
-  cmd->add_option("--focal-guess-px", args->focal_guess_px, "Optional focal length guess (px); searched around, never trusted");
+  cmd->add_option("--sensor", args->sensor, "Sensor format (full-frame, aps-c, 1/2.3in, ...)")
+      ->excludes(pixel);
+  cmd->add_option("--focal-guess-px", args->focal_guess_px,
+                  "Optional focal length guess (px); searched around, never trusted");
   cmd->add_option("--out", args->out, "Output .cameramodel")->required();
   cmd->add_option("--report", args->report_path, "Write the JSON report here");
-  cmd->add_option("--opencv-yaml", args->yaml_path, "Write OpenCV YAML (camera_matrix, distortion_coefficients)");
+  cmd->add_option("--opencv-yaml", args->yaml_path,
+                  "Write OpenCV YAML (camera_matrix, distortion_coefficients)");
   cmd->add_option("--write-corners", args->write_corners, "Write the corners used as corners.vnl");
-  cmd->add_option("--plots", args->plots_dir,
-                  "Write PNG plots here: residuals, residual histogram, coverage, uncertainty, distortion");
+  cmd->add_option(
+      "--plots", args->plots_dir,
+      "Write PNG plots here: residuals, residual histogram, coverage, uncertainty, distortion");
   cmd->add_flag("--no-board-warp", args->no_board_warp,
                 "Skip the board-warp stage (for a board known to be flat to a few um)");
   cmd->add_flag("--json", args->json, "Print the report as JSON");

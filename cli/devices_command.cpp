@@ -39,15 +39,18 @@ void print_text(const nlohmann::json& camera, const std::string& transport) {
     std::printf(" fps\n");
   }
   for (const auto& c : camera["controls"]) {
-    std::printf("  %-28s %-8s [%lld, %lld] step %lld default %lld current %lld%s%s%s\n",
-                c["name"].get<std::string>().c_str(), c["type"].get<std::string>().c_str(),
-                c["min"].get<long long>(), c["max"].get<long long>(), c["step"].get<long long>(),
-                c["default"].get<long long>(), c["current"].get<long long>(),
-                c["unit"].get<std::string>().empty() ? "" : ("  " + c["unit"].get<std::string>()).c_str(),
-                c["inactive"].get<bool>() ? "  (inactive)" : "", c["read_only"].get<bool>() ? "  (read-only)" : "");
+    std::printf(
+        "  %-28s %-8s [%lld, %lld] step %lld default %lld current %lld%s%s%s\n",
+        c["name"].get<std::string>().c_str(), c["type"].get<std::string>().c_str(),
+        c["min"].get<long long>(), c["max"].get<long long>(), c["step"].get<long long>(),
+        c["default"].get<long long>(), c["current"].get<long long>(),
+        c["unit"].get<std::string>().empty() ? "" : ("  " + c["unit"].get<std::string>()).c_str(),
+        c["inactive"].get<bool>() ? "  (inactive)" : "",
+        c["read_only"].get<bool>() ? "  (read-only)" : "");
     if (c.contains("menu"))
       for (const auto& item : c["menu"])
-        std::printf("  %28s %lld: %s\n", "", item["value"].get<long long>(), item["name"].get<std::string>().c_str());
+        std::printf("  %28s %lld: %s\n", "", item["value"].get<long long>(),
+                    item["name"].get<std::string>().c_str());
   }
 }
 
@@ -62,19 +65,22 @@ void run_devices(const DevicesArgs& args) {
   std::shared_ptr<mock::VirtualV4l2Io> virtual_io;
   if (!args.virtual_camera.empty()) {
     mock::CameraSpec camera = errors.take(mock::load_camera_spec(args.virtual_camera));
-    mock::SceneSpec scene = args.virtual_scene.empty() ? mock::default_scene_spec()
-                                                       : errors.take(mock::load_scene_spec(args.virtual_scene));
+    mock::SceneSpec scene = args.virtual_scene.empty()
+                                ? mock::default_scene_spec()
+                                : errors.take(mock::load_scene_spec(args.virtual_scene));
     mock::VirtualDeviceOptions options;
     options.index = static_cast<int>(registry.devices().size());
     std::shared_ptr<mock::VirtualV4l2Device> device =
         errors.take(mock::VirtualV4l2Device::create(std::move(camera), std::move(scene), options));
     virtual_io = std::make_shared<mock::VirtualV4l2Io>(std::vector{std::move(device)});
-    registry.add_v4l2(virtual_io, "in-process virtual camera", {"/dev/video" + std::to_string(options.index)});
+    registry.add_v4l2(virtual_io, "in-process virtual camera",
+                      {"/dev/video" + std::to_string(options.index)});
   }
   nlohmann::json out = nlohmann::json::array();
   for (const auto& entry : registry.devices()) {
     auto camera = registry.open(entry.identity.id);
-    nlohmann::json description = camera ? device::describe_camera(**camera) : device::to_json(entry.identity);
+    nlohmann::json description =
+        camera ? device::describe_camera(**camera) : device::to_json(entry.identity);
     if (!camera) description["errors"] = {camera.error().message};
     description["transport"] = entry.transport;
     out.push_back(description);
@@ -84,8 +90,9 @@ void run_devices(const DevicesArgs& args) {
     return;
   }
   if (out.empty()) {
-    std::printf("no cameras found (no /dev/video* capture device answered); "
-                "--virtual CAM.json adds the virtual camera\n");
+    std::printf(
+        "no cameras found (no /dev/video* capture device answered); "
+        "--virtual CAM.json adds the virtual camera\n");
     return;
   }
   for (const auto& camera : out) print_text(camera, camera["transport"].get<std::string>());
@@ -100,10 +107,13 @@ void register_devices_command(CLI::App& app) {
       "List cameras: every V4L2 capture device (/dev/video*) and every camera libcamera finds,\n"
       "with its id, formats, frame sizes and rates, and controls with ranges, defaults, current\n"
       "values and units.");
-  cmd->add_option("--virtual", args->virtual_camera,
-                  "also list an in-process virtual camera with this camera spec (docs/virtual-camera.md)")
+  cmd->add_option(
+         "--virtual", args->virtual_camera,
+         "also list an in-process virtual camera with this camera spec (docs/virtual-camera.md)")
       ->check(CLI::ExistingFile);
-  cmd->add_option("--scene", args->virtual_scene, "scene spec for the virtual camera (default: slanted edges at 0.7, 1 and 2 m, as camlabd's)")
+  cmd->add_option("--scene", args->virtual_scene,
+                  "scene spec for the virtual camera (default: slanted edges at 0.7, 1 and 2 m, as "
+                  "camlabd's)")
       ->check(CLI::ExistingFile);
   cmd->add_flag("--json", args->json, "print JSON");
   cmd->add_flag("--no-libcamera", args->no_libcamera,

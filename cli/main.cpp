@@ -36,7 +36,8 @@ int main(int argc, char** argv) {
     // too when --json was asked for, exit status 2.
     bool json = false;
     for (int i = 1; i < argc; ++i) json = json || std::string_view(argv[i]) == "--json";
-    camlab::cli::CommandErrors("camlab", json).report(camlab::make_error("invalid_argument", e.what()));
+    camlab::cli::CommandErrors("camlab", json)
+        .report(camlab::make_error("invalid_argument", e.what()));
     std::fprintf(stderr, "Run with --help for more information.\n");
     return 2;
   }

@@ -18,9 +18,9 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include "base/format.h"
 #include "command_errors.h"
 #include "commands.h"
-#include "base/format.h"
 #include "optics/optics.h"
 
 namespace camlab::cli {
@@ -68,7 +68,6 @@ std::optional<double> parse_shutter_s(std::string text) {
 
 // ---- Reporting -------------------------------------------------------------------------
 
-
 // A distance given in metres, to point at it in errors that the library reports in mm.
 struct MetreOption {
   std::string_view flag;
@@ -89,7 +88,8 @@ struct Context {
   std::string message = error.message;
   for (const MetreOption& option : context.metres) {
     if (message.find(std::string(option.library_name) + " =") != std::string::npos) {
-      message += " (from " + std::string(option.flag) + " " + format_significant(option.value_m) + ")";
+      message +=
+          " (from " + std::string(option.flag) + " " + format_significant(option.value_m) + ")";
     }
   }
   CommandErrors("camlab optics " + std::string(context.subcommand), context.json)
@@ -115,7 +115,8 @@ json metres_or_null(double distance_mm) {
 std::string format_shutter(double exposure_s) {
   if (exposure_s >= 1.0) return format_significant(exposure_s, 3) + " s";
   const double reciprocal = 1.0 / exposure_s;
-  return "1/" + (reciprocal >= 10.0 ? format_printf("%.0f", reciprocal) : format_significant(reciprocal, 2));
+  return "1/" + (reciprocal >= 10.0 ? format_printf("%.0f", reciprocal)
+                                    : format_significant(reciprocal, 2));
 }
 
 std::string text_of(const json& value) {
@@ -164,19 +165,21 @@ void emit(const Context& context, const json& document) {
 
 // ---- Options shared by the subcommands, with units and ranges --------------------------
 
-CLI::App* add_subcommand(CLI::App& parent, const std::string& name,
-                         const std::string& description, bool& json_flag) {
+CLI::App* add_subcommand(CLI::App& parent, const std::string& name, const std::string& description,
+                         bool& json_flag) {
   CLI::App* sub = parent.add_subcommand(name, description);
   sub->add_flag("--json", json_flag, "Print one JSON object (infinite distances as null)");
   return sub;
 }
 void add_focal(CLI::App& sub, double& focal_mm) {
   sub.add_option("--focal-mm", focal_mm, "Focal length in mm (finite, > 0)")
-      ->required()->check(positive("mm"));
+      ->required()
+      ->check(positive("mm"));
 }
 void add_f_number(CLI::App& sub, double& f_number) {
   sub.add_option("--f-number", f_number, "f-number N = focal length / aperture (finite, > 0)")
-      ->required()->check(positive("f-number"));
+      ->required()
+      ->check(positive("f-number"));
 }
 template <class T>
 CLI::Option* add_distance(CLI::App& sub, const std::string& flag, T& value_m,
@@ -206,8 +209,8 @@ optics::SensorFormat resolve_sensor(const Context& context, const FovOptions& op
     height_mm = parse_number(text.substr(x + 1));
   }
   if (!width_mm || !height_mm) {
-    fail(context, invalid("--sensor-mm must be WIDTHxHEIGHT in mm, e.g. 36x24; got '" + text +
-                          "'"));
+    fail(context,
+         invalid("--sensor-mm must be WIDTHxHEIGHT in mm, e.g. 36x24; got '" + text + "'"));
   }
   return optics::SensorFormat{"custom", "custom", *width_mm, *height_mm};
 }
@@ -217,16 +220,19 @@ void run_fov(const FovOptions& options) {
   const optics::SensorFormat sensor = resolve_sensor(context, options);
   const double f = options.focal_mm, width = sensor.width_mm, height = sensor.height_mm;
   const auto fov = value_or_fail(context, optics::field_of_view(f, width, height));
-  emit(context,
-       {{"focal_mm", f},
-        {"sensor", {{"name", sensor.name}, {"label", sensor.label}, {"width_mm", width},
-                    {"height_mm", height}, {"diagonal_mm", optics::diagonal_mm(width, height)}}},
-        {"hfov_deg", fov.horizontal_deg},
-        {"vfov_deg", fov.vertical_deg},
-        {"dfov_deg", fov.diagonal_deg},
-        {"crop_factor", value_or_fail(context, optics::crop_factor(width, height))},
-        {"equivalent_focal_mm",
-         value_or_fail(context, optics::equivalent_focal_mm(f, width, height))}});
+  emit(context, {{"focal_mm", f},
+                 {"sensor",
+                  {{"name", sensor.name},
+                   {"label", sensor.label},
+                   {"width_mm", width},
+                   {"height_mm", height},
+                   {"diagonal_mm", optics::diagonal_mm(width, height)}}},
+                 {"hfov_deg", fov.horizontal_deg},
+                 {"vfov_deg", fov.vertical_deg},
+                 {"dfov_deg", fov.diagonal_deg},
+                 {"crop_factor", value_or_fail(context, optics::crop_factor(width, height))},
+                 {"equivalent_focal_mm",
+                  value_or_fail(context, optics::equivalent_focal_mm(f, width, height))}});
 }
 
 void register_fov(CLI::App& parent) {
@@ -241,8 +247,8 @@ void register_fov(CLI::App& parent) {
   for (const optics::SensorFormat& format : optics::sensor_formats()) {
     names += (names.empty() ? "" : ", ") + std::string(format.name);
   }
-  CLI::Option* by_name = sub->add_option(
-      "--sensor", options->sensor_name, "Sensor format: " + names + " (or ff, apsc, m43, ...)");
+  CLI::Option* by_name = sub->add_option("--sensor", options->sensor_name,
+                                         "Sensor format: " + names + " (or ff, apsc, m43, ...)");
   CLI::Option* by_size = sub->add_option("--sensor-mm", options->sensor_size_mm,
                                          "Sensor size WIDTHxHEIGHT in mm, e.g. 36x24");
   by_name->excludes(by_size);
@@ -285,7 +291,8 @@ void register_dof(CLI::App& parent) {
   sub->add_option("--coc-mm", options->coc_mm,
                   "Acceptable circle of confusion in mm (finite, > 0; 0.03 is usual for full "
                   "frame)")
-      ->required()->check(positive("mm"));
+      ->required()
+      ->check(positive("mm"));
   sub->callback([options] { run_dof(*options); });
 }
 
@@ -297,13 +304,14 @@ struct CocOptions {
 };
 
 void run_coc(const CocOptions& options) {
-  const Context context{"coc", options.json,
-                        {{"--focus-m", "focus_mm", options.focus_m},
-                         {"--object-m", "object_mm", options.object_m}}};
+  const Context context{
+      "coc",
+      options.json,
+      {{"--focus-m", "focus_mm", options.focus_m}, {"--object-m", "object_mm", options.object_m}}};
   const double focus_mm = options.focus_m * kMmPerM, object_mm = options.object_m * kMmPerM;
-  const double coc_mm = value_or_fail(context, optics::circle_of_confusion_mm(
-                                                   options.focal_mm, options.f_number, focus_mm,
-                                                   object_mm));
+  const double coc_mm = value_or_fail(
+      context,
+      optics::circle_of_confusion_mm(options.focal_mm, options.f_number, focus_mm, object_mm));
   const double airy_um =
       value_or_fail(context, optics::airy_diameter_um(options.f_number, options.wavelength_nm));
   json document{{"focal_mm", options.focal_mm},
@@ -340,7 +348,8 @@ void register_coc(CLI::App& parent) {
       ->check(positive("um"));
   sub->add_option("--wavelength-nm", options->wavelength_nm,
                   "Wavelength for the Airy disk in nm (finite, > 0)")
-      ->capture_default_str()->check(positive("nm"));
+      ->capture_default_str()
+      ->check(positive("nm"));
   sub->callback([options] { run_coc(*options); });
 }
 
@@ -354,8 +363,10 @@ struct ExposureOptions {
 };
 
 json exposure_entry(double f_number, double exposure_s) {
-  return {{"f_number", f_number}, {"shutter", format_shutter(exposure_s)},
-          {"exposure_s", exposure_s}, {"exposure_us", exposure_s * 1e6}};
+  return {{"f_number", f_number},
+          {"shutter", format_shutter(exposure_s)},
+          {"exposure_s", exposure_s},
+          {"exposure_us", exposure_s * 1e6}};
 }
 
 void run_exposure(const ExposureOptions& options) {
@@ -367,7 +378,8 @@ void run_exposure(const ExposureOptions& options) {
     fail(context, invalid("give --exposure-us T or --shutter 1/125"));
   } else if (!(exposure_s = parse_shutter_s(options.shutter))) {
     fail(context, invalid("--shutter must be a time in seconds > 0 such as 1/125, 0.5 or 2; "
-                          "got '" + options.shutter + "'"));
+                          "got '" +
+                          options.shutter + "'"));
   }
   const double n = options.f_number, t_s = *exposure_s;
   const double ev = value_or_fail(context, optics::exposure_value(n, t_s));
@@ -375,8 +387,7 @@ void run_exposure(const ExposureOptions& options) {
   const double target_iso = options.to_iso.value_or(options.iso);
   const double target_gain = value_or_fail(context, optics::gain_from_iso(target_iso));
   const auto equivalent_s = [&](double new_n) {
-    return value_or_fail(context,
-                         optics::equivalent_exposure_s(t_s, n, gain, new_n, target_gain));
+    return value_or_fail(context, optics::equivalent_exposure_s(t_s, n, gain, new_n, target_gain));
   };
   json document{{"f_number", n},
                 {"shutter", format_shutter(t_s)},
@@ -417,7 +428,8 @@ void register_exposure(CLI::App& parent) {
       "--shutter", options->shutter, "Exposure time in seconds as cameras show it: 1/125, 0.5, 2");
   time_us->excludes(shutter);
   sub->add_option("--iso", options->iso, "Sensitivity in use (finite, > 0)")
-      ->capture_default_str()->check(positive("ISO"));
+      ->capture_default_str()
+      ->check(positive("ISO"));
   sub->add_option("--to-f-number", options->to_f_number,
                   "Also give the one equivalent time at this f-number (finite, > 0)")
       ->check(positive("f-number"));
@@ -436,8 +448,8 @@ struct LensOptions {
 };
 
 void run_lens(const LensOptions& options) {
-  const Context context{"lens", options.json,
-                        {{"--object-m", "object_mm", options.object_m.value_or(0.0)}}};
+  const Context context{
+      "lens", options.json, {{"--object-m", "object_mm", options.object_m.value_or(0.0)}}};
   const double f = options.focal_mm;
   double object_mm = 0.0, image_mm = 0.0;
   if (options.object_m) {
@@ -505,10 +517,12 @@ void register_stops(CLI::App& parent) {
       "The f-stop series from f/1: exact sqrt(2)^(k/n) and the value lenses engrave.",
       options->json);
   sub->add_option("--increment", options->increment, "Step between stops: full, half or third")
-      ->capture_default_str()->check(CLI::IsMember({"full", "half", "third"}));
+      ->capture_default_str()
+      ->check(CLI::IsMember({"full", "half", "third"}));
   sub->add_option("--max-f-number", options->max_f_number,
                   "Last f-number of the series (1 to 1024)")
-      ->capture_default_str()->check(CLI::Range(1.0, 1024.0));
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 1024.0));
   sub->callback([options] { run_stops(*options); });
 }
 

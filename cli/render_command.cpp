@@ -38,8 +38,9 @@ void run_render(const RenderArgs& args) {
   const CommandErrors errors("camlab render", args.json);
   mock::CameraSpec camera = errors.take(mock::load_camera_spec(args.camera_path));
   mock::SceneSpec scene = errors.take(mock::load_scene_spec(args.scene_path));
-  if (!args.quiet) std::fprintf(stderr, "camlab render: preparing the lens model (%dx%d)...\n",
-                                camera.sensor.width_px, camera.sensor.height_px);
+  if (!args.quiet)
+    std::fprintf(stderr, "camlab render: preparing the lens model (%dx%d)...\n",
+                 camera.sensor.width_px, camera.sensor.height_px);
   auto renderer = mock::Renderer::create(std::move(camera), std::move(scene));
   if (!renderer) errors.fail(renderer.error());
 
@@ -48,7 +49,8 @@ void run_render(const RenderArgs& args) {
   request.base = renderer->default_settings();
   for (const auto& set : args.sets) {
     const auto eq = set.find('=');
-    if (eq == std::string::npos) errors.fail("invalid_argument", "--set '" + set + "' must be name=value");
+    if (eq == std::string::npos)
+      errors.fail("invalid_argument", "--set '" + set + "' must be name=value");
     double value = 0;
     try {
       size_t used = 0;
@@ -83,10 +85,11 @@ void run_render(const RenderArgs& args) {
   if (!summary) errors.fail(summary.error());
 
   if (args.json) {
-    nlohmann::json out = {{"out_dir", summary->out_dir.string()},
-                          {"frames", summary->frames},
-                          {"seconds", summary->seconds},
-                          {"frames_per_second", summary->frames / std::max(summary->seconds, 1e-9)}};
+    nlohmann::json out = {
+        {"out_dir", summary->out_dir.string()},
+        {"frames", summary->frames},
+        {"seconds", summary->seconds},
+        {"frames_per_second", summary->frames / std::max(summary->seconds, 1e-9)}};
     std::cout << out.dump(2) << "\n";
   } else {
     std::printf("wrote %d frame%s to %s in %.2f s (manifest.json, frame_*.png + .json)\n",
@@ -107,14 +110,17 @@ void register_render_command(CLI::App& app) {
       "(camera model, target poses, projected corners, predicted CoC) in its JSON sidecar.\n"
       "Frames: every view of the scene x every sweep value x repeats.");
   cmd->add_option("--camera", args->camera_path, "camera spec JSON (docs/virtual-camera.md)")
-      ->required()->check(CLI::ExistingFile);
+      ->required()
+      ->check(CLI::ExistingFile);
   cmd->add_option("--scene", args->scene_path, "scene spec JSON (docs/virtual-camera.md)")
-      ->required()->check(CLI::ExistingFile);
+      ->required()
+      ->check(CLI::ExistingFile);
   cmd->add_option("--out", args->out_dir, "output capture folder (must not exist or be empty)")
       ->required();
-  cmd->add_option("--sweep", args->sweep,
-                  "vary one setting: exposure_us=1000,2000,4000 | f_number=2:11.3:1.414 (start:stop:step)\n"
-                  "| focus_position=0:200:20 (steps) | focus_m=0.5,1,2 | gain=1,2,4 (linear)");
+  cmd->add_option(
+      "--sweep", args->sweep,
+      "vary one setting: exposure_us=1000,2000,4000 | f_number=2:11.3:1.414 (start:stop:step)\n"
+      "| focus_position=0:200:20 (steps) | focus_m=0.5,1,2 | gain=1,2,4 (linear)");
   cmd->add_option("--set", args->sets,
                   "fix a setting for every frame, e.g. --set exposure_us=5000 --set f_number=2.8;\n"
                   "names as for --sweep; defaults come from the camera spec's controls");

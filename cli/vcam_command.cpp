@@ -42,7 +42,9 @@ struct VcamArgs {
 volatile pid_t forwarded_child = 0;  // for the signal handler
 
 // The vcam subcommands print no JSON: their errors are lines on stderr.
-CommandErrors errors_of(const char* subcommand) { return CommandErrors(std::string("camlab vcam ") + subcommand, false); }
+CommandErrors errors_of(const char* subcommand) {
+  return CommandErrors(std::string("camlab vcam ") + subcommand, false);
+}
 
 // The preload library: CAMLAB_VCAM_PRELOAD, else beside this executable in the build
 // tree (cli/ -> mock_device/) or an install (bin/ -> lib/camlab/).
@@ -54,7 +56,7 @@ std::string find_preload_library() {
   exe[n] = '\0';
   const fs::path dir = fs::path(exe).parent_path();
   for (const fs::path& candidate : {dir / "../mock_device/libcamlab_vcam_preload.so",
-                                   dir / "../lib/camlab/libcamlab_vcam_preload.so"}) {
+                                    dir / "../lib/camlab/libcamlab_vcam_preload.so"}) {
     std::error_code ec;
     if (fs::exists(candidate, ec)) return fs::canonical(candidate, ec).string();
   }
@@ -79,11 +81,14 @@ struct VcamSession {
 std::unique_ptr<VcamSession> start_session(const VcamArgs& args, const CommandErrors& errors) {
   const std::string preload = find_preload_library();
   if (preload.empty())
-    errors.fail("not_found", "libcamlab_vcam_preload.so not found beside camlab; set CAMLAB_VCAM_PRELOAD to its path");
+    errors.fail(
+        "not_found",
+        "libcamlab_vcam_preload.so not found beside camlab; set CAMLAB_VCAM_PRELOAD to its path");
   auto session = std::make_unique<VcamSession>();
   char dir_template[] = "/tmp/camlab-vcam-XXXXXX";
   if (!mkdtemp(dir_template))
-    errors.fail("io_error", std::string("cannot create a temporary folder: ") + std::strerror(errno));
+    errors.fail("io_error",
+                std::string("cannot create a temporary folder: ") + std::strerror(errno));
   const fs::path work(dir_template);
   session->folder.path = work;
 
@@ -124,17 +129,22 @@ int inject_vcam_fault(const FaultArgs& args) {
   const CommandErrors errors = errors_of("fault");
   if (!socket)
     errors.fail("no_device",
-                "no virtual cameras here: run this inside `camlab vcam run` or with `camlab vcam serve`'s environment");
+                "no virtual cameras here: run this inside `camlab vcam run` or with `camlab vcam "
+                "serve`'s environment");
   static const std::map<std::string, mock::broker::Fault> kFaults = {
-      {"unplug", mock::broker::Fault::kUnplug},   {"eio", mock::broker::Fault::kDequeueEio},
-      {"drop", mock::broker::Fault::kDropFrames}, {"stall", mock::broker::Fault::kStall},
+      {"unplug", mock::broker::Fault::kUnplug},
+      {"eio", mock::broker::Fault::kDequeueEio},
+      {"drop", mock::broker::Fault::kDropFrames},
+      {"stall", mock::broker::Fault::kStall},
       {"resume", mock::broker::Fault::kResume}};
-  const int result = mock::broker::inject_fault(socket, args.device, kFaults.at(args.fault), args.count);
+  const int result =
+      mock::broker::inject_fault(socket, args.device, kFaults.at(args.fault), args.count);
   if (result < 0)
-    errors.fail(result == -ENODEV || result == -ECONNREFUSED || result == -ENOENT ? ErrorCode::kNoDevice
-                                                                                  : ErrorCode::kIoError,
-                "cannot inject '" + args.fault + "' into /dev/video" + std::to_string(args.device) + ": " +
-                    std::strerror(-result));
+    errors.fail(result == -ENODEV || result == -ECONNREFUSED || result == -ENOENT
+                    ? ErrorCode::kNoDevice
+                    : ErrorCode::kIoError,
+                "cannot inject '" + args.fault + "' into /dev/video" + std::to_string(args.device) +
+                    ": " + std::strerror(-result));
   return 0;
 }
 
@@ -142,12 +152,14 @@ volatile sig_atomic_t stop_serving = 0;
 
 int serve_vcam(const VcamArgs& args) {
   auto session = start_session(args, errors_of("serve"));
-  std::printf("# %d virtual camera(s) served as /dev/video0..%d until this process ends (Ctrl-C).\n"
-              "# In another shell, for any V4L2 program:\n",
-              args.count, args.count - 1);
-  for (const auto& [name, value] : session->environment) std::printf("export %s='%s'\n", name.c_str(), value.c_str());
+  std::printf(
+      "# %d virtual camera(s) served as /dev/video0..%d until this process ends (Ctrl-C).\n"
+      "# In another shell, for any V4L2 program:\n",
+      args.count, args.count - 1);
+  for (const auto& [name, value] : session->environment)
+    std::printf("export %s='%s'\n", name.c_str(), value.c_str());
   std::fflush(stdout);
-  struct sigaction stop{};
+  struct sigaction stop {};
   stop.sa_handler = [](int) { stop_serving = 1; };
   sigemptyset(&stop.sa_mask);
   sigaction(SIGTERM, &stop, nullptr);
@@ -160,7 +172,8 @@ int serve_vcam(const VcamArgs& args) {
 int run_vcam(const VcamArgs& args) {
   const CommandErrors errors = errors_of("run");
   if (args.command.empty())
-    errors.fail("invalid_argument", "give the command to run after --, e.g. camlab vcam run -- v4l2-ctl --all");
+    errors.fail("invalid_argument",
+                "give the command to run after --, e.g. camlab vcam run -- v4l2-ctl --all");
   auto session = start_session(args, errors);
   std::vector<std::string> env_strings;
   for (char** e = environ; *e; ++e) {
@@ -191,7 +204,7 @@ int run_vcam(const VcamArgs& args) {
     _exit(127);
   }
   forwarded_child = child;
-  struct sigaction forward{};
+  struct sigaction forward {};
   forward.sa_handler = [](int signal) { kill(forwarded_child, signal); };
   sigemptyset(&forward.sa_mask);
   sigaction(SIGTERM, &forward, nullptr);
@@ -208,11 +221,14 @@ int run_vcam(const VcamArgs& args) {
 
 // The devices of `vcam run` and `vcam serve`.
 void add_device_options(CLI::App* command, VcamArgs* args) {
-  command->add_option("--camera", args->camera,
-                      "camera spec JSON (default: camlab's 640x480 10-bit virtual camera, as camlabd's)")
+  command
+      ->add_option(
+          "--camera", args->camera,
+          "camera spec JSON (default: camlab's 640x480 10-bit virtual camera, as camlabd's)")
       ->check(CLI::ExistingFile);
-  command->add_option("--scene", args->scene,
-                      "scene spec JSON (default: slanted edges at 0.7, 1 and 2 m, as camlabd's)")
+  command
+      ->add_option("--scene", args->scene,
+                   "scene spec JSON (default: slanted edges at 0.7, 1 and 2 m, as camlabd's)")
       ->check(CLI::ExistingFile);
   command->add_option("--count", args->count, "number of virtual cameras")->check(CLI::Range(1, 8));
 }
@@ -220,19 +236,22 @@ void add_device_options(CLI::App* command, VcamArgs* args) {
 }  // namespace
 
 void register_vcam_command(CLI::App& app) {
-  CLI::App* vcam = app.add_subcommand("vcam", "The virtual camera as V4L2 devices for any program.");
+  CLI::App* vcam =
+      app.add_subcommand("vcam", "The virtual camera as V4L2 devices for any program.");
   vcam->require_subcommand(1);
   auto args = std::make_shared<VcamArgs>();
   CLI::App* run = vcam->add_subcommand(
       "run",
       "Run COMMAND with N virtual cameras present as /dev/video0.. (user space: an LD_PRELOAD\n"
       "library answers the V4L2 calls; no kernel module). Returns COMMAND's exit status.\n"
-      "Example: camlab vcam run -- v4l2-ctl -d /dev/video0 --stream-mmap --stream-count=30 --stream-to=f.raw\n"
+      "Example: camlab vcam run -- v4l2-ctl -d /dev/video0 --stream-mmap --stream-count=30 "
+      "--stream-to=f.raw\n"
       "All processes of COMMAND (it may be a shell running several) share the same devices:\n"
       "a control one process sets is what the next one reads, as with a kernel driver.");
   add_device_options(run, args.get());
   run->add_flag("--unpaced", args->unpaced,
-                "no frame clock: a frame is made as soon as a buffer is queued (fast tests; no dropped frames)");
+                "no frame clock: a frame is made as soon as a buffer is queued (fast tests; no "
+                "dropped frames)");
   run->add_option("command", args->command, "the command and its arguments (after --)")->required();
   run->callback([args] { throw CLI::RuntimeError(run_vcam(*args)); });
 
@@ -256,8 +275,10 @@ void register_vcam_command(CLI::App& app) {
   fault->add_option("fault", fault_args->fault, "unplug | eio | drop | stall | resume")
       ->required()
       ->check(CLI::IsMember({"unplug", "eio", "drop", "stall", "resume"}));
-  fault->add_option("--device", fault_args->device, "which /dev/videoN (default 0)")->check(CLI::Range(0, 7));
-  fault->add_option("--count", fault_args->count, "for eio and drop: how many (default 1)")->check(CLI::Range(1, 100000));
+  fault->add_option("--device", fault_args->device, "which /dev/videoN (default 0)")
+      ->check(CLI::Range(0, 7));
+  fault->add_option("--count", fault_args->count, "for eio and drop: how many (default 1)")
+      ->check(CLI::Range(1, 100000));
   fault->callback([fault_args] { throw CLI::RuntimeError(inject_vcam_fault(*fault_args)); });
 }
 

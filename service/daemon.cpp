@@ -12,14 +12,14 @@
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/signal_set.hpp>
 
-#include "service/api/auth.h"
-#include "service/jobs/compute_jobs.h"
-#include "service/store/job_store.h"
-#include "service/http/listener.h"
 #include "base/log.h"
-#include "service/metrics.h"
+#include "service/api/auth.h"
 #include "service/api/router.h"
 #include "service/api/service_context.h"
+#include "service/http/listener.h"
+#include "service/jobs/compute_jobs.h"
+#include "service/metrics.h"
+#include "service/store/job_store.h"
 
 namespace camlab::service {
 
@@ -31,12 +31,18 @@ namespace {
 Result<fs::path> prepare_data_dir(const fs::path& dir) {
   std::error_code ec;
   fs::create_directories(dir, ec);
-  if (ec) return make_error("io_error", "cannot create the data folder " + dir.string() + ": " + ec.message());
+  if (ec)
+    return make_error("io_error",
+                      "cannot create the data folder " + dir.string() + ": " + ec.message());
   const fs::path canonical = fs::canonical(dir, ec);
-  if (ec) return make_error("io_error", "cannot resolve the data folder " + dir.string() + ": " + ec.message());
+  if (ec)
+    return make_error("io_error",
+                      "cannot resolve the data folder " + dir.string() + ": " + ec.message());
   for (const char* sub : {"captures", "calibrations"}) {
     fs::create_directories(canonical / sub, ec);
-    if (ec) return make_error("io_error", "cannot create " + (canonical / sub).string() + ": " + ec.message());
+    if (ec)
+      return make_error("io_error",
+                        "cannot create " + (canonical / sub).string() + ": " + ec.message());
   }
   return canonical;
 }
@@ -65,7 +71,8 @@ int run_daemon(const DaemonConfig& config) {
   if (!token->warning.empty()) log_warning(log::Category::kDaemon, "%s", token->warning.c_str());
   if (token->created) {
     // Printed once, on the start that created it; later starts only name the file.
-    std::printf("camlabd: API token (also in %s, mode 0600): %s\n", (*data_dir / "token").c_str(), token->token.c_str());
+    std::printf("camlabd: API token (also in %s, mode 0600): %s\n", (*data_dir / "token").c_str(),
+                token->token.c_str());
     std::fflush(stdout);
   }
 
@@ -75,8 +82,11 @@ int run_daemon(const DaemonConfig& config) {
     return 1;
   }
   auto interrupted = (*store)->interrupt_unfinished(
-      "camlabd stopped while this job was queued or running (crash or kill); the frames written are kept");
-  if (interrupted && *interrupted > 0) log_warning(log::Category::kDaemon, "%d unfinished job(s) from the last run marked interrupted", *interrupted);
+      "camlabd stopped while this job was queued or running (crash or kill); the frames written "
+      "are kept");
+  if (interrupted && *interrupted > 0)
+    log_warning(log::Category::kDaemon, "%d unfinished job(s) from the last run marked interrupted",
+                *interrupted);
 
   Metrics metrics;
   CameraSetOptions camera_options = config.cameras;
@@ -90,7 +100,8 @@ int run_daemon(const DaemonConfig& config) {
 
   TokenAuth auth(token->token);
   Router router(&auth, &metrics);
-  ServiceContext context{*data_dir, store->get(), cameras->get(), &compute, &metrics, config.test_faults};
+  ServiceContext context{*data_dir, store->get(), cameras->get(),
+                         &compute,  &metrics,     config.test_faults};
   add_all_routes(router, context);
 
   net::io_context ioc(config.io_threads);
@@ -104,10 +115,12 @@ int run_daemon(const DaemonConfig& config) {
   compute.start();
   for (const auto& worker : (*cameras)->workers()) {
     const CameraSnapshot s = worker->snapshot();
-    log_info(log::Category::kDaemon, "camera %s: %s (%s, %s)%s%s", s.identity.id.c_str(), s.identity.name.c_str(), s.identity.path.c_str(),
-             s.transport.c_str(), s.available ? "" : " unavailable: ", s.available ? "" : s.unavailable_reason.c_str());
+    log_info(log::Category::kDaemon, "camera %s: %s (%s, %s)%s%s", s.identity.id.c_str(),
+             s.identity.name.c_str(), s.identity.path.c_str(), s.transport.c_str(),
+             s.available ? "" : " unavailable: ", s.available ? "" : s.unavailable_reason.c_str());
   }
-  if ((*cameras)->workers().empty()) log_warning(log::Category::kDaemon, "no cameras (none found, and the virtual camera is off)");
+  if ((*cameras)->workers().empty())
+    log_warning(log::Category::kDaemon, "no cameras (none found, and the virtual camera is off)");
 
   std::promise<int> stop_signal;
   net::signal_set signals(ioc, SIGINT, SIGTERM);
@@ -117,15 +130,18 @@ int run_daemon(const DaemonConfig& config) {
 
   (*listener)->run();
   const auto bound = (*listener)->local_endpoint();
-  log_info(log::Category::kDaemon, "listening on http://%s:%u (data %s, %zu camera(s), %d I/O threads%s)",
-           bound.address().to_string().c_str(), bound.port(), data_dir->c_str(), (*cameras)->workers().size(),
-           config.io_threads, config.test_faults ? ", TEST FAULT INJECTION ENABLED" : "");
+  log_info(log::Category::kDaemon,
+           "listening on http://%s:%u (data %s, %zu camera(s), %d I/O threads%s)",
+           bound.address().to_string().c_str(), bound.port(), data_dir->c_str(),
+           (*cameras)->workers().size(), config.io_threads,
+           config.test_faults ? ", TEST FAULT INJECTION ENABLED" : "");
 
   std::vector<std::thread> pool;
   for (int i = 0; i < config.io_threads; ++i) pool.emplace_back([&ioc] { ioc.run(); });
 
   const int signal_number = stop_signal.get_future().get();
-  log_info(log::Category::kDaemon, "%s received: stopping (no new connections; running jobs are interrupted, frames kept)",
+  log_info(log::Category::kDaemon,
+           "%s received: stopping (no new connections; running jobs are interrupted, frames kept)",
            signal_number == SIGTERM ? "SIGTERM" : "SIGINT");
   (*listener)->stop();
   (*cameras)->stop();

@@ -9,8 +9,8 @@
 #include <filesystem>
 #include <string>
 
-#include "service/jobs/camera_set.h"
 #include "service/http/http_limits.h"
+#include "service/jobs/camera_set.h"
 
 namespace camlab::service {
 

@@ -13,66 +13,88 @@ int main(int argc, char** argv) {
   int frame_timeout_ms = static_cast<int>(config.cameras.worker.frame_timeout.count());
 
   CLI::App app{
-      "camlabd: REST capture of exposure brackets, focus stacks and aperture series with frame-accurate\n"
-      "settings (a frame is kept only once the new settings are in effect), plus calibration and analysis jobs.\n\n"
-      "Defaults serve on a fresh machine: http://127.0.0.1:8080, data in ./camlab-data (SQLite database,\n"
-      "capture folders, the API token), every V4L2 capture device found, and one in-process virtual camera\n"
-      "when none is found. Every endpoint but GET /v1/health needs 'Authorization: Bearer TOKEN'; the token\n"
-      "is generated on first start into DATA/token (mode 0600) and printed once. The API is described by\n"
+      "camlabd: REST capture of exposure brackets, focus stacks and aperture series with "
+      "frame-accurate\n"
+      "settings (a frame is kept only once the new settings are in effect), plus calibration and "
+      "analysis jobs.\n\n"
+      "Defaults serve on a fresh machine: http://127.0.0.1:8080, data in ./camlab-data (SQLite "
+      "database,\n"
+      "capture folders, the API token), every V4L2 capture device found, and one in-process "
+      "virtual camera\n"
+      "when none is found. Every endpoint but GET /v1/health needs 'Authorization: Bearer TOKEN'; "
+      "the token\n"
+      "is generated on first start into DATA/token (mode 0600) and printed once. The API is "
+      "described by\n"
       "GET /v1/openapi.json and docs/service.md. SIGTERM or SIGINT stop it cleanly (exit 0).\n\n"
       "Example:\n"
       "  camlabd &\n"
       "  TOKEN=$(cat camlab-data/token)\n"
       "  curl -H \"Authorization: Bearer $TOKEN\" http://127.0.0.1:8080/v1/cameras"};
   app.set_version_flag("--version", "camlabd 0.1.0");
-  app.set_config("--config", "", "read options from a TOML/INI file (keys are the long option names)");
-  app.add_option("--listen", config.listen, "address to serve on, HOST:PORT (port 0: any free port)")
+  app.set_config("--config", "",
+                 "read options from a TOML/INI file (keys are the long option names)");
+  app.add_option("--listen", config.listen,
+                 "address to serve on, HOST:PORT (port 0: any free port)")
       ->capture_default_str();
-  app.add_option("--data", config.data_dir, "data folder: database, capture folders, token")->capture_default_str();
+  app.add_option("--data", config.data_dir, "data folder: database, capture folders, token")
+      ->capture_default_str();
   app.add_option("--device", config.cameras.device_paths,
                  "serve only these V4L2 devices (repeatable), instead of every /dev/video*");
   app.add_flag("--no-scan", no_scan, "do not look for V4L2 devices (only the virtual camera)");
   app.add_option("--camera-spec", config.cameras.camera_spec,
-                 "camera spec JSON of an in-process virtual camera (docs/virtual-camera.md); giving it adds the\n"
+                 "camera spec JSON of an in-process virtual camera (docs/virtual-camera.md); "
+                 "giving it adds the\n"
                  "virtual camera even when real cameras exist")
       ->check(CLI::ExistingFile);
-  app.add_option("--scene", config.cameras.scene_spec, "scene spec JSON for the virtual camera")->check(CLI::ExistingFile);
-  app.add_option("--virtual-count", config.cameras.virtual_count, "number of in-process virtual cameras")
+  app.add_option("--scene", config.cameras.scene_spec, "scene spec JSON for the virtual camera")
+      ->check(CLI::ExistingFile);
+  app.add_option("--virtual-count", config.cameras.virtual_count,
+                 "number of in-process virtual cameras")
       ->check(CLI::Range(1, 8))
       ->capture_default_str();
   app.add_flag("--no-virtual", no_virtual, "never add the in-process virtual camera");
   app.add_option("--device-spec", config.cameras.device_spec,
-                 "camera spec JSON saying what the V4L2 cameras' raw values mean (sensor bit depth, black level,\n"
-                 "gain unity, iris f-numbers, focal length, focus steps); without it f-number requests are refused")
+                 "camera spec JSON saying what the V4L2 cameras' raw values mean (sensor bit "
+                 "depth, black level,\n"
+                 "gain unity, iris f-numbers, focal length, focus steps); without it f-number "
+                 "requests are refused")
       ->check(CLI::ExistingFile);
   app.add_option("--io-threads", config.io_threads, "threads running the HTTP io_context")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
-  app.add_option("--max-body-bytes", config.limits.max_body_bytes, "largest request body (413 above)")
+  app.add_option("--max-body-bytes", config.limits.max_body_bytes,
+                 "largest request body (413 above)")
       ->check(CLI::Range(1024, 64 << 20))
       ->capture_default_str();
-  app.add_option("--max-header-bytes", config.limits.max_header_bytes, "largest request header block (431 above)")
+  app.add_option("--max-header-bytes", config.limits.max_header_bytes,
+                 "largest request header block (431 above)")
       ->check(CLI::Range(1024, 1 << 20))
       ->capture_default_str();
-  app.add_option("--read-timeout-s", read_timeout_s, "a request must arrive within this many seconds")
+  app.add_option("--read-timeout-s", read_timeout_s,
+                 "a request must arrive within this many seconds")
       ->check(CLI::Range(1, 3600))
       ->capture_default_str();
   app.add_option("--max-connections", config.limits.max_connections, "open connections at most")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
-  app.add_option("--max-queued-jobs", config.cameras.worker.max_queued_jobs, "jobs queued per camera at most (429 above)")
+  app.add_option("--max-queued-jobs", config.cameras.worker.max_queued_jobs,
+                 "jobs queued per camera at most (429 above)")
       ->check(CLI::Range(1, 10000))
       ->capture_default_str();
-  app.add_option("--frame-timeout-ms", frame_timeout_ms, "a frame that does not arrive within this fails the job")
+  app.add_option("--frame-timeout-ms", frame_timeout_ms,
+                 "a frame that does not arrive within this fails the job")
       ->check(CLI::Range(100, 600000))
       ->capture_default_str();
   app.add_flag("--test-faults", config.test_faults,
-               "TESTS ONLY: enable POST /v1/test/cameras/{id}/faults (fault injection into in-process virtual cameras)");
+               "TESTS ONLY: enable POST /v1/test/cameras/{id}/faults (fault injection into "
+               "in-process virtual cameras)");
   CLI11_PARSE(app, argc, argv);
 
   config.cameras.scan_devices = !no_scan;
-  if (no_virtual) config.cameras.virtual_cameras = camlab::service::VirtualCameras::kNever;
-  else if (!config.cameras.camera_spec.empty()) config.cameras.virtual_cameras = camlab::service::VirtualCameras::kAlways;
+  if (no_virtual)
+    config.cameras.virtual_cameras = camlab::service::VirtualCameras::kNever;
+  else if (!config.cameras.camera_spec.empty())
+    config.cameras.virtual_cameras = camlab::service::VirtualCameras::kAlways;
   config.limits.read_timeout = std::chrono::seconds(read_timeout_s);
   config.cameras.worker.frame_timeout = std::chrono::milliseconds(frame_timeout_ms);
   return camlab::service::run_daemon(config);

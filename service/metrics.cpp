@@ -7,10 +7,14 @@ namespace camlab::service {
 std::string prometheus_label(const std::string& value) {
   std::string out;
   for (char c : value) {
-    if (c == '\\') out += "\\\\";
-    else if (c == '"') out += "\\\"";
-    else if (c == '\n') out += "\\n";
-    else out.push_back(c);
+    if (c == '\\')
+      out += "\\\\";
+    else if (c == '"')
+      out += "\\\"";
+    else if (c == '\n')
+      out += "\\n";
+    else
+      out.push_back(c);
   }
   return out;
 }
@@ -34,7 +38,8 @@ void Metrics::count_job_finished(const std::string& kind, const std::string& sta
 std::string Metrics::render(const std::map<std::string, int64_t>& jobs_by_state) const {
   std::lock_guard lock(mutex_);
   std::ostringstream out;
-  out << "# HELP camlabd_http_requests_total HTTP requests answered, by method, route pattern and status.\n"
+  out << "# HELP camlabd_http_requests_total HTTP requests answered, by method, route pattern and "
+         "status.\n"
          "# TYPE camlabd_http_requests_total counter\n";
   for (const auto& [key, count] : requests_) {
     const auto& [method, route, status] = key;
@@ -42,9 +47,11 @@ std::string Metrics::render(const std::map<std::string, int64_t>& jobs_by_state)
         << prometheus_label(route) << "\",status=\"" << status << "\"} " << count << "\n";
   }
   out << "# HELP camlabd_jobs Jobs in the database, by state.\n# TYPE camlabd_jobs gauge\n";
-  for (const char* state : {"queued", "running", "succeeded", "failed", "cancelled", "interrupted"}) {
+  for (const char* state :
+       {"queued", "running", "succeeded", "failed", "cancelled", "interrupted"}) {
     auto it = jobs_by_state.find(state);
-    out << "camlabd_jobs{state=\"" << state << "\"} " << (it == jobs_by_state.end() ? 0 : it->second) << "\n";
+    out << "camlabd_jobs{state=\"" << state << "\"} "
+        << (it == jobs_by_state.end() ? 0 : it->second) << "\n";
   }
   out << "# HELP camlabd_jobs_finished_total Jobs finished since start, by kind and final state.\n"
          "# TYPE camlabd_jobs_finished_total counter\n";
@@ -54,7 +61,8 @@ std::string Metrics::render(const std::map<std::string, int64_t>& jobs_by_state)
   out << "# HELP camlabd_frames_captured_total Frames kept and written by captures since start.\n"
          "# TYPE camlabd_frames_captured_total counter\n"
       << "camlabd_frames_captured_total " << frames_captured_ << "\n"
-      << "# HELP camlabd_frames_discarded_total Frames discarded while new settings settled, since start.\n"
+      << "# HELP camlabd_frames_discarded_total Frames discarded while new settings settled, since "
+         "start.\n"
          "# TYPE camlabd_frames_discarded_total counter\n"
       << "camlabd_frames_discarded_total " << frames_discarded_ << "\n";
   return out.str();

@@ -11,7 +11,8 @@
 
 namespace camlab::calib {
 
-void refine_corners_subpix(const cv::Mat& image, int cols, int rows, std::vector<cv::Point2f>* corners) {
+void refine_corners_subpix(const cv::Mat& image, int cols, int rows,
+                           std::vector<cv::Point2f>* corners) {
   if (corners->size() != static_cast<size_t>(cols) * rows || corners->empty()) return;
   // A gradient-orthogonality refinement over a window as large as the squares allow. The
   // window must stay inside one square's neighbourhood, so it follows the smallest corner
@@ -21,8 +22,10 @@ void refine_corners_subpix(const cv::Mat& image, int cols, int rows, std::vector
   for (int j = 0; j < rows; ++j)
     for (int i = 0; i < cols; ++i) {
       const cv::Point2f& p = found[j * cols + i];
-      if (i + 1 < cols) min_spacing_px = std::min<double>(min_spacing_px, cv::norm(found[j * cols + i + 1] - p));
-      if (j + 1 < rows) min_spacing_px = std::min<double>(min_spacing_px, cv::norm(found[(j + 1) * cols + i] - p));
+      if (i + 1 < cols)
+        min_spacing_px = std::min<double>(min_spacing_px, cv::norm(found[j * cols + i + 1] - p));
+      if (j + 1 < rows)
+        min_spacing_px = std::min<double>(min_spacing_px, cv::norm(found[(j + 1) * cols + i] - p));
     }
   const int half_window = std::clamp(static_cast<int>(0.45 * min_spacing_px), 2, 7);
   cv::Mat gray;
@@ -33,14 +36,15 @@ void refine_corners_subpix(const cv::Mat& image, int cols, int rows, std::vector
   // A refinement that wandered off (a corner next to glare or the board's edge) keeps
   // the detector's own position: a corner moves by a fraction of a pixel, not by pixels.
   for (size_t k = 0; k < refined.size(); ++k)
-    if (std::isfinite(refined[k].x) && std::isfinite(refined[k].y) && cv::norm(refined[k] - found[k]) < 1.5)
+    if (std::isfinite(refined[k].x) && std::isfinite(refined[k].y) &&
+        cv::norm(refined[k] - found[k]) < 1.5)
       (*corners)[k] = refined[k];
 }
 
 Result<ChessboardCorners> find_chessboard_corners(const cv::Mat& image, int cols, int rows) {
-  if (image.empty() || image.channels() != 1 ||
-      (image.depth() != CV_8U && image.depth() != CV_16U))
-    return make_error("bad_image", "chessboard detection needs a single-channel 8- or 16-bit image");
+  if (image.empty() || image.channels() != 1 || (image.depth() != CV_8U && image.depth() != CV_16U))
+    return make_error("bad_image",
+                      "chessboard detection needs a single-channel 8- or 16-bit image");
   if (cols < 2 || rows < 2)
     return make_error("invalid_argument", "a chessboard needs at least 2 x 2 inner corners");
   std::vector<cv::Point2f> found;

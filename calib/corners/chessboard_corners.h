@@ -39,6 +39,7 @@ Result<ChessboardCorners> find_chessboard_corners(const cv::Mat& image, int cols
 // channel 8- or 16-bit image), over a window that follows the view's smallest corner
 // spacing; a corner the refinement moves by 1.5 px or more keeps its position. Both
 // detectors use it.
-void refine_corners_subpix(const cv::Mat& image, int cols, int rows, std::vector<cv::Point2f>* corners);
+void refine_corners_subpix(const cv::Mat& image, int cols, int rows,
+                           std::vector<cv::Point2f>* corners);
 
 }  // namespace camlab::calib

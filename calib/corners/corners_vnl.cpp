@@ -61,8 +61,10 @@ Result<std::vector<BoardView>> parse_corners_vnl(std::string_view text, const Bo
     if (fields.empty()) continue;
     if (fields[0][0] == '#') {
       // The legend: "# filename x y level" (the '#' may be glued to the first name).
-      if (fields[0] == "#") fields.erase(fields.begin());
-      else fields[0].remove_prefix(1);
+      if (fields[0] == "#")
+        fields.erase(fields.begin());
+      else
+        fields[0].remove_prefix(1);
       if (!have_header && fields.size() >= 3 && fields[0] == "filename") {
         have_header = true;
         if (fields.size() >= 4 && fields[3] == "level") weight_column = WeightColumn::kLevel;

@@ -85,7 +85,8 @@ Result<ChessboardCorners> find_chessboard_corners_mrgingham(const cv::Mat& image
   // (docs/calibration.md, "Corner detectors").
   std::vector<cv::Point2f> refined;
   refined.reserve(points.size());
-  for (const auto& p : points) refined.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+  for (const auto& p : points)
+    refined.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
   refine_corners_subpix(image, gridn, gridn, &refined);
 
   ChessboardCorners out;

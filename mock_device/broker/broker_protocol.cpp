@@ -14,7 +14,8 @@ namespace camlab::mock::broker {
 
 int user_buffers_of(unsigned long request, const void* arg, std::vector<UserBuffer>* out) {
   out->clear();
-  if (request == VIDIOC_G_EXT_CTRLS || request == VIDIOC_S_EXT_CTRLS || request == VIDIOC_TRY_EXT_CTRLS) {
+  if (request == VIDIOC_G_EXT_CTRLS || request == VIDIOC_S_EXT_CTRLS ||
+      request == VIDIOC_TRY_EXT_CTRLS) {
     const auto* controls = static_cast<const v4l2_ext_controls*>(arg);
     // The kernel's limit (V4L2_CID_MAX_CTRLS) on how many controls one call may carry.
     if (controls->count > 1024) return -EINVAL;
@@ -28,12 +29,14 @@ int user_buffers_of(unsigned long request, const void* arg, std::vector<UserBuff
 uint32_t fd_in_field(unsigned long request, const void* arg) {
   if (request != VIDIOC_QBUF && request != VIDIOC_PREPARE_BUF) return kNoField;
   const auto* buffer = static_cast<const v4l2_buffer*>(arg);
-  if (buffer->memory != V4L2_MEMORY_DMABUF || V4L2_TYPE_IS_MULTIPLANAR(buffer->type)) return kNoField;
+  if (buffer->memory != V4L2_MEMORY_DMABUF || V4L2_TYPE_IS_MULTIPLANAR(buffer->type))
+    return kNoField;
   return static_cast<uint32_t>(offsetof(v4l2_buffer, m.fd));
 }
 
 uint32_t fd_out_field(unsigned long request) {
-  return request == VIDIOC_EXPBUF ? static_cast<uint32_t>(offsetof(v4l2_exportbuffer, fd)) : kNoField;
+  return request == VIDIOC_EXPBUF ? static_cast<uint32_t>(offsetof(v4l2_exportbuffer, fd))
+                                  : kNoField;
 }
 
 int send_message(int socket, const void* data, size_t size, const int* fds, int fd_count) {
@@ -59,7 +62,8 @@ int send_message(int socket, const void* data, size_t size, const int* fds, int 
   }
 }
 
-ssize_t receive_message(int socket, std::vector<uint8_t>* data, std::vector<int>* fds, bool cloexec) {
+ssize_t receive_message(int socket, std::vector<uint8_t>* data, std::vector<int>* fds,
+                        bool cloexec) {
   // SOCK_SEQPACKET keeps message boundaries: peek at the size first so no message is
   // ever truncated.
   ssize_t size;

@@ -45,17 +45,17 @@ enum class Op : uint32_t {
 
 // Faults a test (or `camlab vcam fault`) can inject into a served device.
 enum class Fault : int32_t {
-  kUnplug = 1,     // ENODEV from then on
-  kDequeueEio = 2, // the next `count` DQBUFs fail with EIO
-  kDropFrames = 3, // the next `count` frames are dropped (sequence gaps)
-  kStall = 4,      // no frames until kResume
+  kUnplug = 1,      // ENODEV from then on
+  kDequeueEio = 2,  // the next `count` DQBUFs fail with EIO
+  kDropFrames = 3,  // the next `count` frames are dropped (sequence gaps)
+  kStall = 4,       // no frames until kResume
   kResume = 5,
 };
 
 enum class NodeKind : uint32_t { kVideo = 0, kMedia = 1 };
 
 inline constexpr uint32_t kNoField = UINT32_MAX;
-inline constexpr size_t kMaxArgBytes = 4096;          // largest V4L2/media ioctl struct
+inline constexpr size_t kMaxArgBytes = 4096;  // largest V4L2/media ioctl struct
 inline constexpr size_t kMaxUserBuffers = 8;
 inline constexpr size_t kMaxUserBufferBytes = 1 << 20;
 
@@ -67,7 +67,7 @@ struct RequestHeader {
   uint64_t length = 0;
   int32_t flags = 0;
   uint32_t arg_size = 0;
-  uint32_t arg_unreadable = 0;      // 1: the client could not read the argument (EFAULT)
+  uint32_t arg_unreadable = 0;          // 1: the client could not read the argument (EFAULT)
   uint32_t fd_field_offset = kNoField;  // where a passed-in fd goes in the struct
 };
 
@@ -110,11 +110,13 @@ int send_message(int socket, const void* data, size_t size, const int* fds, int 
 // One whole message into `data` and its fds (appended to `fds`; the caller owns them).
 // Returns the size, 0 on an orderly shutdown of the peer, or -errno. MSG_CMSG_CLOEXEC
 // unless `cloexec` is false.
-ssize_t receive_message(int socket, std::vector<uint8_t>* data, std::vector<int>* fds, bool cloexec = true);
+ssize_t receive_message(int socket, std::vector<uint8_t>* data, std::vector<int>* fds,
+                        bool cloexec = true);
 // The same, with each received fd given at once to an owner (base/unique_fd.h):
 // UniqueFd in the broker, the preload library's RealFd in the clients.
 template <class Fd>
-ssize_t receive_message(int socket, std::vector<uint8_t>* data, std::vector<Fd>* fds, bool cloexec = true) {
+ssize_t receive_message(int socket, std::vector<uint8_t>* data, std::vector<Fd>* fds,
+                        bool cloexec = true) {
   std::vector<int> received;
   const ssize_t n = receive_message(socket, data, &received, cloexec);
   for (int fd : received) fds->emplace_back(fd);

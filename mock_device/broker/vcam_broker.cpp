@@ -24,7 +24,8 @@ using broker::ReplyHeader;
 using broker::RequestHeader;
 using broker::UserBuffer;
 
-int reply(int socket, const ReplyHeader& header, const std::vector<uint8_t>& body = {}, int fd = -1) {
+int reply(int socket, const ReplyHeader& header, const std::vector<uint8_t>& body = {},
+          int fd = -1) {
   std::vector<uint8_t> message(sizeof header + body.size());
   std::memcpy(message.data(), &header, sizeof header);
   if (!body.empty()) std::memcpy(message.data() + sizeof header, body.data(), body.size());
@@ -41,7 +42,8 @@ int reply_result(int socket, int result) {
 // seen by the connection that opened it.
 class OpenFile {
  public:
-  OpenFile(std::shared_ptr<VirtualV4l2Device> device, std::shared_ptr<VirtualMediaDevice> media, int file)
+  OpenFile(std::shared_ptr<VirtualV4l2Device> device, std::shared_ptr<VirtualMediaDevice> media,
+           int file)
       : device_(std::move(device)), media_(std::move(media)), file_(file) {}
   ~OpenFile() {
     if (media_) {
@@ -60,8 +62,10 @@ class OpenFile {
     std::memcpy(&header, message.data(), sizeof header);
     if (media_) return handle_media(socket, header, message);
     switch (header.op) {
-      case Op::kIoctl: return ioctl(socket, header, message, fds) == 0;
-      case Op::kMmap: return mmap(socket, header) == 0;
+      case Op::kIoctl:
+        return ioctl(socket, header, message, fds) == 0;
+      case Op::kMmap:
+        return mmap(socket, header) == 0;
       case Op::kMunmap: {
         auto it = mappings_.find(header.offset);
         if (it != mappings_.end() && it->second > 0) {
@@ -85,15 +89,19 @@ class OpenFile {
   // devnode without a poll handler, is always "ready".
   bool handle_media(int socket, const RequestHeader& header, const std::vector<uint8_t>& message) {
     switch (header.op) {
-      case Op::kIoctl: return media_ioctl(socket, header, message) == 0;
-      case Op::kMmap: return reply_result(socket, -ENODEV) == 0;
-      case Op::kMunmap: return reply_result(socket, 0) == 0;
+      case Op::kIoctl:
+        return media_ioctl(socket, header, message) == 0;
+      case Op::kMmap:
+        return reply_result(socket, -ENODEV) == 0;
+      case Op::kMunmap:
+        return reply_result(socket, 0) == 0;
       case Op::kPoll: {
         ReplyHeader out;
         out.revents = header.flags & (POLLIN | POLLOUT | POLLRDNORM | POLLWRNORM);
         return reply(socket, out) == 0;
       }
-      default: return reply_result(socket, -EINVAL) == 0;
+      default:
+        return reply_result(socket, -EINVAL) == 0;
     }
   }
 
@@ -104,23 +112,28 @@ class OpenFile {
     if (!VirtualMediaDevice::is_supported_ioctl(request)) return reply_result(socket, -ENOTTY);
     if (header.arg_unreadable) return reply_result(socket, -EFAULT);
     const size_t arg_size = header.arg_size;
-    if (arg_size != _IOC_SIZE(request) || arg_size > broker::kMaxArgBytes || header.user_buffer_count != 0 ||
-        message.size() < sizeof header + arg_size)
+    if (arg_size != _IOC_SIZE(request) || arg_size > broker::kMaxArgBytes ||
+        header.user_buffer_count != 0 || message.size() < sizeof header + arg_size)
       return reply_result(socket, -EINVAL);
     std::vector<uint64_t> arg((arg_size + 7) / 8 + 1);
     std::memcpy(arg.data(), message.data() + sizeof header, arg_size);
     std::vector<uint8_t> regions;
     uint32_t region_count = 0;
-    auto copy_in = [](uint64_t, void*, size_t) { return -EFAULT; };  // no media ioctl reads an array
+    auto copy_in = [](uint64_t, void*, size_t) {
+      return -EFAULT;
+    };  // no media ioctl reads an array
     auto copy_out = [&](uint64_t address, const void* local, size_t bytes) {
       if (bytes == 0) return 0;
-      if (region_count >= broker::kMaxCopyOuts || regions.size() + bytes > broker::kMaxUserBufferBytes) return -EFAULT;
+      if (region_count >= broker::kMaxCopyOuts ||
+          regions.size() + bytes > broker::kMaxUserBufferBytes)
+        return -EFAULT;
       broker::CopyOut region;
       region.address = address;
       region.size_bytes = static_cast<uint32_t>(bytes);
       const auto* head = reinterpret_cast<const uint8_t*>(&region);
       regions.insert(regions.end(), head, head + sizeof region);
-      regions.insert(regions.end(), static_cast<const uint8_t*>(local), static_cast<const uint8_t*>(local) + bytes);
+      regions.insert(regions.end(), static_cast<const uint8_t*>(local),
+                     static_cast<const uint8_t*>(local) + bytes);
       ++region_count;
       return 0;
     };
@@ -133,13 +146,15 @@ class OpenFile {
     // on ENOSPC.
     if (result == 0) {
       out.arg_size = static_cast<uint32_t>(arg_size);
-      body.assign(reinterpret_cast<const uint8_t*>(arg.data()), reinterpret_cast<const uint8_t*>(arg.data()) + arg_size);
+      body.assign(reinterpret_cast<const uint8_t*>(arg.data()),
+                  reinterpret_cast<const uint8_t*>(arg.data()) + arg_size);
     }
     body.insert(body.end(), regions.begin(), regions.end());
     return reply(socket, out, body);
   }
 
-  int ioctl(int socket, const RequestHeader& header, const std::vector<uint8_t>& message, std::vector<UniqueFd>& fds) {
+  int ioctl(int socket, const RequestHeader& header, const std::vector<uint8_t>& message,
+            std::vector<UniqueFd>& fds) {
     const unsigned long request = header.ioctl_request;
     // Unknown ioctls are ENOTTY before the argument is looked at, as in the kernel.
     if (!VirtualV4l2Device::is_supported_ioctl(request)) return reply_result(socket, -ENOTTY);
@@ -156,7 +171,8 @@ class OpenFile {
     std::memcpy(arg.data(), message.data() + at, arg_size);
     at += arg_size;
     std::vector<UserBuffer> specs(header.user_buffer_count);
-    if (!specs.empty()) std::memcpy(specs.data(), message.data() + at, specs.size() * sizeof(UserBuffer));
+    if (!specs.empty())
+      std::memcpy(specs.data(), message.data() + at, specs.size() * sizeof(UserBuffer));
     at += specs.size() * sizeof(UserBuffer);
     // The arrays must be the ones this request implies, so a client cannot make the
     // device write through a pointer of its choosing.
@@ -167,7 +183,8 @@ class OpenFile {
     std::vector<std::vector<uint64_t>> buffers(specs.size());
     std::vector<void*> client_pointers(specs.size());
     for (size_t i = 0; i < specs.size(); ++i) {
-      if (specs[i].pointer_offset != expected[i].pointer_offset || specs[i].size_bytes != expected[i].size_bytes ||
+      if (specs[i].pointer_offset != expected[i].pointer_offset ||
+          specs[i].size_bytes != expected[i].size_bytes ||
           message.size() < at + specs[i].size_bytes)
         return reply_result(socket, -EINVAL);
       buffers[i].resize((specs[i].size_bytes + 7) / 8 + 1);
@@ -190,7 +207,8 @@ class OpenFile {
     const int result = device_->ioctl(file_, request, arg.data(), dmabuf_fd);
 
     for (size_t i = 0; i < specs.size(); ++i)
-      std::memcpy(reinterpret_cast<uint8_t*>(arg.data()) + specs[i].pointer_offset, &client_pointers[i], sizeof(void*));
+      std::memcpy(reinterpret_cast<uint8_t*>(arg.data()) + specs[i].pointer_offset,
+                  &client_pointers[i], sizeof(void*));
     int fd_out = -1;  // an fd the device made for the client (EXPBUF): ours until sent
     ReplyHeader out;
     out.result = result;
@@ -198,7 +216,8 @@ class OpenFile {
     out.user_buffer_count = static_cast<uint32_t>(specs.size());
     if (result >= 0 && broker::fd_out_field(request) != broker::kNoField) {
       out.fd_field_offset = broker::fd_out_field(request);
-      std::memcpy(&fd_out, reinterpret_cast<uint8_t*>(arg.data()) + out.fd_field_offset, sizeof(int));
+      std::memcpy(&fd_out, reinterpret_cast<uint8_t*>(arg.data()) + out.fd_field_offset,
+                  sizeof(int));
     }
     const UniqueFd exported(fd_out);  // the client gets its own copy; ours closes here
     std::vector<uint8_t> body(arg_size);
@@ -229,30 +248,44 @@ class OpenFile {
 int inject(VirtualV4l2Device& device, broker::Fault fault, int count) {
   if (count < 0 || count > 1000000) return -EINVAL;
   switch (fault) {
-    case broker::Fault::kUnplug: device.unplug(); return 0;
-    case broker::Fault::kDequeueEio: device.fail_next_dequeues(count); return 0;
-    case broker::Fault::kDropFrames: device.drop_next_frames(count); return 0;
-    case broker::Fault::kStall: device.stall(true); return 0;
-    case broker::Fault::kResume: device.stall(false); return 0;
+    case broker::Fault::kUnplug:
+      device.unplug();
+      return 0;
+    case broker::Fault::kDequeueEio:
+      device.fail_next_dequeues(count);
+      return 0;
+    case broker::Fault::kDropFrames:
+      device.drop_next_frames(count);
+      return 0;
+    case broker::Fault::kStall:
+      device.stall(true);
+      return 0;
+    case broker::Fault::kResume:
+      device.stall(false);
+      return 0;
   }
   return -EINVAL;
 }
 
 }  // namespace
 
-Result<std::unique_ptr<VcamBroker>> VcamBroker::start(std::vector<std::shared_ptr<VirtualV4l2Device>> devices,
-                                                      const std::string& socket_path) {
+Result<std::unique_ptr<VcamBroker>> VcamBroker::start(
+    std::vector<std::shared_ptr<VirtualV4l2Device>> devices, const std::string& socket_path) {
   sockaddr_un address{};
   address.sun_family = AF_UNIX;
   if (socket_path.size() >= sizeof address.sun_path)
     return make_error("invalid_argument", "broker socket path too long (max " +
-                                          std::to_string(sizeof address.sun_path - 1) + " bytes): " + socket_path);
+                                              std::to_string(sizeof address.sun_path - 1) +
+                                              " bytes): " + socket_path);
   std::memcpy(address.sun_path, socket_path.c_str(), socket_path.size() + 1);
   UniqueFd fd(::socket(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0));
   if (!fd) return make_error("io_error", std::string("broker socket: ") + std::strerror(errno));
-  if (::bind(fd.get(), reinterpret_cast<sockaddr*>(&address), sizeof address) < 0 || ::listen(fd.get(), 64) < 0)
-    return make_error("io_error", "broker cannot listen on " + socket_path + ": " + std::strerror(errno));
-  std::unique_ptr<VcamBroker> broker(new VcamBroker(std::move(devices), socket_path, std::move(fd)));
+  if (::bind(fd.get(), reinterpret_cast<sockaddr*>(&address), sizeof address) < 0 ||
+      ::listen(fd.get(), 64) < 0)
+    return make_error("io_error",
+                      "broker cannot listen on " + socket_path + ": " + std::strerror(errno));
+  std::unique_ptr<VcamBroker> broker(
+      new VcamBroker(std::move(devices), socket_path, std::move(fd)));
   for (const auto& device : broker->devices_) {
     auto media = make_media_device_for(*device);
     if (!media) continue;
@@ -265,9 +298,11 @@ Result<std::unique_ptr<VcamBroker>> VcamBroker::start(std::vector<std::shared_pt
   return broker;
 }
 
-VcamBroker::VcamBroker(std::vector<std::shared_ptr<VirtualV4l2Device>> devices, std::string socket_path,
-                       UniqueFd listen_fd)
-    : devices_(std::move(devices)), socket_path_(std::move(socket_path)), listen_fd_(std::move(listen_fd)) {}
+VcamBroker::VcamBroker(std::vector<std::shared_ptr<VirtualV4l2Device>> devices,
+                       std::string socket_path, UniqueFd listen_fd)
+    : devices_(std::move(devices)),
+      socket_path_(std::move(socket_path)),
+      listen_fd_(std::move(listen_fd)) {}
 
 std::shared_ptr<VirtualMediaDevice> VcamBroker::media_device(int index) const {
   for (const auto& node : media_)
@@ -342,9 +377,11 @@ void VcamBroker::serve(Connection* connection) {
       if (node.device->index() == header.offset) media = &node;
     const auto kind = static_cast<broker::NodeKind>(header.length);
     if (header.op == Op::kFault) {
-      int result = device ? inject(*device, static_cast<broker::Fault>(header.flags), static_cast<int>(header.length))
+      int result = device ? inject(*device, static_cast<broker::Fault>(header.flags),
+                                   static_cast<int>(header.length))
                           : -ENODEV;
-      if (result == 0 && media && static_cast<broker::Fault>(header.flags) == broker::Fault::kUnplug)
+      if (result == 0 && media &&
+          static_cast<broker::Fault>(header.flags) == broker::Fault::kUnplug)
         media->device->unplug();
       reply_result(socket, result);
     } else if (header.op == Op::kOpen && kind == broker::NodeKind::kMedia && media) {
@@ -354,7 +391,8 @@ void VcamBroker::serve(Connection* connection) {
       const int file = media->device->open_file(header.flags & O_NONBLOCK);
       const std::string self = "/proc/self/fd/" + std::to_string(media->memfd.get());
       // Sent to the client, which has its own copy then; ours closes at the end of scope.
-      const UniqueFd fd(file < 0 ? -1 : ::open(self.c_str(), O_RDWR | O_CLOEXEC | (header.flags & O_NONBLOCK)));
+      const UniqueFd fd(
+          file < 0 ? -1 : ::open(self.c_str(), O_RDWR | O_CLOEXEC | (header.flags & O_NONBLOCK)));
       if (file < 0 || !fd) {
         if (file >= 0) media->device->close_file(file);
         reply_result(socket, file < 0 ? file : -errno);
@@ -369,7 +407,9 @@ void VcamBroker::serve(Connection* connection) {
       // The broker's side of every file is non-blocking; the client emulates blocking
       // DQBUF on the readiness fd, so no request ever waits here.
       const int file = device->open_file(true);
-      readiness_fd.reset(file < 0 ? -1 : ::eventfd(0, EFD_CLOEXEC | ((header.flags & O_NONBLOCK) ? EFD_NONBLOCK : 0)));
+      readiness_fd.reset(
+          file < 0 ? -1
+                   : ::eventfd(0, EFD_CLOEXEC | ((header.flags & O_NONBLOCK) ? EFD_NONBLOCK : 0)));
       if (file < 0 || !readiness_fd) {
         if (file >= 0) device->close_file(file);
         reply_result(socket, file < 0 ? file : -errno);
@@ -384,12 +424,13 @@ void VcamBroker::serve(Connection* connection) {
   fds.clear();
   while (open_file) {
     n = broker::receive_message(socket, &message, &fds);
-    if (n < static_cast<ssize_t>(sizeof(RequestHeader))) break;  // the client closed the file (or died)
+    if (n < static_cast<ssize_t>(sizeof(RequestHeader)))
+      break;  // the client closed the file (or died)
     const bool keep = open_file->handle(socket, message, fds);
     fds.clear();  // the device keeps no fd it was sent (it maps a DMABUF at QBUF)
     if (!keep) break;
   }
-  open_file.reset();  // detaches the readiness fd before it closes
+  open_file.reset();              // detaches the readiness fd before it closes
   ::shutdown(socket, SHUT_RDWR);  // the client sees EOF now; the fd is closed when reaped
   connection->finished = true;
 }

@@ -34,8 +34,8 @@ class VcamBroker {
   // Listens on `socket_path` (created; must not exist). devices[i] is served as
   // /dev/video<devices[i]->index()>, with its media controller node as
   // /dev/media<index> (make_media_device_for()).
-  static Result<std::unique_ptr<VcamBroker>> start(std::vector<std::shared_ptr<VirtualV4l2Device>> devices,
-                                                   const std::string& socket_path);
+  static Result<std::unique_ptr<VcamBroker>> start(
+      std::vector<std::shared_ptr<VirtualV4l2Device>> devices, const std::string& socket_path);
   ~VcamBroker();
   VcamBroker(const VcamBroker&) = delete;
   VcamBroker& operator=(const VcamBroker&) = delete;
@@ -53,7 +53,8 @@ class VcamBroker {
     std::thread thread;
     std::atomic<bool> finished{false};
   };
-  VcamBroker(std::vector<std::shared_ptr<VirtualV4l2Device>> devices, std::string socket_path, UniqueFd listen_fd);
+  VcamBroker(std::vector<std::shared_ptr<VirtualV4l2Device>> devices, std::string socket_path,
+             UniqueFd listen_fd);
   void accept_loop();
   void serve(Connection* connection);
   void reap_finished();  // joins connections whose client went away; call with mutex_ held

@@ -4,9 +4,8 @@
 
 namespace camlab::mock {
 
-Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_devices(const std::string& camera_path,
-                                                                           const std::string& scene_path, int count,
-                                                                           bool realtime) {
+Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_devices(
+    const std::string& camera_path, const std::string& scene_path, int count, bool realtime) {
   std::vector<std::shared_ptr<VirtualV4l2Device>> devices;
   for (int i = 0; i < count; ++i) {
     CameraSpec camera = default_camera_spec();

@@ -16,8 +16,7 @@ namespace camlab::mock {
 // An empty path stands for the default camera or scene (mock_device/spec/default_specs.h).
 // Device i is /dev/video<i>. `realtime` false: frames are made as fast as buffers are
 // queued (no frame clock), for quick tests.
-Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_devices(const std::string& camera_path,
-                                                                           const std::string& scene_path, int count,
-                                                                           bool realtime = true);
+Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_devices(
+    const std::string& camera_path, const std::string& scene_path, int count, bool realtime = true);
 
 }  // namespace camlab::mock

@@ -37,7 +37,8 @@ bool copy_to_user(void* to, const void* from, size_t size) {
   return process_vm_writev(getpid(), &local, 1, &remote, 1, 0) == static_cast<ssize_t>(size);
 }
 
-std::vector<uint8_t> encode(const RequestHeader& header, const void* arg = nullptr, size_t arg_size = 0) {
+std::vector<uint8_t> encode(const RequestHeader& header, const void* arg = nullptr,
+                            size_t arg_size = 0) {
   std::vector<uint8_t> message(sizeof header + arg_size);
   std::memcpy(message.data(), &header, sizeof header);
   if (arg_size) std::memcpy(message.data() + sizeof header, arg, arg_size);
@@ -58,15 +59,18 @@ void wait_readable(int fd, int timeout_ms) {
 
 }  // namespace
 
-int RemoteFile::transact(const std::vector<uint8_t>& request, int fd_in, std::vector<uint8_t>* reply,
-                         std::vector<RealFd>* fds_out, bool cloexec) {
+int RemoteFile::transact(const std::vector<uint8_t>& request, int fd_in,
+                         std::vector<uint8_t>* reply, std::vector<RealFd>* fds_out, bool cloexec) {
   std::lock_guard lock(mutex_);
   const int socket = socket_.get();
-  if (int error = broker::send_message(socket, request.data(), request.size(), &fd_in, fd_in >= 0 ? 1 : 0); error < 0)
+  if (int error =
+          broker::send_message(socket, request.data(), request.size(), &fd_in, fd_in >= 0 ? 1 : 0);
+      error < 0)
     return error == -EPIPE || error == -ECONNRESET ? -ENODEV : error;
   const ssize_t n = broker::receive_message(socket, reply, fds_out, cloexec);
   // A broker that went away is a device that went away.
-  if (n < static_cast<ssize_t>(sizeof(ReplyHeader))) return n < 0 && n != -ECONNRESET ? static_cast<int>(n) : -ENODEV;
+  if (n < static_cast<ssize_t>(sizeof(ReplyHeader)))
+    return n < 0 && n != -ECONNRESET ? static_cast<int>(n) : -ENODEV;
   ReplyHeader header;
   std::memcpy(&header, reply->data(), sizeof header);
   return header.result;
@@ -100,7 +104,8 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
   }
   header.arg_size = static_cast<uint32_t>(size);
   std::vector<UserBuffer> buffers;
-  if (int error = broker::user_buffers_of(request, arg.data(), &buffers); error < 0) return fail(-error);
+  if (int error = broker::user_buffers_of(request, arg.data(), &buffers); error < 0)
+    return fail(-error);
   header.user_buffer_count = static_cast<uint32_t>(buffers.size());
   std::vector<uint8_t> message = encode(header, arg.data(), size);
   std::vector<void*> user_pointers(buffers.size());
@@ -109,10 +114,12 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
     message.insert(message.end(), bytes, bytes + sizeof b);
   }
   for (size_t i = 0; i < buffers.size(); ++i) {
-    std::memcpy(&user_pointers[i], reinterpret_cast<uint8_t*>(arg.data()) + buffers[i].pointer_offset, sizeof(void*));
+    std::memcpy(&user_pointers[i],
+                reinterpret_cast<uint8_t*>(arg.data()) + buffers[i].pointer_offset, sizeof(void*));
     const size_t at = message.size();
     message.resize(at + buffers[i].size_bytes);
-    if (!user_pointers[i] || !copy_from_user(message.data() + at, user_pointers[i], buffers[i].size_bytes))
+    if (!user_pointers[i] ||
+        !copy_from_user(message.data() + at, user_pointers[i], buffers[i].size_bytes))
       return fail(EFAULT);
   }
   int fd_in = -1;
@@ -121,7 +128,8 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
 
   // An exported buffer's fd (EXPBUF) is close-on-exec only when asked for.
   bool cloexec = true;
-  if (request == VIDIOC_EXPBUF) cloexec = (reinterpret_cast<const v4l2_exportbuffer*>(arg.data())->flags & O_CLOEXEC) != 0;
+  if (request == VIDIOC_EXPBUF)
+    cloexec = (reinterpret_cast<const v4l2_exportbuffer*>(arg.data())->flags & O_CLOEXEC) != 0;
 
   std::vector<uint8_t> reply;
   std::vector<RealFd> fds;
@@ -129,7 +137,8 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
   ReplyHeader out;
   if (reply.size() >= sizeof out) std::memcpy(&out, reply.data(), sizeof out);
   size_t at = sizeof out;
-  const bool has_body = reply.size() >= sizeof out && out.arg_size == size && reply.size() >= at + size;
+  const bool has_body =
+      reply.size() >= sizeof out && out.arg_size == size && reply.size() >= at + size;
   int error = result < 0 ? -result : 0;
   if (has_body) {
     std::memcpy(arg.data(), reply.data() + at, size);
@@ -144,13 +153,16 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
   // Arrays the broker sized and filled (media topology): each goes to the address the
   // caller gave for it; also after a failure (ENOSPC), as the kernel copies them.
   bool copied_out = true;
-  for (uint32_t i = 0; reply.size() >= sizeof out && i < out.copy_out_count && i < broker::kMaxCopyOuts; ++i) {
+  for (uint32_t i = 0;
+       reply.size() >= sizeof out && i < out.copy_out_count && i < broker::kMaxCopyOuts; ++i) {
     broker::CopyOut region;
     if (reply.size() < at + sizeof region) break;
     std::memcpy(&region, reply.data() + at, sizeof region);
     at += sizeof region;
     if (reply.size() < at + region.size_bytes) break;
-    if (!copy_to_user(reinterpret_cast<void*>(region.address), reply.data() + at, region.size_bytes)) copied_out = false;
+    if (!copy_to_user(reinterpret_cast<void*>(region.address), reply.data() + at,
+                      region.size_bytes))
+      copied_out = false;
     at += region.size_bytes;
   }
   if (!copied_out) error = EFAULT;
@@ -163,7 +175,8 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
     }
     // Like the kernel, write the struct back for _IOR and _IOWR ioctls (error_idx and
     // friends are reported on failure too).
-    if ((_IOC_DIR(request) & _IOC_READ) && size > 0 && !copy_to_user(user_arg, arg.data(), size)) error = EFAULT;
+    if ((_IOC_DIR(request) & _IOC_READ) && size > 0 && !copy_to_user(user_arg, arg.data(), size))
+      error = EFAULT;
   }
   if (error) return fail(error);  // any fd not handed over closes with `fds`
   return result;
@@ -293,8 +306,8 @@ void BrokerClient::alias(int new_fd, std::shared_ptr<RemoteFile> file) {
   open_fds_ = static_cast<int>(files_.size());
 }
 
-void* BrokerClient::mmap(const std::shared_ptr<RemoteFile>& file, void* address, size_t length, int prot, int flags,
-                         off_t offset) {
+void* BrokerClient::mmap(const std::shared_ptr<RemoteFile>& file, void* address, size_t length,
+                         int prot, int flags, off_t offset) {
   void* mapped = file->mmap(address, length, prot, flags, offset);
   if (mapped == MAP_FAILED) return mapped;
   std::lock_guard lock(mutex_);
@@ -365,9 +378,11 @@ int BrokerClient::poll(pollfd* fds, nfds_t count, const timespec* timeout, const
                      static_cast<short>(remote[i] ? POLLIN : fds[i].events), 0};
     }
     auto slice = forever ? std::chrono::nanoseconds(std::chrono::hours(1)) : deadline - now;
-    if (needs_slices) slice = std::min<std::chrono::nanoseconds>(slice, std::chrono::milliseconds(5));
+    if (needs_slices)
+      slice = std::min<std::chrono::nanoseconds>(slice, std::chrono::milliseconds(5));
     const auto slice_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(slice).count();
-    const timespec wait{static_cast<time_t>(slice_ns / 1000000000), static_cast<long>(slice_ns % 1000000000)};
+    const timespec wait{static_cast<time_t>(slice_ns / 1000000000),
+                        static_cast<long>(slice_ns % 1000000000)};
     if (real().ppoll(wait_set.data(), count, &wait, mask) < 0) return -1;  // EINTR included
   }
 }

@@ -2,11 +2,11 @@
 // preload library: every open of a virtual node becomes a connection to the broker, and
 // the fd the application gets is, for a video node, that file's readiness eventfd, so
 // poll, select and epoll on it work without interposition; for a media node, an open
-// file description of the node's memfd (lockf works across processes; no mmap). ioctls are marshalled with the kernel's copy
-// semantics (EFAULT for a bad pointer, the struct written back for _IOR ioctls, the
-// arrays an ioctl points to copied both ways, the arrays the broker sizes (media
-// topology) written where the caller pointed); mmap maps the buffer memfd the broker
-// sends; blocking DQBUF waits here on the readiness fd, never in the broker.
+// file description of the node's memfd (lockf works across processes; no mmap). ioctls are
+// marshalled with the kernel's copy semantics (EFAULT for a bad pointer, the struct written back
+// for _IOR ioctls, the arrays an ioctl points to copied both ways, the arrays the broker sizes
+// (media topology) written where the caller pointed); mmap maps the buffer memfd the broker sends;
+// blocking DQBUF waits here on the readiness fd, never in the broker.
 //
 // dup/dup2/dup3/F_DUPFD make another fd for the same open file; the file closes with
 // its last fd, as in the kernel. A process that forks with a virtual device open shares
@@ -73,13 +73,16 @@ class BrokerClient {
   int open(broker::NodeKind kind, int index, int flags);
   // The open file behind an application fd, or null. Cheap when nothing is open.
   std::shared_ptr<RemoteFile> find(int fd) const;
-  bool owns(int fd) const { return open_fds_.load(std::memory_order_relaxed) > 0 && find(fd) != nullptr; }
+  bool owns(int fd) const {
+    return open_fds_.load(std::memory_order_relaxed) > 0 && find(fd) != nullptr;
+  }
   // Forgets `fd` (it was closed or replaced); the file closes with its last fd.
   void forget(int fd);
   // `new_fd` now also refers to `file` (dup family).
   void alias(int new_fd, std::shared_ptr<RemoteFile> file);
 
-  void* mmap(const std::shared_ptr<RemoteFile>& file, void* address, size_t length, int prot, int flags, off_t offset);
+  void* mmap(const std::shared_ptr<RemoteFile>& file, void* address, size_t length, int prot,
+             int flags, off_t offset);
   bool owns_mapping(void* address) const;
   int munmap(void* address, size_t length);
 

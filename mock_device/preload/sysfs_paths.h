@@ -2,9 +2,9 @@
 // learn that a character device is a video node, enumerators walk
 // /sys/class/video4linux, and libcamera's sysfs enumerator walks /sys/bus/media, the
 // media and video nodes' /sys/dev/char links and the USB device folders above them
-// (camlab::mock::is_fake_sysfs_path says which paths). The tree is real files in a folder `camlab vcam run` writes
-// (CAMLAB_VCAM_SYSFS, mock_device/v4l2/fake_sysfs.h); paths under those sysfs roots are
-// redirected into it, and paths resolved inside it are reported back under /sys.
+// (camlab::mock::is_fake_sysfs_path says which paths). The tree is real files in a folder `camlab
+// vcam run` writes (CAMLAB_VCAM_SYSFS, mock_device/v4l2/fake_sysfs.h); paths under those sysfs
+// roots are redirected into it, and paths resolved inside it are reported back under /sys.
 //
 // Thread-safe (configuration read once).
 #pragma once

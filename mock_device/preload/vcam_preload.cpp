@@ -1,5 +1,6 @@
 // libcamlab_vcam_preload.so: the virtual camera as /dev/video0.. and its media
-// controller node /dev/media0.. for an unmodified V4L2 or libcamera client, in user space (the machines camlab is tested on have no kernel media support).
+// controller node /dev/media0.. for an unmodified V4L2 or libcamera client, in user space (the
+// machines camlab is tested on have no kernel media support).
 //
 // Loaded with LD_PRELOAD by `camlab vcam run`, it interposes the libc entry points a
 // V4L2 client uses on a device: open/openat (and their 64 and fortified forms), close,
@@ -36,17 +37,17 @@
 #include <string>
 #include <vector>
 
-#include "mock_device/v4l2/fake_sysfs.h"
 #include "mock_device/preload/broker_client.h"
 #include "mock_device/preload/real_libc.h"
 #include "mock_device/preload/sysfs_paths.h"
+#include "mock_device/v4l2/fake_sysfs.h"
 
 namespace {
 
+using camlab::mock::broker::NodeKind;
 using camlab::mock::preload::BrokerClient;
 using camlab::mock::preload::real;
 using camlab::mock::preload::RemoteFile;
-using camlab::mock::broker::NodeKind;
 
 struct Node {
   NodeKind kind;
@@ -106,7 +107,8 @@ int stat_path(const char* path, struct stat* st, Call call) {
 }
 
 int open_path(const char* path, int flags, mode_t mode, int dirfd, bool at) {
-  if (Node node; virtual_node(path, &node)) return BrokerClient::get().open(node.kind, node.index, flags);
+  if (Node node; virtual_node(path, &node))
+    return BrokerClient::get().open(node.kind, node.index, flags);
   return on_real_path(path, [&](const char* p) {
     return at ? real().openat(dirfd, p, flags, mode) : real().open(p, flags, mode);
   });
@@ -125,13 +127,15 @@ int close_fd(int fd) {
 // dup family: the new fd is another name of the same open file.
 int after_dup(int old_fd, int new_fd) {
   if (new_fd < 0) return new_fd;
-  if (auto file = BrokerClient::get().find(old_fd)) BrokerClient::get().alias(new_fd, std::move(file));
+  if (auto file = BrokerClient::get().find(old_fd))
+    BrokerClient::get().alias(new_fd, std::move(file));
   return new_fd;
 }
 int dup2_fd(int old_fd, int new_fd, int flags, bool three) {
   // dup2 onto an open virtual fd closes that file first, as the kernel does.
   if (old_fd != new_fd) BrokerClient::get().forget(new_fd);
-  return after_dup(old_fd, three ? real().dup3(old_fd, new_fd, flags) : real().dup2(old_fd, new_fd));
+  return after_dup(old_fd,
+                   three ? real().dup3(old_fd, new_fd, flags) : real().dup2(old_fd, new_fd));
 }
 
 int fcntl_fd(int fd, int command, long arg) {
@@ -159,7 +163,8 @@ ssize_t write_fd(int fd, const void* buffer, size_t size) {
 
 void* mmap_fd(void* address, size_t length, int prot, int flags, int fd, off_t offset) {
   if (fd >= 0)
-    if (auto file = BrokerClient::get().find(fd)) return BrokerClient::get().mmap(file, address, length, prot, flags, offset);
+    if (auto file = BrokerClient::get().find(fd))
+      return BrokerClient::get().mmap(file, address, length, prot, flags, offset);
   return real().mmap(address, length, prot, flags, fd, offset);
 }
 
@@ -168,8 +173,9 @@ int munmap_address(void* address, size_t length) {
   return real().munmap(address, length);
 }
 
-int select_fds(int nfds, fd_set* readfds, fd_set* writefds, fd_set* exceptfds, const timespec* timeout,
-               const sigset_t* mask, bool microseconds, timeval* timeout_us) {
+int select_fds(int nfds, fd_set* readfds, fd_set* writefds, fd_set* exceptfds,
+               const timespec* timeout, const sigset_t* mask, bool microseconds,
+               timeval* timeout_us) {
   std::vector<pollfd> fds;
   bool any_device = false;
   for (int fd = 0; fd < nfds && fd < FD_SETSIZE; ++fd) {
@@ -192,9 +198,18 @@ int select_fds(int nfds, fd_set* readfds, fd_set* writefds, fd_set* exceptfds, c
   if (exceptfds) FD_ZERO(exceptfds);
   int bits = 0;
   for (const auto& p : fds) {
-    if (readfds && (p.revents & (POLLIN | POLLERR | POLLHUP))) { FD_SET(p.fd, readfds); ++bits; }
-    if (writefds && (p.revents & (POLLOUT | POLLERR))) { FD_SET(p.fd, writefds); ++bits; }
-    if (exceptfds && (p.revents & POLLPRI)) { FD_SET(p.fd, exceptfds); ++bits; }
+    if (readfds && (p.revents & (POLLIN | POLLERR | POLLHUP))) {
+      FD_SET(p.fd, readfds);
+      ++bits;
+    }
+    if (writefds && (p.revents & (POLLOUT | POLLERR))) {
+      FD_SET(p.fd, writefds);
+      ++bits;
+    }
+    if (exceptfds && (p.revents & POLLPRI)) {
+      FD_SET(p.fd, exceptfds);
+      ++bits;
+    }
   }
   if (microseconds && timeout_us) *timeout_us = {0, 0};  // Linux updates the remaining time
   return bits;
@@ -232,7 +247,8 @@ ssize_t readlink(const char* path, char* buffer, size_t size) {
   return on_real_path(path, [&](const char* p) { return real().readlink(p, buffer, size); });
 }
 ssize_t readlinkat(int dirfd, const char* path, char* buffer, size_t size) {
-  return on_real_path(path, [&](const char* p) { return real().readlinkat(dirfd, p, buffer, size); });
+  return on_real_path(path,
+                      [&](const char* p) { return real().readlinkat(dirfd, p, buffer, size); });
 }
 
 char* realpath(const char* path, char* resolved) {
@@ -268,8 +284,12 @@ int openat(int dirfd, const char* path, int flags, ...) {
   return open_path(path, flags, mode, dirfd, true);
 }
 int openat64(int dirfd, const char* path, int flags, ...) __attribute__((alias("openat")));
-int __openat_2(int dirfd, const char* path, int flags) { return open_path(path, flags, 0, dirfd, true); }
-int __openat64_2(int dirfd, const char* path, int flags) { return open_path(path, flags, 0, dirfd, true); }
+int __openat_2(int dirfd, const char* path, int flags) {
+  return open_path(path, flags, 0, dirfd, true);
+}
+int __openat64_2(int dirfd, const char* path, int flags) {
+  return open_path(path, flags, 0, dirfd, true);
+}
 
 int close(int fd) { return close_fd(fd); }
 
@@ -301,7 +321,8 @@ ssize_t write(int fd, const void* buffer, size_t size) { return write_fd(fd, buf
 void* mmap(void* address, size_t length, int prot, int flags, int fd, off_t offset) {
   return mmap_fd(address, length, prot, flags, fd, offset);
 }
-void* mmap64(void* address, size_t length, int prot, int flags, int fd, off_t offset) __attribute__((alias("mmap")));
+void* mmap64(void* address, size_t length, int prot, int flags, int fd, off_t offset)
+    __attribute__((alias("mmap")));
 int munmap(void* address, size_t length) { return munmap_address(address, length); }
 
 int poll(pollfd* fds, nfds_t count, int timeout_ms) {
@@ -309,7 +330,9 @@ int poll(pollfd* fds, nfds_t count, int timeout_ms) {
   const timespec timeout = from_ms(timeout_ms);
   return poll_fds(fds, count, &timeout, nullptr);
 }
-int __poll_chk(pollfd* fds, nfds_t count, int timeout_ms, size_t) { return poll(fds, count, timeout_ms); }
+int __poll_chk(pollfd* fds, nfds_t count, int timeout_ms, size_t) {
+  return poll(fds, count, timeout_ms);
+}
 int ppoll(pollfd* fds, nfds_t count, const timespec* timeout, const sigset_t* mask) {
   return poll_fds(fds, count, timeout, mask);
 }
@@ -320,7 +343,8 @@ int __ppoll_chk(pollfd* fds, nfds_t count, const timespec* timeout, const sigset
 int select(int nfds, fd_set* readfds, fd_set* writefds, fd_set* exceptfds, timeval* timeout) {
   timespec t{};
   if (timeout) t = {timeout->tv_sec, timeout->tv_usec * 1000L};
-  return select_fds(nfds, readfds, writefds, exceptfds, timeout ? &t : nullptr, nullptr, true, timeout);
+  return select_fds(nfds, readfds, writefds, exceptfds, timeout ? &t : nullptr, nullptr, true,
+                    timeout);
 }
 int pselect(int nfds, fd_set* readfds, fd_set* writefds, fd_set* exceptfds, const timespec* timeout,
             const sigset_t* mask) {
@@ -340,12 +364,16 @@ int fstat64(int fd, struct stat64* st) { return fstat(fd, reinterpret_cast<struc
 int stat(const char* path, struct stat* st) {
   return stat_path(path, st, [&](const char* p) { return real().stat(p, st); });
 }
-int stat64(const char* path, struct stat64* st) { return stat(path, reinterpret_cast<struct stat*>(st)); }
+int stat64(const char* path, struct stat64* st) {
+  return stat(path, reinterpret_cast<struct stat*>(st));
+}
 
 int lstat(const char* path, struct stat* st) {
   return stat_path(path, st, [&](const char* p) { return real().lstat(p, st); });
 }
-int lstat64(const char* path, struct stat64* st) { return lstat(path, reinterpret_cast<struct stat*>(st)); }
+int lstat64(const char* path, struct stat64* st) {
+  return lstat(path, reinterpret_cast<struct stat*>(st));
+}
 
 int fstatat(int dirfd, const char* path, struct stat* st, int flags) {
   // fstatat(fd, "", st, AT_EMPTY_PATH) is fstat(fd).
@@ -371,7 +399,8 @@ int statx(int dirfd, const char* path, int flags, unsigned mask, struct statx* o
     out->stx_rdev_minor = static_cast<uint32_t>(node.index);
     return 0;
   }
-  return on_real_path(path, [&](const char* p) { return real().statx(dirfd, p, flags, mask, out); });
+  return on_real_path(path,
+                      [&](const char* p) { return real().statx(dirfd, p, flags, mask, out); });
 }
 
 int access(const char* path, int mode) {
@@ -397,34 +426,47 @@ long syscall(long number, ...) {
     case SYS_open:
       return open_path(str(0), static_cast<int>(a[1]), static_cast<mode_t>(a[2]), AT_FDCWD, false);
     case SYS_openat:
-      return open_path(str(1), static_cast<int>(a[2]), static_cast<mode_t>(a[3]), static_cast<int>(a[0]), true);
-    case SYS_close: return close_fd(static_cast<int>(a[0]));
-    case SYS_ioctl: return ioctl_fd(static_cast<int>(a[0]), static_cast<unsigned long>(a[1]), ptr(2));
-    case SYS_dup: return after_dup(static_cast<int>(a[0]), real().dup(static_cast<int>(a[0])));
-    case SYS_dup2: return dup2_fd(static_cast<int>(a[0]), static_cast<int>(a[1]), 0, false);
-    case SYS_dup3: return dup2_fd(static_cast<int>(a[0]), static_cast<int>(a[1]), static_cast<int>(a[2]), true);
-    case SYS_fcntl: return fcntl_fd(static_cast<int>(a[0]), static_cast<int>(a[1]), a[2]);
-    case SYS_read: return read_fd(static_cast<int>(a[0]), ptr(1), static_cast<size_t>(a[2]));
-    case SYS_write: return write_fd(static_cast<int>(a[0]), ptr(1), static_cast<size_t>(a[2]));
+      return open_path(str(1), static_cast<int>(a[2]), static_cast<mode_t>(a[3]),
+                       static_cast<int>(a[0]), true);
+    case SYS_close:
+      return close_fd(static_cast<int>(a[0]));
+    case SYS_ioctl:
+      return ioctl_fd(static_cast<int>(a[0]), static_cast<unsigned long>(a[1]), ptr(2));
+    case SYS_dup:
+      return after_dup(static_cast<int>(a[0]), real().dup(static_cast<int>(a[0])));
+    case SYS_dup2:
+      return dup2_fd(static_cast<int>(a[0]), static_cast<int>(a[1]), 0, false);
+    case SYS_dup3:
+      return dup2_fd(static_cast<int>(a[0]), static_cast<int>(a[1]), static_cast<int>(a[2]), true);
+    case SYS_fcntl:
+      return fcntl_fd(static_cast<int>(a[0]), static_cast<int>(a[1]), a[2]);
+    case SYS_read:
+      return read_fd(static_cast<int>(a[0]), ptr(1), static_cast<size_t>(a[2]));
+    case SYS_write:
+      return write_fd(static_cast<int>(a[0]), ptr(1), static_cast<size_t>(a[2]));
     case SYS_mmap:
-      return reinterpret_cast<long>(mmap_fd(ptr(0), static_cast<size_t>(a[1]), static_cast<int>(a[2]),
-                                            static_cast<int>(a[3]), static_cast<int>(a[4]), a[5]));
-    case SYS_munmap: return munmap_address(ptr(0), static_cast<size_t>(a[1]));
+      return reinterpret_cast<long>(mmap_fd(ptr(0), static_cast<size_t>(a[1]),
+                                            static_cast<int>(a[2]), static_cast<int>(a[3]),
+                                            static_cast<int>(a[4]), a[5]));
+    case SYS_munmap:
+      return munmap_address(ptr(0), static_cast<size_t>(a[1]));
     case SYS_poll: {
       const int timeout_ms = static_cast<int>(a[2]);
       const timespec timeout = from_ms(timeout_ms);
-      return poll_fds(static_cast<pollfd*>(ptr(0)), static_cast<nfds_t>(a[1]), timeout_ms < 0 ? nullptr : &timeout,
-                      nullptr);
+      return poll_fds(static_cast<pollfd*>(ptr(0)), static_cast<nfds_t>(a[1]),
+                      timeout_ms < 0 ? nullptr : &timeout, nullptr);
     }
     case SYS_ppoll:
-      return poll_fds(static_cast<pollfd*>(ptr(0)), static_cast<nfds_t>(a[1]), static_cast<const timespec*>(ptr(2)),
-                      static_cast<const sigset_t*>(ptr(3)));
-    case SYS_fstat: return fstat(static_cast<int>(a[0]), static_cast<struct stat*>(ptr(1)));
+      return poll_fds(static_cast<pollfd*>(ptr(0)), static_cast<nfds_t>(a[1]),
+                      static_cast<const timespec*>(ptr(2)), static_cast<const sigset_t*>(ptr(3)));
+    case SYS_fstat:
+      return fstat(static_cast<int>(a[0]), static_cast<struct stat*>(ptr(1)));
     case SYS_newfstatat:
-      return fstatat(static_cast<int>(a[0]), str(1), static_cast<struct stat*>(ptr(2)), static_cast<int>(a[3]));
+      return fstatat(static_cast<int>(a[0]), str(1), static_cast<struct stat*>(ptr(2)),
+                     static_cast<int>(a[3]));
     case SYS_statx:
-      return statx(static_cast<int>(a[0]), str(1), static_cast<int>(a[2]), static_cast<unsigned>(a[3]),
-                   static_cast<struct statx*>(ptr(4)));
+      return statx(static_cast<int>(a[0]), str(1), static_cast<int>(a[2]),
+                   static_cast<unsigned>(a[3]), static_cast<struct statx*>(ptr(4)));
     default:
       return real().syscall(number, a[0], a[1], a[2], a[3], a[4], a[5]);
   }

@@ -30,7 +30,8 @@ std::vector<nlohmann::json> project_points(const CameraSpec& camera,
   mrcal_lensmodel_t lensmodel;
   mrcal_lensmodel_from_name(&lensmodel, camera.lens.model.c_str());
   std::vector<mrcal_point3_t> p(points.size());
-  for (size_t i = 0; i < points.size(); ++i) p[i] = {.x = points[i][0], .y = points[i][1], .z = points[i][2]};
+  for (size_t i = 0; i < points.size(); ++i)
+    p[i] = {.x = points[i][0], .y = points[i][1], .z = points[i][2]};
   std::vector<mrcal_point2_t> q(points.size());
   mrcal_project(q.data(), nullptr, nullptr, p.data(), static_cast<int>(p.size()), &lensmodel,
                 intrinsics.data());
@@ -57,8 +58,8 @@ CocRange predicted_coc(const CameraSpec& camera, const TargetSurface& surface, d
   const double us[] = {t.x_min_m(), t.x_max_m(), t.x_min_m(), t.x_max_m()};
   const double vs[] = {t.y_min_m(), t.y_min_m(), t.y_max_m(), t.y_max_m()};
   CocRange range;
-  range.at_origin_px = coc_px_at_depth(camera, f_number, focus_distance_mm,
-                                       surface.to_camera(0, 0)[2] * 1e3);
+  range.at_origin_px =
+      coc_px_at_depth(camera, f_number, focus_distance_mm, surface.to_camera(0, 0)[2] * 1e3);
   range.min_px = range.max_px = range.at_origin_px;
   for (int i = 0; i < 4; ++i) {
     const double depth_m = surface.to_camera(us[i], vs[i])[2];
@@ -78,7 +79,8 @@ CocRange predicted_coc(const CameraSpec& camera, const TargetSurface& surface, d
   return range;
 }
 
-std::string truth_cameramodel_text(const CameraSpec& camera, const std::vector<double>& intrinsics) {
+std::string truth_cameramodel_text(const CameraSpec& camera,
+                                   const std::vector<double>& intrinsics) {
   image::CameraModelText model;
   model.lensmodel = camera.lens.model;
   model.intrinsics = intrinsics;
@@ -101,7 +103,8 @@ nlohmann::json make_frame_truth(const TruthInputs& in) {
         {"type", target_type_name(spec.type)},
         {"rt_cam_target", rt},
         {"distance_m", origin[2]},  // along the optical axis: the thin lens's z_o
-        {"range_m", std::sqrt(origin[0] * origin[0] + origin[1] * origin[1] + origin[2] * origin[2])},
+        {"range_m",
+         std::sqrt(origin[0] * origin[0] + origin[1] * origin[1] + origin[2] * origin[2])},
         {"coc_px", {{"at_origin", coc.at_origin_px}, {"min", coc.min_px}, {"max", coc.max_px}}},
     };
     if (spec.type == TargetType::kChessboard) {
@@ -120,15 +123,16 @@ nlohmann::json make_frame_truth(const TruthInputs& in) {
       // (sin a, cos a); its normal (cos a, -sin a) points to the light side.
       const double a = spec.angle_deg * std::numbers::pi / 180.0;
       const double ex = std::sin(a), ey = std::cos(a);
-      const double half_len = std::min(std::abs(ex) > 1e-12 ? spec.width_m / 2 / std::abs(ex) : 1e300,
-                                       std::abs(ey) > 1e-12 ? spec.height_m / 2 / std::abs(ey) : 1e300);
+      const double half_len =
+          std::min(std::abs(ex) > 1e-12 ? spec.width_m / 2 / std::abs(ex) : 1e300,
+                   std::abs(ey) > 1e-12 ? spec.height_m / 2 / std::abs(ey) : 1e300);
       const std::vector<std::array<double, 3>> points = {
           surface.to_camera(-half_len * ex, -half_len * ey), surface.to_camera(0, 0),
           surface.to_camera(half_len * ex, half_len * ey),
           surface.to_camera(1e-3 * std::cos(a), -1e-3 * std::sin(a))};
       const auto q = project_points(camera, in.intrinsics, points, false);
-      target["edge_px"] = {{"start", q[0]}, {"middle", q[1]}, {"end", q[2]},
-                           {"light_side_point", q[3]}};
+      target["edge_px"] = {
+          {"start", q[0]}, {"middle", q[1]}, {"end", q[2]}, {"light_side_point", q[3]}};
       target["angle_deg"] = spec.angle_deg;
     }
     target["dark_reflectance"] = spec.dark_reflectance;

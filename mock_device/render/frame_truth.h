@@ -10,9 +10,9 @@
 #include <nlohmann/json.hpp>
 
 #include "base/result.h"
+#include "mock_device/render/target_surface.h"
 #include "mock_device/spec/camera_spec.h"
 #include "mock_device/spec/scene_spec.h"
-#include "mock_device/render/target_surface.h"
 
 namespace camlab::mock {
 
@@ -24,8 +24,8 @@ struct CocRange {
 
 // Predicted CoC diameter (px) over a target's extent (its corners and its origin), for
 // the lens at f_number focused at focus_distance_mm (may be infinite).
-CocRange predicted_coc(const CameraSpec& camera, const TargetSurface& surface,
-                       double f_number, double focus_distance_mm);
+CocRange predicted_coc(const CameraSpec& camera, const TargetSurface& surface, double f_number,
+                       double focus_distance_mm);
 
 struct TruthInputs {
   const CameraSpec* camera = nullptr;

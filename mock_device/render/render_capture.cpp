@@ -27,11 +27,16 @@ Result<double> parse_number(const std::string& text, const std::string& context)
 
 const char* pixel_format_for(int bit_depth) {
   switch (bit_depth) {
-    case 8: return "GREY";
-    case 10: return "Y10";
-    case 12: return "Y12";
-    case 14: return "Y14";
-    default: return "Y16";
+    case 8:
+      return "GREY";
+    case 10:
+      return "Y10";
+    case 12:
+      return "Y12";
+    case 14:
+      return "Y14";
+    default:
+      return "Y16";
   }
 }
 
@@ -40,8 +45,8 @@ const char* pixel_format_for(int bit_depth) {
 Result<Sweep> parse_sweep(const std::string& text) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0)
-    return make_error("invalid_argument", "sweep '" + text +
-                                          "' must be name=v1,v2,... or name=start:stop:step");
+    return make_error("invalid_argument",
+                      "sweep '" + text + "' must be name=v1,v2,... or name=start:stop:step");
   Sweep sweep;
   sweep.parameter = text.substr(0, eq);
   const std::string values = text.substr(eq + 1);
@@ -54,13 +59,15 @@ Result<Sweep> parse_sweep(const std::string& text) {
       parts.push_back(v);
     }
     if (parts.size() != 3 || parts[2] == 0 || (parts[1] - parts[0]) / parts[2] < 0)
-      return make_error("invalid_argument", "sweep range '" + values +
-                                            "' must be start:stop:step with a step towards stop");
+      return make_error(
+          "invalid_argument",
+          "sweep range '" + values + "' must be start:stop:step with a step towards stop");
     const double count = std::floor((parts[1] - parts[0]) / parts[2] + 1e-9) + 1;
     if (count > kMaxFrames)
       return make_error("out_of_range", "sweep range gives " + std::to_string(count) +
                                             " values; at most " + std::to_string(kMaxFrames));
-    for (int i = 0; i < static_cast<int>(count); ++i) sweep.values.push_back(parts[0] + i * parts[2]);
+    for (int i = 0; i < static_cast<int>(count); ++i)
+      sweep.values.push_back(parts[0] + i * parts[2]);
   } else {
     std::stringstream in(values);
     for (std::string part; std::getline(in, part, ',');) {
@@ -69,34 +76,43 @@ Result<Sweep> parse_sweep(const std::string& text) {
       sweep.values.push_back(v);
     }
   }
-  if (sweep.values.empty()) return make_error("invalid_argument", "sweep '" + text + "' has no values");
+  if (sweep.values.empty())
+    return make_error("invalid_argument", "sweep '" + text + "' has no values");
   return sweep;
 }
 
 Status apply_setting(const Renderer& renderer, const std::string& name, double value,
                      RenderSettings* settings) {
-  if (name == "exposure_us") settings->exposure_us = value;
-  else if (name == "gain") settings->gain = value;
-  else if (name == "f_number") settings->f_number = value;
+  if (name == "exposure_us")
+    settings->exposure_us = value;
+  else if (name == "gain")
+    settings->gain = value;
+  else if (name == "f_number")
+    settings->f_number = value;
   else if (name == "focus_position") {
     if (value != std::round(value))
       return make_error("invalid_argument", "focus_position must be a whole number of steps, not " +
-                                            std::to_string(value));
+                                                std::to_string(value));
     settings->focus_position = static_cast<int>(value);
   } else if (name == "focus_m") {
     const LensSpec& lens = renderer.camera().lens;
     auto z_s = optics::lens_to_sensor_mm(lens.focal_mm, value * 1e3);
-    if (!z_s) return make_error(z_s.error().code, "focus_m = " + std::to_string(value) + ": " + z_s.error().message);
+    if (!z_s)
+      return make_error(z_s.error().code,
+                        "focus_m = " + std::to_string(value) + ": " + z_s.error().message);
     // The focus motor moves in steps: the nearest step, reported as what is in effect.
-    settings->focus_position = static_cast<int>(std::lround((*z_s - lens.focal_mm) / lens.focus.extension_mm_per_step));
+    settings->focus_position =
+        static_cast<int>(std::lround((*z_s - lens.focal_mm) / lens.focus.extension_mm_per_step));
   } else {
-    return make_error("invalid_argument", "unknown setting '" + name +
-                                          "' (exposure_us, gain, f_number, focus_position, focus_m)");
+    return make_error(
+        "invalid_argument",
+        "unknown setting '" + name + "' (exposure_us, gain, f_number, focus_position, focus_m)");
   }
   return renderer.validate(*settings);
 }
 
-Result<RenderCaptureSummary> render_capture(Renderer& renderer, const RenderCaptureRequest& request) {
+Result<RenderCaptureSummary> render_capture(Renderer& renderer,
+                                            const RenderCaptureRequest& request) {
   const auto start = std::chrono::steady_clock::now();
   std::vector<int> views = request.views;
   if (views.empty())
@@ -106,7 +122,8 @@ Result<RenderCaptureSummary> render_capture(Renderer& renderer, const RenderCapt
       return make_error("out_of_range", "view " + std::to_string(v) + " is not in 0.." +
                                             std::to_string(renderer.scene().view_count - 1));
   if (request.repeats < 1 || request.repeats > 1000)
-    return make_error("out_of_range", "repeats = " + std::to_string(request.repeats) + " is not in [1, 1000]");
+    return make_error("out_of_range",
+                      "repeats = " + std::to_string(request.repeats) + " is not in [1, 1000]");
 
   // Every setting is checked before the first frame, so a bad value loses no work.
   std::vector<RenderSettings> settings_list;
@@ -114,7 +131,8 @@ Result<RenderCaptureSummary> render_capture(Renderer& renderer, const RenderCapt
     for (double value : request.sweep->values) {
       RenderSettings s = request.base;
       if (Status ok = apply_setting(renderer, request.sweep->parameter, value, &s); !ok)
-        return make_error(ok.error().code, "sweep " + request.sweep->parameter + ": " + ok.error().message);
+        return make_error(ok.error().code,
+                          "sweep " + request.sweep->parameter + ": " + ok.error().message);
       settings_list.push_back(s);
     }
   } else {
@@ -127,19 +145,26 @@ Result<RenderCaptureSummary> render_capture(Renderer& renderer, const RenderCapt
                                           " frames; at most " + std::to_string(kMaxFrames));
 
   const CameraSpec& camera = renderer.camera();
-  nlohmann::json source = {{"backend", "virtual"}, {"camera", camera.name},
-                           {"camera_spec", camera.source}, {"scene_spec", renderer.scene().source}};
-  nlohmann::json parameters = {{"repeats", request.repeats}, {"views", views},
-                               {"seed", request.options.seed}, {"noise", request.options.noise}};
+  nlohmann::json source = {{"backend", "virtual"},
+                           {"camera", camera.name},
+                           {"camera_spec", camera.source},
+                           {"scene_spec", renderer.scene().source}};
+  nlohmann::json parameters = {{"repeats", request.repeats},
+                               {"views", views},
+                               {"seed", request.options.seed},
+                               {"noise", request.options.noise}};
   if (request.sweep)
-    parameters["sweep"] = {{"parameter", request.sweep->parameter}, {"values", request.sweep->values}};
+    parameters["sweep"] = {{"parameter", request.sweep->parameter},
+                           {"values", request.sweep->values}};
   auto writer = image::CaptureFolderWriter::create(request.out_dir, "render", source, parameters);
   if (!writer) return writer.error();
 
   bool constant_focus = true;
-  for (const auto& s : settings_list) constant_focus &= s.focus_position == settings_list[0].focus_position;
+  for (const auto& s : settings_list)
+    constant_focus &= s.focus_position == settings_list[0].focus_position;
   if (constant_focus) {
-    const double z_s = camera.lens.focal_mm + settings_list[0].focus_position * camera.lens.focus.extension_mm_per_step;
+    const double z_s = camera.lens.focal_mm +
+                       settings_list[0].focus_position * camera.lens.focus.extension_mm_per_step;
     if (Status s = writer->add_file("truth.cameramodel",
                                     truth_cameramodel_text(camera, intrinsics_at(camera, z_s)));
         !s)
@@ -157,7 +182,8 @@ Result<RenderCaptureSummary> render_capture(Renderer& renderer, const RenderCapt
         image::FrameSidecar sidecar;
         sidecar.sequence = sequence;
         // The virtual camera's clock: frames follow each other at the frame interval.
-        sidecar.timestamp_ns = static_cast<int64_t>(std::llround(sequence * camera.timing.frame_interval_us * 1e3));
+        sidecar.timestamp_ns =
+            static_cast<int64_t>(std::llround(sequence * camera.timing.frame_interval_us * 1e3));
         sidecar.clock = "virtual";
         sidecar.pixel_format = pixel_format_for(camera.sensor.bit_depth);
         sidecar.bit_depth = camera.sensor.bit_depth;
@@ -166,7 +192,8 @@ Result<RenderCaptureSummary> render_capture(Renderer& renderer, const RenderCapt
         sidecar.labels = {{"view", view}, {"sweep_index", k}, {"repeat", repeat}};
         sidecar.truth = frame->truth;
         if (auto added = writer->add_frame(frame->image, sidecar); !added) return added.error();
-        if (request.progress) request.progress(static_cast<int>(sequence + 1), static_cast<int>(total), *frame);
+        if (request.progress)
+          request.progress(static_cast<int>(sequence + 1), static_cast<int>(total), *frame);
       }
     }
   }

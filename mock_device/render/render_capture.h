@@ -34,9 +34,9 @@ struct RenderCaptureRequest {
   std::filesystem::path out_dir;
   RenderSettings base;
   std::optional<Sweep> sweep;
-  int repeats = 1;             // frames per setting (noise statistics need pairs)
-  std::vector<int> views;      // empty: every view of the scene
-  RenderOptions options;       // seed etc.; frame_number is set per frame
+  int repeats = 1;         // frames per setting (noise statistics need pairs)
+  std::vector<int> views;  // empty: every view of the scene
+  RenderOptions options;   // seed etc.; frame_number is set per frame
   // Called after each frame with (frames done, frames total); may print progress.
   std::function<void(int, int, const RenderedFrame&)> progress;
 };
@@ -47,6 +47,7 @@ struct RenderCaptureSummary {
   std::filesystem::path out_dir;
 };
 
-Result<RenderCaptureSummary> render_capture(Renderer& renderer, const RenderCaptureRequest& request);
+Result<RenderCaptureSummary> render_capture(Renderer& renderer,
+                                            const RenderCaptureRequest& request);
 
 }  // namespace camlab::mock

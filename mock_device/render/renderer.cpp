@@ -40,13 +40,15 @@ Result<Renderer> Renderer::create(CameraSpec camera, SceneSpec scene) {
   Renderer r;
   r.camera_ = std::move(camera);
   r.scene_ = std::move(scene);
-  auto rays = ChiefRayTable::create(r.camera_.lens.model, intrinsics_at(r.camera_, r.camera_.lens.focal_mm),
-                                    r.camera_.sensor.width_px, r.camera_.sensor.height_px);
+  auto rays =
+      ChiefRayTable::create(r.camera_.lens.model, intrinsics_at(r.camera_, r.camera_.lens.focal_mm),
+                            r.camera_.sensor.width_px, r.camera_.sensor.height_px);
   if (!rays) return rays.error();
   if (rays->invalid_fraction() > 0.5)
-    return make_error("projection_failed", "the lens model cannot unproject " +
-                                      std::to_string(static_cast<int>(rays->invalid_fraction() * 100)) +
-                                      "% of the imager; check lens.distortion");
+    return make_error("projection_failed",
+                      "the lens model cannot unproject " +
+                          std::to_string(static_cast<int>(rays->invalid_fraction() * 100)) +
+                          "% of the imager; check lens.distortion");
   r.reference_rays_ = std::make_shared<const ChiefRayTable>(std::move(*rays));
   for (const auto& target : r.scene_.targets) r.textures_.push_back(make_texture(target));
   return r;
@@ -77,10 +79,10 @@ Status Renderer::validate(const RenderSettings& s) const {
     return make_error("out_of_range", "gain = " + std::to_string(s.gain) + " is outside " +
                                           range_text(gain_min, gain_max, "x (linear)"));
   if (!(s.f_number >= camera_.lens.f_number_min && s.f_number <= camera_.lens.f_number_max))
-    return make_error("out_of_range", "f_number = " + std::to_string(s.f_number) +
-                                          " is outside the lens's " +
-                                          range_text(camera_.lens.f_number_min,
-                                                     camera_.lens.f_number_max, "(f-number)"));
+    return make_error(
+        "out_of_range",
+        "f_number = " + std::to_string(s.f_number) + " is outside the lens's " +
+            range_text(camera_.lens.f_number_min, camera_.lens.f_number_max, "(f-number)"));
   if (s.focus_position < camera_.lens.focus.position_min ||
       s.focus_position > camera_.lens.focus.position_max)
     return make_error("out_of_range", "focus_position = " + std::to_string(s.focus_position) +
@@ -110,7 +112,8 @@ cv::Mat Renderer::cached_reflectance(const IntegrationKey& key) const {
 
 void Renderer::remember_reflectance(const IntegrationKey& key, const cv::Mat& reflectance) {
   // Bounded: a long focus sweep must not hold every frame's integral in memory.
-  if (reflectance_cache_.size() >= kReflectanceCacheSize) reflectance_cache_.erase(reflectance_cache_.begin());
+  if (reflectance_cache_.size() >= kReflectanceCacheSize)
+    reflectance_cache_.erase(reflectance_cache_.begin());
   reflectance_cache_.emplace_back(key, reflectance);
 }
 
@@ -122,7 +125,8 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
                                           std::to_string(scene_.view_count - 1));
   const auto start = std::chrono::steady_clock::now();
   const LensSpec& lens = camera_.lens;
-  const double lens_to_sensor_mm = lens.focal_mm + settings.focus_position * lens.focus.extension_mm_per_step;
+  const double lens_to_sensor_mm =
+      lens.focal_mm + settings.focus_position * lens.focus.extension_mm_per_step;
   auto focus_mm = optics::focus_distance_mm(lens.focal_mm, lens_to_sensor_mm);
   if (!focus_mm) return focus_mm.error();
 
@@ -133,8 +137,8 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
 
   RenderStats stats;
   for (const auto& surface : surfaces)
-    stats.max_coc_px = std::max(stats.max_coc_px,
-                                predicted_coc(camera_, surface, settings.f_number, *focus_mm).max_px);
+    stats.max_coc_px = std::max(
+        stats.max_coc_px, predicted_coc(camera_, surface, settings.f_number, *focus_mm).max_px);
 
   IntegratorSetup setup;
   setup.rays = &rays_for(settings.focus_position);
@@ -143,24 +147,28 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
   setup.aperture_radius_m = lens.focal_mm / settings.f_number / 2 * 1e-3;
   setup.focus_distance_m = *focus_mm * 1e-3;
   if (options.aperture_samples > 0) {
-    setup.lens_grid = std::max(1, static_cast<int>(std::lround(std::sqrt(options.aperture_samples))));
+    setup.lens_grid =
+        std::max(1, static_cast<int>(std::lround(std::sqrt(options.aperture_samples))));
   } else if (options.aperture_samples < 0 && stats.max_coc_px >= kNegligibleCocPx) {
     setup.lens_grid = lens_grid_for_coc(stats.max_coc_px);
   }
-  setup.pixel_grid = options.pixel_samples > 0
-                         ? std::max(1, static_cast<int>(std::lround(std::sqrt(options.pixel_samples))))
-                         : 4;
+  setup.pixel_grid =
+      options.pixel_samples > 0
+          ? std::max(1, static_cast<int>(std::lround(std::sqrt(options.pixel_samples))))
+          : 4;
   // The scene integral depends on the seed but not on the frame: repeated frames of one
   // setting differ by sensor noise only, as a static scene's frames do (a frame-varying
   // sampling pattern would add rendering noise to photon-transfer measurements).
   setup.seed = mix_seed(options.seed, 1);
-  setup.threads = options.threads > 0 ? options.threads
-                                      : std::max(1u, std::thread::hardware_concurrency());
+  setup.threads =
+      options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
   stats.aperture_samples = setup.lens_grid * setup.lens_grid;
-  stats.pixel_samples = setup.lens_grid > 0 ? stats.aperture_samples : setup.pixel_grid * setup.pixel_grid;
+  stats.pixel_samples =
+      setup.lens_grid > 0 ? stats.aperture_samples : setup.pixel_grid * setup.pixel_grid;
 
-  const IntegrationKey key{view, settings.focus_position, settings.f_number, setup.lens_grid,
-                           setup.pixel_grid, setup.seed};
+  const IntegrationKey key{
+      view,      settings.focus_position, settings.f_number, setup.lens_grid, setup.pixel_grid,
+      setup.seed};
   cv::Mat reflectance = cached_reflectance(key);
   if (reflectance.empty()) {
     reflectance = integrate_reflectance(setup);
@@ -176,8 +184,9 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
   const double electrons_per_reflectance = electrons_per_unit_reflectance(
       camera_, scene_.illuminance_lux, settings.exposure_us, settings.f_number, lens_to_sensor_mm);
   RenderedFrame frame;
-  frame.image = expose(reflectance, camera_, electrons_per_reflectance, settings.gain,
-                       options.noise, mix_seed(options.seed, options.frame_number * 2 + 2), setup.threads);
+  frame.image =
+      expose(reflectance, camera_, electrons_per_reflectance, settings.gain, options.noise,
+             mix_seed(options.seed, options.frame_number * 2 + 2), setup.threads);
 
   TruthInputs truth;
   truth.camera = &camera_;

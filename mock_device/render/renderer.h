@@ -31,8 +31,8 @@
 #include <opencv2/core.hpp>
 
 #include "base/result.h"
-#include "mock_device/spec/camera_spec.h"
 #include "mock_device/render/chief_ray_table.h"
+#include "mock_device/spec/camera_spec.h"
 #include "mock_device/spec/scene_spec.h"
 
 namespace camlab::mock {
@@ -40,7 +40,7 @@ namespace camlab::mock {
 // The settings a frame is rendered with, in physical units.
 struct RenderSettings {
   double exposure_us = 10000;
-  double gain = 1.0;      // linear analogue gain (1 = unity)
+  double gain = 1.0;  // linear analogue gain (1 = unity)
   double f_number = 4.0;
   int focus_position = 0;  // focus_absolute; 0 = infinity
 };
@@ -59,13 +59,13 @@ struct RenderStats {
   int pixel_samples = 0;     // samples per pixel in total
   double max_coc_px = 0;     // largest predicted CoC over the visible targets
   double seconds = 0;
-  bool cached = false;       // the scene integral was reused from an earlier frame
+  bool cached = false;  // the scene integral was reused from an earlier frame
 };
 
 struct RenderedFrame {
-  cv::Mat image;              // CV_8UC1 (bit depth 8) or CV_16UC1: raw DN
-  nlohmann::json settings;    // the settings in effect, with units in the keys
-  nlohmann::json truth;       // ground truth (docs/virtual-camera.md)
+  cv::Mat image;            // CV_8UC1 (bit depth 8) or CV_16UC1: raw DN
+  nlohmann::json settings;  // the settings in effect, with units in the keys
+  nlohmann::json truth;     // ground truth (docs/virtual-camera.md)
   RenderStats stats;
 };
 
@@ -109,9 +109,9 @@ class Renderer {
 
   CameraSpec camera_;
   SceneSpec scene_;
-  std::shared_ptr<const ChiefRayTable> reference_rays_;        // focused at infinity
+  std::shared_ptr<const ChiefRayTable> reference_rays_;                // focused at infinity
   std::map<int, std::shared_ptr<const ChiefRayTable>> rays_by_focus_;  // small LRU-less cache
-  std::vector<std::shared_ptr<const cv::Mat>> textures_;       // one per target (or null)
+  std::vector<std::shared_ptr<const cv::Mat>> textures_;               // one per target (or null)
   std::vector<std::pair<IntegrationKey, cv::Mat>> reflectance_cache_;  // oldest first
 };
 

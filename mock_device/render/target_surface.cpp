@@ -72,7 +72,8 @@ double TargetSurface::reflectance_at(double u, double v) const {
       const double a = fx - x0, b = fy - y0;
       const float* r0 = tex.ptr<float>(y0);
       const float* r1 = tex.ptr<float>(y0 + 1);
-      return (1 - b) * ((1 - a) * r0[x0] + a * r0[x0 + 1]) + b * ((1 - a) * r1[x0] + a * r1[x0 + 1]);
+      return (1 - b) * ((1 - a) * r0[x0] + a * r0[x0 + 1]) +
+             b * ((1 - a) * r1[x0] + a * r1[x0 + 1]);
     }
     case TargetType::kUniform:
       return s.light_reflectance;

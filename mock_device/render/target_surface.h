@@ -54,7 +54,7 @@ class TargetSurface {
   std::array<double, 3> n_;  // plane normal in the camera frame (R's third column)
   double plane_offset_;      // n . t
   double x_min_, x_max_, y_min_, y_max_;
-  double edge_cos_ = 1, edge_sin_ = 0;  // slanted edge normal in target coordinates
+  double edge_cos_ = 1, edge_sin_ = 0;      // slanted edge normal in target coordinates
   std::shared_ptr<const cv::Mat> texture_;  // CV_32F reflectance over the extent
 };
 

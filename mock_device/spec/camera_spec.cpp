@@ -53,19 +53,23 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
   mrcal_lensmodel_t lensmodel;
   if (!mrcal_lensmodel_from_name(&lensmodel, lens.model.c_str()) ||
       !mrcal_lensmodel_type_is_valid(lensmodel.type))
-    return make_error("invalid_argument", f.path_of("model") + " = \"" + lens.model +
-                                       "\" is not an mrcal lens model (e.g. LENSMODEL_OPENCV8, "
-                                       "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=10_fov_x_deg=100)");
+    return make_error("invalid_argument",
+                      f.path_of("model") + " = \"" + lens.model +
+                          "\" is not an mrcal lens model (e.g. LENSMODEL_OPENCV8, "
+                          "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=10_fov_x_deg=100)");
   if (lensmodel.type == MRCAL_LENSMODEL_CAHVORE)
-    return make_error("invalid_argument", f.path_of("model") +
-                                       ": CAHVORE cannot be unprojected by mrcal; choose another");
+    return make_error(
+        "invalid_argument",
+        f.path_of("model") + ": CAHVORE cannot be unprojected by mrcal; choose another");
   if (!mrcal_lensmodel_metadata(&lensmodel).has_core)
-    return make_error("invalid_argument", f.path_of("model") + " has no intrinsics core (fx fy cx cy)");
+    return make_error("invalid_argument",
+                      f.path_of("model") + " has no intrinsics core (fx fy cx cy)");
   const size_t n_distortion = static_cast<size_t>(mrcal_lensmodel_num_params(&lensmodel) - 4);
   if (n_distortion == 0) {
     lens.distortion.clear();
     if (f.has("distortion") && !f.json().at("distortion").empty())
-      return make_error("invalid_argument", f.path_of("distortion") + " must be empty for " + lens.model);
+      return make_error("invalid_argument",
+                        f.path_of("distortion") + " must be empty for " + lens.model);
   } else {
     CAMLAB_ASSIGN(lens.distortion, f.numbers("distortion", n_distortion, n_distortion));
   }
@@ -91,9 +95,10 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
     if (!std::is_sorted(lens.iris.f_numbers.rbegin(), lens.iris.f_numbers.rend()) ||
         std::adjacent_find(lens.iris.f_numbers.begin(), lens.iris.f_numbers.end()) !=
             lens.iris.f_numbers.end())
-      return make_error("invalid_argument", iris.path_of("f_numbers") +
-                                         " must fall strictly from the smallest aperture to the "
-                                         "widest (iris_absolute: larger value = wider open)");
+      return make_error("invalid_argument",
+                        iris.path_of("f_numbers") +
+                            " must fall strictly from the smallest aperture to the "
+                            "widest (iris_absolute: larger value = wider open)");
   } else {
     // Full stops from the smallest aperture down to the widest.
     // Full stops from the smallest aperture down to the widest, clamped onto the range so
@@ -137,27 +142,27 @@ Result<CameraSpec> parse_camera_spec(const nlohmann::json& json) {
                 parse_range(controls.child("exposure_time_absolute"),
                             {1, exposure_cap, 1, std::min(100, exposure_cap)}, 1, 1 << 24));
   if (spec.controls.exposure_time_absolute.max > exposure_cap)
-    return make_error("out_of_range",
-                      controls.path_of("exposure_time_absolute") + ".max = " +
-                          std::to_string(spec.controls.exposure_time_absolute.max) +
-                          " (x 100 us) exceeds the frame interval of " +
-                          std::to_string(spec.timing.frame_interval_us) + " us");
+    return make_error("out_of_range", controls.path_of("exposure_time_absolute") + ".max = " +
+                                          std::to_string(spec.controls.exposure_time_absolute.max) +
+                                          " (x 100 us) exceeds the frame interval of " +
+                                          std::to_string(spec.timing.frame_interval_us) + " us");
   CAMLAB_ASSIGN(spec.controls.gain_unity, controls.child("gain").integer("unity", 1, 1 << 20, 100));
-  CAMLAB_ASSIGN(spec.controls.gain, parse_range(controls.child("gain"),
-                                                {spec.controls.gain_unity, 16 * spec.controls.gain_unity, 1,
-                                                 spec.controls.gain_unity},
-                                                1, 1 << 24));
+  CAMLAB_ASSIGN(spec.controls.gain,
+                parse_range(controls.child("gain"),
+                            {spec.controls.gain_unity, 16 * spec.controls.gain_unity, 1,
+                             spec.controls.gain_unity},
+                            1, 1 << 24));
   spec.controls.focus_absolute = {spec.lens.focus.position_min, spec.lens.focus.position_max, 1,
                                   spec.lens.focus.position_min};
   CAMLAB_ASSIGN(spec.controls.focus_absolute.default_value,
-                controls.child("focus_absolute").integer("default", spec.lens.focus.position_min,
-                                                         spec.lens.focus.position_max,
-                                                         spec.lens.focus.position_min));
+                controls.child("focus_absolute")
+                    .integer("default", spec.lens.focus.position_min, spec.lens.focus.position_max,
+                             spec.lens.focus.position_min));
   const int iris_positions = static_cast<int>(spec.lens.iris.f_numbers.size());
   spec.controls.iris_absolute = {0, iris_positions - 1, 1, iris_positions - 1};
   CAMLAB_ASSIGN(spec.controls.iris_absolute.default_value,
-                controls.child("iris_absolute").integer("default", 0, iris_positions - 1,
-                                                        iris_positions - 1));
+                controls.child("iris_absolute")
+                    .integer("default", 0, iris_positions - 1, iris_positions - 1));
   CAMLAB_ASSIGN(spec.controls.exposure_auto, controls.boolean("exposure_auto", false));
   CAMLAB_ASSIGN(spec.controls.focus_auto, controls.boolean("focus_auto", false));
   return spec;

@@ -19,12 +19,12 @@ struct SensorSpec {
   int width_px = 0;
   int height_px = 0;
   double pixel_pitch_um = 0;
-  int bit_depth = 0;                // 8..16; frames store raw DN of this many bits
+  int bit_depth = 0;  // 8..16; frames store raw DN of this many bits
   int black_level_dn = 0;
-  double full_well_e = 0;           // electrons at which a pixel saturates
-  double read_noise_e = 0;          // temporal read noise, electrons RMS
-  bool shot_noise = true;           // Poisson photon noise; off for noise-free truth renders
-  double quantum_efficiency = 0;    // electrons per photon at 555 nm, 0..1
+  double full_well_e = 0;               // electrons at which a pixel saturates
+  double read_noise_e = 0;              // temporal read noise, electrons RMS
+  bool shot_noise = true;               // Poisson photon noise; off for noise-free truth renders
+  double quantum_efficiency = 0;        // electrons per photon at 555 nm, 0..1
   double conversion_gain_dn_per_e = 0;  // DN per electron at unity gain (K)
 };
 
@@ -73,9 +73,9 @@ struct ControlsSpec {
   ControlRange exposure_time_absolute;  // 100 us units; max also capped by the frame interval
   ControlRange gain;                    // linear gain = value / gain_unity
   int gain_unity = 100;
-  ControlRange focus_absolute;          // = lens.focus range
-  ControlRange iris_absolute;           // = 0 .. lens.iris.f_numbers.size() - 1
-  bool exposure_auto = false;           // defaults of the auto modes
+  ControlRange focus_absolute;  // = lens.focus range
+  ControlRange iris_absolute;   // = 0 .. lens.iris.f_numbers.size() - 1
+  bool exposure_auto = false;   // defaults of the auto modes
   bool focus_auto = false;
 };
 

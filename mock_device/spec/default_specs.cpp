@@ -53,8 +53,12 @@ const nlohmann::json& default_scene_spec_json() {
   return spec;
 }
 
-CameraSpec default_camera_spec() { return parsed_or_abort(parse_camera_spec(default_camera_spec_json())); }
+CameraSpec default_camera_spec() {
+  return parsed_or_abort(parse_camera_spec(default_camera_spec_json()));
+}
 
-SceneSpec default_scene_spec() { return parsed_or_abort(parse_scene_spec(default_scene_spec_json())); }
+SceneSpec default_scene_spec() {
+  return parsed_or_abort(parse_scene_spec(default_scene_spec_json()));
+}
 
 }  // namespace camlab::mock

@@ -13,8 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "base/result.h"
 #include "base/atomic_file.h"
+#include "base/result.h"
 
 namespace camlab::mock {
 
@@ -42,12 +42,13 @@ class JsonFields {
     }
     const auto& value = object_.at(key);
     if (!value.is_number())
-      return make_error("invalid_argument", path_of(key) + " must be a number, not " + value.dump());
+      return make_error("invalid_argument",
+                        path_of(key) + " must be a number, not " + value.dump());
     const double x = value.get<double>();
     if (!std::isfinite(x) || x > max || (min_exclusive ? x <= min : x < min))
-      return make_error("out_of_range", path_of(key) + " = " + value.dump() +
-                                            " is out of range " + (min_exclusive ? "(" : "[") +
-                                            trim(min) + ", " + trim(max) + "]");
+      return make_error("out_of_range", path_of(key) + " = " + value.dump() + " is out of range " +
+                                            (min_exclusive ? "(" : "[") + trim(min) + ", " +
+                                            trim(max) + "]");
     return x;
   }
 
@@ -59,12 +60,12 @@ class JsonFields {
     }
     const auto& value = object_.at(key);
     if (!value.is_number_integer())
-      return make_error("invalid_argument", path_of(key) + " must be an integer, not " + value.dump());
+      return make_error("invalid_argument",
+                        path_of(key) + " must be an integer, not " + value.dump());
     const auto x = value.get<long long>();
     if (x < min || x > max)
-      return make_error("out_of_range", path_of(key) + " = " + value.dump() +
-                                            " is out of range [" + std::to_string(min) + ", " +
-                                            std::to_string(max) + "]");
+      return make_error("out_of_range", path_of(key) + " = " + value.dump() + " is out of range [" +
+                                            std::to_string(min) + ", " + std::to_string(max) + "]");
     return static_cast<int>(x);
   }
 
@@ -72,18 +73,21 @@ class JsonFields {
     if (!has(key)) return fallback;
     const auto& value = object_.at(key);
     if (!value.is_boolean())
-      return make_error("invalid_argument", path_of(key) + " must be true or false, not " + value.dump());
+      return make_error("invalid_argument",
+                        path_of(key) + " must be true or false, not " + value.dump());
     return value.get<bool>();
   }
 
-  Result<std::string> string(const char* key, std::optional<std::string> fallback = std::nullopt) const {
+  Result<std::string> string(const char* key,
+                             std::optional<std::string> fallback = std::nullopt) const {
     if (!has(key)) {
       if (fallback) return *fallback;
       return make_error("invalid_argument", path_of(key) + " is required");
     }
     const auto& value = object_.at(key);
     if (!value.is_string())
-      return make_error("invalid_argument", path_of(key) + " must be a string, not " + value.dump());
+      return make_error("invalid_argument",
+                        path_of(key) + " must be a string, not " + value.dump());
     return value.get<std::string>();
   }
 
@@ -93,17 +97,18 @@ class JsonFields {
     if (!has(key)) return make_error("invalid_argument", path_of(key) + " is required");
     const auto& value = object_.at(key);
     if (!value.is_array() || value.size() < min_size || value.size() > max_size)
-      return make_error("invalid_argument", path_of(key) + " must be an array of " +
-                                         (min_size == max_size ? std::to_string(min_size)
-                                                               : std::to_string(min_size) + ".." +
-                                                                     std::to_string(max_size)) +
-                                         " numbers");
+      return make_error(
+          "invalid_argument",
+          path_of(key) + " must be an array of " +
+              (min_size == max_size ? std::to_string(min_size)
+                                    : std::to_string(min_size) + ".." + std::to_string(max_size)) +
+              " numbers");
     std::vector<double> out;
     for (size_t i = 0; i < value.size(); ++i) {
       if (!value[i].is_number() || !std::isfinite(value[i].get<double>()) ||
           value[i].get<double>() < min || value[i].get<double>() > max)
-        return make_error("out_of_range", path_of(key) + "[" + std::to_string(i) + "] = " +
-                                              value[i].dump() + " must be a number in [" +
+        return make_error("out_of_range", path_of(key) + "[" + std::to_string(i) +
+                                              "] = " + value[i].dump() + " must be a number in [" +
                                               trim(min) + ", " + trim(max) + "]");
       out.push_back(value[i].get<double>());
     }

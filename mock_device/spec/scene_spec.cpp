@@ -10,11 +10,16 @@ namespace camlab::mock {
 
 const char* target_type_name(TargetType type) {
   switch (type) {
-    case TargetType::kChessboard: return "chessboard";
-    case TargetType::kSlantedEdge: return "slanted_edge";
-    case TargetType::kBars: return "bars";
-    case TargetType::kTexture: return "texture";
-    case TargetType::kUniform: return "uniform";
+    case TargetType::kChessboard:
+      return "chessboard";
+    case TargetType::kSlantedEdge:
+      return "slanted_edge";
+    case TargetType::kBars:
+      return "bars";
+    case TargetType::kTexture:
+      return "texture";
+    case TargetType::kUniform:
+      return "uniform";
   }
   return "unknown";
 }
@@ -50,17 +55,21 @@ Result<RtCamTarget> parse_pose(const nlohmann::json& json, const std::string& pa
     } else {
       std::vector<double> position, rotation = {0, 0, 0};
       CAMLAB_ASSIGN(position, f.numbers("position_m", 3, 3, -1e6, 1e6));
-      if (f.has("rotation_deg")) CAMLAB_ASSIGN(rotation, f.numbers("rotation_deg", 3, 3, -720, 720));
+      if (f.has("rotation_deg"))
+        CAMLAB_ASSIGN(rotation, f.numbers("rotation_deg", 3, 3, -720, 720));
       const double to_rad = std::numbers::pi / 180.0;
       values = {rotation[0] * to_rad, rotation[1] * to_rad, rotation[2] * to_rad,
-                position[0], position[1], position[2]};
+                position[0],          position[1],          position[2]};
     }
   } else {
-    return make_error("invalid_argument", path + " must be an rt_cam_target array or a pose object");
+    return make_error("invalid_argument",
+                      path + " must be an rt_cam_target array or a pose object");
   }
   if (values[5] <= 0)
-    return make_error("out_of_range", path + ": the target origin must be in front of the "
-                                             "camera (z = " + std::to_string(values[5]) + " m)");
+    return make_error("out_of_range", path +
+                                          ": the target origin must be in front of the "
+                                          "camera (z = " +
+                                          std::to_string(values[5]) + " m)");
   RtCamTarget rt;
   std::copy(values.begin(), values.end(), rt.begin());
   return rt;
@@ -71,15 +80,20 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
   std::string type;
   CAMLAB_ASSIGN(type, f.string("type"));
   CAMLAB_ASSIGN(t.name, f.string("name", type));
-  if (type == "chessboard") t.type = TargetType::kChessboard;
-  else if (type == "slanted_edge") t.type = TargetType::kSlantedEdge;
-  else if (type == "bars") t.type = TargetType::kBars;
-  else if (type == "texture") t.type = TargetType::kTexture;
-  else if (type == "uniform") t.type = TargetType::kUniform;
+  if (type == "chessboard")
+    t.type = TargetType::kChessboard;
+  else if (type == "slanted_edge")
+    t.type = TargetType::kSlantedEdge;
+  else if (type == "bars")
+    t.type = TargetType::kBars;
+  else if (type == "texture")
+    t.type = TargetType::kTexture;
+  else if (type == "uniform")
+    t.type = TargetType::kUniform;
   else
     return make_error("invalid_argument", f.path_of("type") + " = \"" + type +
-                                       "\" is not one of chessboard, slanted_edge, bars, "
-                                       "texture, uniform");
+                                              "\" is not one of chessboard, slanted_edge, bars, "
+                                              "texture, uniform");
 
   CAMLAB_ASSIGN(t.dark_reflectance, f.number("dark_reflectance", 0, 1, 0.05));
   CAMLAB_ASSIGN(t.light_reflectance, f.number("light_reflectance", 0, 1, 0.85));
@@ -113,8 +127,8 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
     t.texture_seed = static_cast<uint64_t>(seed);
     const double features = std::max(t.width_m, t.height_m) / t.feature_m;
     if (features > 4096)
-      return make_error("out_of_range", f.path() + ": size_m / feature_m = " +
-                                            std::to_string(features) +
+      return make_error("out_of_range", f.path() +
+                                            ": size_m / feature_m = " + std::to_string(features) +
                                             " features exceeds the texture limit of 4096");
   }
 
@@ -127,7 +141,8 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
   } else {
     const auto& poses = f.json().at("poses");
     if (!poses.is_array() || poses.empty() || poses.size() > 10000)
-      return make_error("invalid_argument", f.path_of("poses") + " must be a non-empty array (<= 10000)");
+      return make_error("invalid_argument",
+                        f.path_of("poses") + " must be a non-empty array (<= 10000)");
     for (size_t i = 0; i < poses.size(); ++i) {
       RtCamTarget rt;
       CAMLAB_ASSIGN(rt, parse_pose(poses[i], f.path_of("poses") + "[" + std::to_string(i) + "]"));
@@ -155,17 +170,20 @@ Result<SceneSpec> parse_scene_spec(const nlohmann::json& json) {
                                           " targets; at most 64 are supported");
   for (size_t i = 0; i < targets.size(); ++i) {
     TargetSpec target;
-    CAMLAB_ASSIGN(target, parse_target(JsonFields(targets[i], "scene.targets[" + std::to_string(i) + "]")));
+    CAMLAB_ASSIGN(target,
+                  parse_target(JsonFields(targets[i], "scene.targets[" + std::to_string(i) + "]")));
     scene.targets.push_back(std::move(target));
   }
   scene.view_count = 1;
-  for (const auto& t : scene.targets) scene.view_count = std::max<int>(scene.view_count, t.poses.size());
+  for (const auto& t : scene.targets)
+    scene.view_count = std::max<int>(scene.view_count, t.poses.size());
   for (size_t i = 0; i < scene.targets.size(); ++i) {
     const auto n = scene.targets[i].poses.size();
     if (n != 1 && static_cast<int>(n) != scene.view_count)
       return make_error("invalid_argument", "scene.targets[" + std::to_string(i) + "].poses has " +
-                                         std::to_string(n) + " poses; every target must have 1 or " +
-                                         std::to_string(scene.view_count));
+                                                std::to_string(n) +
+                                                " poses; every target must have 1 or " +
+                                                std::to_string(scene.view_count));
   }
   return scene;
 }

@@ -73,10 +73,10 @@ struct TargetSpec {
 
 struct SceneSpec {
   std::string name;
-  double illuminance_lux = 500;       // uniform illumination of every target
+  double illuminance_lux = 500;          // uniform illumination of every target
   double background_reflectance = 0.18;  // what rays that hit no target see (at infinity)
   std::vector<TargetSpec> targets;
-  int view_count = 1;                 // max number of poses over the targets
+  int view_count = 1;  // max number of poses over the targets
   nlohmann::json source;
 
   // The pose of a target in a view (a single-pose target is static across views).

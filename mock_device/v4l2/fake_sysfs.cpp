@@ -46,11 +46,13 @@ bool write_sysfs_tree(const std::string& root, int count) {
 bool write_sysfs_tree(const std::string& root_text, const std::vector<std::string>& camera_names) {
   const fs::path root(root_text);
   const fs::path hcd = root / kHostControllerRelative;
-  bool ok = write_file(hcd / "firmware_node/path", std::string(kControllerFirmwarePath) + "\n") &&
-            write_file(hcd / "uevent", "DRIVER=camlab_vcam_hcd\nMODALIAS=platform:camlab_vcam_hcd\n") &&
-            write_file(hcd / "usb1/uevent", "MAJOR=189\nMINOR=0\nDEVNAME=bus/usb/001/001\nDEVTYPE=usb_device\n"
-                                            "DRIVER=usb\nBUSNUM=001\nDEVNUM=001\n") &&
-            write_file(hcd / "usb1/idVendor", "1d6b\n") && write_file(hcd / "usb1/idProduct", "0002\n");
+  bool ok =
+      write_file(hcd / "firmware_node/path", std::string(kControllerFirmwarePath) + "\n") &&
+      write_file(hcd / "uevent", "DRIVER=camlab_vcam_hcd\nMODALIAS=platform:camlab_vcam_hcd\n") &&
+      write_file(hcd / "usb1/uevent",
+                 "MAJOR=189\nMINOR=0\nDEVNAME=bus/usb/001/001\nDEVTYPE=usb_device\n"
+                 "DRIVER=usb\nBUSNUM=001\nDEVNUM=001\n") &&
+      write_file(hcd / "usb1/idVendor", "1d6b\n") && write_file(hcd / "usb1/idProduct", "0002\n");
   for (size_t i = 0; i < camera_names.size() && ok; ++i) {
     const int n = static_cast<int>(i);
     const std::string number = std::to_string(n);
@@ -63,33 +65,42 @@ bool write_sysfs_tree(const std::string& root_text, const std::vector<std::strin
     // The USB device: what `lsusb`, libcamera (idVendor, idProduct, removable) and udev read.
     ok = ok && write_file(usb_device / "idVendor", std::string(kUsbVendorId) + "\n") &&
          write_file(usb_device / "idProduct", std::string(kUsbProductId) + "\n") &&
-         write_file(usb_device / "bcdDevice", "0100\n") && write_file(usb_device / "manufacturer", "camlab\n") &&
+         write_file(usb_device / "bcdDevice", "0100\n") &&
+         write_file(usb_device / "manufacturer", "camlab\n") &&
          write_file(usb_device / "product", name + "\n") &&
          write_file(usb_device / "serial", "camlab-vcam-" + number + "\n") &&
-         write_file(usb_device / "removable", "removable\n") && write_file(usb_device / "speed", "480\n") &&
-         write_file(usb_device / "busnum", "1\n") && write_file(usb_device / "devnum", devnum + "\n") &&
-         write_file(usb_device / "uevent", "MAJOR=189\nMINOR=" + std::to_string(n + 1) + "\nDEVNAME=bus/usb/001/" +
-                                               devnum3 + "\nDEVTYPE=usb_device\nDRIVER=usb\nPRODUCT=1d6b/102/100\n"
-                                               "TYPE=239/2/1\nBUSNUM=001\nDEVNUM=" + devnum3 + "\n");
+         write_file(usb_device / "removable", "removable\n") &&
+         write_file(usb_device / "speed", "480\n") && write_file(usb_device / "busnum", "1\n") &&
+         write_file(usb_device / "devnum", devnum + "\n") &&
+         write_file(usb_device / "uevent",
+                    "MAJOR=189\nMINOR=" + std::to_string(n + 1) + "\nDEVNAME=bus/usb/001/" +
+                        devnum3 +
+                        "\nDEVTYPE=usb_device\nDRIVER=usb\nPRODUCT=1d6b/102/100\n"
+                        "TYPE=239/2/1\nBUSNUM=001\nDEVNUM=" +
+                        devnum3 + "\n");
     // The video-control interface that uvcvideo binds, parent of both nodes.
     ok = ok && write_file(interface / "bInterfaceClass", "0e\n") &&
-         write_file(interface / "bInterfaceSubClass", "01\n") && write_file(interface / "bInterfaceNumber", "00\n") &&
+         write_file(interface / "bInterfaceSubClass", "01\n") &&
+         write_file(interface / "bInterfaceNumber", "00\n") &&
          write_file(interface / "interface", name + "\n") &&
-         write_file(interface / "uevent", "DEVTYPE=usb_interface\nDRIVER=uvcvideo\nPRODUCT=1d6b/102/100\n"
-                                          "TYPE=239/2/1\nINTERFACE=14/1/0\n"
-                                          "MODALIAS=usb:v1D6Bp0102d0100dcEFdsc02dp01ic0Eisc01ip00in00\n");
+         write_file(interface / "uevent",
+                    "DEVTYPE=usb_interface\nDRIVER=uvcvideo\nPRODUCT=1d6b/102/100\n"
+                    "TYPE=239/2/1\nINTERFACE=14/1/0\n"
+                    "MODALIAS=usb:v1D6Bp0102d0100dcEFdsc02dp01ic0Eisc01ip00in00\n");
 
     const fs::path video = interface / "video4linux" / ("video" + number);
     const std::string video_dev = std::to_string(kVideoMajor) + ":" + number;
-    ok = ok && write_file(video / "uevent", "MAJOR=" + std::to_string(kVideoMajor) + "\nMINOR=" + number +
-                                                "\nDEVNAME=video" + number + "\n") &&
+    ok = ok &&
+         write_file(video / "uevent", "MAJOR=" + std::to_string(kVideoMajor) + "\nMINOR=" + number +
+                                          "\nDEVNAME=video" + number + "\n") &&
          write_file(video / "dev", video_dev + "\n") && write_file(video / "name", name + "\n") &&
          write_file(video / "index", "0\n") && relative_symlink(interface, video / "device");
 
     const fs::path media = interface / ("media" + number);
     const std::string media_dev = std::to_string(kMediaMajor) + ":" + number;
-    ok = ok && write_file(media / "uevent", "MAJOR=" + std::to_string(kMediaMajor) + "\nMINOR=" + number +
-                                                "\nDEVNAME=media" + number + "\n") &&
+    ok = ok &&
+         write_file(media / "uevent", "MAJOR=" + std::to_string(kMediaMajor) + "\nMINOR=" + number +
+                                          "\nDEVNAME=media" + number + "\n") &&
          write_file(media / "dev", media_dev + "\n") && write_file(media / "model", name + "\n") &&
          relative_symlink(interface, media / "device");
 

@@ -68,11 +68,13 @@ inline bool is_char_node(std::string_view path, unsigned major, int count) {
   path.remove_prefix(base.size());
   unsigned parsed_major = 0;
   size_t i = 0;
-  for (; i < path.size() && i < 4 && path[i] >= '0' && path[i] <= '9'; ++i) parsed_major = parsed_major * 10 + (path[i] - '0');
+  for (; i < path.size() && i < 4 && path[i] >= '0' && path[i] <= '9'; ++i)
+    parsed_major = parsed_major * 10 + (path[i] - '0');
   if (i == 0 || parsed_major != major || i >= path.size() || path[i] != ':') return false;
   path.remove_prefix(i + 1);
   int minor = 0;
-  for (i = 0; i < path.size() && i < 6 && path[i] >= '0' && path[i] <= '9'; ++i) minor = minor * 10 + (path[i] - '0');
+  for (i = 0; i < path.size() && i < 6 && path[i] >= '0' && path[i] <= '9'; ++i)
+    minor = minor * 10 + (path[i] - '0');
   if (i == 0 || (i < path.size() && path[i] != '/')) return false;
   return minor < count;
 }

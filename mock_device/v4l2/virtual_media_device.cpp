@@ -26,7 +26,8 @@ constexpr uint32_t kGraphInterface = 3;
 static_assert(sizeof(media_v2_entity) == 96 && sizeof(media_v2_interface) == 112);
 static_assert(sizeof(media_v2_pad) == 32 && sizeof(media_v2_link) == 40);
 static_assert(sizeof(media_pad_desc) == 20 && sizeof(media_link_desc) == 52);
-static_assert(sizeof(void*) == sizeof(uint64_t), "ENUM_LINKS' pointers are marshalled as 64-bit values");
+static_assert(sizeof(void*) == sizeof(uint64_t),
+              "ENUM_LINKS' pointers are marshalled as 64-bit values");
 
 template <size_t N>
 void copy_name(char (&dst)[N], const std::string& src) {
@@ -47,7 +48,8 @@ void write_pointer(void* arg, size_t offset, uint64_t value) {
 }  // namespace
 
 VirtualMediaDevice::VirtualMediaDevice(VirtualMediaOptions options) : options_(std::move(options)) {
-  if (options_.model.empty()) options_.model = "camlab virtual camera " + std::to_string(options_.index);
+  if (options_.model.empty())
+    options_.model = "camlab virtual camera " + std::to_string(options_.index);
   // The video entity is named after the camera, as uvcvideo names it after the card;
   // names must be unique in their first 31 characters (ENUM_ENTITIES' name is 32 bytes).
   std::string video_name = options_.model.substr(0, 31);
@@ -68,14 +70,18 @@ VirtualMediaDevice::VirtualMediaDevice(VirtualMediaOptions options) : options_(s
   add_data_link(processing_source, video_sink);
 
   const uint32_t interface = next_id(kGraphInterface);
-  interfaces_.push_back({interface, MEDIA_INTF_T_V4L_VIDEO, options_.video_major, options_.video_minor});
+  interfaces_.push_back(
+      {interface, MEDIA_INTF_T_V4L_VIDEO, options_.video_major, options_.video_minor});
   links_.push_back({next_id(kGraphLink), interface, video,
                     MEDIA_LNK_FL_INTERFACE_LINK | MEDIA_LNK_FL_ENABLED | MEDIA_LNK_FL_IMMUTABLE});
 }
 
-uint32_t VirtualMediaDevice::next_id(uint32_t type) { return (type << 24) | (++last_id_ & 0xffffff); }
+uint32_t VirtualMediaDevice::next_id(uint32_t type) {
+  return (type << 24) | (++last_id_ & 0xffffff);
+}
 
-uint32_t VirtualMediaDevice::add_entity(const std::string& name, uint32_t function, uint32_t flags) {
+uint32_t VirtualMediaDevice::add_entity(const std::string& name, uint32_t function,
+                                        uint32_t flags) {
   const uint32_t id = next_id(kGraphEntity);
   entities_.push_back({id, name, function, flags});
   return id;
@@ -88,7 +94,8 @@ uint32_t VirtualMediaDevice::add_pad(uint32_t entity_id, uint32_t index, uint32_
 }
 
 void VirtualMediaDevice::add_data_link(uint32_t source_pad, uint32_t sink_pad) {
-  links_.push_back({next_id(kGraphLink), source_pad, sink_pad, MEDIA_LNK_FL_ENABLED | MEDIA_LNK_FL_IMMUTABLE});
+  links_.push_back(
+      {next_id(kGraphLink), source_pad, sink_pad, MEDIA_LNK_FL_ENABLED | MEDIA_LNK_FL_IMMUTABLE});
   ++last_id_;  // the backlink's id: the kernel allocates one, and never shows it
 }
 
@@ -112,8 +119,11 @@ void VirtualMediaDevice::unplug() {
 
 bool VirtualMediaDevice::is_supported_ioctl(unsigned long request) {
   switch (request) {
-    case MEDIA_IOC_DEVICE_INFO: case MEDIA_IOC_ENUM_ENTITIES: case MEDIA_IOC_ENUM_LINKS:
-    case MEDIA_IOC_SETUP_LINK: case MEDIA_IOC_G_TOPOLOGY:
+    case MEDIA_IOC_DEVICE_INFO:
+    case MEDIA_IOC_ENUM_ENTITIES:
+    case MEDIA_IOC_ENUM_LINKS:
+    case MEDIA_IOC_SETUP_LINK:
+    case MEDIA_IOC_G_TOPOLOGY:
       return true;
     default:
       return false;
@@ -128,12 +138,18 @@ int VirtualMediaDevice::ioctl(int file, unsigned long request, void* arg) {
   if (!is_supported_ioctl(request)) return -ENOTTY;
   if (arg == nullptr) return -EFAULT;
   switch (request) {
-    case MEDIA_IOC_DEVICE_INFO: return device_info(static_cast<media_device_info*>(arg));
-    case MEDIA_IOC_ENUM_ENTITIES: return enum_entities(static_cast<media_entity_desc*>(arg));
-    case MEDIA_IOC_ENUM_LINKS: return enum_links(static_cast<media_links_enum*>(arg));
-    case MEDIA_IOC_SETUP_LINK: return setup_link(static_cast<media_link_desc*>(arg));
-    case MEDIA_IOC_G_TOPOLOGY: return topology(static_cast<media_v2_topology*>(arg));
-    default: return -ENOTTY;
+    case MEDIA_IOC_DEVICE_INFO:
+      return device_info(static_cast<media_device_info*>(arg));
+    case MEDIA_IOC_ENUM_ENTITIES:
+      return enum_entities(static_cast<media_entity_desc*>(arg));
+    case MEDIA_IOC_ENUM_LINKS:
+      return enum_links(static_cast<media_links_enum*>(arg));
+    case MEDIA_IOC_SETUP_LINK:
+      return setup_link(static_cast<media_link_desc*>(arg));
+    case MEDIA_IOC_G_TOPOLOGY:
+      return topology(static_cast<media_v2_topology*>(arg));
+    default:
+      return -ENOTTY;
   }
 }
 
@@ -147,7 +163,8 @@ const VirtualMediaDevice::Entity* VirtualMediaDevice::find_entity(uint32_t id_wi
   return nullptr;
 }
 
-const VirtualMediaDevice::Pad* VirtualMediaDevice::find_pad(uint32_t entity_id, uint32_t index) const {
+const VirtualMediaDevice::Pad* VirtualMediaDevice::find_pad(uint32_t entity_id,
+                                                            uint32_t index) const {
   for (const Pad& p : pads_)
     if (p.entity_id == entity_id && p.index == index) return &p;
   return nullptr;
@@ -186,8 +203,8 @@ int VirtualMediaDevice::enum_entities(media_entity_desc* desc) const {
     if (e->function != MEDIA_ENT_F_IO_V4L) desc->type = MEDIA_ENT_F_V4L2_SUBDEV_UNKNOWN;
   }
   desc->flags = e->flags;
-  desc->pads = static_cast<uint16_t>(std::count_if(pads_.begin(), pads_.end(),
-                                                   [&](const Pad& p) { return p.entity_id == e->id; }));
+  desc->pads = static_cast<uint16_t>(std::count_if(
+      pads_.begin(), pads_.end(), [&](const Pad& p) { return p.entity_id == e->id; }));
   desc->links = static_cast<uint16_t>(outbound_link_count(e->id));
   desc->dev.major = e->major;
   desc->dev.minor = e->minor;
@@ -206,15 +223,19 @@ int VirtualMediaDevice::enum_links(media_links_enum* links) const {
   };
   if (links->pads) {
     media_pad_desc* out = links->pads;
-    for (uint32_t index = 0; const Pad* pad = find_pad(e->id, index); ++index) *out++ = to_desc(*pad);
+    for (uint32_t index = 0; const Pad* pad = find_pad(e->id, index); ++index)
+      *out++ = to_desc(*pad);
   }
   if (links->links) {
     media_link_desc* out = links->links;
     for (const Link& l : links_) {
       if ((l.flags & MEDIA_LNK_FL_LINK_TYPE) != MEDIA_LNK_FL_DATA_LINK) continue;
-      const auto source = std::find_if(pads_.begin(), pads_.end(), [&](const Pad& p) { return p.id == l.source_id; });
-      const auto sink = std::find_if(pads_.begin(), pads_.end(), [&](const Pad& p) { return p.id == l.sink_id; });
-      if (source == pads_.end() || sink == pads_.end() || source->entity_id != e->id) continue;  // backlinks too
+      const auto source = std::find_if(pads_.begin(), pads_.end(),
+                                       [&](const Pad& p) { return p.id == l.source_id; });
+      const auto sink =
+          std::find_if(pads_.begin(), pads_.end(), [&](const Pad& p) { return p.id == l.sink_id; });
+      if (source == pads_.end() || sink == pads_.end() || source->entity_id != e->id)
+        continue;  // backlinks too
       media_link_desc d{};
       d.source = to_desc(*source);
       d.sink = to_desc(*sink);
@@ -234,8 +255,8 @@ int VirtualMediaDevice::setup_link(media_link_desc* desc) const {
   const Pad* sink_pad = find_pad(sink->id, desc->sink.index);
   if (!source_pad || !sink_pad) return -EINVAL;
   const auto link = std::find_if(links_.begin(), links_.end(), [&](const Link& l) {
-    return (l.flags & MEDIA_LNK_FL_LINK_TYPE) == MEDIA_LNK_FL_DATA_LINK && l.source_id == source_pad->id &&
-           l.sink_id == sink_pad->id;
+    return (l.flags & MEDIA_LNK_FL_LINK_TYPE) == MEDIA_LNK_FL_DATA_LINK &&
+           l.source_id == source_pad->id && l.sink_id == sink_pad->id;
   });
   if (link == links_.end()) return -EINVAL;
   std::memset(desc->reserved, 0, sizeof desc->reserved);
@@ -255,7 +276,8 @@ int VirtualMediaDevice::topology(media_v2_topology* topology) const {
   int result = 0;
   out.topology_version = last_id_;  // bumped by every graph object the device created
 
-  auto* entities = reinterpret_cast<media_v2_entity*>(static_cast<uintptr_t>(topology->ptr_entities));
+  auto* entities =
+      reinterpret_cast<media_v2_entity*>(static_cast<uintptr_t>(topology->ptr_entities));
   for (size_t i = 0; i < entities_.size() && entities; ++i) {
     if (i >= topology->num_entities) {
       result = -ENOSPC;
@@ -271,7 +293,8 @@ int VirtualMediaDevice::topology(media_v2_topology* topology) const {
   out.num_entities = static_cast<uint32_t>(entities_.size());
   out.reserved1 = 0;
 
-  auto* interfaces = reinterpret_cast<media_v2_interface*>(static_cast<uintptr_t>(topology->ptr_interfaces));
+  auto* interfaces =
+      reinterpret_cast<media_v2_interface*>(static_cast<uintptr_t>(topology->ptr_interfaces));
   for (size_t i = 0; i < interfaces_.size() && interfaces; ++i) {
     if (i >= topology->num_interfaces) {
       result = -ENOSPC;
@@ -323,36 +346,40 @@ int VirtualMediaDevice::topology(media_v2_topology* topology) const {
   return result;
 }
 
-std::vector<UserBuffer> VirtualMediaDevice::user_buffers(unsigned long request, const void* arg) const {
+std::vector<UserBuffer> VirtualMediaDevice::user_buffers(unsigned long request,
+                                                         const void* arg) const {
   std::vector<UserBuffer> buffers;
   if (arg == nullptr) return buffers;
   auto add = [&](size_t offset, size_t count, size_t element_size) {
-    if (read_pointer(arg, offset) != 0 && count > 0) buffers.push_back({offset, count * element_size, false, true});
+    if (read_pointer(arg, offset) != 0 && count > 0)
+      buffers.push_back({offset, count * element_size, false, true});
   };
   if (request == MEDIA_IOC_G_TOPOLOGY) {
     media_v2_topology t;
     std::memcpy(&t, arg, sizeof t);
-    add(offsetof(media_v2_topology, ptr_entities), std::min<size_t>(t.num_entities, entities_.size()),
-        sizeof(media_v2_entity));
-    add(offsetof(media_v2_topology, ptr_interfaces), std::min<size_t>(t.num_interfaces, interfaces_.size()),
-        sizeof(media_v2_interface));
-    add(offsetof(media_v2_topology, ptr_pads), std::min<size_t>(t.num_pads, pads_.size()), sizeof(media_v2_pad));
-    add(offsetof(media_v2_topology, ptr_links), std::min<size_t>(t.num_links, links_.size()), sizeof(media_v2_link));
+    add(offsetof(media_v2_topology, ptr_entities),
+        std::min<size_t>(t.num_entities, entities_.size()), sizeof(media_v2_entity));
+    add(offsetof(media_v2_topology, ptr_interfaces),
+        std::min<size_t>(t.num_interfaces, interfaces_.size()), sizeof(media_v2_interface));
+    add(offsetof(media_v2_topology, ptr_pads), std::min<size_t>(t.num_pads, pads_.size()),
+        sizeof(media_v2_pad));
+    add(offsetof(media_v2_topology, ptr_links), std::min<size_t>(t.num_links, links_.size()),
+        sizeof(media_v2_link));
   } else if (request == MEDIA_IOC_ENUM_LINKS) {
     media_links_enum l;
     std::memcpy(&l, arg, sizeof l);
     const Entity* e = find_entity(l.entity);
     if (!e) return buffers;
-    const size_t pad_count =
-        static_cast<size_t>(std::count_if(pads_.begin(), pads_.end(), [&](const Pad& p) { return p.entity_id == e->id; }));
+    const size_t pad_count = static_cast<size_t>(std::count_if(
+        pads_.begin(), pads_.end(), [&](const Pad& p) { return p.entity_id == e->id; }));
     add(offsetof(media_links_enum, pads), pad_count, sizeof(media_pad_desc));
     add(offsetof(media_links_enum, links), outbound_link_count(e->id), sizeof(media_link_desc));
   }
   return buffers;
 }
 
-int VirtualMediaDevice::ioctl_marshalled(int file, unsigned long request, void* arg, const CopyIn& copy_in,
-                                         const CopyOut& copy_out) {
+int VirtualMediaDevice::ioctl_marshalled(int file, unsigned long request, void* arg,
+                                         const CopyIn& copy_in, const CopyOut& copy_out) {
   const std::vector<UserBuffer> buffers = user_buffers(request, arg);
   std::vector<std::vector<uint8_t>> staged(buffers.size());
   std::vector<uint64_t> remote(buffers.size());
@@ -360,17 +387,20 @@ int VirtualMediaDevice::ioctl_marshalled(int file, unsigned long request, void* 
     remote[i] = read_pointer(arg, buffers[i].pointer_offset);
     staged[i].assign(buffers[i].size_bytes, 0);
     if (buffers[i].copy_in)
-      if (int error = copy_in(remote[i], staged[i].data(), staged[i].size()); error < 0) return error;
+      if (int error = copy_in(remote[i], staged[i].data(), staged[i].size()); error < 0)
+        return error;
   }
   for (size_t i = 0; i < buffers.size(); ++i)
     write_pointer(arg, buffers[i].pointer_offset, reinterpret_cast<uintptr_t>(staged[i].data()));
   int result = ioctl(file, request, arg);
-  for (size_t i = 0; i < buffers.size(); ++i) write_pointer(arg, buffers[i].pointer_offset, remote[i]);
+  for (size_t i = 0; i < buffers.size(); ++i)
+    write_pointer(arg, buffers[i].pointer_offset, remote[i]);
   // Partial arrays reach the client on ENOSPC too, as the kernel's copy_to_user does.
   if (result != 0 && result != -ENOSPC) return result;
   for (size_t i = 0; i < buffers.size(); ++i) {
     if (!buffers[i].copy_out) continue;
-    if (int error = copy_out(remote[i], staged[i].data(), staged[i].size()); error < 0) return error;
+    if (int error = copy_out(remote[i], staged[i].data(), staged[i].size()); error < 0)
+      return error;
   }
   return result;
 }

@@ -35,10 +35,10 @@
 namespace camlab::mock {
 
 struct VirtualMediaOptions {
-  int index = 0;                 // /dev/mediaN
-  std::string model;             // MEDIA_IOC_DEVICE_INFO model (the camera's name)
-  std::string bus_info;          // must equal the video node's VIDIOC_QUERYCAP bus_info
-  uint32_t video_major = 81;     // the video node the default entity exposes
+  int index = 0;              // /dev/mediaN
+  std::string model;          // MEDIA_IOC_DEVICE_INFO model (the camera's name)
+  std::string bus_info;       // must equal the video node's VIDIOC_QUERYCAP bus_info
+  uint32_t video_major = 81;  // the video node the default entity exposes
   uint32_t video_minor = 0;
 };
 
@@ -69,14 +69,14 @@ class VirtualMediaDevice {
   // The arrays `request`'s struct `arg` points to, as the device would access them for
   // this very struct (sizes are what the device writes, never more than the client's
   // counts allow): for a transport that must copy them across processes.
-  //   MEDIA_IOC_G_TOPOLOGY: ptr_entities  min(num_entities, E)   * sizeof(media_v2_entity)    (96)
-  //                         ptr_interfaces min(num_interfaces, I) * sizeof(media_v2_interface) (112)
-  //                         ptr_pads      min(num_pads, P)       * sizeof(media_v2_pad)      (32)
-  //                         ptr_links     min(num_links, L)      * sizeof(media_v2_link)     (40)
-  //                         each only when its pointer is non-zero; all copy_out.
-  //   MEDIA_IOC_ENUM_LINKS: pads  entity's pad count          * sizeof(media_pad_desc)  (20)
-  //                         links entity's outbound data links * sizeof(media_link_desc) (52)
-  //                         each only when its pointer is non-null; copy_out.
+  //   MEDIA_IOC_G_TOPOLOGY, each array only when its pointer is non-zero; all copy_out:
+  //     ptr_entities   min(num_entities, E) entries of media_v2_entity (96 bytes)
+  //     ptr_interfaces min(num_interfaces, I) entries of media_v2_interface (112 bytes)
+  //     ptr_pads       min(num_pads, P) entries of media_v2_pad (32 bytes)
+  //     ptr_links      min(num_links, L) entries of media_v2_link (40 bytes)
+  //   MEDIA_IOC_ENUM_LINKS, each only when its pointer is non-null; copy_out:
+  //     pads  the entity's pad count of media_pad_desc (20 bytes)
+  //     links the entity's outbound data links of media_link_desc (52 bytes)
   //   others: none.
   std::vector<UserBuffer> user_buffers(unsigned long request, const void* arg) const;
 
@@ -87,7 +87,8 @@ class VirtualMediaDevice {
   // On return the pointer fields of `arg` hold the client's values again.
   using CopyIn = std::function<int(uint64_t remote_address, void* local, size_t bytes)>;
   using CopyOut = std::function<int(uint64_t remote_address, const void* local, size_t bytes)>;
-  int ioctl_marshalled(int file, unsigned long request, void* arg, const CopyIn& copy_in, const CopyOut& copy_out);
+  int ioctl_marshalled(int file, unsigned long request, void* arg, const CopyIn& copy_in,
+                       const CopyOut& copy_out);
 
   // From now on every call fails with ENODEV (the camera was unplugged).
   void unplug();

@@ -5,9 +5,9 @@
 
 #include "capture/capture_plan.h"
 #include "device/camera_json.h"
+#include "service/api/service_context.h"
 #include "service/jobs/camera_set.h"
 #include "service/store/job_store.h"
-#include "service/api/service_context.h"
 
 namespace camlab::service {
 
@@ -16,19 +16,22 @@ namespace {
 std::string clip(const std::string& s) { return s.size() > 100 ? s.substr(0, 100) + "..." : s; }
 
 // The worker of camera `id` (matched against the registry), or a 404 reply.
-CameraWorker* find_camera(const ServiceContext& context, const std::string& id, const Reply& reply) {
+CameraWorker* find_camera(const ServiceContext& context, const std::string& id,
+                          const Reply& reply) {
   if (CameraWorker* worker = context.cameras->find(id)) return worker;
   std::string known;
   for (const auto& w : context.cameras->workers()) known += (known.empty() ? "" : ", ") + w->id();
-  reply(error_response("not_found", "no camera '" + clip(id) + "' (cameras: " +
-                                             (known.empty() ? "none" : known) + ")"));
+  reply(error_response("not_found", "no camera '" + clip(id) +
+                                        "' (cameras: " + (known.empty() ? "none" : known) + ")"));
   return nullptr;
 }
 
 nlohmann::json latency_json(const ServiceContext& context, const std::string& id) {
   auto stored = context.store->latency(id);
   if (!stored || !stored->has_value()) return nullptr;
-  return {{"frames", (*stored)->latency_frames}, {"source", (*stored)->source}, {"measured_ms", (*stored)->measured_ms}};
+  return {{"frames", (*stored)->latency_frames},
+          {"source", (*stored)->source},
+          {"measured_ms", (*stored)->measured_ms}};
 }
 
 nlohmann::json summary_json(const ServiceContext& context, const CameraSnapshot& s) {
@@ -46,17 +49,23 @@ nlohmann::json summary_json(const ServiceContext& context, const CameraSnapshot&
 // the message names the allowed range and unit.
 Result<int64_t> check_control(const device::ControlInfo& c, const nlohmann::json& value) {
   int64_t v = 0;
-  if (value.is_boolean() && c.type == device::ControlType::kBoolean) v = value.get<bool>() ? 1 : 0;
-  else if (value.is_number_integer()) v = value.get<int64_t>();
-  else return make_error("invalid_request", "control '" + c.name + "' needs an integer value");
+  if (value.is_boolean() && c.type == device::ControlType::kBoolean)
+    v = value.get<bool>() ? 1 : 0;
+  else if (value.is_number_integer())
+    v = value.get<int64_t>();
+  else
+    return make_error("invalid_request", "control '" + c.name + "' needs an integer value");
   const std::string unit = c.unit.empty() ? "" : " (unit: " + c.unit + ")";
   if (c.read_only) return make_error("unsupported", "control '" + c.name + "' is read-only");
   if (v < c.minimum || v > c.maximum)
-    return make_error("out_of_range", "control '" + c.name + "' = " + std::to_string(v) + " is outside the allowed range [" +
-                                          std::to_string(c.minimum) + ", " + std::to_string(c.maximum) + "]" + unit);
+    return make_error("out_of_range", "control '" + c.name + "' = " + std::to_string(v) +
+                                          " is outside the allowed range [" +
+                                          std::to_string(c.minimum) + ", " +
+                                          std::to_string(c.maximum) + "]" + unit);
   if (c.step > 1 && (v - c.minimum) % c.step != 0)
-    return make_error("out_of_range", "control '" + c.name + "' = " + std::to_string(v) + " is not on its step of " +
-                                          std::to_string(c.step) + " from " + std::to_string(c.minimum) +
+    return make_error("out_of_range", "control '" + c.name + "' = " + std::to_string(v) +
+                                          " is not on its step of " + std::to_string(c.step) +
+                                          " from " + std::to_string(c.minimum) +
                                           " (allowed range [" + std::to_string(c.minimum) + ", " +
                                           std::to_string(c.maximum) + "])" + unit);
   if (!c.menu.empty()) {
@@ -67,29 +76,33 @@ Result<int64_t> check_control(const device::ControlInfo& c, const nlohmann::json
       items += (items.empty() ? "" : ", ") + std::to_string(value_of_item) + " (" + name + ")";
     }
     if (!listed)
-      return make_error("out_of_range", "control '" + c.name + "' = " + std::to_string(v) + " is not one of " + items);
+      return make_error("out_of_range", "control '" + c.name + "' = " + std::to_string(v) +
+                                            " is not one of " + items);
   }
   return v;
 }
 
-void put_controls(const ServiceContext& context, const ApiRequest& request, const PathParams& params, Reply reply) {
+void put_controls(const ServiceContext& context, const ApiRequest& request,
+                  const PathParams& params, Reply reply) {
   CameraWorker* worker = find_camera(context, params.at("id"), reply);
   if (!worker) return;
   auto body = parse_json_object(request.body);
   if (!body) return reply(error_response(body.error()));
   const nlohmann::json& wanted = body->contains("controls") ? (*body)["controls"] : *body;
   if (!wanted.is_object() || wanted.empty())
-    return reply(error_response("invalid_request",
-                                "send an object of control names and values, e.g. {\"exposure_time_absolute\": 100}"));
-  if (wanted.size() > 64) return reply(error_response("invalid_request", "at most 64 controls per request"));
+    return reply(error_response(
+        "invalid_request",
+        "send an object of control names and values, e.g. {\"exposure_time_absolute\": 100}"));
+  if (wanted.size() > 64)
+    return reply(error_response("invalid_request", "at most 64 controls per request"));
   const CameraSnapshot snapshot = worker->snapshot();
   if (!snapshot.available)
     return reply(error_response("no_device", "camera " + worker->id() + " is not available: " +
-                                                      snapshot.unavailable_reason));
+                                                 snapshot.unavailable_reason));
   if (snapshot.running_job)
     return reply(error_response("busy", "camera " + worker->id() + " is running job " +
-                                                 std::to_string(snapshot.running_job) +
-                                                 "; change controls when it is idle"));
+                                            std::to_string(snapshot.running_job) +
+                                            "; change controls when it is idle"));
   std::vector<std::pair<std::string, int64_t>> values;
   for (const auto& [name, value] : wanted.items()) {
     const device::ControlInfo* found = nullptr;
@@ -99,22 +112,24 @@ void put_controls(const ServiceContext& context, const ApiRequest& request, cons
       if (c.type != device::ControlType::kOther && c.type != device::ControlType::kButton)
         names += (names.empty() ? "" : ", ") + c.name;
     }
-    if (!found) return reply(error_response("unsupported", "camera " + worker->id() + " has no control '" +
-                                                                    clip(name) + "' (controls: " + names + ")"));
+    if (!found)
+      return reply(error_response("unsupported", "camera " + worker->id() + " has no control '" +
+                                                     clip(name) + "' (controls: " + names + ")"));
     auto checked = check_control(*found, value);
     if (!checked) return reply(error_response(checked.error()));
     values.emplace_back(name, *checked);
   }
-  auto status = worker->post_task([values, reply](device::Camera* camera, const Error* unavailable) {
-    if (!camera) return reply(error_response(*unavailable));
-    nlohmann::json applied = nlohmann::json::object();
-    for (const auto& [name, value] : values) {
-      auto result = camera->set_control(name, value);
-      if (!result) return reply(error_response(result.error()));
-      applied[name] = {{"requested", value}, {"applied", *result}};
-    }
-    reply(json_response(200, {{"controls", applied}}));
-  });
+  auto status =
+      worker->post_task([values, reply](device::Camera* camera, const Error* unavailable) {
+        if (!camera) return reply(error_response(*unavailable));
+        nlohmann::json applied = nlohmann::json::object();
+        for (const auto& [name, value] : values) {
+          auto result = camera->set_control(name, value);
+          if (!result) return reply(error_response(result.error()));
+          applied[name] = {{"requested", value}, {"applied", *result}};
+        }
+        reply(json_response(200, {{"controls", applied}}));
+      });
   if (!status) reply(error_response(status.error()));
 }
 
@@ -122,8 +137,10 @@ void put_controls(const ServiceContext& context, const ApiRequest& request, cons
 void queue_job(const ServiceContext& context, CameraWorker* worker, const std::string& kind,
                const nlohmann::json& request, int frames_total, const Reply& reply) {
   if (!worker->can_accept_job())
-    return reply(error_response("too_many_jobs", "camera " + worker->id() + " has too many jobs queued; retry later"));
-  auto job = context.store->create(kind, worker->id(), request, kind == "capture" ? "captures/job-" : "", frames_total);
+    return reply(error_response(
+        "too_many_jobs", "camera " + worker->id() + " has too many jobs queued; retry later"));
+  auto job = context.store->create(kind, worker->id(), request,
+                                   kind == "capture" ? "captures/job-" : "", frames_total);
   if (!job) return reply(error_response(job.error()));
   if (auto s = worker->enqueue_job(job->id); !s) {
     (void)context.store->finish(job->id, JobState::kCancelled, s.error(), nullptr);
@@ -134,7 +151,8 @@ void queue_job(const ServiceContext& context, CameraWorker* worker, const std::s
   reply(std::move(response));
 }
 
-void post_capture(const ServiceContext& context, const ApiRequest& request, const PathParams& params, Reply reply) {
+void post_capture(const ServiceContext& context, const ApiRequest& request,
+                  const PathParams& params, Reply reply) {
   CameraWorker* worker = find_camera(context, params.at("id"), reply);
   if (!worker) return;
   auto body = parse_json_object(request.body);
@@ -144,7 +162,7 @@ void post_capture(const ServiceContext& context, const ApiRequest& request, cons
     // Have the worker try to open it again (it may be back), for the next request.
     (void)worker->post_task([](device::Camera*, const Error*) {});
     return reply(error_response("no_device", "camera " + worker->id() + " is not available: " +
-                                                      snapshot.unavailable_reason));
+                                                 snapshot.unavailable_reason));
   }
   // Validated here against the snapshot, so a bad request gets its 400/422 now rather
   // than a failed job later; the worker plans again against the camera as it is then.
@@ -156,14 +174,16 @@ void post_capture(const ServiceContext& context, const ApiRequest& request, cons
 }  // namespace
 
 void add_camera_routes(Router& router, const ServiceContext& context) {
-  router.add({"GET", "/v1/cameras", "Every camera with its availability, running job and control latency",
+  router.add({"GET", "/v1/cameras",
+              "Every camera with its availability, running job and control latency",
               [context](const ApiRequest&, const PathParams&, Reply reply) {
                 nlohmann::json cameras = nlohmann::json::array();
                 for (const auto& worker : context.cameras->workers())
                   cameras.push_back(summary_json(context, worker->snapshot()));
                 reply(json_response(200, {{"cameras", cameras}}));
               }});
-  router.add({"GET", "/v1/cameras/{id}", "One camera: formats, sizes, frame rates, controls with ranges and units",
+  router.add({"GET", "/v1/cameras/{id}",
+              "One camera: formats, sizes, frame rates, controls with ranges and units",
               [context](const ApiRequest&, const PathParams& params, Reply reply) {
                 CameraWorker* worker = find_camera(context, params.at("id"), reply);
                 if (!worker) return;
@@ -173,7 +193,8 @@ void add_camera_routes(Router& router, const ServiceContext& context) {
                 for (const auto& [key, value] : summary.items()) json[key] = value;
                 reply(json_response(200, json));
               }});
-  router.add({"PUT", "/v1/cameras/{id}/controls", "Set controls (by V4L2 name, in the control's unit); 422 names the range",
+  router.add({"PUT", "/v1/cameras/{id}/controls",
+              "Set controls (by V4L2 name, in the control's unit); 422 names the range",
               [context](const ApiRequest& request, const PathParams& params, Reply reply) {
                 put_controls(context, request, params, std::move(reply));
               }});
@@ -183,7 +204,8 @@ void add_camera_routes(Router& router, const ServiceContext& context) {
                 post_capture(context, request, params, std::move(reply));
               }});
   router.add({"POST", "/v1/cameras/{id}/latency-probe",
-              "Queue a control-latency probe (stepping exposure, watching the mean signal): 202 with the job",
+              "Queue a control-latency probe (stepping exposure, watching the mean signal): 202 "
+              "with the job",
               [context](const ApiRequest&, const PathParams& params, Reply reply) {
                 CameraWorker* worker = find_camera(context, params.at("id"), reply);
                 if (!worker) return;

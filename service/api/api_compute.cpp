@@ -4,9 +4,9 @@
 #include <algorithm>
 
 #include "image/capture_folder.h"
+#include "service/api/service_context.h"
 #include "service/jobs/compute_jobs.h"
 #include "service/store/job_store.h"
-#include "service/api/service_context.h"
 
 namespace camlab::service {
 
@@ -18,10 +18,14 @@ namespace fs = std::filesystem;
 // once symbolic links are resolved.
 Result<std::string> checked_folder(const ServiceContext& context, const std::string& folder) {
   if (folder.empty() || folder.size() > 256 || folder.front() == '/')
-    return make_error("invalid_request", "folder must be a relative path inside the data folder, e.g. captures/job-000012");
+    return make_error(
+        "invalid_request",
+        "folder must be a relative path inside the data folder, e.g. captures/job-000012");
   for (char c : folder)
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' || c == '/'))
-      return make_error("invalid_request", "folder may hold only letters, digits, '-', '_', '.' and '/'");
+    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' ||
+          c == '/'))
+      return make_error("invalid_request",
+                        "folder may hold only letters, digits, '-', '_', '.' and '/'");
   for (const auto& part : fs::path(folder))
     if (part == ".." || part == ".")
       return make_error("invalid_request", "folder must not contain '.' or '..' components");
@@ -37,8 +41,9 @@ Result<std::string> checked_folder(const ServiceContext& context, const std::str
 Result<nlohmann::json> resolve_source(const ServiceContext& context, const nlohmann::json& body) {
   nlohmann::json source;
   if (body.contains("job") == body.contains("folder"))
-    return make_error("invalid_request", "give exactly one of \"job\" (a capture job id) or \"folder\" (a capture "
-                                         "folder under the data folder)");
+    return make_error("invalid_request",
+                      "give exactly one of \"job\" (a capture job id) or \"folder\" (a capture "
+                      "folder under the data folder)");
   if (body.contains("job")) {
     if (!body["job"].is_number_integer() || body["job"].get<int64_t>() < 1)
       return make_error("invalid_request", "\"job\" must be a capture job id (a positive integer)");
@@ -47,28 +52,34 @@ Result<nlohmann::json> resolve_source(const ServiceContext& context, const nlohm
     if (!job) return job.error();
     if (!job->has_value()) return make_error("not_found", "no job " + std::to_string(id));
     const JobRecord& j = **job;
-    if (j.kind != "capture") return make_error("invalid_request", "job " + std::to_string(id) + " is a " + j.kind + " job, not a capture");
+    if (j.kind != "capture")
+      return make_error("invalid_request",
+                        "job " + std::to_string(id) + " is a " + j.kind + " job, not a capture");
     if (!is_finished(j.state))
-      return make_error("conflict", "capture job " + std::to_string(id) + " is still " + job_state_name(j.state) +
-                                        "; wait until it has finished");
+      return make_error("conflict", "capture job " + std::to_string(id) + " is still " +
+                                        job_state_name(j.state) + "; wait until it has finished");
     source = {{"source_job", id}, {"source_folder", j.folder}};
   } else {
-    if (!body["folder"].is_string()) return make_error("invalid_request", "\"folder\" must be a string");
+    if (!body["folder"].is_string())
+      return make_error("invalid_request", "\"folder\" must be a string");
     auto folder = checked_folder(context, body["folder"].get<std::string>());
     if (!folder) return folder.error();
     source = {{"source_folder", *folder}};
   }
-  auto folder = image::CaptureFolder::open(context.data_dir / source["source_folder"].get<std::string>());
+  auto folder =
+      image::CaptureFolder::open(context.data_dir / source["source_folder"].get<std::string>());
   if (!folder) return make_error("not_found", folder.error().message);
-  if (folder->frames().empty()) return make_error("no_frames", "the capture folder holds no frames");
+  if (folder->frames().empty())
+    return make_error("no_frames", "the capture folder holds no frames");
   return source;
 }
 
-void queue_compute_job(const ServiceContext& context, const std::string& kind, const nlohmann::json& request,
-                       const Reply& reply) {
+void queue_compute_job(const ServiceContext& context, const std::string& kind,
+                       const nlohmann::json& request, const Reply& reply) {
   if (!context.compute->can_accept_job())
     return reply(error_response("too_many_jobs", "the compute queue is full; retry later"));
-  auto job = context.store->create(kind, "", request, kind == "calibration" ? "calibrations/job-" : "", 0);
+  auto job =
+      context.store->create(kind, "", request, kind == "calibration" ? "calibrations/job-" : "", 0);
   if (!job) return reply(error_response(job.error()));
   if (auto s = context.compute->enqueue_job(job->id); !s) {
     (void)context.store->finish(job->id, JobState::kCancelled, s.error(), nullptr);
@@ -84,26 +95,35 @@ void post_calibration(const ServiceContext& context, const ApiRequest& request, 
   if (!body) return reply(error_response(body.error()));
   nlohmann::json normalised = nlohmann::json::object();
   const nlohmann::json& corners = body->value("inner_corners", nlohmann::json());
-  if (!corners.is_array() || corners.size() != 2 || !corners[0].is_number_integer() || !corners[1].is_number_integer())
-    return reply(error_response("invalid_request", "\"inner_corners\" must be [COLS, ROWS], e.g. [14, 10]"));
+  if (!corners.is_array() || corners.size() != 2 || !corners[0].is_number_integer() ||
+      !corners[1].is_number_integer())
+    return reply(
+        error_response("invalid_request", "\"inner_corners\" must be [COLS, ROWS], e.g. [14, 10]"));
   const int cols = corners[0].get<int>(), rows = corners[1].get<int>();
   if (cols < 2 || rows < 2 || cols > 100 || rows > 100)
     return reply(error_response("out_of_range", "inner corners must be in [2, 100] each"));
   const nlohmann::json& spacing = body->value("spacing_m", nlohmann::json());
-  if (!spacing.is_number()) return reply(error_response("invalid_request", "\"spacing_m\" (corner spacing in metres) is required"));
+  if (!spacing.is_number())
+    return reply(
+        error_response("invalid_request", "\"spacing_m\" (corner spacing in metres) is required"));
   if (!(spacing.get<double>() > 0) || spacing.get<double>() > 10)
     return reply(error_response("out_of_range", "spacing_m must be in (0, 10] metres"));
   const nlohmann::json& model = body->value("model", nlohmann::json("auto"));
-  if (!model.is_string() || !(model == "auto" || model.get<std::string>().rfind("LENSMODEL_", 0) == 0) ||
+  if (!model.is_string() ||
+      !(model == "auto" || model.get<std::string>().rfind("LENSMODEL_", 0) == 0) ||
       model.get<std::string>().size() > 200)
-    return reply(error_response("invalid_request", "\"model\" must be \"auto\" or a mrcal LENSMODEL_... name"));
-  const nlohmann::json& detector = body->value("detector", nlohmann::json("auto"));
-  if (!detector.is_string() || !(detector == "auto" || detector == "opencv" || detector == "mrgingham"))
     return reply(error_response("invalid_request",
-                                "\"detector\" must be \"auto\" (mrgingham on square boards, else OpenCV), "
-                                "\"opencv\" or \"mrgingham\""));
+                                "\"model\" must be \"auto\" or a mrcal LENSMODEL_... name"));
+  const nlohmann::json& detector = body->value("detector", nlohmann::json("auto"));
+  if (!detector.is_string() ||
+      !(detector == "auto" || detector == "opencv" || detector == "mrgingham"))
+    return reply(
+        error_response("invalid_request",
+                       "\"detector\" must be \"auto\" (mrgingham on square boards, else OpenCV), "
+                       "\"opencv\" or \"mrgingham\""));
   if (detector == "mrgingham" && cols != rows)
-    return reply(error_response("unsupported", "the mrgingham detector finds square boards only (N x N inner corners)"));
+    return reply(error_response(
+        "unsupported", "the mrgingham detector finds square boards only (N x N inner corners)"));
   if (body->contains("pixel_um")) {
     const auto& pixel = (*body)["pixel_um"];
     if (!pixel.is_number() || !(pixel.get<double>() > 0) || pixel.get<double>() > 100)
@@ -126,7 +146,8 @@ void post_analysis(const ServiceContext& context, const ApiRequest& request, Rep
   if (!body) return reply(error_response(body.error()));
   const nlohmann::json& kind = body->value("kind", nlohmann::json());
   if (!kind.is_string() || (kind != "defocus" && kind != "exposure" && kind != "focus"))
-    return reply(error_response("invalid_request", "\"kind\" must be \"defocus\", \"exposure\" or \"focus\""));
+    return reply(error_response("invalid_request",
+                                "\"kind\" must be \"defocus\", \"exposure\" or \"focus\""));
   auto source = resolve_source(context, *body);
   if (!source) return reply(error_response(source.error()));
   nlohmann::json normalised = *source;
@@ -138,13 +159,15 @@ void post_analysis(const ServiceContext& context, const ApiRequest& request, Rep
 
 void add_compute_routes(Router& router, const ServiceContext& context) {
   router.add({"POST", "/v1/calibrations",
-              "Queue a calibration (mrcal) of a capture's chessboard frames: 202 with the job; the result holds "
+              "Queue a calibration (mrcal) of a capture's chessboard frames: 202 with the job; the "
+              "result holds "
               "the report and the .cameramodel",
               [context](const ApiRequest& request, const PathParams&, Reply reply) {
                 post_calibration(context, request, std::move(reply));
               }});
   router.add({"POST", "/v1/analyses",
-              "Queue an analysis (defocus, exposure, focus) of a capture: 202 with the job; the result holds the report",
+              "Queue an analysis (defocus, exposure, focus) of a capture: 202 with the job; the "
+              "result holds the report",
               [context](const ApiRequest& request, const PathParams&, Reply reply) {
                 post_analysis(context, request, std::move(reply));
               }});

@@ -6,9 +6,9 @@
 #include <sstream>
 
 #include "image/capture_folder.h"
+#include "service/api/service_context.h"
 #include "service/jobs/camera_set.h"
 #include "service/store/job_store.h"
-#include "service/api/service_context.h"
 
 namespace camlab::service {
 
@@ -17,7 +17,8 @@ namespace {
 constexpr int kMaxListLimit = 1000;
 
 // The job named by the {id} parameter, or a 400/404/500 reply.
-std::optional<JobRecord> find_job(const ServiceContext& context, const PathParams& params, const Reply& reply) {
+std::optional<JobRecord> find_job(const ServiceContext& context, const PathParams& params,
+                                  const Reply& reply) {
   auto id = parse_id(params.at("id"), "the job id");
   if (!id) {
     reply(error_response(id.error()));
@@ -36,17 +37,22 @@ std::optional<JobRecord> find_job(const ServiceContext& context, const PathParam
 }
 
 // The capture folder of a capture job, or a reply saying why there is none.
-std::optional<image::CaptureFolder> job_folder(const ServiceContext& context, const JobRecord& job, const Reply& reply) {
+std::optional<image::CaptureFolder> job_folder(const ServiceContext& context, const JobRecord& job,
+                                               const Reply& reply) {
   if (job.kind != "capture") {
-    reply(error_response("no_frames", "job " + std::to_string(job.id) + " is a " + job.kind + " job; only capture jobs have frames"));
+    reply(error_response("no_frames", "job " + std::to_string(job.id) + " is a " + job.kind +
+                                          " job; only capture jobs have frames"));
     return std::nullopt;
   }
   auto folder = image::CaptureFolder::open(context.data_dir / job.folder);
   if (!folder) {
     if (job.state == JobState::kQueued) {
-      reply(error_response("not_found", "job " + std::to_string(job.id) + " is queued and has no frames yet"));
+      reply(error_response("not_found",
+                           "job " + std::to_string(job.id) + " is queued and has no frames yet"));
     } else {
-      reply(error_response("not_found", "job " + std::to_string(job.id) + " has no capture folder (" + folder.error().message + ")"));
+      reply(error_response("not_found", "job " + std::to_string(job.id) +
+                                            " has no capture folder (" + folder.error().message +
+                                            ")"));
     }
     return std::nullopt;
   }
@@ -54,8 +60,8 @@ std::optional<image::CaptureFolder> job_folder(const ServiceContext& context, co
 }
 
 // The frame index {n}: a number below the folder's frame count.
-std::optional<int> frame_index(const image::CaptureFolder& folder, const JobRecord& job, const PathParams& params,
-                               const Reply& reply) {
+std::optional<int> frame_index(const image::CaptureFolder& folder, const JobRecord& job,
+                               const PathParams& params, const Reply& reply) {
   auto n = parse_id(params.at("n"), "the frame index", 9);
   if (!n) {
     reply(error_response(n.error()));
@@ -63,9 +69,10 @@ std::optional<int> frame_index(const image::CaptureFolder& folder, const JobReco
   }
   const int count = static_cast<int>(folder.frames().size());
   if (*n >= count) {
-    reply(error_response("not_found", "job " + std::to_string(job.id) + " has " + std::to_string(count) +
-                                               " frames (0.." + std::to_string(count - 1) + "); no frame " +
-                                               std::to_string(*n)));
+    reply(error_response("not_found", "job " + std::to_string(job.id) + " has " +
+                                          std::to_string(count) + " frames (0.." +
+                                          std::to_string(count - 1) + "); no frame " +
+                                          std::to_string(*n)));
     return std::nullopt;
   }
   return static_cast<int>(*n);
@@ -82,8 +89,8 @@ bool read_bytes(const std::filesystem::path& path, std::string* out) {
 
 // Frame {n} of job {id}: its image or its sidecar file, read whole; replies with the
 // error (unknown job, frame out of range, unreadable file) and returns nullopt otherwise.
-std::optional<ApiResponse> read_frame_file(const ServiceContext& context, const PathParams& params, bool sidecar,
-                                           const Reply& reply) {
+std::optional<ApiResponse> read_frame_file(const ServiceContext& context, const PathParams& params,
+                                           bool sidecar, const Reply& reply) {
   auto job = find_job(context, params, reply);
   if (!job) return std::nullopt;
   auto folder = job_folder(context, *job, reply);
@@ -92,9 +99,11 @@ std::optional<ApiResponse> read_frame_file(const ServiceContext& context, const 
   if (!n) return std::nullopt;
   const auto& entry = folder->frames()[*n];
   ApiResponse response;
-  if (!read_bytes(folder->dir() / (sidecar ? entry.sidecar_file : entry.image_file), &response.body)) {
-    reply(error_response("io_error", std::string("cannot read ") + (sidecar ? "the sidecar of " : "") + "frame " +
-                                              std::to_string(*n)));
+  if (!read_bytes(folder->dir() / (sidecar ? entry.sidecar_file : entry.image_file),
+                  &response.body)) {
+    reply(error_response("io_error", std::string("cannot read ") +
+                                         (sidecar ? "the sidecar of " : "") + "frame " +
+                                         std::to_string(*n)));
     return std::nullopt;
   }
   return response;
@@ -122,13 +131,15 @@ void list_jobs(const ServiceContext& context, const ApiRequest& request, Reply r
   if (auto it = query.find("state"); it != query.end()) {
     state = parse_job_state(it->second);
     if (!state)
-      return reply(error_response("invalid_request",
-                                  "state must be one of queued, running, succeeded, failed, cancelled, interrupted"));
+      return reply(error_response(
+          "invalid_request",
+          "state must be one of queued, running, succeeded, failed, cancelled, interrupted"));
   }
   if (auto it = query.find("limit"); it != query.end()) {
     auto n = parse_id(it->second, "limit", 6);
     if (!n || *n < 1 || *n > kMaxListLimit)
-      return reply(error_response("invalid_request", "limit must be in [1, " + std::to_string(kMaxListLimit) + "]"));
+      return reply(error_response("invalid_request",
+                                  "limit must be in [1, " + std::to_string(kMaxListLimit) + "]"));
     limit = static_cast<int>(*n);
   }
   if (auto it = query.find("offset"); it != query.end()) {
@@ -154,7 +165,8 @@ void cancel_job(const ServiceContext& context, const PathParams& params, Reply r
       return reply(json_response(200, now && now->has_value() ? to_json(**now) : to_json(*job)));
     }
     auto now = context.store->get(job->id);  // it started meanwhile: cancel it running
-    if (!now || !now->has_value()) return reply(error_response("io_error", "job vanished while cancelling"));
+    if (!now || !now->has_value())
+      return reply(error_response("io_error", "job vanished while cancelling"));
     job = **now;
   }
   if (job->state == JobState::kRunning) {
@@ -164,11 +176,12 @@ void cancel_job(const ServiceContext& context, const PathParams& params, Reply r
       json["cancel_requested"] = true;
       return reply(json_response(202, json));
     }
-    return reply(error_response("not_cancellable", "job " + std::to_string(job->id) + " (" + job->kind +
-                                                            ") cannot be cancelled once running"));
+    return reply(error_response("not_cancellable", "job " + std::to_string(job->id) + " (" +
+                                                       job->kind +
+                                                       ") cannot be cancelled once running"));
   }
   reply(error_response("conflict", "job " + std::to_string(job->id) + " has already finished (" +
-                                            job_state_name(job->state) + ")"));
+                                       job_state_name(job->state) + ")"));
 }
 
 }  // namespace
@@ -180,19 +193,23 @@ void add_job_routes(Router& router, const ServiceContext& context) {
               }});
   router.add({"GET", "/v1/jobs/{id}", "A job: state, progress, error, result",
               [context](const ApiRequest&, const PathParams& params, Reply reply) {
-                if (auto job = find_job(context, params, reply)) reply(json_response(200, to_json(*job)));
+                if (auto job = find_job(context, params, reply))
+                  reply(json_response(200, to_json(*job)));
               }});
-  router.add({"DELETE", "/v1/jobs/{id}",
-              "Cancel: a queued job at once (200), a running capture between frames (202; frames kept)",
-              [context](const ApiRequest&, const PathParams& params, Reply reply) {
-                cancel_job(context, params, std::move(reply));
-              }});
+  router.add(
+      {"DELETE", "/v1/jobs/{id}",
+       "Cancel: a queued job at once (200), a running capture between frames (202; frames kept)",
+       [context](const ApiRequest&, const PathParams& params, Reply reply) {
+         cancel_job(context, params, std::move(reply));
+       }});
   router.add({"GET", "/v1/jobs/{id}/frames", "The frames a capture job has written so far",
               [context](const ApiRequest&, const PathParams& params, Reply reply) {
                 auto job = find_job(context, params, reply);
                 if (!job) return;
                 if (job->kind == "capture" && job->state == JobState::kQueued)
-                  return reply(json_response(200, {{"job_id", job->id}, {"complete", false}, {"frames", nlohmann::json::array()}}));
+                  return reply(json_response(200, {{"job_id", job->id},
+                                                   {"complete", false},
+                                                   {"frames", nlohmann::json::array()}}));
                 auto folder = job_folder(context, *job, reply);
                 if (!folder) return;
                 nlohmann::json frames = nlohmann::json::array();
@@ -206,7 +223,8 @@ void add_job_routes(Router& router, const ServiceContext& context) {
                                           {"folder", job->folder},
                                           {"frames", frames}}));
               }});
-  router.add({"GET", "/v1/jobs/{id}/frames/{n}", "Frame n as PNG (raw sensor DN; 16-bit above 8 bits)",
+  router.add({"GET", "/v1/jobs/{id}/frames/{n}",
+              "Frame n as PNG (raw sensor DN; 16-bit above 8 bits)",
               [context](const ApiRequest&, const PathParams& params, Reply reply) {
                 auto response = read_frame_file(context, params, /*sidecar=*/false, reply);
                 if (!response) return;

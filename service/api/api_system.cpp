@@ -1,8 +1,8 @@
 // GET /v1/health (public), GET /metrics, GET /v1/openapi.json.
-#include "service/jobs/camera_set.h"
-#include "service/store/job_store.h"
-#include "service/metrics.h"
 #include "service/api/service_context.h"
+#include "service/jobs/camera_set.h"
+#include "service/metrics.h"
+#include "service/store/job_store.h"
 
 namespace camlab::service {
 
@@ -10,7 +10,8 @@ void add_system_routes(Router& router, const ServiceContext& context) {
   router.add({"GET", "/v1/health", "Liveness: 200 while the daemon serves (no token needed)",
               [context](const ApiRequest&, const PathParams&, Reply reply) {
                 int available = 0;
-                for (const auto& worker : context.cameras->workers()) available += worker->snapshot().available;
+                for (const auto& worker : context.cameras->workers())
+                  available += worker->snapshot().available;
                 reply(json_response(200, {{"status", "ok"},
                                           {"cameras", context.cameras->workers().size()},
                                           {"cameras_available", available}}));
@@ -22,7 +23,8 @@ void add_system_routes(Router& router, const ServiceContext& context) {
                 auto counts = context.store->count_by_state();
                 ApiResponse response;
                 response.content_type = "text/plain; version=0.0.4; charset=utf-8";
-                response.body = context.metrics->render(counts ? *counts : std::map<std::string, int64_t>{});
+                response.body =
+                    context.metrics->render(counts ? *counts : std::map<std::string, int64_t>{});
                 reply(std::move(response));
               }});
 

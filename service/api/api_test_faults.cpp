@@ -4,8 +4,8 @@
 //
 // Body (every field optional): {"unplug": true, "fail_next_dequeues": 3,
 // "drop_next_frames": 5, "stall": true | false}.
-#include "service/jobs/camera_set.h"
 #include "service/api/service_context.h"
+#include "service/jobs/camera_set.h"
 
 namespace camlab::service {
 
@@ -22,33 +22,39 @@ Result<int> bounded_count(const nlohmann::json& body, const char* name) {
 }  // namespace
 
 void add_test_routes(Router& router, const ServiceContext& context) {
-  Route route{"POST", "/v1/test/cameras/{id}/faults",
-              "TEST ONLY (--test-faults): inject faults into an in-process virtual camera",
-              [context](const ApiRequest& request, const PathParams& params, Reply reply) {
-                mock::VirtualV4l2Device* device = context.cameras->virtual_device(params.at("id"));
-                if (!context.cameras->find(params.at("id")))
-                  return reply(error_response("not_found", "no camera '" + params.at("id").substr(0, 100) + "'"));
-                if (!device)
-                  return reply(error_response("unsupported", "faults can be injected only into in-process virtual cameras"));
-                auto body = parse_json_object(request.body);
-                if (!body) return reply(error_response(body.error()));
-                for (const auto& [key, value] : body->items())
-                  if (key != "unplug" && key != "fail_next_dequeues" && key != "drop_next_frames" && key != "stall")
-                    return reply(error_response("invalid_request", "unknown fault '" + key.substr(0, 40) +
-                                                    "' (unplug, fail_next_dequeues, drop_next_frames, stall)"));
-                auto fail = bounded_count(*body, "fail_next_dequeues");
-                if (!fail) return reply(error_response(fail.error()));
-                auto drop = bounded_count(*body, "drop_next_frames");
-                if (!drop) return reply(error_response(drop.error()));
-                for (const char* flag : {"unplug", "stall"})
-                  if (body->contains(flag) && !(*body)[flag].is_boolean())
-                    return reply(error_response("invalid_request", std::string(flag) + " must be true or false"));
-                if (*fail > 0) device->fail_next_dequeues(*fail);
-                if (*drop > 0) device->drop_next_frames(*drop);
-                if (body->contains("stall")) device->stall((*body)["stall"].get<bool>());
-                if (body->value("unplug", false)) device->unplug();
-                reply(json_response(200, {{"camera_id", params.at("id")}, {"injected", *body}}));
-              }};
+  Route route{
+      "POST", "/v1/test/cameras/{id}/faults",
+      "TEST ONLY (--test-faults): inject faults into an in-process virtual camera",
+      [context](const ApiRequest& request, const PathParams& params, Reply reply) {
+        mock::VirtualV4l2Device* device = context.cameras->virtual_device(params.at("id"));
+        if (!context.cameras->find(params.at("id")))
+          return reply(
+              error_response("not_found", "no camera '" + params.at("id").substr(0, 100) + "'"));
+        if (!device)
+          return reply(error_response(
+              "unsupported", "faults can be injected only into in-process virtual cameras"));
+        auto body = parse_json_object(request.body);
+        if (!body) return reply(error_response(body.error()));
+        for (const auto& [key, value] : body->items())
+          if (key != "unplug" && key != "fail_next_dequeues" && key != "drop_next_frames" &&
+              key != "stall")
+            return reply(error_response(
+                "invalid_request", "unknown fault '" + key.substr(0, 40) +
+                                       "' (unplug, fail_next_dequeues, drop_next_frames, stall)"));
+        auto fail = bounded_count(*body, "fail_next_dequeues");
+        if (!fail) return reply(error_response(fail.error()));
+        auto drop = bounded_count(*body, "drop_next_frames");
+        if (!drop) return reply(error_response(drop.error()));
+        for (const char* flag : {"unplug", "stall"})
+          if (body->contains(flag) && !(*body)[flag].is_boolean())
+            return reply(
+                error_response("invalid_request", std::string(flag) + " must be true or false"));
+        if (*fail > 0) device->fail_next_dequeues(*fail);
+        if (*drop > 0) device->drop_next_frames(*drop);
+        if (body->contains("stall")) device->stall((*body)["stall"].get<bool>());
+        if (body->value("unplug", false)) device->unplug();
+        reply(json_response(200, {{"camera_id", params.at("id")}, {"injected", *body}}));
+      }};
   route.test_only = true;
   router.add(std::move(route));
 }

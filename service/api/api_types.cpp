@@ -24,7 +24,8 @@ ApiResponse error_response(ErrorCodeName code, const std::string& message) {
 Result<nlohmann::json> parse_json_object(const std::string& body) {
   nlohmann::json json = nlohmann::json::parse(body, nullptr, /*allow_exceptions=*/false);
   if (json.is_discarded()) return make_error("bad_json", "the request body is not valid JSON");
-  if (!json.is_object()) return make_error("invalid_request", "the request body must be a JSON object");
+  if (!json.is_object())
+    return make_error("invalid_request", "the request body must be a JSON object");
   return json;
 }
 
@@ -36,7 +37,8 @@ Result<int64_t> parse_id(const std::string& text, const std::string& what, int m
   int64_t value = 0;
   for (char c : text) {
     if (!std::isdigit(static_cast<unsigned char>(c)))
-      return make_error("invalid_request", what + " must be a decimal number, not '" + text.substr(0, 32) + "'");
+      return make_error("invalid_request",
+                        what + " must be a decimal number, not '" + text.substr(0, 32) + "'");
     value = value * 10 + (c - '0');
   }
   return value;

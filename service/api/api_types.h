@@ -18,13 +18,13 @@
 namespace camlab::service {
 
 struct ApiRequest {
-  std::string method;         // "GET", "PUT", ...
-  std::string path;           // the target before '?', still percent-encoded
-  std::string query;          // after '?', without it
+  std::string method;  // "GET", "PUT", ...
+  std::string path;    // the target before '?', still percent-encoded
+  std::string query;   // after '?', without it
   std::string body;
   std::string authorization;  // the Authorization header, as sent
   std::string content_type;
-  std::string remote;         // peer address, for the log
+  std::string remote;  // peer address, for the log
 };
 
 struct ApiResponse {

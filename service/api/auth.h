@@ -14,8 +14,8 @@ namespace camlab::service {
 
 struct TokenFile {
   std::string token;
-  bool created = false;    // true on first start: print it once
-  std::string warning;     // e.g. the file's mode was too open and was fixed
+  bool created = false;  // true on first start: print it once
+  std::string warning;   // e.g. the file's mode was too open and was fixed
 };
 
 // Reads DATA/token, or creates it with 32 random bytes as 64 hex digits.

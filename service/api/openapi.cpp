@@ -33,16 +33,23 @@ json operation(const std::string& summary, const std::string& tag, json paramete
   json op = {{"summary", summary}, {"tags", {tag}}, {"responses", std::move(responses)}};
   if (!parameters.empty()) op["parameters"] = std::move(parameters);
   if (!request_schema.is_null())
-    op["requestBody"] = {{"required", true}, {"content", {{"application/json", {{"schema", request_schema}}}}}};
+    op["requestBody"] = {{"required", true},
+                         {"content", {{"application/json", {{"schema", request_schema}}}}}};
   return op;
 }
 
 json path_param(const std::string& name, const std::string& description, json schema) {
-  return {{"name", name}, {"in", "path"}, {"required", true}, {"description", description}, {"schema", schema}};
+  return {{"name", name},
+          {"in", "path"},
+          {"required", true},
+          {"description", description},
+          {"schema", schema}};
 }
 
-json ok(int status, const std::string& description, json schema, const std::string& type = "application/json") {
-  return {{std::to_string(status), {{"description", description}, {"content", {{type, {{"schema", schema}}}}}}}};
+json ok(int status, const std::string& description, json schema,
+        const std::string& type = "application/json") {
+  return {{std::to_string(status),
+           {{"description", description}, {"content", {{type, {{"schema", schema}}}}}}}};
 }
 
 json merge(json a, const json& b) {
@@ -59,14 +66,17 @@ json schemas() {
          {{"error",
            {{"type", "object"},
             {"required", {"code", "message"}},
-            {"properties", {{"code", {{"type", "string"}}}, {"message", {{"type", "string"}}}}}}}}}}},
+            {"properties",
+             {{"code", {{"type", "string"}}}, {"message", {{"type", "string"}}}}}}}}}}},
       {"Job",
        {{"type", "object"},
         {"properties",
          {{"id", {{"type", "integer"}}},
-          {"kind", {{"type", "string"}, {"enum", {"capture", "latency_probe", "calibration", "analysis"}}}},
+          {"kind",
+           {{"type", "string"}, {"enum", {"capture", "latency_probe", "calibration", "analysis"}}}},
           {"state",
-           {{"type", "string"}, {"enum", {"queued", "running", "succeeded", "failed", "cancelled", "interrupted"}}}},
+           {{"type", "string"},
+            {"enum", {"queued", "running", "succeeded", "failed", "cancelled", "interrupted"}}}},
           {"camera_id", {{"type", "string"}}},
           {"request", {{"type", "object"}}},
           {"folder", {{"type", "string"}, {"description", "relative to the data folder"}}},
@@ -86,11 +96,14 @@ json schemas() {
        {{"type", "object"},
         {"required", {"kind"}},
         {"description",
-         "single: {}; bracket: exposures_us[] (+ gain) or base_exposure_us + ev_steps[]; focus_stack: positions[] "
-         "or start/stop/step; aperture_series: f_numbers[] or iris_positions[]. Common: repeats, format "
+         "single: {}; bracket: exposures_us[] (+ gain) or base_exposure_us + ev_steps[]; "
+         "focus_stack: positions[] "
+         "or start/stop/step; aperture_series: f_numbers[] or iris_positions[]. Common: repeats, "
+         "format "
          "{fourcc, width, height}, controls {name: value}."},
         {"properties",
-         {{"kind", {{"type", "string"}, {"enum", {"single", "bracket", "focus_stack", "aperture_series"}}}},
+         {{"kind",
+           {{"type", "string"}, {"enum", {"single", "bracket", "focus_stack", "aperture_series"}}}},
           {"exposures_us", {{"type", "array"}, {"items", {{"type", "number"}}}}},
           {"base_exposure_us", {{"type", "number"}}},
           {"ev_steps", {{"type", "array"}, {"items", {{"type", "number"}}}}},
@@ -113,14 +126,18 @@ json schemas() {
         {"required", {"inner_corners", "spacing_m"}},
         {"properties",
          {{"job", {{"type", "integer"}, {"description", "a finished capture job"}}},
-          {"folder", {{"type", "string"}, {"description", "or a capture folder under the data folder"}}},
-          {"inner_corners", {{"type", "array"}, {"items", {{"type", "integer"}}}, {"minItems", 2}, {"maxItems", 2}}},
+          {"folder",
+           {{"type", "string"}, {"description", "or a capture folder under the data folder"}}},
+          {"inner_corners",
+           {{"type", "array"}, {"items", {{"type", "integer"}}}, {"minItems", 2}, {"maxItems", 2}}},
           {"spacing_m", {{"type", "number"}}},
-          {"model", {{"type", "string"}, {"description", "auto (default) or a mrcal LENSMODEL_... name"}}},
+          {"model",
+           {{"type", "string"}, {"description", "auto (default) or a mrcal LENSMODEL_... name"}}},
           {"detector",
            {{"type", "string"},
             {"enum", {"auto", "opencv", "mrgingham"}},
-            {"description", "auto (default): mrgingham on square boards, OpenCV elsewhere and where it misses"}}},
+            {"description",
+             "auto (default): mrgingham on square boards, OpenCV elsewhere and where it misses"}}},
           {"pixel_um", {{"type", "number"}}}}}}},
       {"AnalysisRequest",
        {{"type", "object"},
@@ -141,24 +158,31 @@ json schemas() {
 }  // namespace
 
 json openapi_document(bool include_test_routes) {
-  const json camera_id = path_param("id", "camera id as listed by GET /v1/cameras (percent-encoded)", {{"type", "string"}});
+  const json camera_id = path_param(
+      "id", "camera id as listed by GET /v1/cameras (percent-encoded)", {{"type", "string"}});
   const json job_id = path_param("id", "job id", {{"type", "integer"}, {"minimum", 1}});
-  const json frame_n = path_param("n", "frame index, 0-based", {{"type", "integer"}, {"minimum", 0}});
+  const json frame_n =
+      path_param("n", "frame index, 0-based", {{"type", "integer"}, {"minimum", 0}});
   const json object = {{"type", "object"}};
   json paths = {
       {"/v1/health",
-       {{"get", merge(operation("Liveness (no token needed)", "system", json::array(), ok(200, "serving", object)),
+       {{"get", merge(operation("Liveness (no token needed)", "system", json::array(),
+                                ok(200, "serving", object)),
                       {{"security", json::array()}})}}},
       {"/metrics",
        {{"get", operation("Prometheus metrics", "system", json::array(),
-                          merge(ok(200, "text format 0.0.4", {{"type", "string"}}, "text/plain"), error_responses({401})))}}},
+                          merge(ok(200, "text format 0.0.4", {{"type", "string"}}, "text/plain"),
+                                error_responses({401})))}}},
       {"/v1/openapi.json",
-       {{"get", operation("This document", "system", json::array(), merge(ok(200, "OpenAPI 3", object), error_responses({401})))}}},
+       {{"get", operation("This document", "system", json::array(),
+                          merge(ok(200, "OpenAPI 3", object), error_responses({401})))}}},
       {"/v1/cameras",
-       {{"get", operation("Cameras", "cameras", json::array(), merge(ok(200, "{cameras: [...]}", object), error_responses({401})))}}},
+       {{"get", operation("Cameras", "cameras", json::array(),
+                          merge(ok(200, "{cameras: [...]}", object), error_responses({401})))}}},
       {"/v1/cameras/{id}",
-       {{"get", operation("A camera: formats, controls with ranges and units, control latency", "cameras", {camera_id},
-                          merge(ok(200, "camera", object), error_responses({401, 404})))}}},
+       {{"get",
+         operation("A camera: formats, controls with ranges and units, control latency", "cameras",
+                   {camera_id}, merge(ok(200, "camera", object), error_responses({401, 404})))}}},
       {"/v1/cameras/{id}/controls",
        {{"put", operation("Set controls", "cameras", {camera_id},
                           merge(ok(200, "{controls: {name: {requested, applied}}}", object),
@@ -170,34 +194,45 @@ json openapi_document(bool include_test_routes) {
                                  error_responses({400, 401, 404, 413, 422, 429, 503})),
                            ref("CaptureRequest"))}}},
       {"/v1/cameras/{id}/latency-probe",
-       {{"post", operation("Queue a control-latency probe; the result is stored for the camera", "captures", {camera_id},
-                           merge(ok(202, "the queued job", ref("Job")), error_responses({401, 404, 429})))}}},
+       {{"post", operation("Queue a control-latency probe; the result is stored for the camera",
+                           "captures", {camera_id},
+                           merge(ok(202, "the queued job", ref("Job")),
+                                 error_responses({401, 404, 429})))}}},
       {"/v1/jobs",
-       {{"get", operation("Jobs, newest first", "jobs",
-                          {{{"name", "state"}, {"in", "query"}, {"schema", {{"type", "string"}}}},
-                           {{"name", "limit"}, {"in", "query"}, {"schema", {{"type", "integer"}, {"maximum", 1000}}}},
-                           {{"name", "offset"}, {"in", "query"}, {"schema", {{"type", "integer"}}}}},
-                          merge(ok(200, "{jobs: [...]}", object), error_responses({400, 401})))}}},
+       {{"get",
+         operation("Jobs, newest first", "jobs",
+                   {{{"name", "state"}, {"in", "query"}, {"schema", {{"type", "string"}}}},
+                    {{"name", "limit"},
+                     {"in", "query"},
+                     {"schema", {{"type", "integer"}, {"maximum", 1000}}}},
+                    {{"name", "offset"}, {"in", "query"}, {"schema", {{"type", "integer"}}}}},
+                   merge(ok(200, "{jobs: [...]}", object), error_responses({400, 401})))}}},
       {"/v1/jobs/{id}",
-       {{"get", operation("A job", "jobs", {job_id}, merge(ok(200, "the job", ref("Job")), error_responses({400, 401, 404})))},
-        {"delete", operation("Cancel a job (200 when queued, 202 when running: stops between frames, frames kept)",
-                             "jobs", {job_id},
-                             merge(merge(ok(200, "cancelled", ref("Job")), ok(202, "cancel requested", ref("Job"))),
-                                   error_responses({400, 401, 404, 409})))}}},
+       {{"get", operation("A job", "jobs", {job_id},
+                          merge(ok(200, "the job", ref("Job")), error_responses({400, 401, 404})))},
+        {"delete",
+         operation(
+             "Cancel a job (200 when queued, 202 when running: stops between frames, frames kept)",
+             "jobs", {job_id},
+             merge(merge(ok(200, "cancelled", ref("Job")), ok(202, "cancel requested", ref("Job"))),
+                   error_responses({400, 401, 404, 409})))}}},
       {"/v1/jobs/{id}/frames",
        {{"get", operation("Frames written so far", "jobs", {job_id},
                           merge(ok(200, "{frames: [{index, image, meta}], complete}", object),
                                 error_responses({400, 401, 404, 422})))}}},
       {"/v1/jobs/{id}/frames/{n}",
-       {{"get", operation("Frame n as PNG", "jobs", {job_id, frame_n},
-                          merge(ok(200, "PNG", {{"type", "string"}, {"format", "binary"}}, "image/png"),
-                                error_responses({400, 401, 404, 422})))}}},
+       {{"get",
+         operation("Frame n as PNG", "jobs", {job_id, frame_n},
+                   merge(ok(200, "PNG", {{"type", "string"}, {"format", "binary"}}, "image/png"),
+                         error_responses({400, 401, 404, 422})))}}},
       {"/v1/jobs/{id}/frames/{n}/meta",
        {{"get", operation("Frame n's sidecar", "jobs", {job_id, frame_n},
-                          merge(ok(200, "sidecar (docs/capture-folder.md)", object), error_responses({400, 401, 404, 422})))}}},
+                          merge(ok(200, "sidecar (docs/capture-folder.md)", object),
+                                error_responses({400, 401, 404, 422})))}}},
       {"/v1/calibrations",
        {{"post", operation("Queue a calibration", "compute", json::array(),
-                           merge(ok(202, "the queued job; its result holds report and cameramodel", ref("Job")),
+                           merge(ok(202, "the queued job; its result holds report and cameramodel",
+                                    ref("Job")),
                                  error_responses({400, 401, 404, 409, 413, 422, 429})),
                            ref("CalibrationRequest"))}}},
       {"/v1/analyses",
@@ -207,22 +242,28 @@ json openapi_document(bool include_test_routes) {
                            ref("AnalysisRequest"))}}}};
   if (include_test_routes)
     paths["/v1/test/cameras/{id}/faults"] = {
-        {"post", merge(operation("TEST ONLY: inject faults into an in-process virtual camera (--test-faults)", "test",
-                                 {camera_id}, merge(ok(200, "injected", object), error_responses({400, 401, 404, 422})),
-                                 ref("Faults")),
-                       {{"x-test-only", true}})}};
+        {"post",
+         merge(
+             operation("TEST ONLY: inject faults into an in-process virtual camera (--test-faults)",
+                       "test", {camera_id},
+                       merge(ok(200, "injected", object), error_responses({400, 401, 404, 422})),
+                       ref("Faults")),
+             {{"x-test-only", true}})}};
   return {{"openapi", "3.0.3"},
           {"info",
            {{"title", "camlabd"},
             {"version", "0.1.0"},
             {"description",
-             "REST capture of exposure brackets, focus stacks and aperture series with frame-accurate settings. "
-             "Every endpoint but GET /v1/health needs 'Authorization: Bearer TOKEN' (DATA/token). Errors are "
+             "REST capture of exposure brackets, focus stacks and aperture series with "
+             "frame-accurate settings. "
+             "Every endpoint but GET /v1/health needs 'Authorization: Bearer TOKEN' (DATA/token). "
+             "Errors are "
              "{\"error\": {\"code\", \"message\"}}."}}},
           {"servers", {{{"url", "http://127.0.0.1:8080"}}}},
           {"security", {{{"bearer", json::array()}}}},
           {"components",
-           {{"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}}, {"schemas", schemas()}}},
+           {{"securitySchemes", {{"bearer", {{"type", "http"}, {"scheme", "bearer"}}}}},
+            {"schemas", schemas()}}},
           {"paths", paths}};
 }
 

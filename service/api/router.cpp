@@ -4,8 +4,8 @@
 #include <exception>
 #include <memory>
 
-#include "service/api/auth.h"
 #include "base/log.h"
+#include "service/api/auth.h"
 #include "service/metrics.h"
 
 namespace camlab::service {
@@ -20,7 +20,8 @@ int hex_value(char c) {
 }
 
 // Matches decoded segments against a pattern; fills `params` on success.
-bool match(const std::vector<std::string>& pattern, const std::vector<std::string>& segments, PathParams* params) {
+bool match(const std::vector<std::string>& pattern, const std::vector<std::string>& segments,
+           PathParams* params) {
   if (pattern.size() != segments.size()) return false;
   PathParams found;
   for (size_t i = 0; i < pattern.size(); ++i) {
@@ -60,7 +61,8 @@ std::vector<std::string> split_path(const std::string& path) {
   size_t start = path.empty() || path[0] != '/' ? 0 : 1;
   while (start <= path.size()) {
     const size_t end = path.find('/', start);
-    const std::string segment = path.substr(start, end == std::string::npos ? std::string::npos : end - start);
+    const std::string segment =
+        path.substr(start, end == std::string::npos ? std::string::npos : end - start);
     if (end == std::string::npos) {
       if (!segment.empty()) segments.push_back(segment);
       break;
@@ -75,7 +77,8 @@ void Router::add(Route route) { routes_.push_back(std::move(route)); }
 
 void Router::dispatch(const ApiRequest& request, Reply reply) const {
   // Every answer is counted once, under the route's pattern (bounded label set).
-  auto counted = [this, method = request.method, reply = std::move(reply)](const std::string& route_label) {
+  auto counted = [this, method = request.method,
+                  reply = std::move(reply)](const std::string& route_label) {
     return [this, method, route_label, reply](ApiResponse response) {
       if (metrics_) metrics_->count_request(method, route_label, response.status);
       reply(std::move(response));
@@ -86,7 +89,8 @@ void Router::dispatch(const ApiRequest& request, Reply reply) const {
   for (const std::string& raw : split_path(request.path)) {
     std::string decoded;
     if (!percent_decode_segment(raw, &decoded)) {
-      counted("unmatched")(error_response("invalid_request", "malformed percent-encoding in the path"));
+      counted("unmatched")(
+          error_response("invalid_request", "malformed percent-encoding in the path"));
       return;
     }
     segments.push_back(std::move(decoded));
@@ -108,23 +112,24 @@ void Router::dispatch(const ApiRequest& request, Reply reply) const {
 
   const bool is_public = found && found->is_public;
   if (!is_public && auth_ && !auth_->accepts(request.authorization)) {
-    ApiResponse response = error_response("unauthorized",
-                                          "send the API token as 'Authorization: Bearer TOKEN' (it is in "
-                                          "the data folder's 'token' file)");
+    ApiResponse response =
+        error_response("unauthorized",
+                       "send the API token as 'Authorization: Bearer TOKEN' (it is in "
+                       "the data folder's 'token' file)");
     response.headers.emplace_back("WWW-Authenticate", "Bearer realm=\"camlabd\"");
     counted(found ? found->pattern : "unmatched")(std::move(response));
     return;
   }
   if (!found) {
     if (!allowed.empty()) {
-      ApiResponse response = error_response("method_not_allowed",
-                                            request.method + " is not allowed here; allowed: " + allowed);
+      ApiResponse response = error_response(
+          "method_not_allowed", request.method + " is not allowed here; allowed: " + allowed);
       response.headers.emplace_back("Allow", allowed);
       counted("unmatched")(std::move(response));
     } else {
       counted("unmatched")(error_response("no_route", "no endpoint " + request.method + " " +
-                                                               request.path.substr(0, 200) +
-                                                               " (GET /v1/openapi.json lists them)"));
+                                                          request.path.substr(0, 200) +
+                                                          " (GET /v1/openapi.json lists them)"));
     }
     return;
   }
@@ -137,7 +142,8 @@ void Router::dispatch(const ApiRequest& request, Reply reply) const {
   try {
     found->handler(request, params, once);
   } catch (const std::exception& e) {
-    log_error(log::Category::kHttp, "%s %s: unexpected exception: %s", request.method.c_str(), found->pattern.c_str(), e.what());
+    log_error(log::Category::kHttp, "%s %s: unexpected exception: %s", request.method.c_str(),
+              found->pattern.c_str(), e.what());
     once(error_response("internal", "the request failed unexpectedly; see the daemon's log"));
   }
 }

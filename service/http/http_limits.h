@@ -8,11 +8,11 @@
 namespace camlab::service {
 
 struct HttpLimits {
-  size_t max_body_bytes = 1 << 20;   // JSON bodies are small; 413 above
-  size_t max_header_bytes = 8192;    // request line + headers; 431 above
+  size_t max_body_bytes = 1 << 20;         // JSON bodies are small; 413 above
+  size_t max_header_bytes = 8192;          // request line + headers; 431 above
   std::chrono::seconds read_timeout{15};   // a request must arrive within this (slowloris)
   std::chrono::seconds write_timeout{30};  // a response must drain within this
-  int max_connections = 256;         // further connections are closed at accept
+  int max_connections = 256;               // further connections are closed at accept
 };
 
 }  // namespace camlab::service

@@ -27,15 +27,19 @@ std::string header(const http::request<http::string_body>& request, http::field 
 
 }  // namespace
 
-HttpSession::HttpSession(net::ip::tcp::socket&& socket, const Router& router, const HttpLimits& limits,
-                         std::shared_ptr<ConnectionCount> connections)
-    : stream_(std::move(socket)), router_(router), limits_(limits), connections_(std::move(connections)) {}
+HttpSession::HttpSession(net::ip::tcp::socket&& socket, const Router& router,
+                         const HttpLimits& limits, std::shared_ptr<ConnectionCount> connections)
+    : stream_(std::move(socket)),
+      router_(router),
+      limits_(limits),
+      connections_(std::move(connections)) {}
 
 HttpSession::~HttpSession() { --connections_->open; }
 
 void HttpSession::run() {
   // The socket's executor is this connection's strand (the acceptor made it so).
-  net::dispatch(stream_.get_executor(), beast::bind_front_handler(&HttpSession::do_read, shared_from_this()));
+  net::dispatch(stream_.get_executor(),
+                beast::bind_front_handler(&HttpSession::do_read, shared_from_this()));
 }
 
 void HttpSession::do_read() {
@@ -44,25 +48,29 @@ void HttpSession::do_read() {
   parser_->header_limit(static_cast<std::uint32_t>(limits_.max_header_bytes));
   parser_->body_limit(limits_.max_body_bytes);
   stream_.expires_after(limits_.read_timeout);
-  http::async_read(stream_, buffer_, *parser_, beast::bind_front_handler(&HttpSession::on_read, shared_from_this()));
+  http::async_read(stream_, buffer_, *parser_,
+                   beast::bind_front_handler(&HttpSession::on_read, shared_from_this()));
 }
 
 void HttpSession::on_read(beast::error_code ec, std::size_t) {
-  if (ec == http::error::end_of_stream || ec == beast::error::timeout || ec == net::error::operation_aborted ||
-      ec == net::error::connection_reset || ec == net::error::eof)
+  if (ec == http::error::end_of_stream || ec == beast::error::timeout ||
+      ec == net::error::operation_aborted || ec == net::error::connection_reset ||
+      ec == net::error::eof)
     return do_close();
   if (ec == http::error::body_limit)
-    return send(error_response("payload_too_large",
-                               "the request body is larger than " + std::to_string(limits_.max_body_bytes) + " bytes"),
-                true);
+    return send(
+        error_response("payload_too_large", "the request body is larger than " +
+                                                std::to_string(limits_.max_body_bytes) + " bytes"),
+        true);
   if (ec == http::error::header_limit)
-    return send(error_response("headers_too_large",
-                               "the request headers are larger than " + std::to_string(limits_.max_header_bytes) +
-                                   " bytes"),
+    return send(error_response("headers_too_large", "the request headers are larger than " +
+                                                        std::to_string(limits_.max_header_bytes) +
+                                                        " bytes"),
                 true);
   if (ec) {
     if (std::string_view(ec.category().name()) == "beast.http")
-      return send(error_response("invalid_request", "malformed HTTP request: " + ec.message()), true);
+      return send(error_response("invalid_request", "malformed HTTP request: " + ec.message()),
+                  true);
     return do_close();
   }
 
@@ -105,8 +113,9 @@ void HttpSession::send(ApiResponse api, bool close_after) {
   response_->prepare_payload();
   if (head_request_) response_->body().clear();  // Content-Length stays that of the GET
   stream_.expires_after(limits_.write_timeout);
-  http::async_write(stream_, *response_,
-                    beast::bind_front_handler(&HttpSession::on_write, shared_from_this(), close_after));
+  http::async_write(
+      stream_, *response_,
+      beast::bind_front_handler(&HttpSession::on_write, shared_from_this(), close_after));
 }
 
 void HttpSession::on_write(bool close_after, beast::error_code ec, std::size_t) {

@@ -15,32 +15,41 @@ using tcp = net::ip::tcp;
 Result<tcp::endpoint> parse_listen_address(const std::string& text) {
   const size_t colon = text.rfind(':');
   if (colon == std::string::npos || colon + 1 >= text.size())
-    return make_error("invalid_request", "--listen must be HOST:PORT, e.g. 127.0.0.1:8080, not '" + text + "'");
+    return make_error("invalid_request",
+                      "--listen must be HOST:PORT, e.g. 127.0.0.1:8080, not '" + text + "'");
   std::string host = text.substr(0, colon);
-  if (host.size() >= 2 && host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
+  if (host.size() >= 2 && host.front() == '[' && host.back() == ']')
+    host = host.substr(1, host.size() - 2);
   const std::string port_text = text.substr(colon + 1);
   if (port_text.size() > 5 || port_text.find_first_not_of("0123456789") != std::string::npos)
-    return make_error("invalid_request", "--listen port must be a number in [0, 65535], not '" + port_text + "'");
+    return make_error("invalid_request",
+                      "--listen port must be a number in [0, 65535], not '" + port_text + "'");
   const int port = std::stoi(port_text);
   if (port > 65535) return make_error("invalid_request", "--listen port must be in [0, 65535]");
   if (host == "localhost") host = "127.0.0.1";
   beast::error_code ec;
   const net::ip::address address = net::ip::make_address(host, ec);
-  if (ec) return make_error("invalid_request", "--listen host must be an IP address, not '" + host + "'");
+  if (ec)
+    return make_error("invalid_request", "--listen host must be an IP address, not '" + host + "'");
   return tcp::endpoint(address, static_cast<unsigned short>(port));
 }
 
 Listener::Listener(net::io_context& ioc, const Router& router, const HttpLimits& limits)
-    : ioc_(ioc), acceptor_(net::make_strand(ioc)), router_(router), limits_(limits),
+    : ioc_(ioc),
+      acceptor_(net::make_strand(ioc)),
+      router_(router),
+      limits_(limits),
       connections_(std::make_shared<ConnectionCount>()) {}
 
-Result<std::shared_ptr<Listener>> Listener::create(net::io_context& ioc, const tcp::endpoint& endpoint,
+Result<std::shared_ptr<Listener>> Listener::create(net::io_context& ioc,
+                                                   const tcp::endpoint& endpoint,
                                                    const Router& router, const HttpLimits& limits) {
   std::shared_ptr<Listener> listener(new Listener(ioc, router, limits));
   beast::error_code ec;
   const std::string where = endpoint.address().to_string() + ":" + std::to_string(endpoint.port());
   auto fail = [&](const char* what) {
-    return make_error("io_error", std::string("cannot ") + what + " " + where + ": " + ec.message());
+    return make_error("io_error",
+                      std::string("cannot ") + what + " " + where + ": " + ec.message());
   };
   listener->acceptor_.open(endpoint.protocol(), ec);
   if (ec) return fail("open a socket for");
@@ -59,7 +68,8 @@ tcp::endpoint Listener::local_endpoint() const {
 }
 
 void Listener::run() {
-  net::dispatch(acceptor_.get_executor(), beast::bind_front_handler(&Listener::do_accept, shared_from_this()));
+  net::dispatch(acceptor_.get_executor(),
+                beast::bind_front_handler(&Listener::do_accept, shared_from_this()));
 }
 
 void Listener::stop() {
@@ -71,7 +81,8 @@ void Listener::stop() {
 
 void Listener::do_accept() {
   // Each connection gets a strand of its own: its handlers never run concurrently.
-  acceptor_.async_accept(net::make_strand(ioc_), beast::bind_front_handler(&Listener::on_accept, shared_from_this()));
+  acceptor_.async_accept(net::make_strand(ioc_),
+                         beast::bind_front_handler(&Listener::on_accept, shared_from_this()));
 }
 
 void Listener::on_accept(beast::error_code ec, tcp::socket socket) {

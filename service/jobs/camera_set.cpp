@@ -1,15 +1,15 @@
 #include "service/jobs/camera_set.h"
 
+#include "base/log.h"
 #include "mock_device/spec/camera_spec.h"
 #include "mock_device/spec/default_specs.h"
-#include "mock_device/v4l2/capture_traits.h"
 #include "mock_device/spec/scene_spec.h"
-#include "base/log.h"
+#include "mock_device/v4l2/capture_traits.h"
 
 namespace camlab::service {
 
-Result<std::unique_ptr<CameraSet>> CameraSet::create(const CameraSetOptions& options, JobStore& store,
-                                                     Metrics& metrics) {
+Result<std::unique_ptr<CameraSet>> CameraSet::create(const CameraSetOptions& options,
+                                                     JobStore& store, Metrics& metrics) {
   std::unique_ptr<CameraSet> set(new CameraSet());
   if (!options.device_paths.empty())
     set->registry_.add_v4l2(device::system_v4l2_io(), "kernel", options.device_paths);
@@ -18,7 +18,9 @@ Result<std::unique_ptr<CameraSet>> CameraSet::create(const CameraSetOptions& opt
   for (const std::string& path : options.device_paths) {
     bool found = false;
     for (const auto& e : set->registry_.devices()) found = found || e.identity.path == path;
-    if (!found) log_warning(log::Category::kCameras, "--device %s: not a V4L2 capture device (skipped)", path.c_str());
+    if (!found)
+      log_warning(log::Category::kCameras, "--device %s: not a V4L2 capture device (skipped)",
+                  path.c_str());
   }
   const int real_count = static_cast<int>(set->registry_.devices().size());
   capture::CameraTraits device_traits;
@@ -27,15 +29,17 @@ Result<std::unique_ptr<CameraSet>> CameraSet::create(const CameraSetOptions& opt
     if (!spec) return spec.error();
     device_traits = mock::capture_traits_of(*spec);
   }
-  const bool add_virtual = options.virtual_cameras == VirtualCameras::kAlways ||
-                           (options.virtual_cameras == VirtualCameras::kWhenNoneFound && real_count == 0);
+  const bool add_virtual =
+      options.virtual_cameras == VirtualCameras::kAlways ||
+      (options.virtual_cameras == VirtualCameras::kWhenNoneFound && real_count == 0);
   if (add_virtual)
     if (auto s = set->add_virtual_cameras(options, real_count); !s) return s.error();
 
   for (const device::DeviceEntry& entry : set->registry_.devices()) {
     CameraWorkerOptions worker_options = options.worker;
     worker_options.traits = device_traits;
-    if (auto it = set->virtual_devices_.find(entry.identity.id); it != set->virtual_devices_.end()) {
+    if (auto it = set->virtual_devices_.find(entry.identity.id);
+        it != set->virtual_devices_.end()) {
       worker_options.spec_latency_frames = it->second->camera().timing.control_latency_frames;
       worker_options.source_extra = set->virtual_sources_[entry.identity.id];
       worker_options.traits = mock::capture_traits_of(it->second->camera());
@@ -74,7 +78,8 @@ Status CameraSet::add_virtual_cameras(const CameraSetOptions& options, int first
     mock::VirtualDeviceOptions device_options;
     device_options.index = first_index + i;
     device_options.seed = static_cast<uint64_t>(1 + i);
-    auto device = mock::VirtualV4l2Device::create(std::move(*camera), std::move(*scene), device_options);
+    auto device =
+        mock::VirtualV4l2Device::create(std::move(*camera), std::move(*scene), device_options);
     if (!device) return device.error();
     devices.push_back(std::move(*device));
     paths.push_back("/dev/video" + std::to_string(device_options.index));
@@ -85,7 +90,8 @@ Status CameraSet::add_virtual_cameras(const CameraSetOptions& options, int first
   for (size_t i = before; i < registry_.devices().size(); ++i) {
     const std::string& id = registry_.devices()[i].identity.id;
     virtual_devices_[id] = devices[i - before];
-    virtual_sources_[id] = {{"backend", "virtual"}, {"camera_spec", camera_json}, {"scene_spec", scene_json}};
+    virtual_sources_[id] = {
+        {"backend", "virtual"}, {"camera_spec", camera_json}, {"scene_spec", scene_json}};
   }
   return {};
 }

@@ -25,11 +25,11 @@ namespace camlab::service {
 enum class VirtualCameras { kWhenNoneFound, kAlways, kNever };
 
 struct CameraSetOptions {
-  bool scan_devices = true;                 // look at every /dev/video*
-  std::vector<std::string> device_paths;    // only these (when non-empty)
+  bool scan_devices = true;               // look at every /dev/video*
+  std::vector<std::string> device_paths;  // only these (when non-empty)
   VirtualCameras virtual_cameras = VirtualCameras::kWhenNoneFound;
-  std::filesystem::path camera_spec;        // empty: the built-in 640x480 camera
-  std::filesystem::path scene_spec;         // empty: the built-in slanted-edge scene
+  std::filesystem::path camera_spec;  // empty: the built-in 640x480 camera
+  std::filesystem::path scene_spec;   // empty: the built-in slanted-edge scene
   int virtual_count = 1;
   // A camera spec describing the V4L2 (kernel) cameras' sensor and lens: bit depth, black
   // level, gain unity, iris f-numbers, focal length, focus steps (empty: unknown).

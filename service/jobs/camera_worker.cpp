@@ -1,16 +1,19 @@
 #include "service/jobs/camera_worker.h"
 
+#include "base/log.h"
 #include "device/camera_json.h"
 #include "service/jobs/capture_job.h"
-#include "service/store/job_store.h"
-#include "base/log.h"
 #include "service/metrics.h"
+#include "service/store/job_store.h"
 
 namespace camlab::service {
 
 CameraWorker::CameraWorker(device::DeviceEntry entry, OpenCamera open, CameraWorkerOptions options,
                            JobStore& store, Metrics& metrics)
-    : entry_(std::move(entry)), open_(std::move(open)), options_(std::move(options)), store_(store),
+    : entry_(std::move(entry)),
+      open_(std::move(open)),
+      options_(std::move(options)),
+      store_(store),
       metrics_(metrics) {
   snapshot_.identity = entry_.identity;
   snapshot_.transport = entry_.transport;
@@ -73,7 +76,8 @@ Status CameraWorker::enqueue_job(int64_t job_id) {
     if (static_cast<int>(jobs_.size()) >= options_.max_queued_jobs)
       return make_error("too_many_jobs", "camera " + id() + " already has " +
                                              std::to_string(jobs_.size()) + " jobs queued (limit " +
-                                             std::to_string(options_.max_queued_jobs) + "); retry later");
+                                             std::to_string(options_.max_queued_jobs) +
+                                             "); retry later");
     jobs_.push_back(job_id);
   }
   wake_.notify_all();
@@ -115,7 +119,8 @@ void CameraWorker::refresh_snapshot() {
   std::lock_guard lock(mutex_);
   snapshot_.description = std::move(description);
   snapshot_.available = controls.ok() && formats.ok();
-  snapshot_.unavailable_reason = snapshot_.available ? "" : (!controls ? controls.error() : formats.error()).message;
+  snapshot_.unavailable_reason =
+      snapshot_.available ? "" : (!controls ? controls.error() : formats.error()).message;
   if (controls) snapshot_.controls = std::move(*controls);
   if (formats) snapshot_.formats = std::move(*formats);
 }
@@ -165,8 +170,9 @@ void CameraWorker::run() {
   const Error stopping = make_error("shutting_down", "camlabd is shutting down");
   for (auto& task : tasks) task(nullptr, &stopping);
   for (int64_t id : jobs) {
-    if (auto done = store_.finish(id, JobState::kInterrupted,
-                                  make_error("interrupted", "camlabd stopped before the job started"), nullptr);
+    if (auto done = store_.finish(
+            id, JobState::kInterrupted,
+            make_error("interrupted", "camlabd stopped before the job started"), nullptr);
         done && *done)
       metrics_.count_job_finished("capture", "interrupted");
   }
@@ -185,7 +191,8 @@ void CameraWorker::run_job(int64_t id) {
   if (!started || !*started) return;  // cancelled while queued
   cancel_ = false;
   running_job_ = id;
-  log_info(log::Category::kJobs, "job %lld (%s) started on camera %s", static_cast<long long>(id), job.kind.c_str(), this->id().c_str());
+  log_info(log::Category::kJobs, "job %lld (%s) started on camera %s", static_cast<long long>(id),
+           job.kind.c_str(), this->id().c_str());
 
   JobOutcome outcome;
   auto camera = ensure_open();
@@ -193,8 +200,10 @@ void CameraWorker::run_job(int64_t id) {
     outcome.state = JobState::kFailed;
     outcome.error = camera.error().with_context("camera " + this->id() + " is not available: ");
   } else {
-    CaptureJobEnv env{store_,           metrics_,          options_.data_dir, options_.spec_latency_frames,
-                      options_.traits,  nlohmann::json(), options_.frame_timeout, &cancel_, &shutting_down_};
+    CaptureJobEnv env{
+        store_,          metrics_,         options_.data_dir,      options_.spec_latency_frames,
+        options_.traits, nlohmann::json(), options_.frame_timeout, &cancel_,
+        &shutting_down_};
     env.source = snapshot().description;
     env.source["transport"] = entry_.transport;
     for (const auto& [key, value] : options_.source_extra.items()) env.source[key] = value;
@@ -203,7 +212,8 @@ void CameraWorker::run_job(int64_t id) {
   }
   running_job_ = 0;
   if (outcome.device_failed) {
-    log_warning(log::Category::kCameras, "camera %s failed during job %lld: %s", this->id().c_str(), static_cast<long long>(id),
+    log_warning(log::Category::kCameras, "camera %s failed during job %lld: %s", this->id().c_str(),
+                static_cast<long long>(id),
                 outcome.error ? outcome.error->message.c_str() : "device error");
     drop_camera(outcome.error.value_or(make_error("io_error", "device error")));
     // Reopen now, so the API shows at once whether the camera is back (an I/O error or
@@ -215,10 +225,13 @@ void CameraWorker::run_job(int64_t id) {
     refresh_snapshot();
   }
   auto finished = store_.finish(id, outcome.state, outcome.error, outcome.result);
-  if (!finished) log_error(log::Category::kJobs, "job %lld: %s", static_cast<long long>(id), finished.error().message.c_str());
+  if (!finished)
+    log_error(log::Category::kJobs, "job %lld: %s", static_cast<long long>(id),
+              finished.error().message.c_str());
   metrics_.count_job_finished(job.kind, job_state_name(outcome.state));
-  log_info(log::Category::kJobs, "job %lld %s%s%s", static_cast<long long>(id), job_state_name(outcome.state),
-           outcome.error ? ": " : "", outcome.error ? outcome.error->message.c_str() : "");
+  log_info(log::Category::kJobs, "job %lld %s%s%s", static_cast<long long>(id),
+           job_state_name(outcome.state), outcome.error ? ": " : "",
+           outcome.error ? outcome.error->message.c_str() : "");
 }
 
 }  // namespace camlab::service

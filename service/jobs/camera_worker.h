@@ -42,14 +42,14 @@ class Metrics;
 
 struct CameraSnapshot {
   device::CameraIdentity identity;
-  std::string transport;       // "kernel", "in-process virtual camera", ...
+  std::string transport;  // "kernel", "in-process virtual camera", ...
   bool available = false;
   std::string unavailable_reason;
   std::vector<device::ControlInfo> controls;
   std::vector<device::PixelFormatInfo> formats;
-  nlohmann::json description;  // device::describe_camera, as of the last refresh
+  nlohmann::json description;    // device::describe_camera, as of the last refresh
   capture::CameraTraits traits;  // what raw values mean (bit depth, f-numbers), when known
-  int64_t running_job = 0;     // 0 when idle
+  int64_t running_job = 0;       // 0 when idle
   int queued_jobs = 0;
 };
 
@@ -70,8 +70,8 @@ class CameraWorker {
   // Runs on the worker thread with the open camera, or with nullptr and why it is not.
   using Task = std::function<void(device::Camera* camera, const Error* unavailable)>;
 
-  CameraWorker(device::DeviceEntry entry, OpenCamera open, CameraWorkerOptions options, JobStore& store,
-               Metrics& metrics);
+  CameraWorker(device::DeviceEntry entry, OpenCamera open, CameraWorkerOptions options,
+               JobStore& store, Metrics& metrics);
   ~CameraWorker();
   CameraWorker(const CameraWorker&) = delete;
   CameraWorker& operator=(const CameraWorker&) = delete;

@@ -2,10 +2,10 @@
 
 #include <algorithm>
 
+#include "base/log.h"
 #include "capture/capture_plan.h"
 #include "capture/capture_runner.h"
 #include "capture/latency_probe.h"
-#include "base/log.h"
 #include "service/metrics.h"
 
 namespace camlab::service {
@@ -20,7 +20,8 @@ struct LatencyChoice {
   nlohmann::json details;
 };
 
-Result<LatencyChoice> measure_latency(device::Camera& camera, const CaptureJobEnv& env, int* frames_consumed) {
+Result<LatencyChoice> measure_latency(device::Camera& camera, const CaptureJobEnv& env,
+                                      int* frames_consumed) {
   const std::string& id = camera.identity().id;
   auto probe = capture::probe_control_latency(camera);
   LatencyChoice choice;
@@ -48,29 +49,35 @@ Result<LatencyChoice> measure_latency(device::Camera& camera, const CaptureJobEn
   } else if (env.spec_latency_frames) {
     choice.frames = *env.spec_latency_frames;
     choice.source = "spec";
-    choice.details = {{"probe_error", {{"code", probe.error().code}, {"message", probe.error().message}}},
-                      {"spec_frames", *env.spec_latency_frames}};
+    choice.details = {
+        {"probe_error", {{"code", probe.error().code}, {"message", probe.error().message}}},
+        {"spec_frames", *env.spec_latency_frames}};
   } else {
     // Not stored: a later probe (another scene, more light) may succeed.
     choice.frames = kFallbackLatencyFrames;
     choice.source = "default";
-    choice.details = {{"probe_error", {{"code", probe.error().code}, {"message", probe.error().message}}}};
-    log_warning(log::Category::kCameras, "camera %s: latency probe failed (%s); assuming %d frames", id.c_str(),
-                probe.error().message.c_str(), kFallbackLatencyFrames);
+    choice.details = {
+        {"probe_error", {{"code", probe.error().code}, {"message", probe.error().message}}}};
+    log_warning(log::Category::kCameras, "camera %s: latency probe failed (%s); assuming %d frames",
+                id.c_str(), probe.error().message.c_str(), kFallbackLatencyFrames);
     return choice;
   }
   LatencyRecord record{id, choice.frames, choice.source, unix_time_ms(), choice.details};
-  if (auto s = env.store.put_latency(record); !s) log_warning(log::Category::kCameras, "camera %s: %s", id.c_str(), s.error().message.c_str());
-  log_info(log::Category::kCameras, "camera %s: control latency %d frames (%s)", id.c_str(), choice.frames, choice.source.c_str());
+  if (auto s = env.store.put_latency(record); !s)
+    log_warning(log::Category::kCameras, "camera %s: %s", id.c_str(), s.error().message.c_str());
+  log_info(log::Category::kCameras, "camera %s: control latency %d frames (%s)", id.c_str(),
+           choice.frames, choice.source.c_str());
   return choice;
 }
 
-Result<LatencyChoice> latency_for(device::Camera& camera, const CaptureJobEnv& env, int* frames_consumed) {
+Result<LatencyChoice> latency_for(device::Camera& camera, const CaptureJobEnv& env,
+                                  int* frames_consumed) {
   auto stored = env.store.latency(camera.identity().id);
   if (stored && stored->has_value()) {
     LatencyChoice choice{(*stored)->latency_frames, -1, (*stored)->source, nullptr};
     const nlohmann::json& details = (*stored)->details;
-    if (details.is_object() && details.contains("probed_frames") && details["probed_frames"].is_number_integer() &&
+    if (details.is_object() && details.contains("probed_frames") &&
+        details["probed_frames"].is_number_integer() &&
         details["probed_frames"].get<int>() < choice.frames)
       choice.min_frames = details["probed_frames"].get<int>();
     return choice;
@@ -85,7 +92,8 @@ class ProgressObserver final : public capture::CaptureObserver {
   void on_frame(const image::CaptureFrameEntry&, const image::FrameSidecar& sidecar,
                 const capture::CaptureProgress& progress) override {
     env_.metrics.count_frames(1, sidecar.frames_discarded);
-    (void)env_.store.progress(job_id_, progress.frames_kept, progress.frames_total, progress.frames_discarded);
+    (void)env_.store.progress(job_id_, progress.frames_kept, progress.frames_total,
+                              progress.frames_discarded);
   }
 
  private:
@@ -104,8 +112,9 @@ JobOutcome failed(Error error, bool device_failed = false) {
 }  // namespace
 
 bool is_device_error(ErrorCode code) {
-  return code == ErrorCode::kNoDevice || code == ErrorCode::kIoError || code == ErrorCode::kTimeout ||
-         code == ErrorCode::kNotStreaming || code == ErrorCode::kBusy;
+  return code == ErrorCode::kNoDevice || code == ErrorCode::kIoError ||
+         code == ErrorCode::kTimeout || code == ErrorCode::kNotStreaming ||
+         code == ErrorCode::kBusy;
 }
 
 JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const CaptureJobEnv& env) {
@@ -134,40 +143,39 @@ JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const C
   if (!summary) return failed(summary.error());
 
   JobOutcome outcome;
-  outcome.result = {{"frames_kept", summary->frames_kept},
-                    {"frames_discarded", summary->frames_discarded},
-                    {"frames_dropped", summary->frames_dropped},
-                    {"frames_consumed", summary->frames_consumed},
-                    {"frames_minimum", summary->frames_minimum},
-                    {"steps_retaken", summary->steps_retaken},
-                    {"frames_consumed_by_probe", probe_frames},
-                    {"frames_total", plan->total_frames()},
-                    {"wall_seconds", summary->wall_seconds},
-                    {"control_latency_frames", latency->frames},
-                    {"control_latency_source", latency->source},
-                    {"folder", job.folder}};
+  outcome.result = {
+      {"frames_kept", summary->frames_kept},       {"frames_discarded", summary->frames_discarded},
+      {"frames_dropped", summary->frames_dropped}, {"frames_consumed", summary->frames_consumed},
+      {"frames_minimum", summary->frames_minimum}, {"steps_retaken", summary->steps_retaken},
+      {"frames_consumed_by_probe", probe_frames},  {"frames_total", plan->total_frames()},
+      {"wall_seconds", summary->wall_seconds},     {"control_latency_frames", latency->frames},
+      {"control_latency_source", latency->source}, {"folder", job.folder}};
   if (summary->restore_error)
     outcome.result["restore_error"] = {{"code", summary->restore_error->code},
                                        {"message", summary->restore_error->message}};
-  (void)env.store.progress(job.id, summary->frames_kept, plan->total_frames(), summary->frames_discarded);
+  (void)env.store.progress(job.id, summary->frames_kept, plan->total_frames(),
+                           summary->frames_discarded);
   if (summary->failure) {
     outcome.state = JobState::kFailed;
     outcome.device_failed = is_device_error(summary->failure->code);
-    outcome.error = make_error(summary->failure->code,
-                               summary->failure->message + " (the " + std::to_string(summary->frames_kept) +
-                                   " frames captured before the failure are kept)");
+    outcome.error =
+        make_error(summary->failure->code, summary->failure->message + " (the " +
+                                               std::to_string(summary->frames_kept) +
+                                               " frames captured before the failure are kept)");
   } else if (summary->cancelled) {
     const bool shutdown = env.shutting_down && env.shutting_down->load();
     outcome.state = shutdown ? JobState::kInterrupted : JobState::kCancelled;
-    outcome.error = shutdown ? make_error("interrupted", "camlabd stopped during the capture; frames kept")
-                             : make_error("cancelled", "cancelled by request; frames kept");
+    outcome.error =
+        shutdown ? make_error("interrupted", "camlabd stopped during the capture; frames kept")
+                 : make_error("cancelled", "cancelled by request; frames kept");
   } else {
     outcome.state = JobState::kSucceeded;
   }
   return outcome;
 }
 
-JobOutcome execute_latency_probe(device::Camera& camera, const JobRecord&, const CaptureJobEnv& env) {
+JobOutcome execute_latency_probe(device::Camera& camera, const JobRecord&,
+                                 const CaptureJobEnv& env) {
   int frames = 0;
   auto latency = measure_latency(camera, env, &frames);
   if (!latency) return failed(latency.error());

@@ -46,7 +46,8 @@ struct CaptureJobEnv {
 };
 
 JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const CaptureJobEnv& env);
-JobOutcome execute_latency_probe(device::Camera& camera, const JobRecord& job, const CaptureJobEnv& env);
+JobOutcome execute_latency_probe(device::Camera& camera, const JobRecord& job,
+                                 const CaptureJobEnv& env);
 
 // Whether an error code means the device itself failed (as opposed to bad input).
 bool is_device_error(ErrorCode code);

@@ -5,11 +5,11 @@
 #include "analysis/defocus_report.h"
 #include "analysis/exposure_report.h"
 #include "analysis/focus_report.h"
+#include "base/atomic_file.h"
+#include "base/log.h"
 #include "calib/calibrate.h"
 #include "calib/model_io.h"
-#include "base/atomic_file.h"
 #include "image/capture_folder.h"
-#include "base/log.h"
 #include "service/metrics.h"
 
 namespace camlab::service {
@@ -28,7 +28,8 @@ double manifest_pixel_pitch_um(const image::CaptureFolder& folder) {
   const nlohmann::json& source = folder.manifest().value("source", nlohmann::json::object());
   if (source.is_object() && source.contains("camera_spec")) {
     const auto& sensor = source["camera_spec"].value("sensor", nlohmann::json::object());
-    if (sensor.is_object() && sensor.contains("pixel_pitch_um") && sensor["pixel_pitch_um"].is_number())
+    if (sensor.is_object() && sensor.contains("pixel_pitch_um") &&
+        sensor["pixel_pitch_um"].is_number())
       return sensor["pixel_pitch_um"].get<double>();
   }
   return 0;
@@ -41,7 +42,8 @@ JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path
   const std::filesystem::path source = data_dir / request.at("source_folder").get<std::string>();
   auto folder = image::CaptureFolder::open(source);
   if (!folder) return failure(folder.error());
-  if (folder->frames().empty()) return failure(make_error("no_frames", "the capture folder holds no frames"));
+  if (folder->frames().empty())
+    return failure(make_error("no_frames", "the capture folder holds no frames"));
 
   // The same run as `camlab calibrate --job` (calib/calibrate.h): detector choice, corner
   // weights, model selection, report, and a model file with mrcal's optimization inputs.
@@ -59,7 +61,8 @@ JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path
   const std::filesystem::path out = data_dir / job.folder;
   std::error_code ec;
   std::filesystem::create_directories(out, ec);
-  if (ec) return failure(make_error("io_error", "cannot create " + out.string() + ": " + ec.message()));
+  if (ec)
+    return failure(make_error("io_error", "cannot create " + out.string() + ": " + ec.message()));
   options.out_cameramodel = out / "camera.cameramodel";
   options.out_report_json = out / "report.json";
 
@@ -72,12 +75,13 @@ JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path
   outcome.state = JobState::kSucceeded;
   // The result's model text is the bare model (a few hundred bytes); the file carries
   // the optimization inputs too (about 100 kB for 40 views).
-  outcome.result = {{"report", *report},
-                    {"cameramodel", calib::cameramodel_text(run->report.solution.model,
-                                                            "camlabd calibration job " + std::to_string(job.id))},
-                    {"cameramodel_file", job.folder + "/camera.cameramodel"},
-                    {"views_with_board", static_cast<int>(run->data.views.size())},
-                    {"frames", run->images}};
+  outcome.result = {
+      {"report", *report},
+      {"cameramodel", calib::cameramodel_text(run->report.solution.model,
+                                              "camlabd calibration job " + std::to_string(job.id))},
+      {"cameramodel_file", job.folder + "/camera.cameramodel"},
+      {"views_with_board", static_cast<int>(run->data.views.size())},
+      {"frames", run->images}};
   return outcome;
 }
 
@@ -106,12 +110,18 @@ JobOutcome execute_analysis(const JobRecord& job, const std::filesystem::path& d
   return outcome;
 }
 
-ComputeWorker::ComputeWorker(std::filesystem::path data_dir, JobStore& store, Metrics& metrics, int max_queued_jobs)
-    : data_dir_(std::move(data_dir)), store_(store), metrics_(metrics), max_queued_jobs_(max_queued_jobs) {}
+ComputeWorker::ComputeWorker(std::filesystem::path data_dir, JobStore& store, Metrics& metrics,
+                             int max_queued_jobs)
+    : data_dir_(std::move(data_dir)),
+      store_(store),
+      metrics_(metrics),
+      max_queued_jobs_(max_queued_jobs) {}
 
 ComputeWorker::~ComputeWorker() { stop(); }
 
-void ComputeWorker::start() { thread_ = std::thread([this] { run(); }); }
+void ComputeWorker::start() {
+  thread_ = std::thread([this] { run(); });
+}
 
 void ComputeWorker::stop() {
   {
@@ -132,8 +142,9 @@ Status ComputeWorker::enqueue_job(int64_t id) {
     std::lock_guard lock(mutex_);
     if (stopping_) return make_error("shutting_down", "camlabd is shutting down");
     if (static_cast<int>(jobs_.size()) >= max_queued_jobs_)
-      return make_error("too_many_jobs", "the compute queue is full (" + std::to_string(max_queued_jobs_) +
-                                             " jobs); retry later");
+      return make_error(
+          "too_many_jobs",
+          "the compute queue is full (" + std::to_string(max_queued_jobs_) + " jobs); retry later");
     jobs_.push_back(id);
   }
   wake_.notify_all();
@@ -155,18 +166,22 @@ void ComputeWorker::run() {
     auto started = store_.start(id);
     if (!started || !*started) continue;
     const JobRecord& job = **record;
-    log_info(log::Category::kJobs, "job %lld (%s) started", static_cast<long long>(id), job.kind.c_str());
+    log_info(log::Category::kJobs, "job %lld (%s) started", static_cast<long long>(id),
+             job.kind.c_str());
     JobOutcome outcome;
     // The libraries return errors as values; an exception here is a bug in a library or
     // a request the handler let through malformed, and must not take the daemon down.
     try {
-      outcome = job.kind == "calibration" ? execute_calibration(job, data_dir_) : execute_analysis(job, data_dir_);
+      outcome = job.kind == "calibration" ? execute_calibration(job, data_dir_)
+                                          : execute_analysis(job, data_dir_);
     } catch (const std::exception& e) {
-      outcome = failure(make_error("internal", std::string("the job failed unexpectedly: ") + e.what()));
+      outcome =
+          failure(make_error("internal", std::string("the job failed unexpectedly: ") + e.what()));
     }
     (void)store_.finish(id, outcome.state, outcome.error, outcome.result);
     metrics_.count_job_finished(job.kind, job_state_name(outcome.state));
-    log_info(log::Category::kJobs, "job %lld %s%s%s", static_cast<long long>(id), job_state_name(outcome.state), outcome.error ? ": " : "",
+    log_info(log::Category::kJobs, "job %lld %s%s%s", static_cast<long long>(id),
+             job_state_name(outcome.state), outcome.error ? ": " : "",
              outcome.error ? outcome.error->message.c_str() : "");
   }
   std::deque<int64_t> left;
@@ -176,7 +191,8 @@ void ComputeWorker::run() {
   }
   for (int64_t id : left)
     (void)store_.finish(id, JobState::kInterrupted,
-                        make_error("interrupted", "camlabd stopped before the job started"), nullptr);
+                        make_error("interrupted", "camlabd stopped before the job started"),
+                        nullptr);
 }
 
 }  // namespace camlab::service

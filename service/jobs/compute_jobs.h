@@ -32,7 +32,8 @@ JobOutcome execute_analysis(const JobRecord& job, const std::filesystem::path& d
 
 class ComputeWorker {
  public:
-  ComputeWorker(std::filesystem::path data_dir, JobStore& store, Metrics& metrics, int max_queued_jobs = 16);
+  ComputeWorker(std::filesystem::path data_dir, JobStore& store, Metrics& metrics,
+                int max_queued_jobs = 16);
   ~ComputeWorker();
   void start();
   void stop();  // interrupts queued jobs; waits for the running one (it cannot be cut short)

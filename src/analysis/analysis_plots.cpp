@@ -8,16 +8,15 @@
 #include <opencv2/imgproc.hpp>
 
 #include "analysis/analyze_folder.h"
-#include "base/format.h"
 #include "analysis/focus_report.h"
 #include "analysis/plot.h"
+#include "base/format.h"
 
 namespace camlab::analysis {
 namespace {
 
 namespace fs = std::filesystem;
 using Paths = std::vector<fs::path>;
-
 
 Status make_dir(const fs::path& dir) {
   std::error_code ec;
@@ -34,7 +33,8 @@ Status plot(const fs::path& path, const PlotSpec& spec, Paths* written) {
 
 Status png(const fs::path& path, const cv::Mat& image, Paths* written) {
   try {
-    if (!cv::imwrite(path.string(), image)) return make_error("io_error", "cannot write " + path.string());
+    if (!cv::imwrite(path.string(), image))
+      return make_error("io_error", "cannot write " + path.string());
   } catch (const cv::Exception& e) {
     return make_error("io_error", "cannot write " + path.string() + ": " + e.what());
   }
@@ -79,7 +79,8 @@ Result<Paths> write_defocus_plots(const fs::path& dir, const DefocusReport& r) {
     } else if (!aperture && t.v_curve) {
       spec.title = t.name + ": V-curve";
       spec.x_label = "focus position (steps)";
-      fit.label = format_printf("fit: best %.2f, slope %.4f px/step", t.v_curve->best_position, t.v_curve->slope_px_per_step);
+      fit.label = format_printf("fit: best %.2f, slope %.4f px/step", t.v_curve->best_position,
+                                t.v_curve->slope_px_per_step);
       double lo = 1e300, hi = -1e300;
       for (const auto& fe : t.frames) {
         lo = std::min(lo, fe.focus_position);
@@ -94,7 +95,9 @@ Result<Paths> write_defocus_plots(const fs::path& dir, const DefocusReport& r) {
     }
     spec.y_label = "blur diameter (px)";
     spec.series = {measured, fit};
-    if (Status s = plot(dir / (t.name + (aperture ? "_coc_vs_n.png" : "_v_curve.png")), spec, &written); !s)
+    if (Status s =
+            plot(dir / (t.name + (aperture ? "_coc_vs_n.png" : "_v_curve.png")), spec, &written);
+        !s)
       return s.error();
   }
   return written;
@@ -109,12 +112,14 @@ Result<Paths> write_exposure_plots(const fs::path& dir, const ExposureReport& r)
     spec.title = "photon transfer";
     spec.x_label = "mean signal above dark (DN)";
     spec.y_label = "temporal variance (DN^2)";
-    PlotSeries pts = series("frame pairs", false, 0xc00000), used = series("used in the fit", false, 0x008000);
+    PlotSeries pts = series("frame pairs", false, 0xc00000),
+               used = series("used in the fit", false, 0x008000);
     for (const auto& p : pt.points) {
       (p.used ? used : pts).x.push_back(p.mean_dn - pt.dark_mean_dn);
       (p.used ? used : pts).y.push_back(p.variance_dn2);
     }
-    PlotSeries fit = series(format_printf("K = %.4f DN/e-", pt.system_gain_dn_per_e), true, 0x0000c0);
+    PlotSeries fit =
+        series(format_printf("K = %.4f DN/e-", pt.system_gain_dn_per_e), true, 0x0000c0);
     for (double m : {0.0, pt.saturation_mean_dn - pt.dark_mean_dn}) {
       fit.x.push_back(m);
       fit.y.push_back(pt.dark_variance_dn2 + pt.system_gain_dn_per_e * m);
@@ -128,7 +133,8 @@ Result<Paths> write_exposure_plots(const fs::path& dir, const ExposureReport& r)
     spec.x_label = "exposure x gain (us)";
     spec.y_label = "mean signal above dark (DN)";
     PlotSeries pts = series("frames", false, 0xc00000);
-    PlotSeries fit = series(format_printf("max error %.2f%%", r.max_linearity_error_pct), true, 0x0000c0);
+    PlotSeries fit =
+        series(format_printf("max error %.2f%%", r.max_linearity_error_pct), true, 0x0000c0);
     for (const auto& l : r.linearity) {
       pts.x.push_back(l.exposure_gain_us);
       pts.y.push_back(l.mean_dn);

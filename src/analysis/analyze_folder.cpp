@@ -33,9 +33,9 @@ nlohmann::json with_plots(nlohmann::json report, const std::vector<std::filesyst
 }  // namespace
 
 std::string to_text(const DefocusReport& r) {
-  std::string text = line("defocus: %zu target(s), sweep %s, pitch %.3g um, f %.4g mm, baseline sigma %.3g px\n",
-                          r.targets.size(), r.sweep.c_str(), r.pixel_pitch_um, r.focal_mm,
-                          r.baseline_sigma_px);
+  std::string text =
+      line("defocus: %zu target(s), sweep %s, pitch %.3g um, f %.4g mm, baseline sigma %.3g px\n",
+           r.targets.size(), r.sweep.c_str(), r.pixel_pitch_um, r.focal_mm, r.baseline_sigma_px);
   for (const auto& t : r.targets) {
     text += line("\n%s", t.name.c_str());
     if (t.distance_m) text += line(" (at %.4g m)", *t.distance_m);
@@ -45,12 +45,14 @@ std::string to_text(const DefocusReport& r) {
       text += line("  %5d %6.3g %7.1f  %-24s %7.3f  [%6.3f, %6.3f]", fe.frame, fe.f_number,
                    fe.focus_position, m.status.c_str(), m.diameter_px, m.ci_low_px, m.ci_high_px);
       text += fe.truth_coc_px ? line("  %7.3f", *fe.truth_coc_px) : std::string();
-      text += m.joint_with.empty() ? std::string("\n") : "  (fitted jointly with " + m.joint_with + ")\n";
+      text += m.joint_with.empty() ? std::string("\n")
+                                   : "  (fitted jointly with " + m.joint_with + ")\n";
     }
     if (t.aperture) {
-      text += line("  C x N = k = %.4f +- %.4f px (%d frames, chi2/dof %.2f, max |CN/k - 1| %.2f%%)\n",
-                   t.aperture->k_px, t.aperture->k_sigma_px, t.aperture->used_count,
-                   t.aperture->chi2_per_dof, 100 * t.aperture->max_abs_cn_deviation);
+      text +=
+          line("  C x N = k = %.4f +- %.4f px (%d frames, chi2/dof %.2f, max |CN/k - 1| %.2f%%)\n",
+               t.aperture->k_px, t.aperture->k_sigma_px, t.aperture->used_count,
+               t.aperture->chi2_per_dof, 100 * t.aperture->max_abs_cn_deviation);
       text += line("  implied defocus |z_s - z_i| / z_i = %.5f +- %.5f\n", t.implied_defocus,
                    t.implied_defocus_sigma);
       if (t.thin_lens_k_px)
@@ -60,19 +62,21 @@ std::string to_text(const DefocusReport& r) {
       text += "  C = k/N: " + t.aperture_error + "\n";
     }
     if (t.v_curve) {
-      text += line("  V-curve: best focus %.3f +- %.3f steps, slope %.5f +- %.5f px/step (%d frames%s)\n",
-                   t.v_curve->best_position, t.v_curve->best_position_sigma,
-                   t.v_curve->slope_px_per_step, t.v_curve->slope_sigma, t.v_curve->used_count,
-                   t.v_curve->p0_at_end ? ", MINIMUM OUTSIDE THE SWEEP: extrapolated" : "");
+      text += line(
+          "  V-curve: best focus %.3f +- %.3f steps, slope %.5f +- %.5f px/step (%d frames%s)\n",
+          t.v_curve->best_position, t.v_curve->best_position_sigma, t.v_curve->slope_px_per_step,
+          t.v_curve->slope_sigma, t.v_curve->used_count,
+          t.v_curve->p0_at_end ? ", MINIMUM OUTSIDE THE SWEEP: extrapolated" : "");
       if (t.aperture_over_zi) text += line("  slope A / z_i = %.5f\n", *t.aperture_over_zi);
       if (t.best_focus_distance_m)
         text += line("  in best focus: object at %.4g m (lens-to-sensor %.5f mm)\n",
                      *t.best_focus_distance_m, *t.best_lens_to_sensor_mm);
       if (t.dof_near_m && t.dof_far_m)
-        text += line("  depth of field for CoC %.3g px: %.4g m .. %s m (depth of focus %.1f steps)\n",
-                     r.acceptable_coc_px, *t.dof_near_m,
-                     std::isfinite(*t.dof_far_m) ? line("%.4g", *t.dof_far_m).c_str() : "infinity",
-                     t.depth_of_focus_steps);
+        text +=
+            line("  depth of field for CoC %.3g px: %.4g m .. %s m (depth of focus %.1f steps)\n",
+                 r.acceptable_coc_px, *t.dof_near_m,
+                 std::isfinite(*t.dof_far_m) ? line("%.4g", *t.dof_far_m).c_str() : "infinity",
+                 t.depth_of_focus_steps);
     } else if (!t.v_curve_error.empty()) {
       text += "  V-curve: " + t.v_curve_error + "\n";
     }
@@ -81,34 +85,43 @@ std::string to_text(const DefocusReport& r) {
 }
 
 std::string to_text(const ExposureReport& r) {
-  std::string text = line("exposure: %d frames, %zu exposure settings\n", r.frame_count, r.linearity.size());
+  std::string text =
+      line("exposure: %d frames, %zu exposure settings\n", r.frame_count, r.linearity.size());
   if (!r.linearity.empty()) {
     text += "  T x gain [us]   mean [DN]   linearity error\n";
     for (const auto& l : r.linearity)
       text += line("  %12.1f %11.2f %+9.3f%%%s\n", l.exposure_gain_us, l.mean_dn, l.error_pct,
                    l.used ? "" : "  (saturated or dark: not used)");
-    text += line("  max linearity error %.3f%% over %d settings\n", r.max_linearity_error_pct, r.linearity_used);
+    text += line("  max linearity error %.3f%% over %d settings\n", r.max_linearity_error_pct,
+                 r.linearity_used);
   }
   if (r.photon_transfer) {
     const auto& pt = *r.photon_transfer;
-    text += line("  photon transfer (EMVA 1288, %d pairs, %d in the fit):\n", static_cast<int>(pt.points.size()), pt.used_count);
-    text += line("    system gain K     %.5f +- %.5f DN/e-\n", pt.system_gain_dn_per_e, pt.system_gain_sigma);
+    text += line("  photon transfer (EMVA 1288, %d pairs, %d in the fit):\n",
+                 static_cast<int>(pt.points.size()), pt.used_count);
+    text += line("    system gain K     %.5f +- %.5f DN/e-\n", pt.system_gain_dn_per_e,
+                 pt.system_gain_sigma);
     text += line("    dark noise        %.3f e-\n", pt.dark_noise_e);
-    text += line("    saturation        %.0f e- (mean %.1f DN above dark)\n", pt.saturation_capacity_e,
-                 pt.saturation_mean_dn - pt.dark_mean_dn);
+    text += line("    saturation        %.0f e- (mean %.1f DN above dark)\n",
+                 pt.saturation_capacity_e, pt.saturation_mean_dn - pt.dark_mean_dn);
     text += line("    SNR max           %.2f (%.2f dB)\n", pt.snr_max, 20 * std::log10(pt.snr_max));
-    text += line("    dynamic range     %.1f (%.2f dB)\n", pt.dynamic_range, 20 * std::log10(pt.dynamic_range));
+    text += line("    dynamic range     %.1f (%.2f dB)\n", pt.dynamic_range,
+                 20 * std::log10(pt.dynamic_range));
     if (pt.expected_gain_dn_per_e > 0)
-      text += line("    spec K x gain     %.5f DN/e- (measured/spec - 1 = %+.2f%%)\n", pt.expected_gain_dn_per_e,
+      text += line("    spec K x gain     %.5f DN/e- (measured/spec - 1 = %+.2f%%)\n",
+                   pt.expected_gain_dn_per_e,
                    100 * (pt.system_gain_dn_per_e / pt.expected_gain_dn_per_e - 1));
   } else if (!r.photon_transfer_error.empty()) {
     text += "  photon transfer: " + r.photon_transfer_error + "\n";
   }
   if (r.hdr) {
-    text += line("  HDR merge: %zu exposures, %lld pixels clipped in every frame (flagged, lower bound given)\n",
-                 r.linearity.size(), static_cast<long long>(r.hdr->clipped_everywhere));
+    text += line(
+        "  HDR merge: %zu exposures, %lld pixels clipped in every frame (flagged, lower bound "
+        "given)\n",
+        r.linearity.size(), static_cast<long long>(r.hdr->clipped_everywhere));
     if (r.hdr_median_relative_error)
-      text += line("    median radiance error vs truth %.3f%%\n", 100 * *r.hdr_median_relative_error);
+      text +=
+          line("    median radiance error vs truth %.3f%%\n", 100 * *r.hdr_median_relative_error);
   } else if (!r.hdr_error.empty()) {
     text += "  HDR merge: " + r.hdr_error + "\n";
   }
@@ -122,27 +135,35 @@ std::string to_text(const FocusReport& r, int region_px) {
     flat += rr.focus.status == kFocusFlat;
     end += rr.focus.status == kFocusPeakAtEnd;
   }
-  std::string text = line("focus stack: %zu positions (%g..%g), %zu regions of %d px: %d ok, %d flat, %d peak at an end\n",
-                          r.positions.size(), r.positions.front(), r.positions.back(), r.regions.size(),
-                          region_px, ok, flat, end);
+  std::string text = line(
+      "focus stack: %zu positions (%g..%g), %zu regions of %d px: %d ok, %d flat, %d peak at an "
+      "end\n",
+      r.positions.size(), r.positions.front(), r.positions.back(), r.regions.size(), region_px, ok,
+      flat, end);
   text += "  region (x,y)     status         best position  sigma [steps]  distance [m]\n";
   for (const auto& rr : r.regions) {
-    const double step = r.positions.size() > 1 ? (r.positions.back() - r.positions.front()) / (r.positions.size() - 1) : 0;
-    text += line("  (%4d,%4d)  %-14s %12.3f %12.3f", rr.focus.rect.x, rr.focus.rect.y, rr.focus.status.c_str(),
-                 rr.best_position, rr.focus.best_index_sigma * step);
-    text += rr.distance_m ? (std::isfinite(*rr.distance_m) ? line("  %10.4f\n", *rr.distance_m) : std::string("    infinity\n"))
+    const double step = r.positions.size() > 1
+                            ? (r.positions.back() - r.positions.front()) / (r.positions.size() - 1)
+                            : 0;
+    text += line("  (%4d,%4d)  %-14s %12.3f %12.3f", rr.focus.rect.x, rr.focus.rect.y,
+                 rr.focus.status.c_str(), rr.best_position, rr.focus.best_index_sigma * step);
+    text += rr.distance_m ? (std::isfinite(*rr.distance_m) ? line("  %10.4f\n", *rr.distance_m)
+                                                           : std::string("    infinity\n"))
                           : std::string("\n");
   }
-  text += line("  depth map: %.1f%% of pixels valid\n", 100.0 * cv::countNonZero(r.valid) / double(r.valid.total()));
+  text += line("  depth map: %.1f%% of pixels valid\n",
+               100.0 * cv::countNonZero(r.valid) / double(r.valid.total()));
   return text;
 }
 
-Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& dir, const AnalyzeOptions& options) {
+Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& dir,
+                            const AnalyzeOptions& options) {
   AnalysisRun run;
   // One measurement: its report, its text, its plots when asked for.
   auto finish = [&](const auto& report, std::string text, auto write_plots) -> Status {
     run.text = std::move(text);
-    if (!options.plots_dir.empty()) CAMLAB_ASSIGN(run.plots, write_plots(options.plots_dir, report));
+    if (!options.plots_dir.empty())
+      CAMLAB_ASSIGN(run.plots, write_plots(options.plots_dir, report));
     run.report = with_plots(to_json(report), run.plots);
     return {};
   };

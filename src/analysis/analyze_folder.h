@@ -31,8 +31,8 @@ struct AnalyzeOptions {
 };
 
 struct AnalysisRun {
-  nlohmann::json report;  // the JSON report ("kind" says which)
-  std::string text;       // the text summary `camlab analyze` prints
+  nlohmann::json report;                     // the JSON report ("kind" says which)
+  std::string text;                          // the text summary `camlab analyze` prints
   std::vector<std::filesystem::path> plots;  // written
 };
 
@@ -44,17 +44,18 @@ Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& 
 
 // analyze() returning only the JSON report (with "plots": the files written, when any):
 // the daemon's entry point for POST /v1/analyses.
-Result<nlohmann::json> analyze_folder(std::string_view kind, const std::filesystem::path& capture_dir,
+Result<nlohmann::json> analyze_folder(std::string_view kind,
+                                      const std::filesystem::path& capture_dir,
                                       const AnalyzeOptions& options);
 
 // The plots of each report into `dir` (created when missing); returns the files written.
 Result<std::vector<std::filesystem::path>> write_defocus_plots(const std::filesystem::path& dir,
-                                                              const DefocusReport& report);
+                                                               const DefocusReport& report);
 Result<std::vector<std::filesystem::path>> write_exposure_plots(const std::filesystem::path& dir,
-                                                               const ExposureReport& report);
+                                                                const ExposureReport& report);
 struct FocusReport;
 Result<std::vector<std::filesystem::path>> write_focus_plots(const std::filesystem::path& dir,
-                                                            const FocusReport& report);
+                                                             const FocusReport& report);
 
 // The text summaries `camlab analyze` prints.
 std::string to_text(const DefocusReport& report);

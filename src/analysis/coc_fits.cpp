@@ -107,8 +107,9 @@ Result<VCurveFit> fit_v_curve(std::span<const BlurSample> samples, double min_di
     }
   }
   if (!std::isfinite(best.chi2))
-    return make_error("no_v_shape", "no V-shaped fit C = s |p - p0| with s > 0 matches the "
-                                    "measured diameters (blur does not grow away from a focus)");
+    return make_error("no_v_shape",
+                      "no V-shaped fit C = s |p - p0| with s > 0 matches the "
+                      "measured diameters (blur does not grow away from a focus)");
   VCurveFit fit;
   fit.used.assign(samples.size(), false);
   for (size_t i : order) fit.used[i] = true;

@@ -21,9 +21,9 @@
 namespace camlab::analysis {
 
 struct BlurSample {
-  double x = 0;            // f-number (aperture fit) or focus position in steps (V-curve)
+  double x = 0;  // f-number (aperture fit) or focus position in steps (V-curve)
   double diameter_px = 0;
-  double sigma_px = 0;     // 1 sigma; <= 0 or non-finite: the sample is skipped
+  double sigma_px = 0;  // 1 sigma; <= 0 or non-finite: the sample is skipped
 };
 
 // C = k / N. `cn_deviation[i]` = C_i N_i / k - 1 (the frame's consistency; the
@@ -31,7 +31,7 @@ struct BlurSample {
 // the samples used (`used[i]`). Samples with D below `min_diameter_px` (default 1 px,
 // where pixels and noise dominate) are left out.
 struct ApertureFit {
-  double k_px = 0;        // C x N in px
+  double k_px = 0;  // C x N in px
   double k_sigma_px = 0;
   double chi2_per_dof = 0;
   double max_abs_cn_deviation = 0;
@@ -51,9 +51,9 @@ Result<ApertureFit> fit_coc_vs_aperture(std::span<const BlurSample> samples,
 // the minimum is not bracketed by samples on both arms (a one-armed sweep: p0 is then an
 // extrapolation and flagged as such).
 struct VCurveFit {
-  double best_position = 0;        // p0, steps (sub-step)
+  double best_position = 0;  // p0, steps (sub-step)
   double best_position_sigma = 0;
-  double slope_px_per_step = 0;    // s
+  double slope_px_per_step = 0;  // s
   double slope_sigma = 0;
   double chi2_per_dof = 0;
   int used_count = 0;

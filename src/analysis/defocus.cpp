@@ -1,8 +1,8 @@
 // Edge measurement: window choice, rejections, baseline removal, diffraction flag.
 #include "analysis/defocus.h"
 
-#include "base/format.h"
 #include "analysis/edge/edge_pair.h"
+#include "base/format.h"
 
 #include <algorithm>
 #include <cmath>
@@ -20,7 +20,6 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kPi = std::numbers::pi;
-
 
 // The largest half-length (<= wanted) for which the window around (x, y) lies within the
 // image's pixel centres, or 0 when even a zero-length window does not fit.
@@ -64,11 +63,13 @@ struct Alongside {
   const EdgeSegment* segment = nullptr;
   double across_lo = 0, across_hi = 0;
   bool crosses() const { return across_lo <= 0 && across_hi >= 0; }
-  double closest() const { return crosses() ? 0.0 : std::min(std::fabs(across_lo), std::fabs(across_hi)); }
+  double closest() const {
+    return crosses() ? 0.0 : std::min(std::fabs(across_lo), std::fabs(across_hi));
+  }
 };
 
-std::vector<Alongside> neighbours_alongside(const EdgeSegment& edge, std::span<const EdgeSegment> neighbours,
-                                            double reach) {
+std::vector<Alongside> neighbours_alongside(const EdgeSegment& edge,
+                                            std::span<const EdgeSegment> neighbours, double reach) {
   const double dx = edge.end_x_px - edge.start_x_px, dy = edge.end_y_px - edge.start_y_px;
   const double length = std::hypot(dx, dy);
   const double ux = dx / length, uy = dy / length;  // along; across is (-uy, ux)
@@ -111,14 +112,16 @@ std::vector<Alongside> neighbours_alongside(const EdgeSegment& edge, std::span<c
 constexpr double kMaxJointVif = 50.0;
 constexpr double kMinJointProfile = 0.1;
 
-bool measure_jointly(const cv::Mat& image, const EdgeSegment& edge, const std::vector<Alongside>& nearby,
-                     double half_length, double blur_px, const std::string& why, EdgeMeasurement* m) {
+bool measure_jointly(const cv::Mat& image, const EdgeSegment& edge,
+                     const std::vector<Alongside>& nearby, double half_length, double blur_px,
+                     const std::string& why, EdgeMeasurement* m) {
   const Alongside* partner = nullptr;
   for (const Alongside& n : nearby)
     if (!partner || n.closest() < partner->closest()) partner = &n;
   auto reject = [&](const std::string& reason) {
     m->status = kEdgeNeighbourOverlap;
-    m->message = why + "; joint fit with '" + (partner ? partner->segment->name : std::string("?")) +
+    m->message = why + "; joint fit with '" +
+                 (partner ? partner->segment->name : std::string("?")) +
                  "' not possible: " + reason;
     return false;
   };
@@ -127,10 +130,12 @@ bool measure_jointly(const cv::Mat& image, const EdgeSegment& edge, const std::v
   const EdgeSegment& b = *partner->segment;
   const double angle_b = std::atan2(b.end_y_px - b.start_y_px, b.end_x_px - b.start_x_px);
   const double tilt = std::fabs(std::remainder(angle_b - angle, kPi));
-  if (tilt > 15.0 * kPi / 180.0) return reject("it is " + format_significant(tilt * 180 / kPi, 3) + " deg from parallel");
+  if (tilt > 15.0 * kPi / 180.0)
+    return reject("it is " + format_significant(tilt * 180 / kPi, 3) + " deg from parallel");
   // Passes as for one edge: a window sized for the blur guessed, refitted with one
   // sized for the blur found (the pair's start ladder finds D up to about the window).
-  const double mid_x = 0.5 * (edge.start_x_px + edge.end_x_px), mid_y = 0.5 * (edge.start_y_px + edge.end_y_px);
+  const double mid_x = 0.5 * (edge.start_x_px + edge.end_x_px),
+               mid_y = 0.5 * (edge.start_y_px + edge.end_y_px);
   double d = std::max(blur_px, 1.0), lo = 0, hi = 0, hl = 0;
   Result<EdgePairFit> fit = make_error("not_converged", "no window held the pair's blur");
   for (int pass = 0; pass < 5; ++pass) {
@@ -161,10 +166,12 @@ bool measure_jointly(const cv::Mat& image, const EdgeSegment& edge, const std::v
     po.across_min_px = lo;
     po.across_max_px = hi;
     po.diameter_guess_px = d;
-    fit = fit_pillbox_edge_pair(image, EdgeLine{mid_x, mid_y, angle}, EdgeLine{b.start_x_px, b.start_y_px, angle_b},
-                                po);
+    fit = fit_pillbox_edge_pair(image, EdgeLine{mid_x, mid_y, angle},
+                                EdgeLine{b.start_x_px, b.start_y_px, angle_b}, po);
     if (!fit) {
-      if (bounded || (fit.error().code != kErrWindowTooSmall && fit.error().code != kErrNotConverged)) break;
+      if (bounded ||
+          (fit.error().code != kErrWindowTooSmall && fit.error().code != kErrNotConverged))
+        break;
       d = 2.0 * d + 4.0;  // the blur is wider than guessed
       continue;
     }
@@ -173,21 +180,26 @@ bool measure_jointly(const cv::Mat& image, const EdgeSegment& edge, const std::v
   }
   if (!fit) return reject(fit.error().text());
   if (!(fit->diameter_vif <= kMaxJointVif) || !(fit->diameter_profile_ratio >= kMinJointProfile))
-    return reject("ill-conditioned (the edges are " + format_significant(fit->separation_px, 3) + " px apart under a blur of " +
-                  format_significant(fit->diameter_px, 3) + " px: the other parameters inflate D's variance " +
-                  format_significant(fit->diameter_vif, 3) + "x, and its cost rises at " + format_significant(fit->diameter_profile_ratio, 3) +
+    return reject("ill-conditioned (the edges are " + format_significant(fit->separation_px, 3) +
+                  " px apart under a blur of " + format_significant(fit->diameter_px, 3) +
+                  " px: the other parameters inflate D's variance " +
+                  format_significant(fit->diameter_vif, 3) + "x, and its cost rises at " +
+                  format_significant(fit->diameter_profile_ratio, 3) +
                   " of the rate its sigma assumes)");
   // This edge's view of the pair, as a single-edge fit: its line and the levels on its
   // two sides (the normal towards the brighter one, as fit_pillbox_edge orients it).
   EdgeFit& f = m->fit;
   const bool a_first = (fit->line_b.x_px - fit->line_a.x_px) * -std::sin(fit->line_a.angle_rad) +
-                           (fit->line_b.y_px - fit->line_a.y_px) * std::cos(fit->line_a.angle_rad) > 0;
-  const double before = a_first ? fit->level_0 : fit->level_1, after = a_first ? fit->level_1 : fit->level_2;
+                           (fit->line_b.y_px - fit->line_a.y_px) * std::cos(fit->line_a.angle_rad) >
+                       0;
+  const double before = a_first ? fit->level_0 : fit->level_1,
+               after = a_first ? fit->level_1 : fit->level_2;
   f = EdgeFit{};
   f.diameter_px = fit->diameter_px;
   f.diameter_sigma_px = fit->diameter_sigma_px;
   f.line = fit->line_a;
-  f.angle_rad = after >= before ? fit->line_a.angle_rad : std::remainder(fit->line_a.angle_rad + kPi, 2 * kPi);
+  f.angle_rad = after >= before ? fit->line_a.angle_rad
+                                : std::remainder(fit->line_a.angle_rad + kPi, 2 * kPi);
   f.line.angle_rad = f.angle_rad;
   f.dark_level = std::min(before, after);
   f.light_level = std::max(before, after);
@@ -214,8 +226,8 @@ cv::Mat render_edge_model(int rows, int cols, const EdgeLine& line, double diame
     auto* row = image.ptr<float>(r);
     for (int c = 0; c < cols; ++c) {
       const double d = (c - line.x_px) * nx + (r - line.y_px) * ny;
-      row[c] = static_cast<float>(dark + (light - dark) *
-                                             pillbox_esf_pixel(d, diameter_px, nx, ny));
+      row[c] =
+          static_cast<float>(dark + (light - dark) * pillbox_esf_pixel(d, diameter_px, nx, ny));
     }
   }
   if (sigma_px > 0)
@@ -291,7 +303,8 @@ Result<BaselineInversion> remove_baseline_blur(double apparent_px, double sigma_
   double fa, fb;
   CAMLAB_ASSIGN(fa, apparent_diameter_px(std::max(0.0, inv.diameter_px - h), sigma_px, angle_rad));
   CAMLAB_ASSIGN(fb, apparent_diameter_px(inv.diameter_px + h, sigma_px, angle_rad));
-  inv.slope = std::max(1e-3, (fb - fa) / (inv.diameter_px + h - std::max(0.0, inv.diameter_px - h)));
+  inv.slope =
+      std::max(1e-3, (fb - fa) / (inv.diameter_px + h - std::max(0.0, inv.diameter_px - h)));
   return inv;
 }
 
@@ -303,7 +316,8 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
   const double dx = edge.end_x_px - edge.start_x_px, dy = edge.end_y_px - edge.start_y_px;
   const double length = std::hypot(dx, dy);
   if (!std::isfinite(length) || length < 8.0)
-    return make_error("invalid_argument", "edge '" + edge.name + "' is shorter than 8 px or not finite");
+    return make_error("invalid_argument",
+                      "edge '" + edge.name + "' is shorter than 8 px or not finite");
   if (!(options.baseline_sigma_px >= 0) || !std::isfinite(options.baseline_sigma_px))
     return make_error("invalid_argument", "baseline_sigma_px must be finite and >= 0");
 
@@ -316,7 +330,9 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
   // neighbouring edge that passes alongside the window (its part within the window's
   // length, +2 px), and by the image. A neighbour beyond the window's ends (e.g. a
   // target border across the edge) does not bound it.
-  auto nearby = [&](double half_length) { return neighbours_alongside(edge, neighbours, half_length + 2.0); };
+  auto nearby = [&](double half_length) {
+    return neighbours_alongside(edge, neighbours, half_length + 2.0);
+  };
   auto across_limit = [&](double half_length) {
     double limit = edge.max_half_width_px > 0 ? edge.max_half_width_px : kInf;
     for (const Alongside& n : nearby(half_length)) limit = std::min(limit, n.closest());
@@ -339,18 +355,20 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
     const double limit_n = across_limit(std::max(hl, 1.0));
     const double limit_target = edge.max_half_width_px > 0 ? edge.max_half_width_px : kInf;
     // Flat level beyond the blur must not include the neighbour's own blur.
-    double hw = std::min({want_hw, limit_target - 0.5 * blur_guess - 1.0,
-                          0.5 * limit_n - 0.5});
+    double hw = std::min({want_hw, limit_target - 0.5 * blur_guess - 1.0, 0.5 * limit_n - 0.5});
     hl = fit_half_length_in_image(image, mid_x, mid_y, angle, std::max(hw, 1.0), hl);
     m.half_length_px = hl;
     m.half_width_px = hw;
-    const bool neighbour_bound = 0.5 * limit_n - 0.5 < std::min(want_hw, limit_target - 0.5 * blur_guess - 1.0);
+    const bool neighbour_bound =
+        0.5 * limit_n - 0.5 < std::min(want_hw, limit_target - 0.5 * blur_guess - 1.0);
     if (hw < 0.5 * blur_guess + 2.5 || hl < 8.0) {
       m.status = neighbour_bound && hl >= 8.0 ? kEdgeNeighbourOverlap : kEdgeWindowTooSmall;
-      m.message = "a window " + format_significant(2 * hw, 3) + " px wide and " + format_significant(2 * hl, 3) +
-                  " px long cannot hold a blur of about " + format_significant(blur_guess, 3) +
-                  " px plus flat level on both sides" +
-                  (neighbour_bound ? " (a neighbouring edge is " + format_significant(limit_n, 3) + " px away)" : "");
+      m.message = "a window " + format_significant(2 * hw, 3) + " px wide and " +
+                  format_significant(2 * hl, 3) + " px long cannot hold a blur of about " +
+                  format_significant(blur_guess, 3) + " px plus flat level on both sides" +
+                  (neighbour_bound
+                       ? " (a neighbouring edge is " + format_significant(limit_n, 3) + " px away)"
+                       : "");
       if (m.status != kEdgeNeighbourOverlap || !joint(hl, blur_guess, m.message)) return m;
       have_fit = true;
       break;
@@ -377,7 +395,8 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
       if (hw < 0.5 * d + 2.5 + std::fabs(fit->offset_px)) {
         m.status = neighbour_bound ? kEdgeNeighbourOverlap : kEdgeWindowTooSmall;
         m.message = "the blur of " + format_significant(d, 3) + " px needs a window at least " +
-                    format_significant(d + 5.0, 3) + " px wide; only " + format_significant(2 * hw, 3) + " px are free";
+                    format_significant(d + 5.0, 3) + " px wide; only " +
+                    format_significant(2 * hw, 3) + " px are free";
         if (m.status != kEdgeNeighbourOverlap || !joint(hl, d, m.message)) return m;
       }
       break;
@@ -395,8 +414,8 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
   if (options.saturation_level > 0) {
     const double ext = m.half_length_px + m.half_width_px;
     const cv::Rect box(static_cast<int>(std::floor(mid_x - ext)),
-                       static_cast<int>(std::floor(mid_y - ext)),
-                       static_cast<int>(2 * ext) + 2, static_cast<int>(2 * ext) + 2);
+                       static_cast<int>(std::floor(mid_y - ext)), static_cast<int>(2 * ext) + 2,
+                       static_cast<int>(2 * ext) + 2);
     const cv::Rect roi = box & cv::Rect(0, 0, image.cols, image.rows);
     double max_value = 0;
     cv::minMaxLoc(image(roi), nullptr, &max_value);
@@ -413,8 +432,8 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
   m.rms_residual = m.fit.rms_residual;
   m.contrast_to_noise = m.fit.contrast_to_noise;
   double sigma = m.fit.diameter_sigma_px;
-  auto inv = remove_baseline_blur(m.apparent_diameter_px, options.baseline_sigma_px,
-                                  m.fit.angle_rad);
+  auto inv =
+      remove_baseline_blur(m.apparent_diameter_px, options.baseline_sigma_px, m.fit.angle_rad);
   if (!inv) {
     m.status = kEdgeFitFailed;
     m.message = "baseline removal: " + inv.error().message;
@@ -428,20 +447,22 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
   if (inv->at_baseline) {
     // The fit reads no more than the baseline alone: an upper bound from the noise.
     const double sigma_app = std::isfinite(sigma) ? sigma : 0.0;
-    auto bound = remove_baseline_blur(
-        inv->apparent_at_zero_px + options.confidence_sigmas * sigma_app,
-        options.baseline_sigma_px, m.fit.angle_rad);
+    auto bound =
+        remove_baseline_blur(inv->apparent_at_zero_px + options.confidence_sigmas * sigma_app,
+                             options.baseline_sigma_px, m.fit.angle_rad);
     m.ci_high_px = bound ? bound->diameter_px : kInf;
     m.status = kEdgeAtBaseline;
     m.message = "apparent diameter " + format_significant(m.apparent_diameter_px, 3) +
-                " px is at or below the baseline blur's " + format_significant(inv->apparent_at_zero_px, 3) +
+                " px is at or below the baseline blur's " +
+                format_significant(inv->apparent_at_zero_px, 3) +
                 " px: in focus (D <= " + format_significant(m.ci_high_px, 3) + " px)";
     return m;
   }
   if (options.airy_diameter_px > 0 && m.diameter_px < options.airy_diameter_px) {
     m.status = kEdgeBelowDiffraction;
-    m.message = "diameter " + format_significant(m.diameter_px, 3) + " px is below the diffraction floor " +
-                format_significant(options.airy_diameter_px, 3) + " px (2.44 lambda N): not a measurement";
+    m.message =
+        "diameter " + format_significant(m.diameter_px, 3) + " px is below the diffraction floor " +
+        format_significant(options.airy_diameter_px, 3) + " px (2.44 lambda N): not a measurement";
     return m;
   }
   m.status = kEdgeOk;

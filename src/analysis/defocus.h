@@ -48,9 +48,9 @@ struct EdgeSegment {
 };
 
 struct EdgeMeasureOptions {
-  double baseline_sigma_px = 0;    // Gaussian in-focus blur of the lens; 0 = none
-  double airy_diameter_px = 0;     // diffraction floor 2.44 lambda N / pitch; 0 = ignore
-  double saturation_level = 0;     // image value at which pixels clip; <= 0 = none
+  double baseline_sigma_px = 0;     // Gaussian in-focus blur of the lens; 0 = none
+  double airy_diameter_px = 0;      // diffraction floor 2.44 lambda N / pitch; 0 = ignore
+  double saturation_level = 0;      // image value at which pixels clip; <= 0 = none
   double confidence_sigmas = 1.96;  // half-width of the confidence interval (95%)
 };
 

@@ -100,8 +100,8 @@ FrameResult measure_frame(const image::CaptureFolder& folder, int index,
   const json& truth = side->truth;
   out.pitch_um = number_or(truth, "pixel_pitch_um",
                            number_or(camera.value("sensor", json::object()), "pixel_pitch_um", 0));
-  out.focal_mm = number_or(truth, "focal_mm",
-                           number_or(camera.value("lens", json::object()), "focal_mm", 0));
+  out.focal_mm =
+      number_or(truth, "focal_mm", number_or(camera.value("lens", json::object()), "focal_mm", 0));
   out.baseline = options.baseline_sigma_px >= 0
                      ? options.baseline_sigma_px
                      : number_or(truth, "baseline_blur_sigma_px",
@@ -127,8 +127,7 @@ FrameResult measure_frame(const image::CaptureFolder& folder, int index,
   EdgeMeasureOptions mo;
   mo.baseline_sigma_px = out.baseline;
   mo.saturation_level = std::ldexp(1.0, side->bit_depth) - 1.0 - side->black_level_dn;
-  if (out.pitch_um > 0 && f_number > 0)
-    mo.airy_diameter_px = 2.44 * 0.55 * f_number / out.pitch_um;
+  if (out.pitch_um > 0 && f_number > 0) mo.airy_diameter_px = 2.44 * 0.55 * f_number / out.pitch_um;
   for (size_t i = 0; i < edges.size(); ++i) {
     auto m = measure_edge(signal, edges[i], edges, mo);
     if (!m) {
@@ -174,8 +173,8 @@ void fit_aperture(TargetDefocus* t, const DefocusReport& r, const DefocusOptions
     t->implied_defocus = fit->k_px * r.pixel_pitch_um * 1e-3 / r.focal_mm;
     t->implied_defocus_sigma = fit->k_sigma_px * r.pixel_pitch_um * 1e-3 / r.focal_mm;
     if (t->distance_m && focus_distance_mm > 0) {
-      auto c = optics::circle_of_confusion_mm(r.focal_mm, 1.0, focus_distance_mm,
-                                              *t->distance_m * 1e3);
+      auto c =
+          optics::circle_of_confusion_mm(r.focal_mm, 1.0, focus_distance_mm, *t->distance_m * 1e3);
       if (c) t->thin_lens_k_px = *c / (r.pixel_pitch_um * 1e-3);
     }
   }
@@ -249,7 +248,8 @@ Result<DefocusReport> analyze_defocus(const std::filesystem::path& capture_dir,
   std::vector<std::thread> pool;
   for (int w = 0; w < threads; ++w)
     pool.emplace_back([&, w] {
-      for (int i = w; i < count; i += threads) results[i] = measure_frame(folder, i, options, detected);
+      for (int i = w; i < count; i += threads)
+        results[i] = measure_frame(folder, i, options, detected);
     });
   for (auto& th : pool) th.join();
 
@@ -323,14 +323,13 @@ json to_json(const DefocusReport& r) {
     json jt = {{"name", t.name}, {"frames", frames}};
     if (t.distance_m) jt["distance_m"] = *t.distance_m;
     if (t.aperture) {
-      jt["coc_vs_aperture"] = {
-          {"k_px", t.aperture->k_px},
-          {"k_sigma_px", t.aperture->k_sigma_px},
-          {"chi2_per_dof", t.aperture->chi2_per_dof},
-          {"frames_used", t.aperture->used_count},
-          {"max_abs_cn_deviation", t.aperture->max_abs_cn_deviation},
-          {"implied_defocus", t.implied_defocus},
-          {"implied_defocus_sigma", t.implied_defocus_sigma}};
+      jt["coc_vs_aperture"] = {{"k_px", t.aperture->k_px},
+                               {"k_sigma_px", t.aperture->k_sigma_px},
+                               {"chi2_per_dof", t.aperture->chi2_per_dof},
+                               {"frames_used", t.aperture->used_count},
+                               {"max_abs_cn_deviation", t.aperture->max_abs_cn_deviation},
+                               {"implied_defocus", t.implied_defocus},
+                               {"implied_defocus_sigma", t.implied_defocus_sigma}};
       if (t.thin_lens_k_px) {
         jt["coc_vs_aperture"]["thin_lens_k_px"] = *t.thin_lens_k_px;
         jt["coc_vs_aperture"]["k_relative_to_thin_lens"] = t.aperture->k_px / *t.thin_lens_k_px - 1;

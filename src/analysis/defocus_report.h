@@ -47,15 +47,15 @@ struct FrameEdge {
 
 struct TargetDefocus {
   std::string name;
-  std::optional<double> distance_m;     // truth, when known
+  std::optional<double> distance_m;  // truth, when known
   std::vector<FrameEdge> frames;
   std::optional<ApertureFit> aperture;  // when the f-number varies
   std::string aperture_error;
   double implied_defocus = 0, implied_defocus_sigma = 0;  // |z_s - z_i| / z_i
-  std::optional<double> thin_lens_k_px;                    // predicted C x N
-  std::optional<VCurveFit> v_curve;     // when the focus position varies
+  std::optional<double> thin_lens_k_px;                   // predicted C x N
+  std::optional<VCurveFit> v_curve;                       // when the focus position varies
   std::string v_curve_error;
-  std::optional<double> aperture_over_zi;      // A / z_i from the V slope
+  std::optional<double> aperture_over_zi;  // A / z_i from the V slope
   std::optional<double> best_lens_to_sensor_mm;
   std::optional<double> best_focus_distance_m;  // object distance in best focus
   std::optional<double> dof_near_m, dof_far_m;  // for acceptable_coc_px at best focus

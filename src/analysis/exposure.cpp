@@ -12,8 +12,9 @@ namespace camlab::analysis {
 Result<PairStats> pair_stats(const cv::Mat& a, const cv::Mat& b, double black_level_dn,
                              const cv::Rect& roi) {
   if (a.empty() || a.channels() != 1 || a.size() != b.size() || a.type() != b.type())
-    return make_error("invalid_argument", "a frame pair must be two non-empty single-channel "
-                                          "frames of the same size and type");
+    return make_error("invalid_argument",
+                      "a frame pair must be two non-empty single-channel "
+                      "frames of the same size and type");
   const cv::Rect r = roi.area() > 0 ? roi : cv::Rect(0, 0, a.cols, a.rows);
   if ((r & cv::Rect(0, 0, a.cols, a.rows)) != r || r.area() < 2)
     return make_error("invalid_argument", "the region lies outside the frame");
@@ -36,10 +37,9 @@ Result<PhotonTransfer> fit_photon_transfer(std::vector<PairStats> points) {
   std::sort(points.begin(), points.end(),
             [](const PairStats& x, const PairStats& y) { return x.mean_dn < y.mean_dn; });
   PhotonTransfer pt;
-  const auto peak = std::max_element(points.begin(), points.end(),
-                                     [](const PairStats& x, const PairStats& y) {
-                                       return x.variance_dn2 < y.variance_dn2;
-                                     });
+  const auto peak = std::max_element(
+      points.begin(), points.end(),
+      [](const PairStats& x, const PairStats& y) { return x.variance_dn2 < y.variance_dn2; });
   pt.saturation_mean_dn = peak->mean_dn;
   if (!(pt.saturation_mean_dn > 0))
     return make_error("no_signal", "no frame pair has a signal above the black level");
@@ -58,8 +58,10 @@ Result<PhotonTransfer> fit_photon_transfer(std::vector<PairStats> points) {
     ++pt.used_count;
   }
   if (pt.used_count < 3)
-    return make_error("too_few_samples", "photon transfer needs at least 3 frame pairs below "
-                                         "70% of saturation; got " + std::to_string(pt.used_count));
+    return make_error("too_few_samples",
+                      "photon transfer needs at least 3 frame pairs below "
+                      "70% of saturation; got " +
+                          std::to_string(pt.used_count));
   const double det = s0 * s2 - s1 * s1;
   if (!(det > 0)) return make_error("too_few_samples", "the pairs' means do not differ");
   const double k = (s0 * r1 - s1 * r0) / det, intercept = (s2 * r0 - s1 * r1) / det;
@@ -97,8 +99,10 @@ Result<Linearity> fit_linearity(std::vector<LinearityPoint> points, double satur
     ++lin.used_count;
   }
   if (lin.used_count < 2)
-    return make_error("too_few_samples", "linearity needs at least 2 exposures between 5% and "
-                                         "95% of saturation; got " + std::to_string(lin.used_count));
+    return make_error("too_few_samples",
+                      "linearity needs at least 2 exposures between 5% and "
+                      "95% of saturation; got " +
+                          std::to_string(lin.used_count));
   lin.slope_dn_per_us = sxy / sxx;
   for (LinearityPoint& p : points) {
     const double model = lin.slope_dn_per_us * p.exposure_gain_us;

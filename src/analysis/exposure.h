@@ -52,9 +52,9 @@ struct PhotonTransfer {
   double system_gain_dn_per_e = 0;  // K
   double system_gain_sigma = 0;
   double dark_variance_dn2 = 0;
-  double dark_mean_dn = 0;          // 0: signals are already above dark
+  double dark_mean_dn = 0;  // 0: signals are already above dark
   double dark_noise_e = 0;
-  double saturation_mean_dn = 0;    // mu_sat above dark
+  double saturation_mean_dn = 0;  // mu_sat above dark
   double saturation_capacity_e = 0;
   double snr_max = 0;
   double dynamic_range = 0;
@@ -91,7 +91,7 @@ struct HdrFrame {
   double clip_dn = 0;
 };
 struct HdrNoise {
-  double k_dn_per_e = 1;    // K at unity gain
+  double k_dn_per_e = 1;         // K at unity gain
   double read_variance_dn2 = 1;  // at unity gain; scaled by gain^2
 };
 // The merge: radiance in DN per microsecond at unity gain, x_i = s_i / (T_i g_i), combined
@@ -101,9 +101,9 @@ struct HdrNoise {
 // (255); `radiance` is never NaN. `sigma` is the 1-sigma of the estimate (for clipped
 // pixels: 0).
 struct HdrResult {
-  cv::Mat radiance;   // CV_32F
-  cv::Mat sigma;      // CV_32F
-  cv::Mat clipped;    // CV_8U, 255 = clipped in every frame
+  cv::Mat radiance;     // CV_32F
+  cv::Mat sigma;        // CV_32F
+  cv::Mat clipped;      // CV_8U, 255 = clipped in every frame
   cv::Mat frames_used;  // CV_8U, frames contributing per pixel
   int64_t clipped_everywhere = 0;
 };

@@ -45,9 +45,11 @@ Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir
     CAMLAB_ASSIGN(side, folder.load_sidecar(i));
     const double t = side.settings.value("exposure_us", 0.0), g = side.settings.value("gain", 1.0);
     if (!(t > 0) || !(g > 0))
-      return make_error("missing_settings", "frame " + std::to_string(i) +
-                                                " has no positive exposure_us and gain in its settings");
-    Group& grp = groups.try_emplace({t, g}, Group{t, g, {}, side.black_level_dn, side.bit_depth}).first->second;
+      return make_error(
+          "missing_settings",
+          "frame " + std::to_string(i) + " has no positive exposure_us and gain in its settings");
+    Group& grp = groups.try_emplace({t, g}, Group{t, g, {}, side.black_level_dn, side.bit_depth})
+                     .first->second;
     if (grp.frames.size() >= 2) continue;
     cv::Mat image;
     CAMLAB_ASSIGN(image, folder.load_image(i));
@@ -99,12 +101,15 @@ Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir
       report.photon_transfer_error = pt.error().text();
     }
   } else {
-    report.photon_transfer_error = "too_few_samples: photon transfer needs frame pairs "
-                                   "(--repeats 2) at 3 or more settings";
+    report.photon_transfer_error =
+        "too_few_samples: photon transfer needs frame pairs "
+        "(--repeats 2) at 3 or more settings";
   }
 
-  const double saturation = report.photon_transfer ? report.photon_transfer->saturation_mean_dn
-                                                   : (k0 > 0 && full_well > 0 ? std::min(max_dn, k0 * full_well * mean_gain) : max_dn);
+  const double saturation =
+      report.photon_transfer
+          ? report.photon_transfer->saturation_mean_dn
+          : (k0 > 0 && full_well > 0 ? std::min(max_dn, k0 * full_well * mean_gain) : max_dn);
   auto lin = fit_linearity(lin_points, saturation);
   if (lin) {
     report.linearity = lin->points;
@@ -152,20 +157,28 @@ json to_json(const ExposureReport& r) {
   json j = {{"kind", "exposure"}, {"frames", r.frame_count}};
   json lin = json::array();
   for (const auto& p : r.linearity)
-    lin.push_back({{"exposure_gain_us", p.exposure_gain_us}, {"mean_dn", p.mean_dn},
-                   {"error_pct", p.error_pct}, {"used", p.used}});
-  j["linearity"] = {{"points", lin}, {"slope_dn_per_us", r.linearity_slope_dn_per_us},
-                    {"max_abs_error_pct", r.max_linearity_error_pct}, {"used", r.linearity_used}};
+    lin.push_back({{"exposure_gain_us", p.exposure_gain_us},
+                   {"mean_dn", p.mean_dn},
+                   {"error_pct", p.error_pct},
+                   {"used", p.used}});
+  j["linearity"] = {{"points", lin},
+                    {"slope_dn_per_us", r.linearity_slope_dn_per_us},
+                    {"max_abs_error_pct", r.max_linearity_error_pct},
+                    {"used", r.linearity_used}};
   if (!r.linearity_error.empty()) j["linearity"]["error"] = r.linearity_error;
   if (r.photon_transfer) {
     const auto& pt = *r.photon_transfer;
     json pts = json::array();
     for (const auto& p : pt.points)
-      pts.push_back({{"exposure_us", p.exposure_us}, {"gain", p.gain}, {"mean_dn", p.mean_dn},
-                     {"variance_dn2", p.variance_dn2}, {"used", p.used}});
+      pts.push_back({{"exposure_us", p.exposure_us},
+                     {"gain", p.gain},
+                     {"mean_dn", p.mean_dn},
+                     {"variance_dn2", p.variance_dn2},
+                     {"used", p.used}});
     j["photon_transfer"] = {{"system_gain_dn_per_e", pt.system_gain_dn_per_e},
                             {"system_gain_sigma", pt.system_gain_sigma},
-                            {"expected_gain_dn_per_e", num(pt.expected_gain_dn_per_e > 0 ? pt.expected_gain_dn_per_e : NAN)},
+                            {"expected_gain_dn_per_e",
+                             num(pt.expected_gain_dn_per_e > 0 ? pt.expected_gain_dn_per_e : NAN)},
                             {"dark_variance_dn2", pt.dark_variance_dn2},
                             {"dark_noise_e", pt.dark_noise_e},
                             {"saturation_mean_dn", pt.saturation_mean_dn},
@@ -181,8 +194,10 @@ json to_json(const ExposureReport& r) {
     double lo = 0, hi = 0;
     cv::minMaxLoc(r.hdr->radiance, &lo, &hi);
     j["hdr"] = {{"clipped_everywhere", r.hdr->clipped_everywhere},
-                {"radiance_min_dn_per_us", lo}, {"radiance_max_dn_per_us", hi}};
-    if (r.hdr_median_relative_error) j["hdr"]["median_relative_error"] = *r.hdr_median_relative_error;
+                {"radiance_min_dn_per_us", lo},
+                {"radiance_max_dn_per_us", hi}};
+    if (r.hdr_median_relative_error)
+      j["hdr"]["median_relative_error"] = *r.hdr_median_relative_error;
   } else {
     j["hdr"] = {{"error", r.hdr_error}};
   }

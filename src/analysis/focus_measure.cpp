@@ -35,12 +35,14 @@ void laplacian_row(const cv::Mat& image, int y, float* slot, double* vsum) {
   const T* mid = image.ptr<T>(y);
   const T* down = image.ptr<T>(reflect(y + 1, h));
   auto lap2 = [&](int x, int xl, int xr) {
-    const float v = static_cast<float>(up[x]) + static_cast<float>(down[x]) + static_cast<float>(mid[xl]) +
-                    static_cast<float>(mid[xr]) - 4.0f * static_cast<float>(mid[x]);
+    const float v = static_cast<float>(up[x]) + static_cast<float>(down[x]) +
+                    static_cast<float>(mid[xl]) + static_cast<float>(mid[xr]) -
+                    4.0f * static_cast<float>(mid[x]);
     return v * v;
   };
   auto put = [&](int x, float v) {
-    vsum[x] += kFirst ? static_cast<double>(v) : static_cast<double>(v) - static_cast<double>(slot[x]);
+    vsum[x] +=
+        kFirst ? static_cast<double>(v) : static_cast<double>(v) - static_cast<double>(slot[x]);
     slot[x] = v;
   };
   put(0, lap2(0, 0, w > 1 ? 1 : 0));
@@ -60,7 +62,8 @@ void measure_rows(const cv::Mat& image, int r, int y0, int y1, float scale, cv::
   auto slot = [&](int virtual_row) {
     return ring.data() + static_cast<size_t>(((virtual_row % n) + n) % n) * w;
   };
-  for (int k = -r; k <= r; ++k) laplacian_row<T, true>(image, reflect(y0 + k, h), slot(y0 + k), vsum.data());
+  for (int k = -r; k <= r; ++k)
+    laplacian_row<T, true>(image, reflect(y0 + k, h), slot(y0 + k), vsum.data());
   for (int y = y0; y < y1; ++y) {
     float* o = out->ptr<float>(y);
     float* p = pad.data() + r;  // p[-r .. w - 1 + r]
@@ -107,7 +110,8 @@ void measure_rows(const cv::Mat& image, int r, int y0, int y1, float scale, cv::
         sum += static_cast<double>(p[x + r + 1 < w + r ? x + r + 1 : w - 1 + r]) - p[x - r];
       }
     }
-    if (y + 1 < y1) laplacian_row<T, false>(image, reflect(y + r + 1, h), slot(y + r + 1), vsum.data());
+    if (y + 1 < y1)
+      laplacian_row<T, false>(image, reflect(y + r + 1, h), slot(y + r + 1), vsum.data());
   }
 }
 
@@ -130,9 +134,12 @@ void focus_measure(const cv::Mat& image, int window_px, cv::Mat* out, double sca
     for (int s = range.start; s < range.end; ++s) {
       const int y0 = static_cast<int>(static_cast<long>(image.rows) * s / stripes);
       const int y1 = static_cast<int>(static_cast<long>(image.rows) * (s + 1) / stripes);
-      if (image.depth() == CV_8U) measure_rows<uint8_t>(image, r, y0, y1, factor, out);
-      else if (image.depth() == CV_16U) measure_rows<uint16_t>(image, r, y0, y1, factor, out);
-      else measure_rows<float>(image, r, y0, y1, factor, out);
+      if (image.depth() == CV_8U)
+        measure_rows<uint8_t>(image, r, y0, y1, factor, out);
+      else if (image.depth() == CV_16U)
+        measure_rows<uint16_t>(image, r, y0, y1, factor, out);
+      else
+        measure_rows<float>(image, r, y0, y1, factor, out);
     }
   };
   if (stripes > 1)

@@ -43,8 +43,8 @@ Result<FocusReport> analyze_focus(const std::filesystem::path& capture_dir,
     CAMLAB_ASSIGN(side, folder.load_sidecar(i));
     const json& s = side.settings;
     if (!s.contains("focus_position") || !s["focus_position"].is_number())
-      return make_error("missing_settings", "frame " + std::to_string(i) +
-                                                " has no focus_position in its settings");
+      return make_error("missing_settings",
+                        "frame " + std::to_string(i) + " has no focus_position in its settings");
     double d = std::numeric_limits<double>::quiet_NaN();
     if (s.contains("focus_distance_m"))
       d = s["focus_distance_m"].is_number() ? s["focus_distance_m"].get<double>()
@@ -109,23 +109,25 @@ json to_json(const FocusReport& r) {
   json regions = json::array();
   int ok = 0;
   for (const RegionFocusReport& rr : r.regions) {
-    json j = {{"rect", {rr.focus.rect.x, rr.focus.rect.y, rr.focus.rect.width, rr.focus.rect.height}},
-              {"status", rr.focus.status},
-              {"best_index", rr.focus.best_index},
-              {"best_index_sigma", rr.focus.best_index_sigma},
-              {"best_position", rr.best_position},
-              {"confidence", rr.focus.confidence}};
+    json j = {
+        {"rect", {rr.focus.rect.x, rr.focus.rect.y, rr.focus.rect.width, rr.focus.rect.height}},
+        {"status", rr.focus.status},
+        {"best_index", rr.focus.best_index},
+        {"best_index_sigma", rr.focus.best_index_sigma},
+        {"best_position", rr.best_position},
+        {"confidence", rr.focus.confidence}};
     if (rr.distance_m) j["distance_m"] = num(*rr.distance_m);
     ok += rr.focus.status == kFocusOk;
     regions.push_back(j);
   }
   const int valid = r.valid.empty() ? 0 : cv::countNonZero(r.valid);
-  return {{"kind", "focus"},
-          {"frames", r.frames},
-          {"positions", r.positions},
-          {"regions_ok", ok},
-          {"regions", regions},
-          {"valid_pixel_fraction", r.valid.empty() ? 0.0 : double(valid) / double(r.valid.total())}};
+  return {
+      {"kind", "focus"},
+      {"frames", r.frames},
+      {"positions", r.positions},
+      {"regions_ok", ok},
+      {"regions", regions},
+      {"valid_pixel_fraction", r.valid.empty() ? 0.0 : double(valid) / double(r.valid.total())}};
 }
 
 }  // namespace camlab::analysis

@@ -21,7 +21,7 @@ namespace camlab::analysis {
 
 struct RegionFocusReport {
   RegionFocus focus;
-  double best_position = 0;      // focus_position steps (sub-step)
+  double best_position = 0;          // focus_position steps (sub-step)
   std::optional<double> distance_m;  // object distance in best focus (inf allowed)
 };
 
@@ -30,9 +30,9 @@ struct FocusReport {
   std::vector<double> positions;         // sorted focus positions
   std::vector<double> focus_distance_m;  // per sorted frame (+inf = infinity)
   std::vector<RegionFocusReport> regions;
-  cv::Mat depth_m;       // CV_32F, object distance per pixel; 0 where not valid
-  cv::Mat valid;         // CV_8U, 255 where the pixel's peak is inside and above the floor
-  cv::Mat all_in_focus;  // raw DN, the frames' type
+  cv::Mat depth_m;        // CV_32F, object distance per pixel; 0 where not valid
+  cv::Mat valid;          // CV_8U, 255 where the pixel's peak is inside and above the floor
+  cv::Mat all_in_focus;   // raw DN, the frames' type
   cv::Mat best_position;  // CV_32F, focus position per pixel (sub-step)
 };
 

@@ -41,9 +41,15 @@ void region_sums(const cv::Mat& image, int cell, cv::Size grid, std::vector<doub
 
 void region_means(const cv::Mat& image, int cell, cv::Size grid, std::vector<double>* means) {
   switch (image.depth()) {
-    case CV_8U: region_sums<uint8_t>(image, cell, grid, means); break;
-    case CV_16U: region_sums<uint16_t>(image, cell, grid, means); break;
-    case CV_32F: region_sums<float>(image, cell, grid, means); break;
+    case CV_8U:
+      region_sums<uint8_t>(image, cell, grid, means);
+      break;
+    case CV_16U:
+      region_sums<uint16_t>(image, cell, grid, means);
+      break;
+    case CV_32F:
+      region_sums<float>(image, cell, grid, means);
+      break;
     default: {
       cv::Mat f;
       image.convertTo(f, CV_64F);
@@ -120,7 +126,8 @@ double distance_at_index(const std::vector<double>& focus_distance_m, double ind
   const size_t i1 = std::min(i0 + 1, focus_distance_m.size() - 1);
   auto dioptres = [](double d) { return std::isfinite(d) && d > 0 ? 1.0 / d : 0.0; };
   const double t = i - static_cast<double>(i0);
-  const double dpt = (1.0 - t) * dioptres(focus_distance_m[i0]) + t * dioptres(focus_distance_m[i1]);
+  const double dpt =
+      (1.0 - t) * dioptres(focus_distance_m[i0]) + t * dioptres(focus_distance_m[i1]);
   return dpt > 0 ? 1.0 / dpt : std::numeric_limits<double>::infinity();
 }
 
@@ -156,17 +163,26 @@ Status FocusStackAccumulator::add(const cv::Mat& frame, double magnification) {
     const int cell = std::max(4, options_.region_px);
     grid_ = cv::Size(m.cols / cell, m.rows / cell);
     for (int y = 0; y < grid_.height; ++y)
-      for (int x = 0; x < grid_.width; ++x) region_rects_.emplace_back(x * cell, y * cell, cell, cell);
+      for (int x = 0; x < grid_.width; ++x)
+        region_rects_.emplace_back(x * cell, y * cell, cell, cell);
     region_curves_.assign(region_rects_.size(), {});
     region_floors_.assign(region_rects_.size(), std::numeric_limits<double>::infinity());
   } else {
     // One fused pass: the frame right after a pixel's best is its "plus" neighbour; a new
     // maximum takes the previous frame as its "minus" neighbour and this frame's pixel.
     switch (frame.elemSize()) {
-      case 1: update_peaks<uint8_t>(m, frame); break;
-      case 2: update_peaks<uint16_t>(m, frame); break;
-      case 4: update_peaks<uint32_t>(m, frame); break;
-      default: update_peaks<uint64_t>(m, frame); break;  // CV_64F (8 bytes)
+      case 1:
+        update_peaks<uint8_t>(m, frame);
+        break;
+      case 2:
+        update_peaks<uint16_t>(m, frame);
+        break;
+      case 4:
+        update_peaks<uint32_t>(m, frame);
+        break;
+      default:
+        update_peaks<uint64_t>(m, frame);
+        break;  // CV_64F (8 bytes)
     }
     floor_ = std::min(floor_, floor);  // the quietest frame's floor
   }
@@ -217,8 +233,8 @@ void FocusStackAccumulator::update_peaks(const cv::Mat& m, const cv::Mat& frame)
 Result<FocusStackResult> FocusStackAccumulator::finish() {
   if (finished_) return make_error("invalid_argument", "finish() called twice");
   if (count_ < 3)
-    return make_error("too_few_samples", "a focus stack needs at least 3 frames; got " +
-                                             std::to_string(count_));
+    return make_error("too_few_samples",
+                      "a focus stack needs at least 3 frames; got " + std::to_string(count_));
   finished_ = true;
   const double floor = floor_;
   FocusStackResult out;
@@ -238,8 +254,8 @@ Result<FocusStackResult> FocusStackAccumulator::finish() {
       double delta = 0;
       if (inside && above) {
         const double eps = 1e-6 * (b[c] - floor);
-        delta = log_parabola_delta(std::max<double>(bm[c] - floor, eps),
-                                   b[c] - floor, std::max<double>(bp[c] - floor, eps));
+        delta = log_parabola_delta(std::max<double>(bm[c] - floor, eps), b[c] - floor,
+                                   std::max<double>(bp[c] - floor, eps));
         ov[c] = 255;
       }
       oi[c] = static_cast<float>(bi[c] + delta);
@@ -255,7 +271,8 @@ Result<FocusStackResult> FocusStackAccumulator::finish() {
     const int i = static_cast<int>(peak - rf.curve.begin());
     const double least = *std::min_element(rf.curve.begin(), rf.curve.end());
     rf.best_index = i;
-    rf.confidence = region_floor > 0 ? (*peak - region_floor) / region_floor : std::numeric_limits<double>::max();
+    rf.confidence = region_floor > 0 ? (*peak - region_floor) / region_floor
+                                     : std::numeric_limits<double>::max();
     if (*peak - region_floor <= options_.min_peak_ratio * region_floor || *peak < 1.25 * least) {
       rf.status = kFocusFlat;
       rf.confidence = 0;

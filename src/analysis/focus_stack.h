@@ -1,5 +1,5 @@
-// Focus stacks (docs/physics.md, "Focus stacks and depth from focus"): a Laplacian focus measure per pixel
-// and per region, best focus by log-parabola interpolation between frames, a depth map
+// Focus stacks (docs/physics.md, "Focus stacks and depth from focus"): a Laplacian focus measure
+// per pixel and per region, best focus by log-parabola interpolation between frames, a depth map
 // where the focus distance of each frame is known, and an all-in-focus image.
 //
 // The measure: the Laplacian (3x3 kernel [0 1 0; 1 -4 1; 0 1 0]) of the frame, squared,
@@ -78,8 +78,8 @@ struct PeakFit {
 PeakFit fit_log_parabola_peak(const std::vector<double>& values, double floor, int peak_index);
 
 struct FocusStackOptions {
-  int window_px = 9;       // per-pixel measure window
-  int region_px = 32;      // region grid cell size
+  int window_px = 9;            // per-pixel measure window
+  int region_px = 32;           // region grid cell size
   double min_peak_ratio = 3.0;  // peak (minus floor) over the floor: below it, flat;
                                 // also flat when the peak is < 1.25 x the curve's least
   double black_level = 0;       // DN subtracted before the brightness normalisation
@@ -87,17 +87,17 @@ struct FocusStackOptions {
 
 struct RegionFocus {
   cv::Rect rect;
-  std::string status;       // kFocusOk, kFocusPeakAtEnd, kFocusFlat
-  double best_index = 0;    // frame index (sub-step) in stack order
+  std::string status;           // kFocusOk, kFocusPeakAtEnd, kFocusFlat
+  double best_index = 0;        // frame index (sub-step) in stack order
   double best_index_sigma = 0;  // 1 sigma of best_index from the peak fit (frames)
-  double confidence = 0;    // (peak - floor) / floor (higher is surer); 0 for flat
-  std::vector<double> curve;  // measure per frame (mean per pixel), for plots
+  double confidence = 0;        // (peak - floor) / floor (higher is surer); 0 for flat
+  std::vector<double> curve;    // measure per frame (mean per pixel), for plots
 };
 
 struct FocusStackResult {
   int frames = 0;
-  cv::Mat best_index;   // CV_32F, sub-step frame index per pixel
-  cv::Mat valid;        // CV_8U, 255 where the pixel's peak is inside and above the floor
+  cv::Mat best_index;    // CV_32F, sub-step frame index per pixel
+  cv::Mat valid;         // CV_8U, 255 where the pixel's peak is inside and above the floor
   cv::Mat all_in_focus;  // the input type: each pixel from its sharpest frame
   std::vector<RegionFocus> regions;
 };
@@ -127,14 +127,14 @@ class FocusStackAccumulator {
   int count_ = 0;
   bool finished_ = false;
   cv::Mat best_, best_minus_, best_plus_, previous_;  // CV_32F measures
-  cv::Mat scratch_;                                    // this frame's measure (reused)
-  cv::Mat best_index_;                                 // CV_32S
-  cv::Mat sharpest_;                                   // the input type
-  double floor_ = 0;                                   // least normalised noise floor
-  std::vector<std::vector<double>> region_curves_;     // normalised measure per frame
+  cv::Mat scratch_;                                   // this frame's measure (reused)
+  cv::Mat best_index_;                                // CV_32S
+  cv::Mat sharpest_;                                  // the input type
+  double floor_ = 0;                                  // least normalised noise floor
+  std::vector<std::vector<double>> region_curves_;    // normalised measure per frame
   std::vector<cv::Rect> region_rects_;
-  cv::Size grid_;                                      // regions across, down
-  std::vector<double> region_floors_;                  // least normalised floor per region
+  cv::Size grid_;                      // regions across, down
+  std::vector<double> region_floors_;  // least normalised floor per region
 };
 
 // Depth from a best-focus index through the frames' focus distances (metres; +infinity

@@ -17,7 +17,8 @@ namespace camlab {
 namespace {
 
 Error io_error(const std::filesystem::path& path, const char* what, int err) {
-  return make_error("io_error", std::string(what) + " " + path.string() + ": " + std::strerror(err));
+  return make_error("io_error",
+                    std::string(what) + " " + path.string() + ": " + std::strerror(err));
 }
 
 }  // namespace
@@ -25,7 +26,8 @@ Error io_error(const std::filesystem::path& path, const char* what, int err) {
 Status write_file_atomically(const std::filesystem::path& path,
                              std::span<const unsigned char> bytes) {
   // mkstemp in the target's own directory, so the rename never crosses filesystems.
-  std::string temp_name = (path.parent_path() / ("." + path.filename().string() + ".XXXXXX")).string();
+  std::string temp_name =
+      (path.parent_path() / ("." + path.filename().string() + ".XXXXXX")).string();
   if (path.parent_path().empty()) temp_name = "." + path.filename().string() + ".XXXXXX";
   UniqueFd fd(::mkstemp(temp_name.data()));
   if (!fd) return io_error(path, "cannot create a temporary file for", errno);

@@ -13,7 +13,8 @@
 
 namespace camlab {
 
-Status write_file_atomically(const std::filesystem::path& path, std::span<const unsigned char> bytes);
+Status write_file_atomically(const std::filesystem::path& path,
+                             std::span<const unsigned char> bytes);
 Status write_file_atomically(const std::filesystem::path& path, std::string_view text);
 
 // Reads a whole file; errors name the path and the reason.

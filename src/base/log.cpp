@@ -4,11 +4,11 @@
 
 #include <algorithm>
 #include <array>
-#include <iterator>
 #include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <iterator>
 #include <string>
 
 namespace camlab::log {
@@ -16,9 +16,9 @@ namespace camlab::log {
 namespace {
 
 constexpr std::array<std::string_view, 6> kCategoryNames = {"camlabd", "http",  "jobs",
-                                                           "cameras", "calib", "vcam"};
+                                                            "cameras", "calib", "vcam"};
 constexpr std::array<std::string_view, 5> kLevelNames = {"debug", "info", "warning", "error",
-                                                        "off"};
+                                                         "off"};
 
 // Lines longer than this are cut (a log line is for a person to read).
 constexpr size_t kMaxMessageBytes = 4096;
@@ -142,12 +142,12 @@ namespace camlab {
 
 // The four levels' calls differ only in their level; printf-style arguments cannot be
 // forwarded through a template, hence the macro.
-#define CAMLAB_DEFINE_LOG_CALL(function, level)                     \
+#define CAMLAB_DEFINE_LOG_CALL(function, level)                    \
   void function(log::Category category, const char* format, ...) { \
-    va_list args;                                                   \
-    va_start(args, format);                                         \
-    log::vwrite(category, level, format, args);                     \
-    va_end(args);                                                   \
+    va_list args;                                                  \
+    va_start(args, format);                                        \
+    log::vwrite(category, level, format, args);                    \
+    va_end(args);                                                  \
   }
 
 CAMLAB_DEFINE_LOG_CALL(log_debug, log::Level::kDebug)

@@ -58,9 +58,13 @@ void vwrite(Category category, Level level, const char* format, va_list args)
 namespace camlab {
 
 // The usual calls: log_info(log::Category::kJobs, "job %lld started", id).
-void log_debug(log::Category category, const char* format, ...) __attribute__((format(printf, 2, 3)));
-void log_info(log::Category category, const char* format, ...) __attribute__((format(printf, 2, 3)));
-void log_warning(log::Category category, const char* format, ...) __attribute__((format(printf, 2, 3)));
-void log_error(log::Category category, const char* format, ...) __attribute__((format(printf, 2, 3)));
+void log_debug(log::Category category, const char* format, ...)
+    __attribute__((format(printf, 2, 3)));
+void log_info(log::Category category, const char* format, ...)
+    __attribute__((format(printf, 2, 3)));
+void log_warning(log::Category category, const char* format, ...)
+    __attribute__((format(printf, 2, 3)));
+void log_error(log::Category category, const char* format, ...)
+    __attribute__((format(printf, 2, 3)));
 
 }  // namespace camlab

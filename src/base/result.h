@@ -44,21 +44,33 @@ inline Error make_error(ErrorCode code, std::string message) {
 template <class T>
 class [[nodiscard]] Result {
  public:
-  Result(T value) : storage_(std::move(value)) {}          // NOLINT: implicit by design
-  Result(Error error) : storage_(std::move(error)) {}      // NOLINT: implicit by design
+  Result(T value) : storage_(std::move(value)) {}      // NOLINT: implicit by design
+  Result(Error error) : storage_(std::move(error)) {}  // NOLINT: implicit by design
 
   bool ok() const { return std::holds_alternative<T>(storage_); }
   explicit operator bool() const { return ok(); }
 
-  const T& value() const& { assert(ok()); return std::get<T>(storage_); }
-  T& value() & { assert(ok()); return std::get<T>(storage_); }
-  T&& value() && { assert(ok()); return std::get<T>(std::move(storage_)); }
+  const T& value() const& {
+    assert(ok());
+    return std::get<T>(storage_);
+  }
+  T& value() & {
+    assert(ok());
+    return std::get<T>(storage_);
+  }
+  T&& value() && {
+    assert(ok());
+    return std::get<T>(std::move(storage_));
+  }
   const T& operator*() const& { return value(); }
   T& operator*() & { return value(); }
   const T* operator->() const { return &value(); }
   T* operator->() { return &value(); }
 
-  const Error& error() const { assert(!ok()); return std::get<Error>(storage_); }
+  const Error& error() const {
+    assert(!ok());
+    return std::get<Error>(storage_);
+  }
 
  private:
   std::variant<T, Error> storage_;
@@ -72,7 +84,10 @@ class [[nodiscard]] Status {
 
   bool ok() const { return !error_.has_value(); }
   explicit operator bool() const { return ok(); }
-  const Error& error() const { assert(error_); return *error_; }
+  const Error& error() const {
+    assert(error_);
+    return *error_;
+  }
 
  private:
   std::optional<Error> error_;
@@ -82,9 +97,9 @@ class [[nodiscard]] Status {
 
 // Unwraps a Result into `target`, or returns its error from the enclosing function
 // (which must return a Result or a Status).
-#define CAMLAB_ASSIGN(target, expr)                       \
-  do {                                                    \
-    auto camlab_result_ = (expr);                         \
-    if (!camlab_result_) return camlab_result_.error();   \
-    target = std::move(*camlab_result_);                  \
+#define CAMLAB_ASSIGN(target, expr)                     \
+  do {                                                  \
+    auto camlab_result_ = (expr);                       \
+    if (!camlab_result_) return camlab_result_.error(); \
+    target = std::move(*camlab_result_);                \
   } while (0)

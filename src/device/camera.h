@@ -17,10 +17,10 @@
 namespace camlab::device {
 
 struct CameraIdentity {
-  std::string id;        // stable: backend + bus info (survives renumbering of /dev/video*)
-  std::string backend;   // "v4l2", "libcamera", "virtual"
-  std::string path;      // e.g. /dev/video0
-  std::string name;      // the card name
+  std::string id;       // stable: backend + bus info (survives renumbering of /dev/video*)
+  std::string backend;  // "v4l2", "libcamera", "virtual"
+  std::string path;     // e.g. /dev/video0
+  std::string name;     // the card name
   std::string driver;
   std::string bus_info;
 };
@@ -38,7 +38,7 @@ struct FrameSizeInfo {
 };
 
 struct PixelFormatInfo {
-  std::string fourcc;       // "GREY", "Y16 ", "YUYV"
+  std::string fourcc;  // "GREY", "Y16 ", "YUYV"
   std::string description;
   std::vector<FrameSizeInfo> sizes;
 };
@@ -47,15 +47,15 @@ enum class ControlType { kInteger, kBoolean, kMenu, kIntegerMenu, kButton, kInte
 
 struct ControlInfo {
   uint32_t id = 0;
-  std::string name;      // V4L2 style: "exposure_time_absolute"
-  std::string label;     // as the driver names it: "Exposure Time, Absolute"
+  std::string name;   // V4L2 style: "exposure_time_absolute"
+  std::string label;  // as the driver names it: "Exposure Time, Absolute"
   ControlType type = ControlType::kInteger;
   int64_t minimum = 0;
   int64_t maximum = 0;
   int64_t step = 1;
   int64_t default_value = 0;
   int64_t current = 0;
-  std::string unit;      // "100 us", "steps", "" when the control has none
+  std::string unit;  // "100 us", "steps", "" when the control has none
   std::vector<std::pair<int64_t, std::string>> menu;
   bool read_only = false;
   bool inactive = false;  // e.g. exposure_time_absolute while exposure_auto is on
@@ -73,16 +73,16 @@ struct StreamFormat {
 struct FrameMetadata {
   uint64_t sequence = 0;
   int64_t timestamp_ns = 0;
-  std::string clock;           // "monotonic"
+  std::string clock;  // "monotonic"
   uint32_t bytes_used = 0;
-  bool error = false;          // the driver flagged the buffer (V4L2_BUF_FLAG_ERROR)
-  uint64_t dropped_before = 0; // sequence numbers skipped since the previous frame
+  bool error = false;           // the driver flagged the buffer (V4L2_BUF_FLAG_ERROR)
+  uint64_t dropped_before = 0;  // sequence numbers skipped since the previous frame
   // Settings in effect for this frame as the camera reported them with it (libcamera's
   // request metadata); empty when the backend or pipeline does not report them, never
   // filled from what was asked.
   std::optional<int64_t> exposure_us;
-  std::optional<double> analogue_gain;   // libcamera's AnalogueGain (1.0 = unity)
-  std::optional<double> lens_position;   // libcamera's LensPosition, dioptres
+  std::optional<double> analogue_gain;  // libcamera's AnalogueGain (1.0 = unity)
+  std::optional<double> lens_position;  // libcamera's LensPosition, dioptres
 };
 
 // A filled buffer, borrowed until requeue(): data points into the driver's mapping.

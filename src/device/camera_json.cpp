@@ -6,13 +6,20 @@ namespace {
 
 const char* type_name(ControlType type) {
   switch (type) {
-    case ControlType::kInteger: return "integer";
-    case ControlType::kBoolean: return "boolean";
-    case ControlType::kMenu: return "menu";
-    case ControlType::kIntegerMenu: return "integer_menu";
-    case ControlType::kButton: return "button";
-    case ControlType::kInteger64: return "integer64";
-    case ControlType::kOther: return "other";
+    case ControlType::kInteger:
+      return "integer";
+    case ControlType::kBoolean:
+      return "boolean";
+    case ControlType::kMenu:
+      return "menu";
+    case ControlType::kIntegerMenu:
+      return "integer_menu";
+    case ControlType::kButton:
+      return "button";
+    case ControlType::kInteger64:
+      return "integer64";
+    case ControlType::kOther:
+      return "other";
   }
   return "other";
 }
@@ -20,8 +27,8 @@ const char* type_name(ControlType type) {
 }  // namespace
 
 nlohmann::json to_json(const CameraIdentity& identity) {
-  return {{"id", identity.id},           {"backend", identity.backend}, {"path", identity.path},
-          {"name", identity.name},       {"driver", identity.driver},   {"bus_info", identity.bus_info}};
+  return {{"id", identity.id},     {"backend", identity.backend}, {"path", identity.path},
+          {"name", identity.name}, {"driver", identity.driver},   {"bus_info", identity.bus_info}};
 }
 
 nlohmann::json to_json(const PixelFormatInfo& format) {
@@ -29,11 +36,13 @@ nlohmann::json to_json(const PixelFormatInfo& format) {
   for (const auto& size : format.sizes) {
     nlohmann::json intervals = nlohmann::json::array();
     for (const auto& interval : size.intervals)
-      intervals.push_back({{"numerator", interval.numerator},
-                           {"denominator", interval.denominator},
-                           {"frame_interval_s", interval.seconds()},
-                           {"frames_per_second", interval.numerator ? 1.0 / interval.seconds() : 0.0}});
-    sizes.push_back({{"width_px", size.width}, {"height_px", size.height}, {"intervals", intervals}});
+      intervals.push_back(
+          {{"numerator", interval.numerator},
+           {"denominator", interval.denominator},
+           {"frame_interval_s", interval.seconds()},
+           {"frames_per_second", interval.numerator ? 1.0 / interval.seconds() : 0.0}});
+    sizes.push_back(
+        {{"width_px", size.width}, {"height_px", size.height}, {"intervals", intervals}});
   }
   return {{"fourcc", format.fourcc}, {"description", format.description}, {"sizes", sizes}};
 }
@@ -53,7 +62,8 @@ nlohmann::json to_json(const ControlInfo& control) {
                          {"inactive", control.inactive}};
   if (!control.menu.empty()) {
     nlohmann::json menu = nlohmann::json::array();
-    for (const auto& [value, name] : control.menu) menu.push_back({{"value", value}, {"name", name}});
+    for (const auto& [value, name] : control.menu)
+      menu.push_back({{"value", value}, {"name", name}});
     json["menu"] = menu;
   }
   return json;

@@ -27,7 +27,8 @@ std::vector<std::string> list_video_device_paths() {
   for (const auto& entry : std::filesystem::directory_iterator("/sys/class/video4linux", ec))
     add(entry.path().filename().string());
   ec.clear();
-  for (const auto& entry : std::filesystem::directory_iterator("/dev", ec)) add(entry.path().filename().string());
+  for (const auto& entry : std::filesystem::directory_iterator("/dev", ec))
+    add(entry.path().filename().string());
   std::sort(found.begin(), found.end());
   std::vector<std::string> paths;
   for (auto& [n, path] : found) paths.push_back(std::move(path));
@@ -67,7 +68,8 @@ Status DeviceRegistry::add_libcamera() {
   }
   return {};
 #else
-  return make_error("unsupported", "camlab was built without libcamera (CAMLAB_WITH_LIBCAMERA=OFF)");
+  return make_error("unsupported",
+                    "camlab was built without libcamera (CAMLAB_WITH_LIBCAMERA=OFF)");
 #endif
 }
 
@@ -75,7 +77,8 @@ Result<std::unique_ptr<Camera>> DeviceRegistry::open(const std::string& id) cons
   std::string known;
   for (size_t i = 0; i < entries_.size(); ++i) {
 #ifdef CAMLAB_HAVE_LIBCAMERA
-    if (entries_[i].identity.backend == "libcamera" && (entries_[i].identity.id == id || entries_[i].identity.path == id))
+    if (entries_[i].identity.backend == "libcamera" &&
+        (entries_[i].identity.id == id || entries_[i].identity.path == id))
       return open_libcamera_camera(entries_[i].identity.id);
 #endif
     if (entries_[i].identity.id == id || entries_[i].identity.path == id) {
@@ -85,8 +88,9 @@ Result<std::unique_ptr<Camera>> DeviceRegistry::open(const std::string& id) cons
     }
     known += (known.empty() ? "" : ", ") + entries_[i].identity.id;
   }
-  return make_error("no_device", "no camera with id '" + id + "'" +
-                                     (known.empty() ? " (no cameras found)" : " (cameras: " + known + ")"));
+  return make_error("no_device",
+                    "no camera with id '" + id + "'" +
+                        (known.empty() ? " (no cameras found)" : " (cameras: " + known + ")"));
 }
 
 }  // namespace camlab::device

@@ -20,11 +20,11 @@
 namespace camlab::image {
 
 struct CameraModelText {
-  std::string lensmodel;            // e.g. "LENSMODEL_OPENCV8", as mrcal names it
-  std::vector<double> intrinsics;   // fx, fy, cx, cy (px), then the distortion parameters
-  std::array<double, 6> rt_cam_ref{};  // rotation vector (rad) and translation (m)
+  std::string lensmodel;                 // e.g. "LENSMODEL_OPENCV8", as mrcal names it
+  std::vector<double> intrinsics;        // fx, fy, cx, cy (px), then the distortion parameters
+  std::array<double, 6> rt_cam_ref{};    // rotation vector (rad) and translation (m)
   std::array<unsigned, 2> imagersize{};  // width, height (px)
-  std::string comment;              // optional; written as '#' lines at the top
+  std::string comment;                   // optional; written as '#' lines at the top
   // Optional: the base-85 text of the .npz of mrcal's optimization_inputs (written as the
   // Python bytes literal b'...') and the index of this camera's intrinsics in them.
   std::string optimization_inputs_b85;

@@ -87,7 +87,8 @@ Result<CaptureFolderWriter> CaptureFolderWriter::create(const fs::path& dir,
                                     " already exists and is not empty; choose another, or "
                                     "remove it first (nothing was overwritten)");
   fs::create_directories(dir, ec);
-  if (ec) return make_error("io_error", "cannot create folder " + dir.string() + ": " + ec.message());
+  if (ec)
+    return make_error("io_error", "cannot create folder " + dir.string() + ": " + ec.message());
 
   CaptureFolderWriter writer;
   writer.dir_ = dir;
@@ -104,7 +105,7 @@ Result<CaptureFolderWriter> CaptureFolderWriter::create(const fs::path& dir,
 }
 
 Result<CaptureFrameEntry> CaptureFolderWriter::add_frame(const cv::Mat& image,
-                                                          const FrameSidecar& sidecar) {
+                                                         const FrameSidecar& sidecar) {
   const int expected_depth = sidecar.bit_depth <= 8 ? CV_8U : CV_16U;
   if (image.empty() || image.channels() != 1 || image.depth() != expected_depth)
     return make_error("bad_frame", "frame must be a single-channel " +
@@ -160,8 +161,9 @@ Status CaptureFolderWriter::write_manifest(bool complete) {
 
 Result<CaptureFolder> CaptureFolder::open(const fs::path& dir) {
   auto text = read_text_file(dir / "manifest.json");
-  if (!text) return make_error("not_a_capture", dir.string() + " is not a capture folder (" +
-                                                    text.error().message + ")");
+  if (!text)
+    return make_error("not_a_capture",
+                      dir.string() + " is not a capture folder (" + text.error().message + ")");
   CaptureFolder folder;
   folder.dir_ = dir;
   try {
@@ -171,10 +173,9 @@ Result<CaptureFolder> CaptureFolder::open(const fs::path& dir) {
                                              " does not say format \"camlab-capture\"");
     const int version = folder.manifest_.value("version", 0);
     if (version < 1 || version > kCaptureFormatVersion)
-      return make_error("unsupported_version",
-                        "capture format version " + std::to_string(version) +
-                            " is not supported (this camlab reads 1.." +
-                            std::to_string(kCaptureFormatVersion) + ")");
+      return make_error("unsupported_version", "capture format version " + std::to_string(version) +
+                                                   " is not supported (this camlab reads 1.." +
+                                                   std::to_string(kCaptureFormatVersion) + ")");
     for (const auto& f : folder.manifest_.at("frames")) {
       CaptureFrameEntry entry{f.at("index").get<int>(), f.at("image").get<std::string>(),
                               f.at("sidecar").get<std::string>()};

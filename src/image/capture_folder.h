@@ -39,10 +39,10 @@ struct FrameSidecar {
   std::string pixel_format;         // V4L2 fourcc name: "GREY" (8-bit) or "Y16"
   int bit_depth = 8;                // significant bits of the DN
   int black_level_dn = 0;
-  int frames_discarded = 0;         // frames dropped before this one while settings settled
+  int frames_discarded = 0;  // frames dropped before this one while settings settled
   nlohmann::json settings = nlohmann::json::object();
   nlohmann::json labels = nlohmann::json::object();  // e.g. {"sweep_index": 2, "repeat": 1}
-  nlohmann::json truth;             // null, or the virtual camera's ground truth
+  nlohmann::json truth;                              // null, or the virtual camera's ground truth
 };
 
 nlohmann::json to_json(const FrameSidecar& sidecar);
@@ -60,8 +60,7 @@ class CaptureFolderWriter {
   // `kind` says what made the capture ("render", "single", "bracket", "focus_stack",
   // "aperture_series"); `source` describes the camera; `parameters` the request.
   static Result<CaptureFolderWriter> create(const std::filesystem::path& dir,
-                                            const std::string& kind,
-                                            const nlohmann::json& source,
+                                            const std::string& kind, const nlohmann::json& source,
                                             const nlohmann::json& parameters);
 
   // Writes one frame (CV_8UC1 or CV_16UC1, matching sidecar.bit_depth) and its sidecar.

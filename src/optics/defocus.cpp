@@ -16,8 +16,7 @@ Error no_real_image(std::string_view name, double value_mm, double focal_mm,
                     std::string_view allowed) {
   return make_error(kErrNoRealImage,
                     std::string(name) + " = " + format_significant(value_mm, 10) + " must be " +
-                        std::string(allowed) + " focal_mm = " +
-                        format_significant(focal_mm, 10) +
+                        std::string(allowed) + " focal_mm = " + format_significant(focal_mm, 10) +
                         ": at or inside the focal length a thin lens forms no real image");
 }
 
@@ -50,9 +49,9 @@ Result<double> circle_of_confusion_mm(double focal_mm, double f_number, double f
   // cancels however close the object is to the plane of focus.
   double coc_mm = 0.0;
   if (std::isinf(focus_mm)) {
-    coc_mm = aperture_mm * (focal_mm / object_mm);                  // |z_o - s| / s -> 1
+    coc_mm = aperture_mm * (focal_mm / object_mm);  // |z_o - s| / s -> 1
   } else if (std::isinf(object_mm)) {
-    coc_mm = aperture_mm * (focal_mm / (focus_mm - focal_mm));      // |z_o - s| / z_o -> 1
+    coc_mm = aperture_mm * (focal_mm / (focus_mm - focal_mm));  // |z_o - s| / z_o -> 1
   } else {
     coc_mm = aperture_mm * (focal_mm / (focus_mm - focal_mm)) *
              (std::fabs(object_mm - focus_mm) / object_mm);

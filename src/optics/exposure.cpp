@@ -14,20 +14,21 @@ namespace {
 
 // What lenses and cameras engrave, f/1 to f/32. The exact values are sqrt(2)^(k/n);
 // the marks round them by convention (f/11 is 11.31, f/22 is 22.6, f/5.6 is 5.66).
-constexpr std::array<double, 11> kMarkedFull = {1,  1.4, 2,  2.8, 4, 5.6,
-                                                8,  11,  16, 22,  32};
-constexpr std::array<double, 21> kMarkedHalf = {1,   1.2, 1.4, 1.7, 2,  2.4, 2.8,
-                                                3.3, 4,   4.8, 5.6, 6.7, 8,  9.5,
-                                                11,  13,  16,  19,  22,  27, 32};
+constexpr std::array<double, 11> kMarkedFull = {1, 1.4, 2, 2.8, 4, 5.6, 8, 11, 16, 22, 32};
+constexpr std::array<double, 21> kMarkedHalf = {1,   1.2, 1.4, 1.7, 2,  2.4, 2.8, 3.3, 4,  4.8, 5.6,
+                                                6.7, 8,   9.5, 11,  13, 16,  19,  22,  27, 32};
 constexpr std::array<double, 31> kMarkedThird = {
     1,   1.1, 1.2, 1.4, 1.6, 1.8, 2,  2.2, 2.5, 2.8, 3.2, 3.5, 4,  4.5, 5.0, 5.6,
     6.3, 7.1, 8,   9,   10,  11,  13, 14,  16,  18,  20,  22,  25, 29,  32};
 
 std::span<const double> marked_table(StopIncrement increment) {
   switch (increment) {
-    case StopIncrement::kFull: return kMarkedFull;
-    case StopIncrement::kHalf: return kMarkedHalf;
-    case StopIncrement::kThird: return kMarkedThird;
+    case StopIncrement::kFull:
+      return kMarkedFull;
+    case StopIncrement::kHalf:
+      return kMarkedHalf;
+    case StopIncrement::kThird:
+      return kMarkedThird;
   }
   return {};
 }
@@ -90,8 +91,7 @@ Result<double> photometric_exposure_lux_s(double illuminance_lux, double exposur
     return s.error();
   }
   const double exposure_lux_s = illuminance_lux * exposure_s;
-  if (auto s = detail::require_finite_result("photometric exposure (lux s)", exposure_lux_s);
-      !s) {
+  if (auto s = detail::require_finite_result("photometric exposure (lux s)", exposure_lux_s); !s) {
     return s.error();
   }
   return exposure_lux_s;
@@ -112,8 +112,7 @@ Result<double> equivalent_exposure_s(double exposure_s, double f_number, double 
   // products stay near 1 for any sensible input.
   const double ratio = new_f_number / f_number;
   const double new_exposure_s = exposure_s * ratio * ratio * (gain / new_gain);
-  if (auto s = detail::require_finite_result("equivalent exposure (s)", new_exposure_s);
-      !s) {
+  if (auto s = detail::require_finite_result("equivalent exposure (s)", new_exposure_s); !s) {
     return s.error();
   }
   if (new_exposure_s == 0.0) {

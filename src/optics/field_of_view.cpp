@@ -38,8 +38,7 @@ Result<double> equivalent_focal_mm(double focal_mm, double sensor_width_mm,
   auto crop = crop_factor(sensor_width_mm, sensor_height_mm);
   if (!crop) return crop.error();
   const double equivalent_mm = focal_mm * *crop;
-  if (auto s = detail::require_finite_result("equivalent focal length (mm)", equivalent_mm);
-      !s) {
+  if (auto s = detail::require_finite_result("equivalent focal length (mm)", equivalent_mm); !s) {
     return s.error();
   }
   return equivalent_mm;

@@ -80,8 +80,7 @@ struct FieldOfView {
   double vertical_deg;
   double diagonal_deg;
 };
-Result<FieldOfView> field_of_view(double focal_mm, double sensor_width_mm,
-                                  double sensor_height_mm);
+Result<FieldOfView> field_of_view(double focal_mm, double sensor_width_mm, double sensor_height_mm);
 
 // 35-mm equivalent focal length: focal_mm x crop factor.
 Result<double> equivalent_focal_mm(double focal_mm, double sensor_width_mm,

@@ -34,13 +34,20 @@ struct Alias {
   std::string_view name;
 };
 constexpr std::array<Alias, 14> kAliases = {{
-    {"medium", "medium-format"},     {"mf", "medium-format"},
-    {"ff", "full-frame"},            {"35mm", "full-frame"},
-    {"135", "full-frame"},           {"fx", "full-frame"},
-    {"dx", "aps-c"},                 {"m43", "four-thirds"},
-    {"mft", "four-thirds"},          {"m4/3", "four-thirds"},
-    {"micro4/3", "four-thirds"},     {"microfourthirds", "four-thirds"},
-    {"oneinch", "1in"},              {"1.0", "1in"},
+    {"medium", "medium-format"},
+    {"mf", "medium-format"},
+    {"ff", "full-frame"},
+    {"35mm", "full-frame"},
+    {"135", "full-frame"},
+    {"fx", "full-frame"},
+    {"dx", "aps-c"},
+    {"m43", "four-thirds"},
+    {"mft", "four-thirds"},
+    {"m4/3", "four-thirds"},
+    {"micro4/3", "four-thirds"},
+    {"microfourthirds", "four-thirds"},
+    {"oneinch", "1in"},
+    {"1.0", "1in"},
 }};
 
 // Lower case without spaces, dashes, underscores, quotes and a trailing "in"/"inch"
@@ -83,9 +90,8 @@ Result<SensorFormat> find_sensor_format(std::string_view name) {
   for (const SensorFormat& format : kSensorFormats) {
     known += (known.empty() ? "" : ", ") + std::string(format.name);
   }
-  return make_error(kErrUnknownSensor, "unknown sensor format \"" +
-                                                        std::string(name) +
-                                                        "\": known formats are " + known);
+  return make_error(kErrUnknownSensor, "unknown sensor format \"" + std::string(name) +
+                                           "\": known formats are " + known);
 }
 
 double diagonal_mm(double width_mm, double height_mm) { return std::hypot(width_mm, height_mm); }

@@ -15,9 +15,8 @@ namespace detail {
 
 namespace {
 Error out_of_range(std::string_view name, double value, std::string_view allowed) {
-  return make_error(kErrInvalidArgument,
-                    std::string(name) + " = " + format_significant(value, 10) +
-                        " is out of range: must be " + std::string(allowed));
+  return make_error(kErrInvalidArgument, std::string(name) + " = " + format_significant(value, 10) +
+                                             " is out of range: must be " + std::string(allowed));
 }
 }  // namespace
 
@@ -43,9 +42,9 @@ Status require_non_negative_finite(std::string_view name, double value) {
 
 Status require_finite_result(std::string_view name, double value) {
   if (!std::isfinite(value)) {
-    return make_error(kErrInvalidArgument,
-                      "the inputs are too extreme: " + std::string(name) + " = " +
-                          format_significant(value, 10) + " is not representable");
+    return make_error(kErrInvalidArgument, "the inputs are too extreme: " + std::string(name) +
+                                               " = " + format_significant(value, 10) +
+                                               " is not representable");
   }
   return {};
 }

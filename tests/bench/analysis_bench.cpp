@@ -25,8 +25,8 @@
 #include "analysis/edge/edge_spread.h"
 #include "analysis/focus_stack.h"
 #include "analysis_bench_previous_focus.h"
-#include "mock_device/spec/camera_spec.h"
 #include "mock_device/render/renderer.h"
+#include "mock_device/spec/camera_spec.h"
 #include "mock_device/spec/scene_spec.h"
 
 namespace {
@@ -85,7 +85,8 @@ Stats edge_stats(double d, double hl, double hw, double sigma_b, int draws) {
 
 void edge_table() {
   std::printf("## Edge fit: window against time and error (CNR 50, 5 deg, 24 noise draws)\n\n");
-  std::printf("| D px | half_length px | half_width px | ms per fit | bias px | spread px | failed |\n");
+  std::printf(
+      "| D px | half_length px | half_width px | ms per fit | bias px | spread px | failed |\n");
   std::printf("|---:|---:|---:|---:|---:|---:|---:|\n");
   for (double d : {2.0, 8.0, 20.0}) {
     for (double hl : {15.0, 30.0, 60.0, 120.0}) {
@@ -97,8 +98,10 @@ void edge_table() {
       }
     }
   }
-  std::printf("\n## Baseline blur (Gaussian sigma 1 px): removal cost and error (half_length 60)\n\n");
-  std::printf("| D px | removal | ms per edge | bias px | spread px |\n|---:|---|---:|---:|---:|\n");
+  std::printf(
+      "\n## Baseline blur (Gaussian sigma 1 px): removal cost and error (half_length 60)\n\n");
+  std::printf(
+      "| D px | removal | ms per edge | bias px | spread px |\n|---:|---|---:|---:|---:|\n");
   for (double d : {2.0, 8.0, 20.0}) {
     const double hw = 0.5 * d + 12.0;
     // Without removal: the pure-disk fit of a disk (x) Gaussian.
@@ -110,28 +113,42 @@ void edge_table() {
     o.half_length_px = 60;
     o.half_width_px = hw;
     auto raw = fit_pillbox_edge(clean, EdgeLine{c, c, a}, o);
-    std::printf("| %.0f | none (noise-free) | - | %+.4f | - |\n", d, raw ? raw->diameter_px - d : NAN);
+    std::printf("| %.0f | none (noise-free) | - | %+.4f | - |\n", d,
+                raw ? raw->diameter_px - d : NAN);
     const Stats s = edge_stats(d, 60.0, hw, 1.0, 16);
     std::printf("| %.0f | inverted | %.2f | %+.4f | %.4f |\n", d, s.ms, s.bias, s.spread);
   }
 }
 
 void sampling_table() {
-  std::printf("\n## Renderer aperture samples against the measured diameter (virtual camera, f/2..f/8)\n\n");
-  std::printf("| aperture samples | f-number | truth D px | measured D px | error px | render s |\n");
+  std::printf(
+      "\n## Renderer aperture samples against the measured diameter (virtual camera, "
+      "f/2..f/8)\n\n");
+  std::printf(
+      "| aperture samples | f-number | truth D px | measured D px | error px | render s |\n");
   std::printf("|---:|---:|---:|---:|---:|---:|\n");
   const nlohmann::json camera = {
       {"name", "bench"},
-      {"sensor", {{"width_px", 160}, {"height_px", 160}, {"pixel_pitch_um", 6.0}, {"bit_depth", 12},
-                  {"black_level_dn", 64}, {"full_well_e", 20000}, {"read_noise_e", 0.0}, {"shot_noise", false}}},
+      {"sensor",
+       {{"width_px", 160},
+        {"height_px", 160},
+        {"pixel_pitch_um", 6.0},
+        {"bit_depth", 12},
+        {"black_level_dn", 64},
+        {"full_well_e", 20000},
+        {"read_noise_e", 0.0},
+        {"shot_noise", false}}},
       {"lens", {{"focal_mm", 8.0}, {"model", "LENSMODEL_PINHOLE"}, {"f_number_min", 1.4}}},
       {"timing", {{"frame_interval_us", 100000}}},
       {"controls", {{"exposure_time_absolute", {{"min", 1}, {"max", 1000}, {"default", 30}}}}}};
-  const nlohmann::json scene = {
-      {"illuminance_lux", 1000},
-      {"targets", {{{"type", "slanted_edge"}, {"size_m", {0.03, 0.03}}, {"angle_deg", 5},
-                    {"dark_reflectance", 0.1}, {"light_reflectance", 0.8},
-                    {"pose", {{"position_m", {0.0, 0.0, 0.35}}}}}}}};
+  const nlohmann::json scene = {{"illuminance_lux", 1000},
+                                {"targets",
+                                 {{{"type", "slanted_edge"},
+                                   {"size_m", {0.03, 0.03}},
+                                   {"angle_deg", 5},
+                                   {"dark_reflectance", 0.1},
+                                   {"light_reflectance", 0.8},
+                                   {"pose", {{"position_m", {0.0, 0.0, 0.35}}}}}}}};
   auto cs = mock::parse_camera_spec(camera);
   auto ss = mock::parse_scene_spec(scene);
   if (!cs || !ss) return;
@@ -160,8 +177,9 @@ void sampling_table() {
 
 void focus_table() {
   std::printf("\n## Focus measure speed (9x9 window; 12-bit data in 16-bit frames)\n\n");
-  std::printf("| frame | step | threads | ms per frame | ms per MP | max relative difference |\n"
-              "|---|---|---:|---:|---:|---:|\n");
+  std::printf(
+      "| frame | step | threads | ms per frame | ms per MP | max relative difference |\n"
+      "|---|---|---:|---:|---:|---:|\n");
   for (cv::Size size : {cv::Size(1000, 1000), cv::Size(4000, 3000)}) {
     cv::Mat frame(size, CV_16U);
     cv::randu(frame, 0, 4096);
@@ -181,7 +199,8 @@ void focus_table() {
       cv::Mat lap;
       cv::Laplacian(frame, lap, CV_32F, 1, 1.0, 0.0, cv::BORDER_REFLECT);
       cv::multiply(lap, lap, lap);
-      cv::boxFilter(lap, reference, CV_32F, cv::Size(9, 9), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+      cv::boxFilter(lap, reference, CV_32F, cv::Size(9, 9), cv::Point(-1, -1), true,
+                    cv::BORDER_REFLECT);
     });
     auto max_rel = [&](const cv::Mat& m) {
       cv::Mat diff = cv::abs(m - reference) / cv::max(reference, 1e-30);
@@ -190,22 +209,27 @@ void focus_table() {
       return worst;
     };
     auto row = [&](const char* step, int threads, double ms, const cv::Mat& m) {
-      std::printf("| %dx%d | %s | %d | %.1f | %.1f | %.1e |\n", size.width, size.height, step, threads, ms,
-                  ms / mp, max_rel(m));
+      std::printf("| %dx%d | %s | %d | %.1f | %.1f | %.1e |\n", size.width, size.height, step,
+                  threads, ms, ms / mp, max_rel(m));
     };
     row("3 OpenCV passes (Laplacian, multiply, boxFilter)", 1, t_opencv, reference);
     cv::Mat previous, fresh, reused;
     row("previous fused pass (double running sums)", 1,
         time_ms([&] { previous = bench::previous::previous_focus_measure(frame, 9); }), previous);
-    row("focus_measure, new output each call", 1, time_ms([&] { fresh = focus_measure(frame, 9); }), fresh);
-    row("focus_measure into a reused buffer", 1, time_ms([&] { focus_measure(frame, 9, &reused, 1.0); }), reused);
+    row("focus_measure, new output each call", 1, time_ms([&] { fresh = focus_measure(frame, 9); }),
+        fresh);
+    row("focus_measure into a reused buffer", 1,
+        time_ms([&] { focus_measure(frame, 9, &reused, 1.0); }), reused);
     cv::setNumThreads(2);
-    row("focus_measure into a reused buffer", 2, time_ms([&] { focus_measure(frame, 9, &reused, 1.0); }), reused);
+    row("focus_measure into a reused buffer", 2,
+        time_ms([&] { focus_measure(frame, 9, &reused, 1.0); }), reused);
     cv::setNumThreads(1);
     FocusStackAccumulator acc({});
     const double t_add = time_ms([&] { (void)acc.add(frame); });
-    std::printf("| %dx%d | accumulator add (measure, noise floor, running peak, 32 px regions) | 1 | %.1f | %.1f | - |\n",
-                size.width, size.height, t_add, t_add / mp);
+    std::printf(
+        "| %dx%d | accumulator add (measure, noise floor, running peak, 32 px regions) | 1 | %.1f "
+        "| %.1f | - |\n",
+        size.width, size.height, t_add, t_add / mp);
   }
 }
 
@@ -213,19 +237,22 @@ void focus_table() {
 // `width` px (1800 on 1000) under a disk of D px, 3 degrees off the pixel grid, CNR 50.
 void pair_table() {
   std::printf("\n## Overlapping edges: joint fit of a bar's two edges (CNR 50, 8 noise draws)\n\n");
-  std::printf("| D px | bar width px | ms per edge | accepted | bias px | spread px | mean sigma px |\n"
-              "|---:|---:|---:|---:|---:|---:|---:|\n");
+  std::printf(
+      "| D px | bar width px | ms per edge | accepted | bias px | spread px | mean sigma px |\n"
+      "|---:|---:|---:|---:|---:|---:|---:|\n");
   const double a = 93.0 * std::numbers::pi / 180.0, c = 110.27;
   for (double d : {2.0, 5.0, 10.0, 20.0})
     for (double width : {2.0, 5.0, 10.0}) {
       const double shift = width / std::sin(a);
       const cv::Mat left = render_edge_model(220, 220, EdgeLine{c, c, a}, d, 0.0, 0.0, 1.0);
-      const cv::Mat right = render_edge_model(220, 220, EdgeLine{c + shift, c, a}, d, 0.0, 0.0, 1.0);
+      const cv::Mat right =
+          render_edge_model(220, 220, EdgeLine{c + shift, c, a}, d, 0.0, 0.0, 1.0);
       const cv::Mat clean = 1000.0 - 800.0 * (left - right);
       const std::vector<EdgeSegment> edges = {
-          {"left", c - 80 * std::cos(a), c - 80 * std::sin(a), c + 80 * std::cos(a), c + 80 * std::sin(a), 0},
-          {"right", c + shift - 80 * std::cos(a), c - 80 * std::sin(a), c + shift + 80 * std::cos(a),
-           c + 80 * std::sin(a), 0}};
+          {"left", c - 80 * std::cos(a), c - 80 * std::sin(a), c + 80 * std::cos(a),
+           c + 80 * std::sin(a), 0},
+          {"right", c + shift - 80 * std::cos(a), c - 80 * std::sin(a),
+           c + shift + 80 * std::cos(a), c + 80 * std::sin(a), 0}};
       std::vector<double> values, times, sigmas;
       constexpr int kDraws = 8;
       for (int k = 0; k < kDraws; ++k) {
@@ -248,8 +275,9 @@ void pair_table() {
       if (values.empty())
         std::printf("| %.0f | %.0f | %.0f | 0/%d | - | - | - |\n", d, width, median(times), kDraws);
       else
-        std::printf("| %.0f | %.0f | %.0f | %zu/%d | %+.4f | %.4f | %.4f |\n", d, width, median(times), values.size(),
-                    kDraws, mean - d, values.size() > 1 ? std::sqrt(ss / (values.size() - 1)) : 0.0, sig);
+        std::printf("| %.0f | %.0f | %.0f | %zu/%d | %+.4f | %.4f | %.4f |\n", d, width,
+                    median(times), values.size(), kDraws, mean - d,
+                    values.size() > 1 ? std::sqrt(ss / (values.size() - 1)) : 0.0, sig);
     }
 }
 

@@ -21,7 +21,7 @@ inline int reflect(int i, int n) {
 // over 2 r + 1 columns (reflected), into `hsum` (doubles: running sums must not drift).
 template <class T>
 inline void laplacian_row_box_sum(const cv::Mat& image, int y, int r, std::vector<double>* sq_pad,
-                           std::vector<double>* hsum) {
+                                  std::vector<double>* hsum) {
   const int w = image.cols, h = image.rows;
   const T* up = image.ptr<T>(reflect(y - 1, h));
   const T* mid = image.ptr<T>(y);
@@ -68,9 +68,12 @@ inline cv::Mat previous_focus_measure(const cv::Mat& image, int window_px) {
   auto row_sum = [&](int real) -> const std::vector<double>& {
     const int slot = real % ring;
     if (tag[slot] != real) {
-      if (image.depth() == CV_8U) laplacian_row_box_sum<uint8_t>(image, real, r, &pad, &hrows[slot]);
-      else if (image.depth() == CV_16U) laplacian_row_box_sum<uint16_t>(image, real, r, &pad, &hrows[slot]);
-      else laplacian_row_box_sum<float>(image, real, r, &pad, &hrows[slot]);
+      if (image.depth() == CV_8U)
+        laplacian_row_box_sum<uint8_t>(image, real, r, &pad, &hrows[slot]);
+      else if (image.depth() == CV_16U)
+        laplacian_row_box_sum<uint16_t>(image, real, r, &pad, &hrows[slot]);
+      else
+        laplacian_row_box_sum<float>(image, real, r, &pad, &hrows[slot]);
       tag[slot] = real;
     }
     return hrows[slot];

@@ -119,8 +119,10 @@ Row opencv_calibrate(const CalibrationData& data, const LensModel& truth, int re
   }
   row.time_s = median(times);
   row.rms_px = rms;  // OpenCV's RMS is per coordinate pair, as ours
-  LensModel fit{"LENSMODEL_OPENCV8", {K.at<double>(0, 0), K.at<double>(1, 1), K.at<double>(0, 2), K.at<double>(1, 2)},
-                data.imager_width_px, data.imager_height_px};
+  LensModel fit{"LENSMODEL_OPENCV8",
+                {K.at<double>(0, 0), K.at<double>(1, 1), K.at<double>(0, 2), K.at<double>(1, 2)},
+                data.imager_width_px,
+                data.imager_height_px};
   for (int k = 0; k < 8; ++k) fit.intrinsics.push_back(D.at<double>(k));
   errors_vs_truth(truth, fit, &row);
   return row;
@@ -134,26 +136,31 @@ Row mrcal_tool(const CalibrationData& data, const LensModel& truth) {
     row.note = "not installed";
     return row;
   }
-  const auto dir = std::filesystem::temp_directory_path() / ("calib_bench_" + std::to_string(getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("calib_bench_" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);
   std::ofstream(dir / "corners.vnl") << to_corners_vnl(data.views);
-  const std::string cmd = "cd " + dir.string() +
-                          " && mrcal-calibrate-cameras --corners-cache corners.vnl --lensmodel LENSMODEL_OPENCV8"
-                          " --focal 700 --object-spacing " + std::to_string(data.board.spacing_m) +
-                          " --object-width-n " + std::to_string(data.board.cols) +
-                          " --object-height-n " + std::to_string(data.board.rows) + " --imagersize " +
-                          std::to_string(data.imager_width_px) + " " + std::to_string(data.imager_height_px) +
-                          " --outdir . '*' > log.txt 2>&1";
+  const std::string cmd =
+      "cd " + dir.string() +
+      " && mrcal-calibrate-cameras --corners-cache corners.vnl --lensmodel LENSMODEL_OPENCV8"
+      " --focal 700 --object-spacing " +
+      std::to_string(data.board.spacing_m) + " --object-width-n " +
+      std::to_string(data.board.cols) + " --object-height-n " + std::to_string(data.board.rows) +
+      " --imagersize " + std::to_string(data.imager_width_px) + " " +
+      std::to_string(data.imager_height_px) + " --outdir . '*' > log.txt 2>&1";
   const double t0 = now_s();
   const int rc = std::system(cmd.c_str());
   row.time_s = now_s() - t0;
-  mrcal_cameramodel_t* m = rc == 0 ? mrcal_read_cameramodel_file((dir / "camera-0.cameramodel").c_str()) : nullptr;
+  mrcal_cameramodel_t* m =
+      rc == 0 ? mrcal_read_cameramodel_file((dir / "camera-0.cameramodel").c_str()) : nullptr;
   if (!m) {
     row.note = "failed (see its log)";
   } else {
     char name[128];
     mrcal_lensmodel_name(name, sizeof name, &m->lensmodel);
-    LensModel fit{name, std::vector<double>(m->intrinsics, m->intrinsics + mrcal_lensmodel_num_params(&m->lensmodel)),
+    LensModel fit{name,
+                  std::vector<double>(m->intrinsics,
+                                      m->intrinsics + mrcal_lensmodel_num_params(&m->lensmodel)),
                   data.imager_width_px, data.imager_height_px};
     mrcal_free_cameramodel(&m);
     errors_vs_truth(truth, fit, &row);
@@ -173,19 +180,29 @@ int main(int argc, char** argv) {
   BoardSpec board{14, 10, 0.04};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--views" && i + 1 < argc) views = std::atoi(argv[++i]);
-    else if (a == "--noise" && i + 1 < argc) noise = std::atof(argv[++i]);
-    else if (a == "--repeats" && i + 1 < argc) repeats = std::max(1, std::atoi(argv[++i]));
-    else if (a == "--no-peers") peers = false;
-    else if (a == "--corners" && i + 1 < argc) corners_path = argv[++i];
-    else if (a == "--truth" && i + 1 < argc) truth_path = argv[++i];
-    else if (a == "--board" && i + 1 < argc) std::sscanf(argv[++i], "%dx%d", &board.cols, &board.rows);
-    else if (a == "--spacing-m" && i + 1 < argc) board.spacing_m = std::atof(argv[++i]);
-    else if (a == "--write-corners" && i + 1 < argc) write_corners_path = argv[++i];
+    if (a == "--views" && i + 1 < argc)
+      views = std::atoi(argv[++i]);
+    else if (a == "--noise" && i + 1 < argc)
+      noise = std::atof(argv[++i]);
+    else if (a == "--repeats" && i + 1 < argc)
+      repeats = std::max(1, std::atoi(argv[++i]));
+    else if (a == "--no-peers")
+      peers = false;
+    else if (a == "--corners" && i + 1 < argc)
+      corners_path = argv[++i];
+    else if (a == "--truth" && i + 1 < argc)
+      truth_path = argv[++i];
+    else if (a == "--board" && i + 1 < argc)
+      std::sscanf(argv[++i], "%dx%d", &board.cols, &board.rows);
+    else if (a == "--spacing-m" && i + 1 < argc)
+      board.spacing_m = std::atof(argv[++i]);
+    else if (a == "--write-corners" && i + 1 < argc)
+      write_corners_path = argv[++i];
     else {
-      std::fprintf(stderr, "usage: calib_bench [--views N] [--noise PX] [--repeats N] [--no-peers] "
-                           "[--corners FILE.vnl --truth TRUTH.cameramodel [--board CxR --spacing-m S]] "
-                           "[--write-corners OUT.vnl]\n");
+      std::fprintf(stderr,
+                   "usage: calib_bench [--views N] [--noise PX] [--repeats N] [--no-peers] "
+                   "[--corners FILE.vnl --truth TRUTH.cameramodel [--board CxR --spacing-m S]] "
+                   "[--write-corners OUT.vnl]\n");
       return 2;
     }
   }
@@ -201,7 +218,9 @@ int main(int argc, char** argv) {
     }
     char name[128];
     mrcal_lensmodel_name(name, sizeof name, &m->lensmodel);
-    truth = {name, std::vector<double>(m->intrinsics, m->intrinsics + mrcal_lensmodel_num_params(&m->lensmodel)),
+    truth = {name,
+             std::vector<double>(m->intrinsics,
+                                 m->intrinsics + mrcal_lensmodel_num_params(&m->lensmodel)),
              static_cast<int>(m->imagersize[0]), static_cast<int>(m->imagersize[1])};
     mrcal_free_cameramodel(&m);
     data.board = board;
@@ -223,9 +242,11 @@ int main(int argc, char** argv) {
   }
   int corners = 0;
   for (const auto& v : data.views) corners += v.present_count();
-  std::printf("calib_bench: %zu views of a %dx%d board (%d corners present), %dx%d, %s, median of %d runs\n\n",
-              data.views.size(), board.cols, board.rows, corners, data.imager_width_px,
-              data.imager_height_px, source.c_str(), repeats);
+  std::printf(
+      "calib_bench: %zu views of a %dx%d board (%d corners present), %dx%d, %s, median of %d "
+      "runs\n\n",
+      data.views.size(), board.cols, board.rows, corners, data.imager_width_px,
+      data.imager_height_px, source.c_str(), repeats);
 
   std::vector<Row> rows;
   for (const std::string name : {"LENSMODEL_PINHOLE", "LENSMODEL_OPENCV4", "LENSMODEL_OPENCV5",
@@ -271,11 +292,13 @@ int main(int argc, char** argv) {
     rows.push_back(mrcal_tool(data, truth));
   }
 
-  std::printf("| method | params | time (s) | time / camlab OPENCV8 | RMS (px) | error vs truth (px RMS, central 80%%) | HFOV error (deg) | note |\n");
+  std::printf(
+      "| method | params | time (s) | time / camlab OPENCV8 | RMS (px) | error vs truth (px RMS, "
+      "central 80%%) | HFOV error (deg) | note |\n");
   std::printf("|---|---|---|---|---|---|---|---|\n");
   for (const auto& r : rows) {
-    std::printf("| %s | %d | %.3f | %.2f | %s | %s | %s | %s |\n", r.method.c_str(), r.params, r.time_s,
-                camlab_opencv8_s > 0 ? r.time_s / camlab_opencv8_s : 0.0,
+    std::printf("| %s | %d | %.3f | %.2f | %s | %s | %s | %s |\n", r.method.c_str(), r.params,
+                r.time_s, camlab_opencv8_s > 0 ? r.time_s / camlab_opencv8_s : 0.0,
                 r.rms_px >= 0 ? std::to_string(r.rms_px).substr(0, 6).c_str() : "-",
                 r.diff_px >= 0 ? std::to_string(r.diff_px).substr(0, 6).c_str() : "-",
                 r.fov_err_deg >= 0 ? std::to_string(r.fov_err_deg).substr(0, 6).c_str() : "-",

@@ -51,12 +51,18 @@ int main(int argc, char** argv) {
   double noise = 0.3;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--views" && i + 1 < argc) views = std::atoi(argv[++i]);
-    else if (a == "--noise" && i + 1 < argc) noise = std::atof(argv[++i]);
-    else if (a == "--solves" && i + 1 < argc) solves = std::max(3, std::atoi(argv[++i]));
-    else if (a == "--repeats" && i + 1 < argc) repeats = std::max(1, std::atoi(argv[++i]));
+    if (a == "--views" && i + 1 < argc)
+      views = std::atoi(argv[++i]);
+    else if (a == "--noise" && i + 1 < argc)
+      noise = std::atof(argv[++i]);
+    else if (a == "--solves" && i + 1 < argc)
+      solves = std::max(3, std::atoi(argv[++i]));
+    else if (a == "--repeats" && i + 1 < argc)
+      repeats = std::max(1, std::atoi(argv[++i]));
     else {
-      std::fprintf(stderr, "usage: calib_bench_uncertainty [--views N] [--noise PX] [--solves N] [--repeats N]\n");
+      std::fprintf(
+          stderr,
+          "usage: calib_bench_uncertainty [--views N] [--noise PX] [--solves N] [--repeats N]\n");
       return 2;
     }
   }
@@ -82,8 +88,10 @@ int main(int argc, char** argv) {
   with.reject_outliers = without.reject_outliers = false;
   without.compute_covariance = false;
 
-  std::printf("## Projection uncertainty: %d views of a %dx%d board, OPENCV8 wide lens (1280x800), noise %.2f px\n\n",
-              static_cast<int>(clean.views.size()), board.cols, board.rows, noise);
+  std::printf(
+      "## Projection uncertainty: %d views of a %dx%d board, OPENCV8 wide lens (1280x800), noise "
+      "%.2f px\n\n",
+      static_cast<int>(clean.views.size()), board.cols, board.rows, noise);
   std::vector<double> t_with, t_without;
   const CalibrationData sample = noisy(1);
   for (int k = 0; k < repeats; ++k) {
@@ -94,8 +102,10 @@ int main(int argc, char** argv) {
     (void)solve(sample, with);
     t_with.push_back(now_s() - t0);
   }
-  std::printf("| solve | median s |\n|---|---:|\n| without covariance | %.3f |\n| with covariance | %.3f |\n\n",
-              median(t_without), median(t_with));
+  std::printf(
+      "| solve | median s |\n|---|---:|\n| without covariance | %.3f |\n| with covariance | %.3f "
+      "|\n\n",
+      median(t_without), median(t_with));
 
   auto base = solve(clean, with);
   if (!base || !base->covariance) {
@@ -108,15 +118,18 @@ int main(int argc, char** argv) {
   };
   std::vector<Query> qs;
   for (double d : {kInf, 0.6})
-    for (auto [name, fx, fy] : {std::tuple{"centre", 0.5, 0.5}, {"(0.1, 0.1) of the imager", 0.1, 0.1},
-                                {"(0.9, 0.9) of the imager", 0.9, 0.9}, {"top-left corner", 0.0, 0.0}})
+    for (auto [name, fx, fy] : {std::tuple{"centre", 0.5, 0.5},
+                                {"(0.1, 0.1) of the imager", 0.1, 0.1},
+                                {"(0.9, 0.9) of the imager", 0.9, 0.9},
+                                {"top-left corner", 0.0, 0.0}})
       qs.push_back({name, fx, fy, d});
   std::vector<std::vector<cv::Vec2d>> q(qs.size());
   for (int k = 0; k < solves; ++k) {
     auto s = solve(noisy(100 + k), without);
     if (!s || s->rt_cam_board.size() != base->rt_cam_board.size()) continue;
     for (size_t i = 0; i < qs.size(); ++i)
-      q[i].push_back(testing::reproject_mean_frames(*base, *s, qs[i].fx * (truth.width_px - 1), qs[i].fy * (truth.height_px - 1), qs[i].d));
+      q[i].push_back(testing::reproject_mean_frames(*base, *s, qs[i].fx * (truth.width_px - 1),
+                                                    qs[i].fy * (truth.height_px - 1), qs[i].d));
   }
   // mrcal on the same problem (one noisy solve), when /usr/bin/python3 has it.
   std::vector<double> mrcal_worst(qs.size(), std::nan(""));
@@ -126,14 +139,17 @@ int main(int argc, char** argv) {
     auto inputs = mrcal_optimization_inputs(sample, *one);
     nlohmann::json spec_json = {{"optimization_inputs", *inputs}, {"sigma_px", noise}};
     for (const auto& qq : qs)
-      spec_json["queries"].push_back({{"x", qq.fx * (truth.width_px - 1)}, {"y", qq.fy * (truth.height_px - 1)},
-                                      {"distance_m", std::isfinite(qq.d) ? nlohmann::json(qq.d) : nlohmann::json()}});
+      spec_json["queries"].push_back(
+          {{"x", qq.fx * (truth.width_px - 1)},
+           {"y", qq.fy * (truth.height_px - 1)},
+           {"distance_m", std::isfinite(qq.d) ? nlohmann::json(qq.d) : nlohmann::json()}});
     const auto dir = std::filesystem::temp_directory_path();
     const auto in = dir / ("camlab_bench_unc_in_" + std::to_string(getpid()) + ".json");
     const auto out = dir / ("camlab_bench_unc_out_" + std::to_string(getpid()) + ".json");
     std::ofstream(in) << spec_json.dump();
     const std::string cmd = std::string("/usr/bin/python3 ") + CAMLAB_SOURCE_DIR +
-                            "/tests/unit/calib/mrcal_uncertainty.py " + in.string() + " " + out.string();
+                            "/tests/unit/calib/mrcal_uncertainty.py " + in.string() + " " +
+                            out.string();
     if (std::system(cmd.c_str()) == 0) {
       nlohmann::json r;
       std::ifstream(out) >> r;
@@ -142,10 +158,14 @@ int main(int argc, char** argv) {
     std::filesystem::remove(in);
     std::filesystem::remove(out);
   }
-  std::printf("Predicted (noise-free solve, sigma %.2f px) against the spread of %zu re-solves with fresh noise;\n"
-              "camlab and mrcal.projection_uncertainty on one noisy solve (worst direction):\n\n",
-              noise, q[0].size());
-  std::printf("| point | distance | predicted rms px | empirical rms px | empirical / predicted | camlab worst px | mrcal worst px | camlab / mrcal |\n");
+  std::printf(
+      "Predicted (noise-free solve, sigma %.2f px) against the spread of %zu re-solves with fresh "
+      "noise;\n"
+      "camlab and mrcal.projection_uncertainty on one noisy solve (worst direction):\n\n",
+      noise, q[0].size());
+  std::printf(
+      "| point | distance | predicted rms px | empirical rms px | empirical / predicted | camlab "
+      "worst px | mrcal worst px | camlab / mrcal |\n");
   std::printf("|---|---|---:|---:|---:|---:|---:|---:|\n");
   for (size_t i = 0; i < qs.size(); ++i) {
     const double x = qs[i].fx * (truth.width_px - 1), y = qs[i].fy * (truth.height_px - 1);
@@ -154,7 +174,8 @@ int main(int argc, char** argv) {
     for (const auto& v : q[i]) mean += v;
     mean *= 1.0 / q[i].size();
     double ss = 0;
-    for (const auto& v : q[i]) ss += (v[0] - mean[0]) * (v[0] - mean[0]) + (v[1] - mean[1]) * (v[1] - mean[1]);
+    for (const auto& v : q[i])
+      ss += (v[0] - mean[0]) * (v[0] - mean[0]) + (v[1] - mean[1]) * (v[1] - mean[1]);
     const double empirical = std::sqrt(ss / (2.0 * (q[i].size() - 1)));
     auto ours = one ? projection_uncertainty(*one, x, y, qs[i].d, noise) : p;
     std::printf("| %s | %s | %.4f | %.4f | %.2f | %.5f | %.5f | %.5f |\n", qs[i].where,

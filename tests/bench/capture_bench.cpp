@@ -47,8 +47,8 @@ int run_child(int frames) {
 
 struct Measured {
   double wall_s = 0;
-  double total_cpu_s = 0;   // broker (rendering) + client
-  double client_cpu_s = -1; // the client process alone (from `times`)
+  double total_cpu_s = 0;    // broker (rendering) + client
+  double client_cpu_s = -1;  // the client process alone (from `times`)
   int status = -1;
 };
 
@@ -77,7 +77,8 @@ Measured measure(const std::string& command) {
   m.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   getrusage(RUSAGE_CHILDREN, &after);
   auto seconds = [](const timeval& t) { return t.tv_sec + t.tv_usec * 1e-6; };
-  m.total_cpu_s = seconds(after.ru_utime) - seconds(before.ru_utime) + seconds(after.ru_stime) - seconds(before.ru_stime);
+  m.total_cpu_s = seconds(after.ru_utime) - seconds(before.ru_utime) + seconds(after.ru_stime) -
+                  seconds(before.ru_stime);
   m.client_cpu_s = parse_times_children(output);
   return m;
 }
@@ -94,17 +95,21 @@ int main(int argc, char** argv) {
   self[n] = '\0';
   const std::string vcam = std::string(CAMLAB_CLI_PATH) + " vcam run -- ";
   const std::string count = std::to_string(frames);
-  std::printf("Capture of %d GREY 640x480 frames from the default virtual camera (30 fps clock)\n", frames);
-  std::printf("| client | wall s | frames/s | client CPU ms/frame | total CPU ms/frame (with rendering) |\n"
-              "|---|---|---|---|---|\n");
+  std::printf("Capture of %d GREY 640x480 frames from the default virtual camera (30 fps clock)\n",
+              frames);
+  std::printf(
+      "| client | wall s | frames/s | client CPU ms/frame | total CPU ms/frame (with rendering) |\n"
+      "|---|---|---|---|---|\n");
   const struct {
     const char* name;
     std::string command;
   } clients[] = {
       {"camlab V4l2Camera", vcam + "sh -c '" + self + " --child " + count + " && times'"},
-      {"v4l2-ctl --stream-mmap", vcam + "sh -c 'v4l2-ctl -d /dev/video0 --set-fmt-video=pixelformat=GREY,width=640,"
-                                        "height=480 --stream-mmap --stream-count=" + count +
-                                        " --stream-to=/dev/null > /dev/null 2>&1 && times'"},
+      {"v4l2-ctl --stream-mmap",
+       vcam +
+           "sh -c 'v4l2-ctl -d /dev/video0 --set-fmt-video=pixelformat=GREY,width=640,"
+           "height=480 --stream-mmap --stream-count=" +
+           count + " --stream-to=/dev/null > /dev/null 2>&1 && times'"},
   };
   for (const auto& c : clients) {
     const Measured m = measure(c.command);

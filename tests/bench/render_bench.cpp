@@ -40,17 +40,28 @@ double median(std::vector<double> v) {
 Renderer load(const char* camera, const char* scene) {
   auto c = load_camera_spec(kExamples / camera);
   auto s = load_scene_spec(kExamples / scene);
-  if (!c || !s) { std::fprintf(stderr, "%s\n", (!c ? c.error() : s.error()).message.c_str()); std::exit(1); }
+  if (!c || !s) {
+    std::fprintf(stderr, "%s\n", (!c ? c.error() : s.error()).message.c_str());
+    std::exit(1);
+  }
   auto r = Renderer::create(std::move(*c), std::move(*s));
-  if (!r) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); std::exit(1); }
+  if (!r) {
+    std::fprintf(stderr, "%s\n", r.error().message.c_str());
+    std::exit(1);
+  }
   return std::move(*r);
 }
 
 void speed_table(int repeats) {
   std::printf("Render speed (noise on, automatic sampling, %d threads, median of %d)\n",
               std::max(1u, std::thread::hardware_concurrency()), repeats);
-  std::printf("| camera | scene | samples/px | max CoC px | ms/frame | frames/s |\n|---|---|---|---|---|---|\n");
-  struct Case { const char* camera; const char* scene; };
+  std::printf(
+      "| camera | scene | samples/px | max CoC px | ms/frame | frames/s "
+      "|\n|---|---|---|---|---|---|\n");
+  struct Case {
+    const char* camera;
+    const char* scene;
+  };
   for (Case c : {Case{"camera_640x480.json", "scene_slanted_edges.json"},
                  Case{"camera_640x480.json", "scene_textured_tilted_plane.json"},
                  Case{"camera_wide_1280x800.json", "scene_chessboard_calibration.json"}}) {
@@ -61,7 +72,10 @@ void speed_table(int repeats) {
       RenderOptions options;
       options.frame_number = i;
       auto frame = renderer.render(renderer.default_settings(), 0, options);
-      if (!frame) { std::fprintf(stderr, "%s\n", frame.error().message.c_str()); std::exit(1); }
+      if (!frame) {
+        std::fprintf(stderr, "%s\n", frame.error().message.c_str());
+        std::exit(1);
+      }
       seconds.push_back(frame->stats.seconds);
       stats = frame->stats;
     }
@@ -76,28 +90,49 @@ void aperture_table(const std::vector<double>& diameters_px, const std::vector<i
   // 8 mm f/2 pinhole-model camera, 4 um pixels, 192x192, an edge at 1 m; focus placed in
   // front so the thin-lens CoC is D.
   nlohmann::json camera = {
-      {"sensor", {{"width_px", 192}, {"height_px", 192}, {"pixel_pitch_um", 4.0}, {"bit_depth", 16},
-                  {"full_well_e", 60000}, {"read_noise_e", 0.0}, {"shot_noise", false}}},
-      {"lens", {{"focal_mm", 8.0}, {"f_number_min", 2.0}, {"f_number_max", 16.0},
-                {"focus", {{"position_max", 2000}, {"extension_mm_per_step", 0.0005}}}}},
+      {"sensor",
+       {{"width_px", 192},
+        {"height_px", 192},
+        {"pixel_pitch_um", 4.0},
+        {"bit_depth", 16},
+        {"full_well_e", 60000},
+        {"read_noise_e", 0.0},
+        {"shot_noise", false}}},
+      {"lens",
+       {{"focal_mm", 8.0},
+        {"f_number_min", 2.0},
+        {"f_number_max", 16.0},
+        {"focus", {{"position_max", 2000}, {"extension_mm_per_step", 0.0005}}}}},
       {"timing", {{"frame_interval_us", 100000}}},
       {"controls", {{"exposure_time_absolute", {{"max", 1000}, {"default", 100}}}}}};
   nlohmann::json scene = {{"illuminance_lux", 1500},  // light side at ~40% of full well
-                          {"targets", {{{"type", "slanted_edge"}, {"size_m", {1.0, 1.0}}, {"angle_deg", 5.0},
-                                        {"dark_reflectance", 0.1}, {"light_reflectance", 0.7},
-                                        {"pose", {{"position_m", {0.0, 0.0, 1.0}}}}}}}};
+                          {"targets",
+                           {{{"type", "slanted_edge"},
+                             {"size_m", {1.0, 1.0}},
+                             {"angle_deg", 5.0},
+                             {"dark_reflectance", 0.1},
+                             {"light_reflectance", 0.7},
+                             {"pose", {{"position_m", {0.0, 0.0, 1.0}}}}}}}};
   auto r = Renderer::create(*parse_camera_spec(camera), *parse_scene_spec(scene));
-  if (!r) { std::fprintf(stderr, "%s\n", r.error().message.c_str()); std::exit(1); }
+  if (!r) {
+    std::fprintf(stderr, "%s\n", r.error().message.c_str());
+    std::exit(1);
+  }
   Renderer& renderer = *r;
-  std::printf("\nEdge profile error against a 1024-sample reference, and measured D against the thin lens\n");
-  std::printf("| D px (thin lens) | aperture samples | ms/frame | edge RMS error %% of contrast | fitted D px | D error %% |\n");
+  std::printf(
+      "\nEdge profile error against a 1024-sample reference, and measured D against the thin "
+      "lens\n");
+  std::printf(
+      "| D px (thin lens) | aperture samples | ms/frame | edge RMS error %% of contrast | fitted D "
+      "px | D error %% |\n");
   std::printf("|---|---|---|---|---|---|\n");
   for (double d_px : diameters_px) {
     const double coc_mm = d_px * 0.004, f = 8.0, n = 2.0, a = f / n, z = 1000.0;
     const double s_mm = f * z * (a + coc_mm) / (coc_mm * z + a * f);
     RenderSettings settings = renderer.default_settings();
     settings.f_number = n;
-    settings.focus_position = static_cast<int>(std::lround((*optics::lens_to_sensor_mm(f, s_mm) - f) / 0.0005));
+    settings.focus_position =
+        static_cast<int>(std::lround((*optics::lens_to_sensor_mm(f, s_mm) - f) / 0.0005));
     RenderOptions options;
     options.noise = false;
     options.aperture_samples = 1024;
@@ -131,8 +166,9 @@ void aperture_table(const std::vector<double>& diameters_px, const std::vector<i
       fit_options.half_width_px = truth_px / 2 + 8;
       fit_options.half_length_px = 80;
       auto fit = analysis::fit_pillbox_edge(frame->image, guess, fit_options);
-      std::printf("| %.2f | %d | %.1f | %.3f | %.3f | %+.2f |\n", truth_px, frame->stats.aperture_samples,
-                  median(seconds) * 1e3, rms, fit ? fit->diameter_px : NAN,
+      std::printf("| %.2f | %d | %.1f | %.3f | %.3f | %+.2f |\n", truth_px,
+                  frame->stats.aperture_samples, median(seconds) * 1e3, rms,
+                  fit ? fit->diameter_px : NAN,
                   fit ? (fit->diameter_px / truth_px - 1) * 100 : NAN);
     }
   }

@@ -28,7 +28,8 @@ const char* kCamera640 = R"json({
   "lens": {"focal_mm": 8.0, "f_number_min": 1.4, "f_number_max": 16.0},
   "timing": {"frame_interval_us": 33333, "control_latency_frames": 3},
   "controls": {"exposure_time_absolute": {"min": 1, "max": 333, "default": 50}}})json";
-const char* kGreyCard = R"json({"illuminance_lux": 300, "targets": [{"type": "uniform", "size_m": [2, 2],
+const char* kGreyCard =
+    R"json({"illuminance_lux": 300, "targets": [{"type": "uniform", "size_m": [2, 2],
   "light_reflectance": 0.5, "pose": {"position_m": [0, 0, 1.5]}}]})json";
 
 double median(std::vector<double> v) {
@@ -43,8 +44,9 @@ struct BracketRow {
   double wall_s = 0;
 };
 
-BracketRow bench_bracket(const fs::path& dir, const std::string& name, const std::string& camera_json,
-                         const std::string& scene_json, double frame_interval_ms, int runs) {
+BracketRow bench_bracket(const fs::path& dir, const std::string& name,
+                         const std::string& camera_json, const std::string& scene_json,
+                         double frame_interval_ms, int runs) {
   fs::create_directories(dir);
   std::ofstream(dir / "camera.json") << camera_json;
   std::ofstream(dir / "scene.json") << scene_json;
@@ -57,7 +59,8 @@ BracketRow bench_bracket(const fs::path& dir, const std::string& name, const std
   }
   const std::string camera = "/v1/cameras/" + url_segment(daemon.camera_id());
   // The first capture also probes the control latency; time the later ones.
-  const json bracket = {{"kind", "bracket"}, {"exposures_us", {500, 700, 1000, 1400, 2000, 2800, 4000, 5600, 8000}}};
+  const json bracket = {{"kind", "bracket"},
+                        {"exposures_us", {500, 700, 1000, 1400, 2000, 2800, 4000, 5600, 8000}}};
   std::vector<double> walls, consumed, dropped, retaken;
   for (int run = 0; run <= runs; ++run) {
     auto r = daemon.post(camera + "/captures", bracket);
@@ -108,9 +111,9 @@ LoadResult load(const Daemon& daemon, const std::string& path, int seconds) {
   LoadResult result;
   if (std::system("command -v wrk >/dev/null 2>&1") == 0) {
     result.tool = "wrk -t2 -c16";
-    const std::string command = "wrk -t2 -c16 -d" + std::to_string(seconds) + "s --latency -H 'Authorization: Bearer " +
-                                daemon.token() + "' http://127.0.0.1:" + std::to_string(daemon.port()) + path +
-                                " 2>&1";
+    const std::string command =
+        "wrk -t2 -c16 -d" + std::to_string(seconds) + "s --latency -H 'Authorization: Bearer " +
+        daemon.token() + "' http://127.0.0.1:" + std::to_string(daemon.port()) + path + " 2>&1";
     std::string text;
     if (FILE* pipe = popen(command.c_str(), "r")) {
       char buffer[4096];
@@ -121,7 +124,8 @@ LoadResult load(const Daemon& daemon, const std::string& path, int seconds) {
       result.requests_per_s = std::atof(text.c_str() + at + 13);
     result.p50_ms = wrk_latency_ms(text, "50%");
     result.p99_ms = wrk_latency_ms(text, "99%");
-    if (text.find("Non-2xx") != std::string::npos) std::fprintf(stderr, "wrk saw errors:\n%s\n", text.c_str());
+    if (text.find("Non-2xx") != std::string::npos)
+      std::fprintf(stderr, "wrk saw errors:\n%s\n", text.c_str());
     return result;
   }
   // Fallback: 8 client threads, one connection per request, bounded by time.
@@ -135,7 +139,9 @@ LoadResult load(const Daemon& daemon, const std::string& path, int seconds) {
         const auto t0 = std::chrono::steady_clock::now();
         auto r = http(daemon.port(), "GET", path, daemon.token());
         if (r.status != 200) continue;
-        mine.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        mine.push_back(
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count());
       }
     });
   for (auto& t : threads) t.join();
@@ -157,26 +163,33 @@ int main(int argc, char** argv) {
   const fs::path dir = fresh_test_dir("bench");
   const int runs = quick ? 2 : 5;
 
-  std::printf("## 9-exposure bracket (0.5..8 ms): frames consumed and wall time against the minimum\n");
+  std::printf(
+      "## 9-exposure bracket (0.5..8 ms): frames consumed and wall time against the minimum\n");
   std::printf("median of %d runs after a first run that also probes the latency\n\n", runs);
-  std::printf("| camera | frame interval ms | latency frames | frames kept | frames consumed | minimum (9 + latency) "
-              "| dropped by the device | steps retaken | wall s | minimum wall s | wall / minimum |\n"
-              "|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| camera | frame interval ms | latency frames | frames kept | frames consumed | minimum (9 "
+      "+ latency) "
+      "| dropped by the device | steps retaken | wall s | minimum wall s | wall / minimum |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|\n");
   std::vector<BracketRow> rows = {
-      bench_bracket(dir / "b160", "160x120 test camera, slanted edge", kTestCameraSpec, kTestSceneSpec, 20.0, runs),
-      bench_bracket(dir / "b640", "640x480, grey card, shot + read noise", kCamera640, kGreyCard, 33.333, runs)};
+      bench_bracket(dir / "b160", "160x120 test camera, slanted edge", kTestCameraSpec,
+                    kTestSceneSpec, 20.0, runs),
+      bench_bracket(dir / "b640", "640x480, grey card, shot + read noise", kCamera640, kGreyCard,
+                    33.333, runs)};
   for (const auto& r : rows) {
     const double minimum_wall = r.minimum * r.frame_interval_ms / 1000;
-    std::printf("| %s | %.1f | %d | %d | %d | %d | %d | %d | %.3f | %.3f | %.2f |\n", r.camera.c_str(),
-                r.frame_interval_ms, r.latency, r.kept, r.consumed, r.minimum, r.dropped, r.retaken, r.wall_s, minimum_wall,
+    std::printf("| %s | %.1f | %d | %d | %d | %d | %d | %d | %.3f | %.3f | %.2f |\n",
+                r.camera.c_str(), r.frame_interval_ms, r.latency, r.kept, r.consumed, r.minimum,
+                r.dropped, r.retaken, r.wall_s, minimum_wall,
                 minimum_wall > 0 ? r.wall_s / minimum_wall : 0.0);
   }
 
-  std::printf("\n## Status requests (GET /v1/jobs/{id}) on loopback, idle and during a capture\n\n");
+  std::printf(
+      "\n## Status requests (GET /v1/jobs/{id}) on loopback, idle and during a capture\n\n");
   write_test_specs(dir);
   Daemon daemon;
-  if (!daemon.start(dir / "load", {"--no-scan", "--camera-spec", (dir / "camera.json").string(), "--scene",
-                                   (dir / "scene.json").string()})) {
+  if (!daemon.start(dir / "load", {"--no-scan", "--camera-spec", (dir / "camera.json").string(),
+                                   "--scene", (dir / "scene.json").string()})) {
     std::fprintf(stderr, "camlabd did not start:\n%s\n", daemon.log().c_str());
     return 1;
   }
@@ -187,8 +200,11 @@ int main(int argc, char** argv) {
   const int seconds = quick ? 3 : 8;
   const LoadResult idle = load(daemon, "/v1/jobs/" + std::to_string(first_id), seconds);
   // A capture long enough to outlast the load: 9 exposures x 100 repeats at 50 frames/s.
-  auto busy_job = daemon.post(camera + "/captures", {{"kind", "bracket"}, {"repeats", 100},
-                                                     {"exposures_us", {500, 700, 1000, 1400, 2000, 2800, 4000, 5600, 8000}}});
+  auto busy_job =
+      daemon.post(camera + "/captures",
+                  {{"kind", "bracket"},
+                   {"repeats", 100},
+                   {"exposures_us", {500, 700, 1000, 1400, 2000, 2800, 4000, 5600, 8000}}});
   const int64_t busy_id = busy_job.json()["id"];
   daemon.wait_job(busy_id, [](const json& j) { return j["state"] == "running"; });
   const LoadResult busy = load(daemon, "/v1/jobs/" + std::to_string(busy_id), seconds);
@@ -197,7 +213,8 @@ int main(int argc, char** argv) {
   std::printf("| condition | requests/s | p50 ms | p99 ms |\n|---|---|---|---|\n");
   std::printf("| idle | %.0f | %.3f | %.3f |\n", idle.requests_per_s, idle.p50_ms, idle.p99_ms);
   std::printf("| capture running (%d frames written meanwhile) | %.0f | %.3f | %.3f |\n",
-              during["progress"]["frames_done"].get<int>(), busy.requests_per_s, busy.p50_ms, busy.p99_ms);
+              during["progress"]["frames_done"].get<int>(), busy.requests_per_s, busy.p50_ms,
+              busy.p99_ms);
   std::printf("\nthroughput during capture / idle = %.2f; p99 during / idle = %.2f\n",
               idle.requests_per_s > 0 ? busy.requests_per_s / idle.requests_per_s : 0.0,
               idle.p99_ms > 0 ? busy.p99_ms / idle.p99_ms : 0.0);

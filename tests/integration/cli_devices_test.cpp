@@ -11,7 +11,8 @@
 namespace {
 
 using camlab::testing::run_cli;
-const std::filesystem::path kExamples = std::filesystem::path(CAMLAB_SOURCE_DIR) / "mock_device/examples";
+const std::filesystem::path kExamples =
+    std::filesystem::path(CAMLAB_SOURCE_DIR) / "mock_device/examples";
 
 TEST(CliDevices, ListsTheVirtualCameraWithItsControlsAndRanges) {
   auto run = run_cli("devices --json --virtual " + (kExamples / "camera_640x480.json").string());

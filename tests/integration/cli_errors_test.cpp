@@ -35,7 +35,8 @@ class CliErrors : public ::testing::TestWithParam<Case> {
   }
   static void TearDownTestSuite() { fs::remove_all(dir_); }
   static std::string in_dir(std::string args) {
-    for (size_t at; (at = args.find("DIR")) != std::string::npos;) args.replace(at, 3, dir_.string());
+    for (size_t at; (at = args.find("DIR")) != std::string::npos;)
+      args.replace(at, 3, dir_.string());
     return args;
   }
   static fs::path dir_;

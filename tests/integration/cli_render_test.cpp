@@ -125,8 +125,9 @@ TEST_F(CliRender, RefusesToOverwriteAnExistingCapture) {
 
 TEST_F(CliRender, BrokenSpecFileNamesTheFileAndTheProblem) {
   std::ofstream(dir / "broken.json") << R"({"targets": [{"type": "uniform", "size_m": [1, 1]}]})";
-  auto run = run_cli("render --camera " + (kExamples / "camera_640x480.json").string() +
-                     " --scene " + (dir / "broken.json").string() + " --out " + (dir / "x").string());
+  auto run =
+      run_cli("render --camera " + (kExamples / "camera_640x480.json").string() + " --scene " +
+              (dir / "broken.json").string() + " --out " + (dir / "x").string());
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.err.find("broken.json"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("exactly one of \"pose\" or \"poses\""), std::string::npos) << run.err;

@@ -53,14 +53,16 @@ std::string self_executable() {
 class Libcamera : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir = fs::temp_directory_path() / ("camlab_libcamera_" + std::to_string(::getpid()) + "_" +
-                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir = fs::temp_directory_path() /
+          ("camlab_libcamera_" + std::to_string(::getpid()) + "_" +
+           ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir);
     fs::create_directories(dir);
     std::ofstream(dir / "camera.json") << kCamera;
     std::ofstream(dir / "edge.json") << R"({"illuminance_lux": 1000,
       "targets": [{"type": "slanted_edge", "size_m": [1, 1], "angle_deg": 5, "pose": {"position_m": [0, 0, 2.0]}}]})";
-    std::ofstream(dir / "uniform.json") << R"({"illuminance_lux": 1000, "background_reflectance": 0.5,
+    std::ofstream(dir / "uniform.json")
+        << R"({"illuminance_lux": 1000, "background_reflectance": 0.5,
       "targets": [{"type": "uniform", "size_m": [10, 10], "light_reflectance": 0.5,
                    "pose": {"position_m": [0, 0, 1.0]}}]})";
     if (!fs::exists("/usr/bin/media-ctl")) GTEST_SKIP() << "media-ctl (v4l-utils) is not installed";
@@ -73,8 +75,8 @@ class Libcamera : public ::testing::Test {
   void TearDown() override { fs::remove_all(dir); }
 
   std::string vcam(const std::string& scene, int count = 1) const {
-    return "vcam run --count " + std::to_string(count) + " --camera " + (dir / "camera.json").string() +
-           " --scene " + (dir / scene).string() + " -- ";
+    return "vcam run --count " + std::to_string(count) + " --camera " +
+           (dir / "camera.json").string() + " --scene " + (dir / scene).string() + " -- ";
   }
 
   fs::path dir;
@@ -94,7 +96,8 @@ TEST_F(Libcamera, CamCapturesTenFramesThatAreTheRenderersImages) {
   const fs::path frames = dir / "frames";
   fs::create_directories(frames);
   // The first format the UVC pipeline offers is R8 (GREY) at the full 160x120.
-  auto run = run_cli(vcam("edge.json") + "cam -c 1 --capture=10 --file=" + (frames / "frame-#.bin").string());
+  auto run = run_cli(vcam("edge.json") +
+                     "cam -c 1 --capture=10 --file=" + (frames / "frame-#.bin").string());
   ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
   std::vector<fs::path> files;
   for (const auto& entry : fs::directory_iterator(frames)) files.push_back(entry.path());
@@ -102,18 +105,22 @@ TEST_F(Libcamera, CamCapturesTenFramesThatAreTheRenderersImages) {
   ASSERT_EQ(files.size(), 10u) << run.out;
 
   auto render = run_cli("render --camera " + (dir / "camera.json").string() + " --scene " +
-                        (dir / "edge.json").string() + " --no-noise --quiet --out " + (dir / "expected").string());
+                        (dir / "edge.json").string() + " --no-noise --quiet --out " +
+                        (dir / "expected").string());
   ASSERT_EQ(render.exit_code, 0) << render.err;
-  cv::Mat expected_dn = cv::imread((dir / "expected/frame_000000.png").string(), cv::IMREAD_UNCHANGED);
+  cv::Mat expected_dn =
+      cv::imread((dir / "expected/frame_000000.png").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(expected_dn.type(), CV_16UC1);
   for (const auto& file : files) {
     std::ifstream in(file, std::ios::binary);
-    const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
+                                           std::istreambuf_iterator<char>());
     ASSERT_EQ(bytes.size(), 160u * 120u) << file;
     int worst = 0;
     for (int y = 0; y < 120; ++y)
       for (int x = 0; x < 160; ++x) {
-        const int want = std::min(255, (expected_dn.at<uint16_t>(y, x) + 2) / 4);  // 10 -> 8 bits, rounded
+        const int want =
+            std::min(255, (expected_dn.at<uint16_t>(y, x) + 2) / 4);  // 10 -> 8 bits, rounded
         worst = std::max(worst, std::abs(bytes[static_cast<size_t>(y) * 160 + x] - want));
       }
     EXPECT_LE(worst, 1) << file;
@@ -121,7 +128,8 @@ TEST_F(Libcamera, CamCapturesTenFramesThatAreTheRenderersImages) {
 }
 
 TEST_F(Libcamera, V4l2ComplianceOnTheMediaNodeHasNoFailures) {
-  if (!fs::exists("/usr/bin/v4l2-compliance")) GTEST_SKIP() << "v4l2-compliance (v4l-utils) is not installed";
+  if (!fs::exists("/usr/bin/v4l2-compliance"))
+    GTEST_SKIP() << "v4l2-compliance (v4l-utils) is not installed";
   // -m tests the media node, then every node its topology names (the video node).
   auto run = run_cli(vcam("edge.json") + "v4l2-compliance -m /dev/media0");
   const auto media = run.out.find("Total for uvcvideo device /dev/media0:");
@@ -131,7 +139,8 @@ TEST_F(Libcamera, V4l2ComplianceOnTheMediaNodeHasNoFailures) {
   const auto grand = run.out.find("Grand Total for uvcvideo device /dev/media0:");
   ASSERT_NE(grand, std::string::npos) << run.out;
   const std::string grand_summary = run.out.substr(grand, run.out.find('\n', grand) - grand);
-  EXPECT_NE(grand_summary.find("Failed: 0,"), std::string::npos) << grand_summary << "\n" << run.out;
+  EXPECT_NE(grand_summary.find("Failed: 0,"), std::string::npos) << grand_summary << "\n"
+                                                                 << run.out;
   EXPECT_EQ(run.exit_code, 0) << grand_summary;
 }
 
@@ -139,9 +148,11 @@ TEST_F(Libcamera, V4l2ComplianceOnTheMediaNodeHasNoFailures) {
 // the other imports them (DMABUF) and streams into them, across the two processes'
 // view of the devices (v4l2-compliance checks that QBUF reports the client's fd).
 TEST_F(Libcamera, V4l2ComplianceExportsAndImportsBuffersBetweenTwoCameras) {
-  if (!fs::exists("/usr/bin/v4l2-compliance")) GTEST_SKIP() << "v4l2-compliance (v4l-utils) is not installed";
+  if (!fs::exists("/usr/bin/v4l2-compliance"))
+    GTEST_SKIP() << "v4l2-compliance (v4l-utils) is not installed";
   auto run = run_cli(vcam("edge.json", 2) + "v4l2-compliance -d /dev/video0 -e /dev/video1 -s");
-  for (const char* test : {"test VIDIOC_EXPBUF: OK", "test DMABUF (no poll): OK", "test DMABUF (select): OK"})
+  for (const char* test :
+       {"test VIDIOC_EXPBUF: OK", "test DMABUF (no poll): OK", "test DMABUF (select): OK"})
     EXPECT_NE(run.out.find(test), std::string::npos) << test << "\n" << run.out;
   const auto total = run.out.find("Total for camlab-vcam device /dev/video0:");
   ASSERT_NE(total, std::string::npos) << run.out << run.err;
@@ -160,7 +171,8 @@ TEST_F(Libcamera, CamlabDevicesListsTheLibcameraCamera) {
     EXPECT_EQ(c["transport"], "libcamera");
     EXPECT_EQ(c["name"], "vcam libcamera test");
     bool exposure = false;
-    for (const auto& control : c["controls"]) exposure |= control["name"] == "exposure_time" && control["unit"] == "us";
+    for (const auto& control : c["controls"])
+      exposure |= control["name"] == "exposure_time" && control["unit"] == "us";
     EXPECT_TRUE(exposure) << c.dump(2);
   }
 #ifdef CAMLAB_HAVE_LIBCAMERA
@@ -198,7 +210,8 @@ TEST_F(Libcamera, BackendBracketSignalFollowsTheExposuresAsked) {
   ASSERT_GT(base, 5.0) << "a measurable signal at the shortest exposure";
   for (const auto& step : steps) {
     const double ratio = step["exposure_us"].get<double>() / steps[0]["exposure_us"].get<double>();
-    EXPECT_NEAR((step["mean_dn"].get<double>() - black_dn8) / base, ratio, 0.05 * ratio) << step.dump();
+    EXPECT_NEAR((step["mean_dn"].get<double>() - black_dn8) / base, ratio, 0.05 * ratio)
+        << step.dump();
     // Metadata reports settings only when the pipeline does (UVC in libcamera 0.0.3:
     // timestamps only); when it does, it must be the exposure asked.
     if (!step["meta_exposure_us"].is_null()) {
@@ -218,8 +231,10 @@ namespace {
 // Prints {"cameras", "controls", "bracket", "errors"} as JSON on stdout.
 int run_child() {
   using namespace camlab;
-  nlohmann::json report = {{"cameras", nlohmann::json::array()}, {"controls", nlohmann::json::object()},
-                           {"bracket", nlohmann::json::array()}, {"errors", nlohmann::json::array()}};
+  nlohmann::json report = {{"cameras", nlohmann::json::array()},
+                           {"controls", nlohmann::json::object()},
+                           {"bracket", nlohmann::json::array()},
+                           {"errors", nlohmann::json::array()}};
   auto finish = [&](const std::string& error) {
     if (!error.empty()) report["errors"].push_back(error);
     std::cout << report.dump() << std::endl;
@@ -227,7 +242,8 @@ int run_child() {
   };
   device::DeviceRegistry registry;
   if (Status status = registry.add_libcamera(); !status) return finish(status.error().message);
-  for (const auto& e : registry.devices()) report["cameras"].push_back({{"id", e.identity.id}, {"name", e.identity.name}});
+  for (const auto& e : registry.devices())
+    report["cameras"].push_back({{"id", e.identity.id}, {"name", e.identity.name}});
   if (registry.devices().empty()) return finish("no libcamera camera");
   auto opened = registry.open(registry.devices()[0].identity.id);
   if (!opened) return finish(opened.error().message);
@@ -235,13 +251,16 @@ int run_child() {
   auto controls = camera.controls();
   if (!controls) return finish(controls.error().message);
   for (const auto& c : *controls)
-    report["controls"][c.name] = {{"min", c.minimum}, {"max", c.maximum}, {"default", c.default_value}, {"unit", c.unit}};
+    report["controls"][c.name] = {
+        {"min", c.minimum}, {"max", c.maximum}, {"default", c.default_value}, {"unit", c.unit}};
   auto format = camera.configure({"GREY", 160, 120, 0, 0, {}});
   if (!format) return finish(format.error().message);
-  if (format->fourcc != "GREY" || format->width != 160) return finish("configured " + format->fourcc);
+  if (format->fourcc != "GREY" || format->width != 160)
+    return finish("configured " + format->fourcc);
   if (Status started = camera.start(4); !started) return finish(started.error().message);
   for (int64_t exposure_us : {2000, 4000, 8000}) {
-    if (auto set = camera.set_control("exposure_time", exposure_us); !set) return finish(set.error().message);
+    if (auto set = camera.set_control("exposure_time", exposure_us); !set)
+      return finish(set.error().message);
     // The change travels with the next request queued; then the sensor's latency (2
     // frames) and the requests already in flight (4): 10 frames settle it.
     double sum = 0;
@@ -263,8 +282,10 @@ int run_child() {
       }
       if (Status requeued = camera.requeue(*f); !requeued) return finish(requeued.error().message);
     }
-    report["bracket"].push_back({{"exposure_us", exposure_us}, {"mean_dn", sum / kept},
-                                 {"meta_exposure_us", meta_exposure}, {"timestamps_increase", increasing}});
+    report["bracket"].push_back({{"exposure_us", exposure_us},
+                                 {"mean_dn", sum / kept},
+                                 {"meta_exposure_us", meta_exposure},
+                                 {"timestamps_increase", increasing}});
   }
   if (Status stopped = camera.stop(); !stopped) return finish(stopped.error().message);
   return finish("");

@@ -18,8 +18,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "device/v4l2/v4l2_io.h"
 #include "device/v4l2/v4l2_camera.h"
+#include "device/v4l2/v4l2_io.h"
 #include "mock_device/broker/broker_protocol.h"
 #include "test_specs.h"
 
@@ -56,7 +56,8 @@ size_t open_fd_count() {
 size_t buffer_mapping_count() {
   std::ifstream maps("/proc/self/maps");
   size_t n = 0;
-  for (std::string line; std::getline(maps, line);) n += line.find("memfd:camlab-vcam-buffer") != std::string::npos;
+  for (std::string line; std::getline(maps, line);)
+    n += line.find("memfd:camlab-vcam-buffer") != std::string::npos;
   return n;
 }
 
@@ -68,7 +69,8 @@ double mean_dn_y16(const device::Frame& frame) {
 class V4l2BackendThroughPreload : public ::testing::Test {
  protected:
   void SetUp() override {
-    ASSERT_NE(std::getenv("CAMLAB_VCAM_BROKER"), nullptr) << "run under camlab vcam run (main does)";
+    ASSERT_NE(std::getenv("CAMLAB_VCAM_BROKER"), nullptr)
+        << "run under camlab vcam run (main does)";
     fds_before_ = open_fd_count();
     auto opened = device::V4l2Camera::open(device::system_v4l2_io(), "/dev/video0");
     ASSERT_TRUE(opened.ok()) << opened.error().message;
@@ -127,7 +129,8 @@ TEST_F(V4l2BackendThroughPreload, StreamsTheRenderersFramesAndANewExposureLandsL
     got.convertTo(got_dn, CV_64F, 1.0 / 64);  // Y16 holds the 10-bit DN << 6
     cv::Mat want_dn;
     expected->image.convertTo(want_dn, CV_64F);
-    EXPECT_LE(cv::norm(got_dn, want_dn, cv::NORM_INF), 0.0) << "frame " << i << " is the renderer's image";
+    EXPECT_LE(cv::norm(got_dn, want_dn, cv::NORM_INF), 0.0)
+        << "frame " << i << " is the renderer's image";
     held.push_back(*frame);
   }
   const double base = mean_dn_y16(held[0]);
@@ -137,7 +140,8 @@ TEST_F(V4l2BackendThroughPreload, StreamsTheRenderersFramesAndANewExposureLandsL
     auto frame = camera_->dequeue(5000ms);
     ASSERT_TRUE(frame.ok()) << frame.error().message;
     ASSERT_EQ(frame->meta.sequence, sequence);
-    EXPECT_NEAR(mean_dn_y16(*frame) / base, sequence >= 6 ? 2.0 : 1.0, 0.01) << "frame " << sequence;
+    EXPECT_NEAR(mean_dn_y16(*frame) / base, sequence >= 6 ? 2.0 : 1.0, 0.01)
+        << "frame " << sequence;
     ASSERT_TRUE(camera_->requeue(*frame).ok());
   }
   ASSERT_TRUE(camera_->stop().ok());
@@ -175,7 +179,8 @@ TEST_F(V4l2BackendThroughPreload, AStalledCameraTimesOut) {
   ASSERT_TRUE(camera_->dequeue(5000ms).ok());
   inject(Fault::kStall);
   Result<device::Frame> frame = camera_->dequeue(200ms);
-  for (int i = 0; i < 4 && frame.ok(); ++i) frame = camera_->dequeue(200ms);  // buffers filled before the stall
+  for (int i = 0; i < 4 && frame.ok(); ++i)
+    frame = camera_->dequeue(200ms);  // buffers filled before the stall
   ASSERT_FALSE(frame.ok());
   EXPECT_EQ(frame.error().code, "timeout");
   inject(Fault::kResume);
@@ -211,13 +216,15 @@ TEST_F(V4l2BackendThroughPreload, UnplugMidStreamIsAClearErrorAndLeaksNoFdOrMapp
 
 // Runs this executable again under `camlab vcam run` with the test camera and scene.
 int rerun_under_vcam(int argc, char** argv) {
-  const fs::path dir = fs::temp_directory_path() / ("camlab_backend_preload_" + std::to_string(getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("camlab_backend_preload_" + std::to_string(getpid()));
   fs::create_directories(dir);
   std::ofstream(dir / "camera.json") << test_camera_json().dump();
   std::ofstream(dir / "scene.json") << test_scene_json().dump();
   const std::string camera = (dir / "camera.json").string(), scene = (dir / "scene.json").string();
-  std::vector<std::string> args = {CAMLAB_CLI_PATH, "vcam", "run", "--unpaced", "--camera", camera,
-                                   "--scene", scene, "--", fs::read_symlink("/proc/self/exe").string()};
+  std::vector<std::string> args = {
+      CAMLAB_CLI_PATH, "vcam",    "run", "--unpaced", "--camera",
+      camera,          "--scene", scene, "--",        fs::read_symlink("/proc/self/exe").string()};
   for (int i = 1; i < argc; ++i) args.push_back(argv[i]);
   std::vector<char*> raw;
   for (auto& a : args) raw.push_back(a.data());

@@ -25,8 +25,9 @@ class VcamBroker : public ::testing::Test {
  protected:
   void SetUp() override {
     if (!fs::exists("/usr/bin/v4l2-ctl")) GTEST_SKIP() << "v4l2-ctl (v4l-utils) is not installed";
-    dir = fs::temp_directory_path() / ("camlab_vcam_broker_" + std::to_string(::getpid()) + "_" +
-                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir = fs::temp_directory_path() /
+          ("camlab_vcam_broker_" + std::to_string(::getpid()) + "_" +
+           ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir);
     fs::create_directories(dir);
     // Small and quick: 160x120 (80x60 binned), 50 fps.
@@ -46,9 +47,10 @@ class VcamBroker : public ::testing::Test {
 };
 
 TEST_F(VcamBroker, AControlSetInOneProcessIsSeenByTheNextAndByCamlab) {
-  auto run = run_cli(vcam_sh(
-      "v4l2-ctl -d /dev/video0 --set-ctrl exposure_time_absolute=200 && "
-      "v4l2-ctl -d /dev/video0 --get-ctrl exposure_time_absolute && " CAMLAB_CLI_PATH " devices --json --no-libcamera"));
+  auto run = run_cli(
+      vcam_sh("v4l2-ctl -d /dev/video0 --set-ctrl exposure_time_absolute=200 && "
+              "v4l2-ctl -d /dev/video0 --get-ctrl exposure_time_absolute && " CAMLAB_CLI_PATH
+              " devices --json --no-libcamera"));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("exposure_time_absolute: 200"), std::string::npos) << run.out;
   const auto json_start = run.out.find('[');
@@ -61,20 +63,25 @@ TEST_F(VcamBroker, AControlSetInOneProcessIsSeenByTheNextAndByCamlab) {
 }
 
 TEST_F(VcamBroker, OneStreamingProcessMakesTheQueueBusyForAnother) {
-  auto run = run_cli(vcam_sh(
-      "v4l2-ctl -d /dev/video0 --stream-mmap --stream-count=200 --stream-to=/dev/null >/dev/null 2>&1 & "
-      "sleep 0.5; v4l2-ctl -d /dev/video0 --stream-mmap --stream-count=2 --stream-to=/dev/null; kill $!; wait"));
-  EXPECT_NE((run.out + run.err).find("VIDIOC_REQBUFS returned -1 (Device or resource busy)"), std::string::npos)
+  auto run =
+      run_cli(vcam_sh("v4l2-ctl -d /dev/video0 --stream-mmap --stream-count=200 "
+                      "--stream-to=/dev/null >/dev/null 2>&1 & "
+                      "sleep 0.5; v4l2-ctl -d /dev/video0 --stream-mmap --stream-count=2 "
+                      "--stream-to=/dev/null; kill $!; wait"));
+  EXPECT_NE((run.out + run.err).find("VIDIOC_REQBUFS returned -1 (Device or resource busy)"),
+            std::string::npos)
       << run.out << run.err;
 }
 
 TEST_F(VcamBroker, AProcessKilledWhileStreamingReleasesTheDevice) {
   const fs::path frames = dir / "after.raw";
   auto run = run_cli(vcam_sh(
-      "v4l2-ctl -d /dev/video0 --stream-mmap --stream-count=100000 --stream-to=/dev/null >/dev/null 2>&1 & "
+      "v4l2-ctl -d /dev/video0 --stream-mmap --stream-count=100000 --stream-to=/dev/null "
+      ">/dev/null 2>&1 & "
       "pid=$!; sleep 0.5; kill -9 $pid; wait; "
       "v4l2-ctl -d /dev/video0 --set-fmt-video=pixelformat=GREY,width=160,height=120 --stream-mmap "
-      "--stream-count=3 --stream-to=" + frames.string()));
+      "--stream-count=3 --stream-to=" +
+      frames.string()));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   ASSERT_TRUE(fs::exists(frames)) << run.out << run.err;
   EXPECT_EQ(fs::file_size(frames), 3u * 160u * 120u) << run.out << run.err;
@@ -83,15 +90,18 @@ TEST_F(VcamBroker, AProcessKilledWhileStreamingReleasesTheDevice) {
 TEST_F(VcamBroker, LibV4l2StreamsThroughSyscall) {
   // v4l2-ctl -w goes through libv4l2, which makes its ioctls with syscall(SYS_ioctl).
   const fs::path frames = dir / "libv4l2.raw";
-  auto run = run_cli(vcam_sh("v4l2-ctl -w -d /dev/video0 --set-fmt-video=pixelformat=GREY,width=160,height=120 "
-                             "--stream-mmap --stream-count=5 --stream-to=" + frames.string()));
+  auto run = run_cli(
+      vcam_sh("v4l2-ctl -w -d /dev/video0 --set-fmt-video=pixelformat=GREY,width=160,height=120 "
+              "--stream-mmap --stream-count=5 --stream-to=" +
+              frames.string()));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   ASSERT_TRUE(fs::exists(frames)) << run.out << run.err;
   EXPECT_EQ(fs::file_size(frames), 5u * 160u * 120u);
 }
 
 TEST_F(VcamBroker, EveryInterposedEntryPointBehavesLikeTheKernel) {
-  auto run = run_cli("vcam run --camera " + (dir / "camera.json").string() + " -- " VCAM_ENTRY_POINTS_CLIENT);
+  auto run = run_cli("vcam run --camera " + (dir / "camera.json").string() +
+                     " -- " VCAM_ENTRY_POINTS_CLIENT);
   EXPECT_EQ(run.exit_code, 0) << run.out << run.err;
   EXPECT_NE(run.out.find("all entry points ok"), std::string::npos) << run.out << run.err;
 }
@@ -101,10 +111,13 @@ TEST_F(VcamBroker, ServeSharesTheDevicesWithProgramsStartedElsewhere) {
   // same shell, as a user would in another) see one device. Bounded wait for the lines.
   const fs::path env_file = dir / "serve.env";
   const std::string script =
-      std::string(CAMLAB_CLI_PATH) + " vcam serve --camera " + (dir / "camera.json").string() + " > " +
-      env_file.string() + " & pid=$!; for i in $(seq 100); do grep -q CAMLAB_VCAM_SYSFS " + env_file.string() +
-      " 2>/dev/null && break; sleep 0.1; done; eval \"$(grep ^export " + env_file.string() + ")\"; "
-      "v4l2-ctl -d /dev/video0 --set-ctrl exposure_time_absolute=123; v4l2-ctl -d /dev/video0 -C exposure_time_absolute; "
+      std::string(CAMLAB_CLI_PATH) + " vcam serve --camera " + (dir / "camera.json").string() +
+      " > " + env_file.string() + " & pid=$!; for i in $(seq 100); do grep -q CAMLAB_VCAM_SYSFS " +
+      env_file.string() + " 2>/dev/null && break; sleep 0.1; done; eval \"$(grep ^export " +
+      env_file.string() +
+      ")\"; "
+      "v4l2-ctl -d /dev/video0 --set-ctrl exposure_time_absolute=123; v4l2-ctl -d /dev/video0 -C "
+      "exposure_time_absolute; "
       "kill $pid; wait $pid";
   std::string command = "sh -c '" + script + "'";
   FILE* pipe = popen(command.c_str(), "r");

@@ -42,19 +42,23 @@ void check_media_node() {
   const int fd = open("/dev/media0", O_RDWR | O_CLOEXEC);
   check(fd >= 0, "open /dev/media0");
   if (fd < 0) return;
-  struct stat st{};
-  check(fstat(fd, &st) == 0 && S_ISCHR(st.st_mode) && major(st.st_rdev) == 236 && minor(st.st_rdev) == 0,
+  struct stat st {};
+  check(fstat(fd, &st) == 0 && S_ISCHR(st.st_mode) && major(st.st_rdev) == 236 &&
+            minor(st.st_rdev) == 0,
         "fstat of the media fd is 236:0");
   check(stat("/dev/media0", &st) == 0 && major(st.st_rdev) == 236, "stat /dev/media0");
   check(stat("/sys/dev/char/236:0", &st) == 0, "the media node's sysfs folder");
   char resolved[PATH_MAX];
-  check(realpath("/sys/dev/char/81:0/device", resolved) && std::strncmp(resolved, "/sys/devices/", 13) == 0,
+  check(realpath("/sys/dev/char/81:0/device", resolved) &&
+            std::strncmp(resolved, "/sys/devices/", 13) == 0,
         "realpath of the video node's device");
   media_device_info info{};
-  check(ioctl(fd, MEDIA_IOC_DEVICE_INFO, &info) == 0 && std::strcmp(info.driver, "uvcvideo") == 0, "DEVICE_INFO");
+  check(ioctl(fd, MEDIA_IOC_DEVICE_INFO, &info) == 0 && std::strcmp(info.driver, "uvcvideo") == 0,
+        "DEVICE_INFO");
   // G_TOPOLOGY with room for one entity of three: ENOSPC, the first entity written.
   media_v2_topology topology{};
-  check(ioctl(fd, MEDIA_IOC_G_TOPOLOGY, &topology) == 0 && topology.num_entities == 3, "G_TOPOLOGY counts");
+  check(ioctl(fd, MEDIA_IOC_G_TOPOLOGY, &topology) == 0 && topology.num_entities == 3,
+        "G_TOPOLOGY counts");
   media_v2_entity entities[3]{};
   media_v2_topology small{};
   small.num_entities = 1;
@@ -65,7 +69,8 @@ void check_media_node() {
         "G_TOPOLOGY too small: ENOSPC, partial array, struct not written back");
   topology.ptr_entities = reinterpret_cast<uintptr_t>(entities);
   topology.num_interfaces = topology.num_pads = topology.num_links = 0;
-  check(ioctl(fd, MEDIA_IOC_G_TOPOLOGY, &topology) == 0 && entities[2].name[0] != '\0', "G_TOPOLOGY entities");
+  check(ioctl(fd, MEDIA_IOC_G_TOPOLOGY, &topology) == 0 && entities[2].name[0] != '\0',
+        "G_TOPOLOGY entities");
   // ENUM_LINKS carries no counts: the broker sizes the arrays (the sensor: one source
   // pad, one link).
   uint32_t sensor = 0;
@@ -83,9 +88,11 @@ void check_media_node() {
         "ENUM_LINKS fills exactly the entity's pads and links");
   enum_links.pads = reinterpret_cast<media_pad_desc*>(16);
   errno = 0;
-  check(ioctl(fd, MEDIA_IOC_ENUM_LINKS, &enum_links) == -1 && errno == EFAULT, "ENUM_LINKS to a bad pointer: EFAULT");
+  check(ioctl(fd, MEDIA_IOC_ENUM_LINKS, &enum_links) == -1 && errno == EFAULT,
+        "ENUM_LINKS to a bad pointer: EFAULT");
   errno = 0;
-  check(mmap(nullptr, 4096, PROT_READ, MAP_SHARED, fd, 0) == MAP_FAILED && errno == ENODEV, "mmap of media: ENODEV");
+  check(mmap(nullptr, 4096, PROT_READ, MAP_SHARED, fd, 0) == MAP_FAILED && errno == ENODEV,
+        "mmap of media: ENODEV");
   check(lockf(fd, F_TLOCK, 0) == 0 && lockf(fd, F_ULOCK, 0) == 0, "lockf on the media fd");
   check(close(fd) == 0, "close /dev/media0");
 }
@@ -99,9 +106,11 @@ int main() {
   check(fd >= 0, "syscall(SYS_openat) opens /dev/video0");
   if (fd < 0) return failures;
   v4l2_capability cap{};
-  check(syscall(SYS_ioctl, fd, VIDIOC_QUERYCAP, &cap) == 0 && cap.driver[0], "syscall(SYS_ioctl) QUERYCAP");
+  check(syscall(SYS_ioctl, fd, VIDIOC_QUERYCAP, &cap) == 0 && cap.driver[0],
+        "syscall(SYS_ioctl) QUERYCAP");
   errno = 0;
-  check(ioctl(fd, VIDIOC_QUERYCAP, reinterpret_cast<void*>(16)) == -1 && errno == EFAULT, "bad pointer is EFAULT");
+  check(ioctl(fd, VIDIOC_QUERYCAP, reinterpret_cast<void*>(16)) == -1 && errno == EFAULT,
+        "bad pointer is EFAULT");
   errno = 0;
   check(ioctl(fd, _IOR('V', 250, int), reinterpret_cast<void*>(16)) == -1 && errno == ENOTTY,
         "unknown ioctl is ENOTTY before the pointer is looked at");
@@ -127,23 +136,29 @@ int main() {
   errno = 0;
   check(read(d1, byte, sizeof byte) == -1 && errno == EINVAL, "read is EINVAL");
   errno = 0;
-  check(syscall(SYS_read, d1, byte, sizeof byte) == -1 && errno == EINVAL, "syscall(SYS_read) is EINVAL");
+  check(syscall(SYS_read, d1, byte, sizeof byte) == -1 && errno == EINVAL,
+        "syscall(SYS_read) is EINVAL");
 
   // The stat family reports a character device 81:0.
-  struct stat st{};
+  struct stat st {};
   check(fstat(d1, &st) == 0 && S_ISCHR(st.st_mode) && major(st.st_rdev) == 81, "fstat");
   check(stat("/dev/video0", &st) == 0 && S_ISCHR(st.st_mode) && minor(st.st_rdev) == 0, "stat");
-  check(syscall(SYS_newfstatat, AT_FDCWD, "/dev/video0", &st, 0) == 0 && S_ISCHR(st.st_mode), "syscall(SYS_newfstatat)");
-  struct statx sx{};
-  check(statx(AT_FDCWD, "/dev/video0", 0, STATX_BASIC_STATS, &sx) == 0 && S_ISCHR(sx.stx_mode) && sx.stx_rdev_major == 81,
+  check(syscall(SYS_newfstatat, AT_FDCWD, "/dev/video0", &st, 0) == 0 && S_ISCHR(st.st_mode),
+        "syscall(SYS_newfstatat)");
+  struct statx sx {};
+  check(statx(AT_FDCWD, "/dev/video0", 0, STATX_BASIC_STATS, &sx) == 0 && S_ISCHR(sx.stx_mode) &&
+            sx.stx_rdev_major == 81,
         "statx");
   check(access("/dev/video0", R_OK | W_OK) == 0, "access");
   char resolved[PATH_MAX];
-  check(realpath("/dev/video0", resolved) && std::string(resolved) == "/dev/video0", "realpath of the node");
-  check(realpath("/sys/class/video4linux/video0", resolved) && std::strncmp(resolved, "/sys/", 5) == 0,
+  check(realpath("/dev/video0", resolved) && std::string(resolved) == "/dev/video0",
+        "realpath of the node");
+  check(realpath("/sys/class/video4linux/video0", resolved) &&
+            std::strncmp(resolved, "/sys/", 5) == 0,
         "realpath in the fake sysfs stays under /sys");
   errno = 0;
-  check(stat("/dev/video7", &st) == -1 && errno == ENOENT, "a node beyond the count does not exist");
+  check(stat("/dev/video7", &st) == -1 && errno == ENOENT,
+        "a node beyond the count does not exist");
 
   // Stream on the dup'ed fd: mmap through syscall(), wait with ppoll, pselect and
   // select, and a blocking DQBUF.
@@ -167,8 +182,9 @@ int main() {
     buffer.index = i;
     check(ioctl(d1, VIDIOC_QUERYBUF, &buffer) == 0, "QUERYBUF");
     lengths[i] = buffer.length;
-    mapped[i] = reinterpret_cast<void*>(
-        syscall(SYS_mmap, nullptr, buffer.length, PROT_READ, MAP_SHARED, d1, static_cast<long>(buffer.m.offset)));
+    mapped[i] =
+        reinterpret_cast<void*>(syscall(SYS_mmap, nullptr, buffer.length, PROT_READ, MAP_SHARED, d1,
+                                        static_cast<long>(buffer.m.offset)));
     check(mapped[i] != MAP_FAILED, "syscall(SYS_mmap)");
     check(ioctl(d1, VIDIOC_QBUF, &buffer) == 0, "QBUF");
   }
@@ -177,11 +193,14 @@ int main() {
   pollfd p{d1, POLLIN, 0};
   // Generous: the first frame waits for the renderer, on a machine that may be loaded.
   const timespec wait_limit{10, 0};
-  check(ppoll(&p, 1, &wait_limit, nullptr) == 1 && (p.revents & POLLIN), "ppoll sees a done buffer");
+  check(ppoll(&p, 1, &wait_limit, nullptr) == 1 && (p.revents & POLLIN),
+        "ppoll sees a done buffer");
   fd_set readable;
   FD_ZERO(&readable);
   FD_SET(d1, &readable);
-  check(pselect(d1 + 1, &readable, nullptr, nullptr, &wait_limit, nullptr) == 1 && FD_ISSET(d1, &readable), "pselect");
+  check(pselect(d1 + 1, &readable, nullptr, nullptr, &wait_limit, nullptr) == 1 &&
+            FD_ISSET(d1, &readable),
+        "pselect");
   FD_ZERO(&readable);
   FD_SET(d1, &readable);
   timeval wait_limit_tv{10, 0};
@@ -191,7 +210,8 @@ int main() {
     v4l2_buffer buffer{};
     buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
     buffer.memory = V4L2_MEMORY_MMAP;
-    check(ioctl(d1, VIDIOC_DQBUF, &buffer) == 0 && buffer.bytesused == format.fmt.pix.sizeimage, "blocking DQBUF");
+    check(ioctl(d1, VIDIOC_DQBUF, &buffer) == 0 && buffer.bytesused == format.fmt.pix.sizeimage,
+          "blocking DQBUF");
     if (buffer.index < 2 && mapped[buffer.index] != MAP_FAILED) {
       const auto* pixels = static_cast<const unsigned char*>(mapped[buffer.index]);
       unsigned long sum = 0;
@@ -202,7 +222,8 @@ int main() {
   }
   check(ioctl(d1, VIDIOC_STREAMOFF, &type) == 0, "STREAMOFF");
   for (unsigned i = 0; i < 2; ++i)
-    if (mapped[i] != MAP_FAILED) check(syscall(SYS_munmap, mapped[i], lengths[i]) == 0, "syscall(SYS_munmap)");
+    if (mapped[i] != MAP_FAILED)
+      check(syscall(SYS_munmap, mapped[i], lengths[i]) == 0, "syscall(SYS_munmap)");
   request.count = 0;
   check(ioctl(d1, VIDIOC_REQBUFS, &request) == 0, "REQBUFS 0 frees the buffers once unmapped");
   check(close(d1) == 0, "close");

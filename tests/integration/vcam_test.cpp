@@ -21,8 +21,9 @@ class Vcam : public ::testing::Test {
  protected:
   void SetUp() override {
     if (!fs::exists("/usr/bin/v4l2-ctl")) GTEST_SKIP() << "v4l2-ctl (v4l-utils) is not installed";
-    dir = fs::temp_directory_path() / ("camlab_vcam_" + std::to_string(::getpid()) + "_" +
-                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir = fs::temp_directory_path() /
+          ("camlab_vcam_" + std::to_string(::getpid()) + "_" +
+           ::testing::UnitTest::GetInstance()->current_test_info()->name());
     fs::remove_all(dir);
     fs::create_directories(dir);
     // Noise-free, so every frame is exactly the renderer's expected image.
@@ -40,39 +41,48 @@ class Vcam : public ::testing::Test {
   }
   void TearDown() override { fs::remove_all(dir); }
   std::string vcam() const {
-    return "vcam run --camera " + (dir / "camera.json").string() + " --scene " + (dir / "scene.json").string() + " -- ";
+    return "vcam run --camera " + (dir / "camera.json").string() + " --scene " +
+           (dir / "scene.json").string() + " -- ";
   }
   fs::path dir;
 };
 
 TEST_F(Vcam, V4l2CtlStreamsExactlyTheRequestedFramesAndTheyAreTheRenderersImages) {
   const auto raw = dir / "frames.raw";
-  auto run = run_cli(vcam() + "v4l2-ctl -d /dev/video0 --set-fmt-video=pixelformat=GREY --stream-mmap "
-                              "--stream-count=30 --stream-to=" + raw.string());
+  auto run = run_cli(vcam() +
+                     "v4l2-ctl -d /dev/video0 --set-fmt-video=pixelformat=GREY --stream-mmap "
+                     "--stream-count=30 --stream-to=" +
+                     raw.string());
   ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
   std::ifstream in(raw, std::ios::binary);
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
+                                         std::istreambuf_iterator<char>());
   ASSERT_EQ(bytes.size(), 30u * 160 * 120) << "exactly 30 GREY frames";
 
   auto render = run_cli("render --camera " + (dir / "camera.json").string() + " --scene " +
-                        (dir / "scene.json").string() + " --no-noise --quiet --out " + (dir / "expected").string());
+                        (dir / "scene.json").string() + " --no-noise --quiet --out " +
+                        (dir / "expected").string());
   ASSERT_EQ(render.exit_code, 0) << render.err;
-  cv::Mat expected_dn = cv::imread((dir / "expected/frame_000000.png").string(), cv::IMREAD_UNCHANGED);
+  cv::Mat expected_dn =
+      cv::imread((dir / "expected/frame_000000.png").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(expected_dn.type(), CV_16UC1);
   for (int frame = 0; frame < 30; ++frame) {
     int worst = 0;
     for (int y = 0; y < 120; ++y)
       for (int x = 0; x < 160; ++x) {
-        const int want = std::min(255, (expected_dn.at<uint16_t>(y, x) + 2) / 4);  // 10 -> 8 bits, rounded
-        worst = std::max(worst, std::abs(bytes[static_cast<size_t>(frame) * 160 * 120 + y * 160 + x] - want));
+        const int want =
+            std::min(255, (expected_dn.at<uint16_t>(y, x) + 2) / 4);  // 10 -> 8 bits, rounded
+        worst = std::max(
+            worst, std::abs(bytes[static_cast<size_t>(frame) * 160 * 120 + y * 160 + x] - want));
       }
     EXPECT_LE(worst, 1) << "frame " << frame;
   }
 }
 
 TEST_F(Vcam, ControlsSetInAProcessAreReadBackWithTheirRange) {
-  auto run = run_cli(vcam() + "v4l2-ctl -d /dev/video0 --set-ctrl exposure_time_absolute=120 "
-                              "--get-ctrl exposure_time_absolute --list-ctrls");
+  auto run = run_cli(vcam() +
+                     "v4l2-ctl -d /dev/video0 --set-ctrl exposure_time_absolute=120 "
+                     "--get-ctrl exposure_time_absolute --list-ctrls");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("exposure_time_absolute: 120"), std::string::npos) << run.out;
   EXPECT_NE(run.out.find("min=1 max=200"), std::string::npos) << run.out;
@@ -89,12 +99,14 @@ TEST_F(Vcam, CamlabDevicesSeesTheDeviceThroughItsOwnV4l2Backend) {
   EXPECT_EQ(cameras[0]["driver"], "camlab-vcam");
   EXPECT_EQ(cameras[0]["transport"], "kernel") << "to camlab it is an ordinary V4L2 device";
   bool found = false;
-  for (const auto& c : cameras[0]["controls"]) found |= c["name"] == "exposure_time_absolute" && c["max"] == 200;
+  for (const auto& c : cameras[0]["controls"])
+    found |= c["name"] == "exposure_time_absolute" && c["max"] == 200;
   EXPECT_TRUE(found);
 }
 
 TEST_F(Vcam, V4l2ComplianceReportsNoFailures) {
-  if (!fs::exists("/usr/bin/v4l2-compliance")) GTEST_SKIP() << "v4l2-compliance (v4l-utils) is not installed";
+  if (!fs::exists("/usr/bin/v4l2-compliance"))
+    GTEST_SKIP() << "v4l2-compliance (v4l-utils) is not installed";
   // -s streams (MMAP with poll, select and epoll), -f streams every format.
   auto run = run_cli(vcam() + "v4l2-compliance -d /dev/video0 -s -f");
   const auto total = run.out.find("Total for camlab-vcam device /dev/video0:");

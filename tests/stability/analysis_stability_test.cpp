@@ -22,7 +22,8 @@ struct Case {
   EdgeSegment segment;
 };
 
-Case edge_case(int size, double diameter, double angle_deg, double sigma_b, double cnr, unsigned seed) {
+Case edge_case(int size, double diameter, double angle_deg, double sigma_b, double cnr,
+               unsigned seed) {
   const double a = angle_deg * kPi / 180.0, c = 0.5 * (size - 1) + 0.27;
   Case k;
   k.image = render_edge_model(size, size, EdgeLine{c, c, a}, diameter, sigma_b, 200.0, 1200.0);
@@ -31,8 +32,12 @@ Case edge_case(int size, double diameter, double angle_deg, double sigma_b, doub
   rng.fill(noise, cv::RNG::NORMAL, 0.0, 1000.0 / cnr);
   k.image += noise;
   const double half = 0.45 * size;
-  k.segment = {"edge", c - half * std::cos(a), c - half * std::sin(a), c + half * std::cos(a),
-               c + half * std::sin(a), 0};
+  k.segment = {"edge",
+               c - half * std::cos(a),
+               c - half * std::sin(a),
+               c + half * std::cos(a),
+               c + half * std::sin(a),
+               0};
   return k;
 }
 
@@ -83,10 +88,13 @@ TEST(AnalysisStability, BaselineBlurLargerThanTheDefocus) {
   ASSERT_TRUE(m.ok());
   expect_finite(*m);
   ASSERT_TRUE(m->status == kEdgeOk || m->status == kEdgeAtBaseline) << m->message;
-  EXPECT_GT(m->apparent_diameter_px, 4.0) << m->status << " D " << m->diameter_px << " sigma " << m->diameter_sigma_px;
+  EXPECT_GT(m->apparent_diameter_px, 4.0)
+      << m->status << " D " << m->diameter_px << " sigma " << m->diameter_sigma_px;
   // Under a Gaussian wider than the disk, D_app changes slowly with D (slope ~0.2), so
   // D is poorly determined; it must stay within 3 sigma of the truth.
-  EXPECT_NEAR(m->diameter_px, 2.0, 3.0 * m->diameter_sigma_px) << m->status << " D " << m->diameter_px << " sigma " << m->diameter_sigma_px << " app " << m->apparent_diameter_px;
+  EXPECT_NEAR(m->diameter_px, 2.0, 3.0 * m->diameter_sigma_px)
+      << m->status << " D " << m->diameter_px << " sigma " << m->diameter_sigma_px << " app "
+      << m->apparent_diameter_px;
 }
 
 TEST(AnalysisStability, DiffractionLimitedApertureIsFlagged) {
@@ -111,16 +119,17 @@ TEST(AnalysisStability, BarNarrowerThanTheBlurIsMeasuredJointlyOrRejected) {
   for (const Case& k : {Case{4.0, 10.0, true}, Case{2.0, 10.0, true}, Case{1.6, 2.0, false}}) {
     const double shift = k.width / std::sin(a);
     const cv::Mat left = render_edge_model(200, 200, EdgeLine{c, c, a}, k.diameter, 0.0, 0.0, 1.0);
-    const cv::Mat right = render_edge_model(200, 200, EdgeLine{c + shift, c, a}, k.diameter, 0.0, 0.0, 1.0);
+    const cv::Mat right =
+        render_edge_model(200, 200, EdgeLine{c + shift, c, a}, k.diameter, 0.0, 0.0, 1.0);
     cv::Mat image = 1000.0 - 800.0 * (left - right);
     cv::Mat noise(image.size(), CV_32F);
     cv::RNG rng(21);
     rng.fill(noise, cv::RNG::NORMAL, 0.0, 800.0 / 50.0);
     image += noise;
-    std::vector<EdgeSegment> edges = {
-        {"a", c - 80 * std::cos(a), c - 80 * std::sin(a), c + 80 * std::cos(a), c + 80 * std::sin(a), 0},
-        {"b", c + shift - 80 * std::cos(a), c - 80 * std::sin(a), c + shift + 80 * std::cos(a),
-         c + 80 * std::sin(a), 0}};
+    std::vector<EdgeSegment> edges = {{"a", c - 80 * std::cos(a), c - 80 * std::sin(a),
+                                       c + 80 * std::cos(a), c + 80 * std::sin(a), 0},
+                                      {"b", c + shift - 80 * std::cos(a), c - 80 * std::sin(a),
+                                       c + shift + 80 * std::cos(a), c + 80 * std::sin(a), 0}};
     for (const EdgeSegment& e : edges) {
       auto m = measure_edge(image, e, edges, {});
       ASSERT_TRUE(m.ok());
@@ -128,7 +137,8 @@ TEST(AnalysisStability, BarNarrowerThanTheBlurIsMeasuredJointlyOrRejected) {
       if (k.measurable) {
         ASSERT_EQ(m->status, kEdgeOk) << m->message;
         EXPECT_EQ(m->joint_with, e.name == "a" ? "b" : "a");
-        EXPECT_NEAR(m->diameter_px, k.diameter, std::max(0.05, 0.01 * k.diameter) + 3 * m->diameter_sigma_px);
+        EXPECT_NEAR(m->diameter_px, k.diameter,
+                    std::max(0.05, 0.01 * k.diameter) + 3 * m->diameter_sigma_px);
       } else {
         EXPECT_EQ(m->status, kEdgeNeighbourOverlap) << m->diameter_px;
         EXPECT_NE(m->message.find("ill-conditioned"), std::string::npos) << m->message;
@@ -148,7 +158,8 @@ TEST(AnalysisStability, DarkFrameAndNaNPixelsGiveAStatusNotNaN) {
   EXPECT_NE(m->message.find("no_contrast"), std::string::npos) << m->message;
   expect_finite(*m);
   // A few NaN pixels (a dead-pixel map) are skipped by the fit.
-  for (int i = 0; i < 30; ++i) k.image.at<float>(10 + 3 * i, 60 + i % 7) = std::numeric_limits<float>::quiet_NaN();
+  for (int i = 0; i < 30; ++i)
+    k.image.at<float>(10 + 3 * i, 60 + i % 7) = std::numeric_limits<float>::quiet_NaN();
   auto n = measure_edge(k.image, k.segment, {}, {});
   ASSERT_TRUE(n.ok());
   EXPECT_EQ(n->status, kEdgeOk);
@@ -157,7 +168,8 @@ TEST(AnalysisStability, DarkFrameAndNaNPixelsGiveAStatusNotNaN) {
 
 TEST(AnalysisStability, VCurveWithItsMinimumAtTheEndOfTheSweepIsFlagged) {
   std::vector<BlurSample> s;
-  for (int p = 0; p <= 100; p += 10) s.push_back({double(p), 0.2 * std::fabs(p - 100.0) + 0.0, 0.03});
+  for (int p = 0; p <= 100; p += 10)
+    s.push_back({double(p), 0.2 * std::fabs(p - 100.0) + 0.0, 0.03});
   auto fit = fit_v_curve(s);
   ASSERT_TRUE(fit.ok());
   EXPECT_TRUE(fit->p0_at_end);

@@ -45,10 +45,11 @@ TEST(CalibEndToEnd, RenderedWideOpencv8ChessboardViews) {
       (dir / "frames").string() + views);
   ASSERT_EQ(run.exit_code, 0) << run.err;
 
-  run = camlab::testing::run_cli("calibrate --job " + (dir / "frames").string() +
-                                 " --board 14x10 --spacing-m 0.04 --model LENSMODEL_OPENCV8 --pixel-um 3"
-                                 " --quiet --out " + (dir / "cam.cameramodel").string() +
-                                 " --report " + (dir / "report.json").string());
+  run = camlab::testing::run_cli(
+      "calibrate --job " + (dir / "frames").string() +
+      " --board 14x10 --spacing-m 0.04 --model LENSMODEL_OPENCV8 --pixel-um 3"
+      " --quiet --out " +
+      (dir / "cam.cameramodel").string() + " --report " + (dir / "report.json").string());
   ASSERT_EQ(run.exit_code, 0) << run.err;
 
   std::ifstream sidecar(dir / "frames" / "frame_000000.json");
@@ -67,12 +68,12 @@ TEST(CalibEndToEnd, RenderedWideOpencv8ChessboardViews) {
   auto fov_truth = field_of_view(truth);
   auto fov = field_of_view(fitted);
   ASSERT_TRUE(fov_truth.ok() && fov.ok());
-  std::printf("end to end: projection diff %.4f px RMS (max %.4f) over the central 80%%; "
-              "FOV %.3f x %.3f (truth %.3f x %.3f) deg, diagonal %.3f (truth %.3f); fx %.3f (truth %.3f)\n",
-              diff->rms_px, diff->max_px, fov->horizontal_deg, fov->vertical_deg,
-              fov_truth->horizontal_deg, fov_truth->vertical_deg, fov->diagonal_deg,
-              fov_truth->diagonal_deg, fitted.intrinsics[0],
-              truth.intrinsics[0]);
+  std::printf(
+      "end to end: projection diff %.4f px RMS (max %.4f) over the central 80%%; "
+      "FOV %.3f x %.3f (truth %.3f x %.3f) deg, diagonal %.3f (truth %.3f); fx %.3f (truth %.3f)\n",
+      diff->rms_px, diff->max_px, fov->horizontal_deg, fov->vertical_deg, fov_truth->horizontal_deg,
+      fov_truth->vertical_deg, fov->diagonal_deg, fov_truth->diagonal_deg, fitted.intrinsics[0],
+      truth.intrinsics[0]);
   EXPECT_LE(diff->rms_px, 0.2);
   EXPECT_NEAR(fov->horizontal_deg, fov_truth->horizontal_deg, 0.2);
   EXPECT_NEAR(fov->vertical_deg, fov_truth->vertical_deg, 0.2);

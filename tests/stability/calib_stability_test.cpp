@@ -125,8 +125,10 @@ TEST(CalibStability, UncertaintyGrowsWhereTheBoardsDidNotReach) {
   };
   const auto [good_centre, good_corner] = corner_uncertainty(0.9, 0.4);
   const auto [centre_only_centre, centre_only_corner] = corner_uncertainty(0.1, 1.0);
-  std::printf("uncertainty at infinity: spread boards centre %.4f corner %.3f px; centre-only centre %.4f corner %.3f px\n",
-              good_centre, good_corner, centre_only_centre, centre_only_corner);
+  std::printf(
+      "uncertainty at infinity: spread boards centre %.4f corner %.3f px; centre-only centre %.4f "
+      "corner %.3f px\n",
+      good_centre, good_corner, centre_only_centre, centre_only_corner);
   EXPECT_LT(good_centre, 0.1);
   EXPECT_GT(centre_only_corner, 5 * good_corner);
 }

@@ -92,8 +92,10 @@ std::vector<EdgeSegment> find_edges(const cv::Mat& image, const EdgeFinderOption
   cv::HoughLinesP(edges, raw, 1, std::numbers::pi / 360, static_cast<int>(min_len_small / 2),
                   0.5 * min_len_small, 3);
   std::vector<Line> lines;
-  for (const cv::Vec4i& v : raw) lines.push_back({double(v[0]), double(v[1]), double(v[2]), double(v[3])});
-  std::sort(lines.begin(), lines.end(), [](const Line& a, const Line& b) { return a.length() > b.length(); });
+  for (const cv::Vec4i& v : raw)
+    lines.push_back({double(v[0]), double(v[1]), double(v[2]), double(v[3])});
+  std::sort(lines.begin(), lines.end(),
+            [](const Line& a, const Line& b) { return a.length() > b.length(); });
   std::vector<Line> merged;
   for (const Line& l : lines) {
     bool absorbed = false;
@@ -111,7 +113,8 @@ std::vector<EdgeSegment> find_edges(const cv::Mat& image, const EdgeFinderOption
         merged.erase(merged.begin() + static_cast<long>(j));
       else
         ++j;
-  std::sort(merged.begin(), merged.end(), [](const Line& a, const Line& b) { return a.length() > b.length(); });
+  std::sort(merged.begin(), merged.end(),
+            [](const Line& a, const Line& b) { return a.length() > b.length(); });
   // A blurred edge's gradient has a flat top (a disk's line spread is a half-ellipse), on
   // which non-maximum suppression can leave two or three parallel ridges: lines within 3
   // degrees whose overlapping parts lie within 5 reduced px of each other are one edge

@@ -25,9 +25,9 @@
 namespace camlab::analysis {
 
 struct EdgeFinderOptions {
-  int scale = 4;               // reduction factor for detection (1 = full resolution)
-  double min_length_px = 60;   // shortest segment kept (full-resolution px)
-  double min_contrast = 0.0;   // minimum |light - dark| along the segment (image units); 0 = auto
+  int scale = 4;              // reduction factor for detection (1 = full resolution)
+  double min_length_px = 60;  // shortest segment kept (full-resolution px)
+  double min_contrast = 0.0;  // minimum |light - dark| along the segment (image units); 0 = auto
   int max_edges = 64;
 };
 

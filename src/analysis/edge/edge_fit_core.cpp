@@ -41,13 +41,12 @@ Result<std::vector<WindowPixel>> sample_window(const cv::Mat& image, const LineW
   constexpr double kSlack_px = 1e-9;
   if (min_x < -kSlack_px || min_y < -kSlack_px || max_x > image.cols - 1 + kSlack_px ||
       max_y > image.rows - 1 + kSlack_px) {
-    return make_error(ErrorCode::kWindowOutsideImage,
-                      std::string(window_name) + " spans x " + format_significant(min_x, 3) +
-                          ".." + format_significant(max_x, 3) + ", y " +
-                          format_significant(min_y, 3) + ".." + format_significant(max_y, 3) +
-                          " px but the image's pixel centres span 0.." +
-                          std::to_string(image.cols - 1) + ", 0.." +
-                          std::to_string(image.rows - 1));
+    return make_error(
+        ErrorCode::kWindowOutsideImage,
+        std::string(window_name) + " spans x " + format_significant(min_x, 3) + ".." +
+            format_significant(max_x, 3) + ", y " + format_significant(min_y, 3) + ".." +
+            format_significant(max_y, 3) + " px but the image's pixel centres span 0.." +
+            std::to_string(image.cols - 1) + ", 0.." + std::to_string(image.rows - 1));
   }
 
   const cv::Range rows(static_cast<int>(std::ceil(min_y - kSlack_px)),

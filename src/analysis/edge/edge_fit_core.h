@@ -80,7 +80,7 @@ struct NormalEquations {
 template <std::size_t N>
 bool solve_damped(const NormalEquations<N>& normals, double lambda, std::bitset<N> pinned,
                   std::array<double, N>* step) {
-  std::array<double, N * N> a = normals.jtj;
+  std::array<double, N* N> a = normals.jtj;
   std::array<double, N> rhs = normals.jtr;
   for (std::size_t i = 0; i < N; ++i) {
     if (!pinned[i]) continue;
@@ -106,7 +106,7 @@ bool solve_damped(const NormalEquations<N>& normals, double lambda, std::bitset<
 // singular matrix (false), not as a zero variance.
 template <std::size_t N>
 bool invert_normals(const NormalEquations<N>& normals, std::bitset<N> pinned, cv::Mat* inverse) {
-  std::array<double, N * N> a = normals.jtj;
+  std::array<double, N* N> a = normals.jtj;
   for (std::size_t i = 0; i < N; ++i) {
     if (!pinned[i]) continue;
     for (std::size_t j = 0; j < N; ++j) a[i * N + j] = a[j * N + i] = 0.0;

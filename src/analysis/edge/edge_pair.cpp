@@ -39,8 +39,8 @@ using Normals = edge_fit::NormalEquations<kParams>;
 
 // Model, residuals and normal equations at p. `by_diameter`: the last column is d/dD
 // (for the covariance) instead of d/dq.
-Normals evaluate(const std::vector<Sample>& samples, const Line& l1, const Line& l2, const Params& p,
-                 bool by_diameter) {
+Normals evaluate(const std::vector<Sample>& samples, const Line& l1, const Line& l2,
+                 const Params& p, bool by_diameter) {
   const double n1x = -std::sin(p[kAng1]), n1y = std::cos(p[kAng1]);
   const double n2x = -std::sin(p[kAng2]), n2y = std::cos(p[kAng2]);
   const double d = std::fabs(p[kQ]);
@@ -88,19 +88,24 @@ struct Solution {
 
 // Levenberg-Marquardt with Marquardt's scaling (as fit_pillbox_edge). Not converged when
 // it runs off beyond the window (`reach`: its width).
-Solution levenberg_marquardt(const std::vector<Sample>& samples, const Line& l1, const Line& l2, Params p,
-                             double half_length, double reach, bool pin_diameter = false) {
+Solution levenberg_marquardt(const std::vector<Sample>& samples, const Line& l1, const Line& l2,
+                             Params p, double half_length, double reach,
+                             bool pin_diameter = false) {
   Normals ne = evaluate(samples, l1, l2, p, false);
   const LmOutcome lm = levenberg_marquardt_loop(
       &p, &ne, kMaxIterations,
-      [&](const Normals& n, double lambda, Params* step) { return solve_step(n, lambda, pin_diameter, step); },
+      [&](const Normals& n, double lambda, Params* step) {
+        return solve_step(n, lambda, pin_diameter, step);
+      },
       [&](const Params& trial) { return evaluate(samples, l1, l2, trial, false); },
       [&](const Params& step, const Params&) {
-        return std::fabs(step[kOff1]) < 1e-9 && std::fabs(step[kOff2]) < 1e-9 && std::fabs(step[kQ]) < 1e-9 &&
+        return std::fabs(step[kOff1]) < 1e-9 && std::fabs(step[kOff2]) < 1e-9 &&
+               std::fabs(step[kQ]) < 1e-9 &&
                (std::fabs(step[kAng1]) + std::fabs(step[kAng2])) * half_length < 1e-9;
       },
       [&](const Params& q) {
-        return std::fabs(q[kQ]) > 2 * reach || std::fabs(q[kOff1]) > reach || std::fabs(q[kOff2]) > reach;
+        return std::fabs(q[kQ]) > 2 * reach || std::fabs(q[kOff1]) > reach ||
+               std::fabs(q[kOff2]) > reach;
       });
   Solution sol;
   sol.iterations = lm.iterations;
@@ -122,18 +127,23 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
                                           const EdgeLine& guess_b, const EdgePairFitOptions& o) {
   constexpr ErrorCode invalid = kErrInvalidArgument;
   if (Status checked = edge_fit::check_fittable_image(image); !checked) return checked.error();
-  for (double v : {guess_a.x_px, guess_a.y_px, guess_a.angle_rad, guess_b.x_px, guess_b.y_px, guess_b.angle_rad,
-                   o.half_length_px, o.across_min_px, o.across_max_px, o.diameter_guess_px})
-    if (!std::isfinite(v)) return make_error(invalid, "the guessed lines and the window must be finite");
-  if (!(o.half_length_px >= 4) || !(o.across_max_px - o.across_min_px >= 4) || !(o.diameter_guess_px > 0))
-    return make_error(invalid, "the window must be at least 8 px long and 4 px wide, the diameter guess > 0");
+  for (double v :
+       {guess_a.x_px, guess_a.y_px, guess_a.angle_rad, guess_b.x_px, guess_b.y_px,
+        guess_b.angle_rad, o.half_length_px, o.across_min_px, o.across_max_px, o.diameter_guess_px})
+    if (!std::isfinite(v))
+      return make_error(invalid, "the guessed lines and the window must be finite");
+  if (!(o.half_length_px >= 4) || !(o.across_max_px - o.across_min_px >= 4) ||
+      !(o.diameter_guess_px > 0))
+    return make_error(
+        invalid, "the window must be at least 8 px long and 4 px wide, the diameter guess > 0");
   // Both directions the same way round; b's side of a decides which line comes first.
   const double ta_x = std::cos(guess_a.angle_rad), ta_y = std::sin(guess_a.angle_rad);
   double angle_b = guess_b.angle_rad;
   if (std::cos(angle_b) * ta_x + std::sin(angle_b) * ta_y < 0) angle_b += kPi;
   const double tilt = std::fabs(std::remainder(angle_b - guess_a.angle_rad, 2 * kPi));
   if (tilt > 15.0 * kPi / 180.0)
-    return make_error(invalid, "the two edges are " + format_significant(tilt * 180 / kPi, 3) + " deg from parallel (at most 15)");
+    return make_error(invalid, "the two edges are " + format_significant(tilt * 180 / kPi, 3) +
+                                   " deg from parallel (at most 15)");
   const double na_x = -ta_y, na_y = ta_x;
   const double c_b = (guess_b.x_px - guess_a.x_px) * na_x + (guess_b.y_px - guess_a.y_px) * na_y;
   if (std::fabs(c_b) < 0.25) return make_error(invalid, "the two guessed lines coincide");
@@ -150,12 +160,13 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
   samples.reserve(window->size());
   across.reserve(window->size());
   for (const edge_fit::WindowPixel& pixel : *window) {
-    samples.push_back({static_cast<double>(pixel.col), static_cast<double>(pixel.row), pixel.value});
+    samples.push_back(
+        {static_cast<double>(pixel.col), static_cast<double>(pixel.row), pixel.value});
     across.push_back(pixel.across_px);
   }
   if (samples.size() < 64)
     return make_error(kErrTooFewPixels, "the pair's fit window holds " +
-                                                         std::to_string(samples.size()) + " pixels; 64 needed");
+                                            std::to_string(samples.size()) + " pixels; 64 needed");
 
   // Internal order: line 1 on the -n side, line 2 on the +n side.
   const EdgeLine& g1 = b_first ? EdgeLine{guess_b.x_px, guess_b.y_px, angle_b} : guess_a;
@@ -169,7 +180,8 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
   // hold; the least cost wins.
   std::vector<double> starts = {o.diameter_guess_px};
   const double widest = std::max(1.0, o.across_max_px - o.across_min_px - sep - 4.0);
-  for (double d = std::exp2(std::floor(std::log2(std::max(1.0, 0.25 * o.diameter_guess_px)))); d <= widest; d *= 2.0)
+  for (double d = std::exp2(std::floor(std::log2(std::max(1.0, 0.25 * o.diameter_guess_px))));
+       d <= widest; d *= 2.0)
     if (std::fabs(std::log2(d / o.diameter_guess_px)) > 0.5) starts.push_back(d);
   Params p{};
   double best_cost = kInf;
@@ -185,16 +197,17 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
       if (std::fabs(across[i] - 0.5 * (pos1 + pos2)) <= 0.5) middle.push_back(samples[i].value);
     }
     if (before.size() < 4 || after.size() < 4 || middle.empty()) {
-      start_error = "the pair's window leaves no flat level beyond one of the edges for a blur of about " +
-                    format_significant(d0, 3) + " px";
+      start_error =
+          "the pair's window leaves no flat level beyond one of the edges for a blur of about " +
+          format_significant(d0, 3) + " px";
       continue;
     }
     const double lev0 = mean_of(before), lev2 = mean_of(after), vmid = mean_of(middle);
     const double pa = pillbox_esf(0.5 * sep, d0), pb = pillbox_esf(-0.5 * sep, d0);
     const double lev1 = (vmid - lev0 * (1 - pa) - lev2 * pb) / std::max(pa - pb, 0.05);
-    const Solution sol = levenberg_marquardt(samples, l1, l2, {0.0, g1.angle_rad, 0.0, g2.angle_rad, lev0, lev1,
-                                                               lev2, d0},
-                                             hl, o.across_max_px - o.across_min_px);
+    const Solution sol = levenberg_marquardt(
+        samples, l1, l2, {0.0, g1.angle_rad, 0.0, g2.angle_rad, lev0, lev1, lev2, d0}, hl,
+        o.across_max_px - o.across_min_px);
     iterations += sol.iterations;
     if (sol.converged) minima.emplace_back(sol.cost, std::fabs(sol.p[kQ]));
     if (sol.converged && sol.cost < best_cost) {
@@ -204,8 +217,9 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
   }
   if (!(best_cost < kInf)) {
     if (!start_error.empty() && iterations == 0) return make_error(kErrWindowTooSmall, start_error);
-    return make_error(kErrNotConverged, "the joint fit of the two edges did not converge from any of " +
-                                                         std::to_string(starts.size()) + " starts");
+    return make_error(kErrNotConverged,
+                      "the joint fit of the two edges did not converge from any of " +
+                          std::to_string(starts.size()) + " starts");
   }
   const double diameter = std::fabs(p[kQ]);
 
@@ -231,20 +245,24 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
     margin2 = std::min(margin2, dist(f2, n2x, n2y, al, hi));
   }
   if (!(gap > 0.5))
-    return make_error("not_converged", "the joint fit put the two edges " + format_significant(gap, 3) +
-                                           " px apart or through each other: no pair of edges in the data");
+    return make_error("not_converged",
+                      "the joint fit put the two edges " + format_significant(gap, 3) +
+                          " px apart or through each other: no pair of edges in the data");
   if (margin1 < 0.5 * diameter + 2 || margin2 < 0.5 * diameter + 2)
-    return make_error(kErrWindowTooSmall,
-                      "the pair's window leaves " + format_significant(std::min(margin1, margin2), 3) + " px beyond an edge; a blur of " +
-                          format_significant(diameter, 3) + " px needs " + format_significant(0.5 * diameter + 2, 3));
+    return make_error(kErrWindowTooSmall, "the pair's window leaves " +
+                                              format_significant(std::min(margin1, margin2), 3) +
+                                              " px beyond an edge; a blur of " +
+                                              format_significant(diameter, 3) + " px needs " +
+                                              format_significant(0.5 * diameter + 2, 3));
 
   const int n = static_cast<int>(samples.size());
   const Normals fin = evaluate(samples, l1, l2, p, true);
   const double rms = std::sqrt(fin.cost / std::max(1, n - kParams));
   const double smaller_step = std::min(std::fabs(p[kL1] - p[kL0]), std::fabs(p[kL2] - p[kL1]));
   if (!(smaller_step > 3 * rms))
-    return make_error(kErrNoContrast, "one of the two edges has a step of " + format_significant(smaller_step, 3) +
-                                                       ", not above 3x the residual noise " + format_significant(rms, 3));
+    return make_error(kErrNoContrast,
+                      "one of the two edges has a step of " + format_significant(smaller_step, 3) +
+                          ", not above 3x the residual noise " + format_significant(rms, 3));
   EdgePairFit out;
   out.diameter_px = diameter;
   out.diameter_sigma_px = kInf;
@@ -267,8 +285,10 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
   auto dchi2 = [&](double cost) { return std::max(0.0, cost - best_cost) / (rms * rms); };
   if (sigma_d > 0) {
     for (const auto& [cost, dia] : minima)
-      if (std::fabs(dia - diameter) >= 3 * sigma_d && dchi2(cost) < 4.0) out.diameter_profile_ratio = 0.0;
-    for (double probe : {diameter - 5 * sigma_d, diameter + 5 * sigma_d, 0.8 * diameter, 1.2 * diameter}) {
+      if (std::fabs(dia - diameter) >= 3 * sigma_d && dchi2(cost) < 4.0)
+        out.diameter_profile_ratio = 0.0;
+    for (double probe :
+         {diameter - 5 * sigma_d, diameter + 5 * sigma_d, 0.8 * diameter, 1.2 * diameter}) {
       const double k = (probe - diameter) / sigma_d;
       const double sep2 = gap * gap + 0.75 * (diameter * diameter - probe * probe);
       if (!(probe > 0.05) || std::fabs(k) < 3 || !(sep2 > 0.25)) continue;
@@ -277,8 +297,11 @@ Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& 
       start[kQ] = probe;
       start[kOff1] -= 0.5 * widen;
       start[kOff2] += 0.5 * widen;
-      const Solution held = levenberg_marquardt(samples, l1, l2, start, hl, o.across_max_px - o.across_min_px, true);
-      if (held.converged) out.diameter_profile_ratio = std::min(out.diameter_profile_ratio, dchi2(held.cost) / (k * k));
+      const Solution held =
+          levenberg_marquardt(samples, l1, l2, start, hl, o.across_max_px - o.across_min_px, true);
+      if (held.converged)
+        out.diameter_profile_ratio =
+            std::min(out.diameter_profile_ratio, dchi2(held.cost) / (k * k));
     }
   }
   out.line_a = b_first ? f2 : f1;

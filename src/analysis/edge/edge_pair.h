@@ -47,8 +47,8 @@ struct EdgePairFit {
   // (0.3-1 measured) when sigma describes the fit; near 0 when the cost is flat or has a
   // second minimum in D (a bar about as wide as a small blur: width and blur trade off).
   double diameter_profile_ratio = 1;
-  EdgeLine line_a, line_b;       // fitted, in the order given (a: the first guess)
-  double separation_px = 0;      // between the lines at line a's point, along its normal
+  EdgeLine line_a, line_b;   // fitted, in the order given (a: the first guess)
+  double separation_px = 0;  // between the lines at line a's point, along its normal
   double level_0 = 0, level_1 = 0, level_2 = 0;  // before the first line, between, after
   double rms_residual = 0;
   double contrast_to_noise = 0;  // the smaller step |L1 - L0|, |L2 - L1| over rms
@@ -61,6 +61,7 @@ struct EdgePairFit {
 // fitted line), kErrNotConverged, "lines_crossed" (the fit put the lines on top of or
 // through each other: no pair of edges in the data).
 Result<EdgePairFit> fit_pillbox_edge_pair(const cv::Mat& image, const EdgeLine& guess_a,
-                                          const EdgeLine& guess_b, const EdgePairFitOptions& options);
+                                          const EdgeLine& guess_b,
+                                          const EdgePairFitOptions& options);
 
 }  // namespace camlab::analysis

@@ -40,9 +40,9 @@ UnitTerms unit_terms_inside(double u) {
   const double s = std::sqrt(std::max(0.0, 1.0 - u * u));
   const double w = std::asin(u);
   const double s3 = s * s * s;
-  return {0.5 + (u * s + w) / kPi, 0.5 * u + (u * w + s - s3 / 3.0) / kPi,
-          0.25 * u * u + ((0.5 * u * u + 0.125) * w + 0.625 * u * s - u * s3 / 12.0) / kPi +
-              0.0625};
+  return {
+      0.5 + (u * s + w) / kPi, 0.5 * u + (u * w + s - s3 / 3.0) / kPi,
+      0.25 * u * u + ((0.5 * u * u + 0.125) * w + 0.625 * u * s - u * s3 / 12.0) / kPi + 0.0625};
 }
 
 // At a trapezoid corner x (pixels) for a blur of radius R > 0, the functions whose second
@@ -250,8 +250,8 @@ Start start_values(const std::vector<double>& across, const std::vector<Sample>&
   st.ok = true;
   st.dark = sum[0] / count[0];
   st.light = sum[1] / count[1];
-  const double ss = std::max(0.0, sum2[0] - sum[0] * st.dark) +
-                    std::max(0.0, sum2[1] - sum[1] * st.light);
+  const double ss =
+      std::max(0.0, sum2[0] - sum[0] * st.dark) + std::max(0.0, sum2[1] - sum[1] * st.light);
   st.noise = std::sqrt(ss / (count[0] + count[1] - 2));
   const double contrast = st.light - st.dark;
   if (!(std::fabs(contrast) > 0.0)) return st;
@@ -265,8 +265,7 @@ Start start_values(const std::vector<double>& across, const std::vector<Sample>&
   double mean = 0;
   for (size_t i = 0; i < across.size(); ++i) {
     const double v = (samples[i].value - st.dark) / contrast;
-    const int b = std::clamp(static_cast<int>((across[i] + half_width_px) / bin_px), 0,
-                             bins - 1);
+    const int b = std::clamp(static_cast<int>((across[i] + half_width_px) / bin_px), 0, bins - 1);
     bin_sum[b] += v;
     ++bin_count[b];
     mean += v / static_cast<double>(across.size());
@@ -293,8 +292,8 @@ Start start_values(const std::vector<double>& across, const std::vector<Sample>&
   for (size_t i = centre; x10 == pos.front() && i > 0; --i)
     if (prof[i - 1] <= 0.1) x10 = interpolate(i - 1, i, 0.1);
   const double rise = x90 - x10;
-  const double blur_rise = std::sqrt(std::max(rise * rise - kPixelRise_px * kPixelRise_px,
-                                              0.09 * rise * rise));
+  const double blur_rise =
+      std::sqrt(std::max(rise * rise - kPixelRise_px * kPixelRise_px, 0.09 * rise * rise));
   // Never start at 0: there the model's slope by D vanishes and D could not move.
   st.diameter_px = std::clamp(blur_rise / kU90, 0.5, 2.0 * half_width_px);
   return st;
@@ -315,16 +314,19 @@ Solution levenberg_marquardt(const std::vector<Sample>& samples, Params p, bool 
   Normals ne = evaluate(samples, p, fit_angle, false);
   const LmOutcome lm = levenberg_marquardt_loop(
       &p, &ne, kMaxIterations,
-      [&](const Normals& n, double lambda, Params* step) { return solve_normals(n, lambda, fit_angle, step); },
+      [&](const Normals& n, double lambda, Params* step) {
+        return solve_normals(n, lambda, fit_angle, step);
+      },
       [&](const Params& trial) { return evaluate(samples, trial, fit_angle, false); },
       [&](const Params& step, const Params& q) {
         const double level_tol = 1e-9 * std::fabs(q[kLight] - q[kDark]);
         return std::fabs(step[kOffset]) < 1e-9 && std::fabs(step[kQ]) < 1e-9 &&
-               std::fabs(step[kAngle]) * half_length_px < 1e-9 && std::fabs(step[kDark]) <= level_tol &&
-               std::fabs(step[kLight]) <= level_tol;
+               std::fabs(step[kAngle]) * half_length_px < 1e-9 &&
+               std::fabs(step[kDark]) <= level_tol && std::fabs(step[kLight]) <= level_tol;
       },
       [&](const Params& q) {
-        return std::fabs(q[kQ]) > 4.0 * half_width_px || std::fabs(q[kOffset]) > 2.0 * half_width_px;
+        return std::fabs(q[kQ]) > 4.0 * half_width_px ||
+               std::fabs(q[kOffset]) > 2.0 * half_width_px;
       });
   Solution sol;
   sol.iterations = lm.iterations;
@@ -346,8 +348,7 @@ double pillbox_esf(double x_px, double diameter_px) {
   return std::clamp(unit_terms_inside(u).esf, 0.0, 1.0);
 }
 
-double pillbox_esf_pixel(double distance_px, double diameter_px, double normal_x,
-                         double normal_y) {
+double pillbox_esf_pixel(double distance_px, double diameter_px, double normal_x, double normal_y) {
   if (std::isnan(distance_px) || diameter_px == kInf) return 0.5;
   double norm = std::hypot(normal_x, normal_y);
   if (!(norm > 0.0) || !std::isfinite(norm)) {
@@ -371,20 +372,20 @@ Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
                                  const EdgeFitOptions& options) {
   constexpr ErrorCode invalid = kErrInvalidArgument;
   if (Status checked = edge_fit::check_fittable_image(image); !checked) return checked.error();
-  if (!std::isfinite(guess.x_px) || !std::isfinite(guess.y_px) ||
-      !std::isfinite(guess.angle_rad)) {
+  if (!std::isfinite(guess.x_px) || !std::isfinite(guess.y_px) || !std::isfinite(guess.angle_rad)) {
     return make_error(invalid, "the guessed edge line must be finite");
   }
   const double hl = options.half_length_px, hw = options.half_width_px;
   if (!(hl >= 1.0 && hw >= 1.0) || !std::isfinite(hl) || !std::isfinite(hw)) {
-    return make_error(invalid, "half_length_px and half_width_px must be finite and >= 1 "
-                               "(got " + format_significant(hl, 3) + ", " + format_significant(hw, 3) + ")");
+    return make_error(invalid,
+                      "half_length_px and half_width_px must be finite and >= 1 "
+                      "(got " +
+                          format_significant(hl, 3) + ", " + format_significant(hw, 3) + ")");
   }
 
   // The window: |along| <= hl, |across| <= hw around the guess point.
-  auto window =
-      edge_fit::sample_window(image, {guess.x_px, guess.y_px, guess.angle_rad, hl, -hw, hw},
-                              "the fit window");
+  auto window = edge_fit::sample_window(
+      image, {guess.x_px, guess.y_px, guess.angle_rad, hl, -hw, hw}, "the fit window");
   if (!window) return window.error();
   std::vector<Sample> samples;
   std::vector<double> across;  // signed distance from the guessed line, px
@@ -408,9 +409,10 @@ Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
   }
   const double level_scale = std::max({1.0, std::fabs(st.dark), std::fabs(st.light)});
   if (!(std::fabs(st.light - st.dark) > std::max(st.noise, 1e-12 * level_scale))) {
-    return make_error(kErrNoContrast,
-                      "the two sides of the window differ by " + format_significant(st.light - st.dark, 3) +
-                          ", not more than the noise " + format_significant(st.noise, 3) + "; no edge to fit");
+    return make_error(kErrNoContrast, "the two sides of the window differ by " +
+                                          format_significant(st.light - st.dark, 3) +
+                                          ", not more than the noise " +
+                                          format_significant(st.noise, 3) + "; no edge to fit");
   }
 
   // Orient the normal towards the light side, so that light > dark throughout the fit.
@@ -435,14 +437,18 @@ Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
     const bool shifted = shift_px > 0.01;
     return make_error(
         kErrWindowTooSmall,
-        "half_width_px " + format_significant(hw, 3) + " is too small for a blur diameter of " + format_significant(diameter, 3) +
-            " px" + (shifted ? " with the edge " + format_significant(shift_px, 3) + " px off centre" : "") +
-            ": need >= D/2 + 2" + (shifted ? " + shift" : "") + " = " + format_significant(needed_px, 3) + " px");
+        "half_width_px " + format_significant(hw, 3) + " is too small for a blur diameter of " +
+            format_significant(diameter, 3) + " px" +
+            (shifted ? " with the edge " + format_significant(shift_px, 3) + " px off centre"
+                     : "") +
+            ": need >= D/2 + 2" + (shifted ? " + shift" : "") + " = " +
+            format_significant(needed_px, 3) + " px");
   }
   if (!sol.converged) {
-    return make_error(kErrNotConverged,
-                      "the edge fit did not converge in " + std::to_string(kMaxIterations) +
-                          " iterations (D = " + format_significant(diameter, 3) + " px); check the guess");
+    return make_error(kErrNotConverged, "the edge fit did not converge in " +
+                                            std::to_string(kMaxIterations) +
+                                            " iterations (D = " + format_significant(diameter, 3) +
+                                            " px); check the guess");
   }
 
   const int n_samples = static_cast<int>(samples.size());
@@ -451,9 +457,9 @@ Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
   const double rms = std::sqrt(fin.cost / std::max(1, n_samples - n_params));
   const double contrast = p[kLight] - p[kDark];
   if (!(contrast > rms)) {
-    return make_error(kErrNoContrast, "the fitted edge contrast " + format_significant(contrast, 3) +
-                                                       " is below the residual noise " +
-                                                       format_significant(rms, 3));
+    return make_error(kErrNoContrast,
+                      "the fitted edge contrast " + format_significant(contrast, 3) +
+                          " is below the residual noise " + format_significant(rms, 3));
   }
   // sigma^2 = rms^2 (J^T J)^-1 at the solution, by D itself (not q). Singular (no
   // information on D): +infinity.
@@ -470,8 +476,7 @@ Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
   fit.offset_px = p[kOffset];
   fit.angle_rad = p[kAngle];
   const Normal fitted = normal_for(p[kAngle]);
-  fit.line = {guess.x_px + p[kOffset] * fitted.nx, guess.y_px + p[kOffset] * fitted.ny,
-              p[kAngle]};
+  fit.line = {guess.x_px + p[kOffset] * fitted.nx, guess.y_px + p[kOffset] * fitted.ny, p[kAngle]};
   fit.dark_level = p[kDark];
   fit.light_level = p[kLight];
   fit.rms_residual = rms;

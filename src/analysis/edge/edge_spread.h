@@ -61,8 +61,7 @@ double pillbox_esf(double x_px, double diameter_px);
 // at 0 and 45 degrees; exact to 1e-15 against clipped-square areas for D = 0.)
 // The normal need not be unit length (it is normalised); a zero or non-finite normal is
 // taken as (0, 1). Other inputs are sanitised as in pillbox_esf(). Result in [0, 1].
-double pillbox_esf_pixel(double distance_px, double diameter_px, double normal_x,
-                         double normal_y);
+double pillbox_esf_pixel(double distance_px, double diameter_px, double normal_x, double normal_y);
 
 // The pixel-integrated ESF of pillbox_esf_pixel() for an edge of direction `angle_rad`
 // (normal (-sin a, cos a)), with its derivatives, for fits that build on the model (the
@@ -138,10 +137,12 @@ struct EdgeFit {
 // half-sizes < 1 px or non-finite), kErrWindowOutsideImage (a window corner lies outside
 // the pixel centres of the image), kErrTooFewPixels (< 32 usable pixels, or < 2 in the
 // outer quarter of a side), kErrNoContrast (|light - dark| below the noise, before or
-// after the fit, or a constant image), kErrWindowTooSmall (half_width_px < D/2 + 2 + the fitted edge's displacement
-// within the window; the message gives the half-width needed), kErrNotConverged.
-// Cost (one core, -O2): 0.6 ms per edge at D = 1, 1.2 ms at D = 5 and 6 ms at D = 30 for
-// a 120 px long window (about 7 iterations); it grows with the pixels inside the blur.
+// after the fit, or a constant image), kErrWindowTooSmall (half_width_px < D/2 + 2 + the fitted
+// edge's displacement within the window; the message gives the half-width needed),
+// kErrNotConverged.
+//
+// Cost (one core, -O2): 0.6 ms per edge at D = 1, 1.2 ms at D = 5 and 6 ms at D = 30 for a
+// 120 px long window (about 7 iterations); it grows with the pixels inside the blur.
 Result<EdgeFit> fit_pillbox_edge(const cv::Mat& image, const EdgeLine& guess,
                                  const EdgeFitOptions& options);
 

@@ -27,7 +27,8 @@ struct LmOutcome {
   bool runaway = false;  // runs_off() stopped it; `converged` may also be set
 };
 
-template <class Params, class Normals, class SolveStep, class Evaluate, class StepIsSmall, class RunsOff>
+template <class Params, class Normals, class SolveStep, class Evaluate, class StepIsSmall,
+          class RunsOff>
 LmOutcome levenberg_marquardt_loop(Params* p, Normals* ne, int max_iterations, SolveStep solve_step,
                                    Evaluate evaluate, StepIsSmall step_is_small, RunsOff runs_off) {
   LmOutcome out;

@@ -1,7 +1,7 @@
 // LibcameraCamera: a libcamera::Camera behind camlab's Camera interface, and the one
 // CameraManager per process they share.
-#include "base/mapped_buffer.h"
 #include "device/libcamera/libcamera_camera.h"
+#include "base/mapped_buffer.h"
 
 #include <libcamera/camera.h>
 #include <libcamera/camera_manager.h>
@@ -42,12 +42,14 @@ Result<std::shared_ptr<libcamera::CameraManager>> shared_manager() {
   // keep to errors unless the user chose levels. Its categories come into being on
   // first use and read LIBCAMERA_LOG_LEVELS then, so the variable is the only handle.
   setenv("LIBCAMERA_LOG_LEVELS", "*:ERROR", /*overwrite=*/0);
-  std::shared_ptr<libcamera::CameraManager> manager(new libcamera::CameraManager, [](libcamera::CameraManager* m) {
-    m->stop();
-    delete m;
-  });
+  std::shared_ptr<libcamera::CameraManager> manager(new libcamera::CameraManager,
+                                                    [](libcamera::CameraManager* m) {
+                                                      m->stop();
+                                                      delete m;
+                                                    });
   if (int error = manager->start(); error < 0)
-    return make_error("io_error", std::string("libcamera's camera manager did not start: ") + std::strerror(-error));
+    return make_error("io_error", std::string("libcamera's camera manager did not start: ") +
+                                      std::strerror(-error));
   current = manager;
   return manager;
 }
@@ -65,8 +67,11 @@ CameraIdentity identity_of(const libcamera::Camera& camera) {
 
 class LibcameraCamera final : public Camera {
  public:
-  LibcameraCamera(std::shared_ptr<libcamera::CameraManager> manager, std::shared_ptr<libcamera::Camera> camera)
-      : manager_(std::move(manager)), camera_(std::move(camera)), identity_(identity_of(*camera_)),
+  LibcameraCamera(std::shared_ptr<libcamera::CameraManager> manager,
+                  std::shared_ptr<libcamera::Camera> camera)
+      : manager_(std::move(manager)),
+        camera_(std::move(camera)),
+        identity_(identity_of(*camera_)),
         bindings_(libcamera_backend::bind_controls(camera_->controls())) {}
 
   ~LibcameraCamera() override {
@@ -78,7 +83,8 @@ class LibcameraCamera final : public Camera {
 
   Result<std::vector<PixelFormatInfo>> formats() override {
     auto config = camera_->generateConfiguration({libcamera::StreamRole::VideoRecording});
-    if (!config || config->empty()) return make_error("unsupported", identity_.name + " offers no video stream");
+    if (!config || config->empty())
+      return make_error("unsupported", identity_.name + " offers no video stream");
     const libcamera::StreamFormats& formats = config->at(0).formats();
     std::vector<PixelFormatInfo> out;
     for (const libcamera::PixelFormat& format : formats.pixelformats()) {
@@ -86,7 +92,8 @@ class LibcameraCamera final : public Camera {
       info.fourcc = libcamera_backend::fourcc_of(format);
       info.description = format.toString();
       // libcamera 0.0.3 has no frame interval enumeration: sizes only.
-      for (const libcamera::Size& size : formats.sizes(format)) info.sizes.push_back({size.width, size.height, {}});
+      for (const libcamera::Size& size : formats.sizes(format))
+        info.sizes.push_back({size.width, size.height, {}});
       out.push_back(std::move(info));
     }
     return out;
@@ -131,11 +138,14 @@ class LibcameraCamera final : public Camera {
   }
 
   Result<StreamFormat> configure(const StreamFormat& requested) override {
-    if (streaming_) return make_error("busy", "stop streaming before configuring " + identity_.name);
+    if (streaming_)
+      return make_error("busy", "stop streaming before configuring " + identity_.name);
     auto config = camera_->generateConfiguration({libcamera::StreamRole::VideoRecording});
-    if (!config || config->empty()) return make_error("unsupported", identity_.name + " offers no video stream");
+    if (!config || config->empty())
+      return make_error("unsupported", identity_.name + " offers no video stream");
     libcamera::StreamConfiguration& cfg = config->at(0);
-    if (!requested.fourcc.empty()) cfg.pixelFormat = libcamera_backend::pixel_format_of(requested.fourcc);
+    if (!requested.fourcc.empty())
+      cfg.pixelFormat = libcamera_backend::pixel_format_of(requested.fourcc);
     if (requested.width && requested.height) cfg.size = {requested.width, requested.height};
     if (config->validate() == libcamera::CameraConfiguration::Invalid)
       return make_error("out_of_range", "libcamera rejected the configuration " + cfg.toString());
@@ -156,10 +166,12 @@ class LibcameraCamera final : public Camera {
       return fail_start("cannot allocate buffers", count);
     // libcamera picks the count (cfg.bufferCount); more requests than buffers cannot run.
     const auto& buffers = allocator_->buffers(stream);
-    const size_t count = std::min<size_t>(buffers.size(), static_cast<size_t>(std::max(buffer_count, 1)));
+    const size_t count =
+        std::min<size_t>(buffers.size(), static_cast<size_t>(std::max(buffer_count, 1)));
     for (size_t i = 0; i < count; ++i) {
       std::unique_ptr<libcamera::Request> request = camera_->createRequest(i);
-      if (!request || request->addBuffer(stream, buffers[i].get()) < 0) return fail_start("cannot create requests", -ENOMEM);
+      if (!request || request->addBuffer(stream, buffers[i].get()) < 0)
+        return fail_start("cannot create requests", -ENOMEM);
       const libcamera::FrameBuffer::Plane& plane = buffers[i]->planes()[0];
       size_t length = 0;
       for (const auto& p : buffers[i]->planes())
@@ -174,7 +186,8 @@ class LibcameraCamera final : public Camera {
     streaming_ = true;
     have_sequence_ = false;
     for (auto& request : requests_)
-      if (int error = queue(request.get()); error < 0) return fail_start("cannot queue a request", error);
+      if (int error = queue(request.get()); error < 0)
+        return fail_start("cannot queue a request", error);
     return {};
   }
 
@@ -232,12 +245,14 @@ class LibcameraCamera final : public Camera {
   Status requeue(const Frame& frame) override {
     if (!streaming_) return make_error("not_streaming", identity_.name + " is not streaming");
     if (frame.buffer_index < 0 || static_cast<size_t>(frame.buffer_index) >= requests_.size())
-      return make_error("out_of_range", "frame " + std::to_string(frame.buffer_index) + " is not one of ours");
+      return make_error("out_of_range",
+                        "frame " + std::to_string(frame.buffer_index) + " is not one of ours");
     libcamera::Request* request = requests_[static_cast<size_t>(frame.buffer_index)].get();
     request->reuse(libcamera::Request::ReuseBuffers);
     if (int error = queue(request); error < 0)
-      return make_error(error == -ENODEV ? ErrorCode::kNoDevice : ErrorCode::kIoError,
-                        "cannot queue a request to " + identity_.name + ": " + std::strerror(-error));
+      return make_error(
+          error == -ENODEV ? ErrorCode::kNoDevice : ErrorCode::kIoError,
+          "cannot queue a request to " + identity_.name + ": " + std::strerror(-error));
     return {};
   }
 
@@ -256,7 +271,8 @@ class LibcameraCamera final : public Camera {
   Error unknown_control(const std::string& name) const {
     std::string known;
     for (const ControlBinding& b : bindings_) known += (known.empty() ? "" : ", ") + b.info.name;
-    return make_error("unsupported", identity_.name + " has no control '" + name + "' (it has: " + known + ")");
+    return make_error("unsupported",
+                      identity_.name + " has no control '" + name + "' (it has: " + known + ")");
   }
 
   // Queues a request with the controls set since the last one.
@@ -268,8 +284,9 @@ class LibcameraCamera final : public Camera {
 
   Status fail_start(const std::string& what, int error) {
     (void)stop();
-    return make_error(error == -EBUSY ? ErrorCode::kBusy : ErrorCode::kIoError,
-                      identity_.name + ": " + what + " (" + std::strerror(error < 0 ? -error : ENOMEM) + ")");
+    return make_error(
+        error == -EBUSY ? ErrorCode::kBusy : ErrorCode::kIoError,
+        identity_.name + ": " + what + " (" + std::strerror(error < 0 ? -error : ENOMEM) + ")");
   }
 
   StreamFormat stream_format() const {
@@ -298,7 +315,7 @@ class LibcameraCamera final : public Camera {
   CameraIdentity identity_;
   std::vector<ControlBinding> bindings_;
   std::map<unsigned int, libcamera::ControlValue> pending_;  // for the next request queued
-  std::map<std::string, int64_t> current_;                  // last asked, by camlab name
+  std::map<std::string, int64_t> current_;                   // last asked, by camlab name
   libcamera::ControlList last_metadata_;
   std::unique_ptr<libcamera::CameraConfiguration> config_;
   std::unique_ptr<libcamera::FrameBufferAllocator> allocator_;
@@ -326,7 +343,8 @@ Result<std::vector<CameraIdentity>> list_libcamera_cameras() {
 Result<std::unique_ptr<Camera>> open_libcamera_camera(const std::string& id) {
   auto manager = shared_manager();
   if (!manager) return manager.error();
-  const std::string libcamera_id = id.rfind(kIdPrefix, 0) == 0 ? id.substr(std::strlen(kIdPrefix)) : id;
+  const std::string libcamera_id =
+      id.rfind(kIdPrefix, 0) == 0 ? id.substr(std::strlen(kIdPrefix)) : id;
   std::shared_ptr<libcamera::Camera> camera = (*manager)->get(libcamera_id);
   if (!camera) return make_error("no_device", "libcamera has no camera '" + libcamera_id + "'");
   if (int error = camera->acquire(); error < 0)

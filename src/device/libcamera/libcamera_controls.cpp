@@ -17,12 +17,18 @@ constexpr double kMilli = 1e-3;  // float controls travel as integer thousandths
 double as_double(const libcamera::ControlValue& value) {
   if (value.isNone() || value.isArray()) return 0;
   switch (value.type()) {
-    case libcamera::ControlTypeBool: return value.get<bool>() ? 1 : 0;
-    case libcamera::ControlTypeByte: return value.get<uint8_t>();
-    case libcamera::ControlTypeInteger32: return value.get<int32_t>();
-    case libcamera::ControlTypeInteger64: return static_cast<double>(value.get<int64_t>());
-    case libcamera::ControlTypeFloat: return value.get<float>();
-    default: return 0;
+    case libcamera::ControlTypeBool:
+      return value.get<bool>() ? 1 : 0;
+    case libcamera::ControlTypeByte:
+      return value.get<uint8_t>();
+    case libcamera::ControlTypeInteger32:
+      return value.get<int32_t>();
+    case libcamera::ControlTypeInteger64:
+      return static_cast<double>(value.get<int64_t>());
+    case libcamera::ControlTypeFloat:
+      return value.get<float>();
+    default:
+      return 0;
   }
 }
 
@@ -69,8 +75,8 @@ std::string snake_case(const std::string& camel) {
 
 std::vector<ControlBinding> bind_controls(const libcamera::ControlInfoMap& controls) {
   std::vector<ControlBinding> bindings;
-  auto bind = [&](const libcamera::ControlId* id, const libcamera::ControlInfo& info, const std::string& name,
-                  double scale) {
+  auto bind = [&](const libcamera::ControlId* id, const libcamera::ControlInfo& info,
+                  const std::string& name, double scale) {
     ControlBinding b;
     b.id = id;
     b.scale = scale;
@@ -78,9 +84,15 @@ std::vector<ControlBinding> bind_controls(const libcamera::ControlInfoMap& contr
     b.info.name = name;
     b.info.label = id->name();
     switch (id->type()) {
-      case libcamera::ControlTypeBool: b.info.type = ControlType::kBoolean; break;
-      case libcamera::ControlTypeInteger64: b.info.type = ControlType::kInteger64; break;
-      default: b.info.type = ControlType::kInteger; break;
+      case libcamera::ControlTypeBool:
+        b.info.type = ControlType::kBoolean;
+        break;
+      case libcamera::ControlTypeInteger64:
+        b.info.type = ControlType::kInteger64;
+        break;
+      default:
+        b.info.type = ControlType::kInteger;
+        break;
     }
     // Ranges in camlab units, rounded inwards so every listed value is settable.
     b.info.minimum = static_cast<int64_t>(std::ceil(as_double(info.min()) / scale - 1e-9));
@@ -109,8 +121,9 @@ std::vector<ControlBinding> bind_controls(const libcamera::ControlInfoMap& contr
     if (id->id() == libcamera::controls::EXPOSURE_TIME)
       bind(id, info, "exposure_time_absolute", 100.0);  // the V4L2 name, in its 100 us units
   }
-  std::sort(bindings.begin(), bindings.end(),
-            [](const ControlBinding& a, const ControlBinding& b) { return a.info.name < b.info.name; });
+  std::sort(bindings.begin(), bindings.end(), [](const ControlBinding& a, const ControlBinding& b) {
+    return a.info.name < b.info.name;
+  });
   return bindings;
 }
 
@@ -118,17 +131,23 @@ Result<libcamera::ControlValue> to_control_value(const ControlBinding& binding, 
   const ControlInfo& info = binding.info;
   if (value < info.minimum || value > info.maximum)
     return make_error("out_of_range", info.name + " = " + std::to_string(value) + " is outside [" +
-                                          std::to_string(info.minimum) + ", " + std::to_string(info.maximum) + "]" +
+                                          std::to_string(info.minimum) + ", " +
+                                          std::to_string(info.maximum) + "]" +
                                           (info.unit.empty() ? "" : " " + info.unit));
   const double native = static_cast<double>(value) * binding.scale;
   switch (binding.id->type()) {
-    case libcamera::ControlTypeBool: return libcamera::ControlValue(value != 0);
-    case libcamera::ControlTypeByte: return libcamera::ControlValue(static_cast<uint8_t>(value));
+    case libcamera::ControlTypeBool:
+      return libcamera::ControlValue(value != 0);
+    case libcamera::ControlTypeByte:
+      return libcamera::ControlValue(static_cast<uint8_t>(value));
     case libcamera::ControlTypeInteger32:
       return libcamera::ControlValue(static_cast<int32_t>(std::llround(native)));
-    case libcamera::ControlTypeInteger64: return libcamera::ControlValue(static_cast<int64_t>(std::llround(native)));
-    case libcamera::ControlTypeFloat: return libcamera::ControlValue(static_cast<float>(native));
-    default: return make_error("unsupported", info.name + " is not a scalar control");
+    case libcamera::ControlTypeInteger64:
+      return libcamera::ControlValue(static_cast<int64_t>(std::llround(native)));
+    case libcamera::ControlTypeFloat:
+      return libcamera::ControlValue(static_cast<float>(native));
+    default:
+      return make_error("unsupported", info.name + " is not a scalar control");
   }
 }
 
@@ -137,7 +156,8 @@ int64_t from_control_value(const ControlBinding& binding, const libcamera::Contr
 }
 
 void fill_settings(const libcamera::ControlList& metadata, FrameMetadata* meta) {
-  if (auto exposure = metadata.get(libcamera::controls::ExposureTime)) meta->exposure_us = *exposure;
+  if (auto exposure = metadata.get(libcamera::controls::ExposureTime))
+    meta->exposure_us = *exposure;
   if (auto gain = metadata.get(libcamera::controls::AnalogueGain)) meta->analogue_gain = *gain;
   if (auto lens = metadata.get(libcamera::controls::LensPosition)) meta->lens_position = *lens;
 }
@@ -155,7 +175,8 @@ libcamera::PixelFormat pixel_format_of(const std::string& fourcc) {
   std::string padded = fourcc;
   padded.resize(4, ' ');
   uint32_t code = 0;
-  for (int i = 0; i < 4; ++i) code |= static_cast<uint32_t>(static_cast<unsigned char>(padded[i])) << (8 * i);
+  for (int i = 0; i < 4; ++i)
+    code |= static_cast<uint32_t>(static_cast<unsigned char>(padded[i])) << (8 * i);
   return libcamera::PixelFormat(code);
 }
 

@@ -26,13 +26,20 @@ uint32_t fourcc_from_text(std::string text) {
 
 ControlType control_type(uint32_t v4l2_type) {
   switch (v4l2_type) {
-    case V4L2_CTRL_TYPE_INTEGER: return ControlType::kInteger;
-    case V4L2_CTRL_TYPE_BOOLEAN: return ControlType::kBoolean;
-    case V4L2_CTRL_TYPE_MENU: return ControlType::kMenu;
-    case V4L2_CTRL_TYPE_INTEGER_MENU: return ControlType::kIntegerMenu;
-    case V4L2_CTRL_TYPE_BUTTON: return ControlType::kButton;
-    case V4L2_CTRL_TYPE_INTEGER64: return ControlType::kInteger64;
-    default: return ControlType::kOther;
+    case V4L2_CTRL_TYPE_INTEGER:
+      return ControlType::kInteger;
+    case V4L2_CTRL_TYPE_BOOLEAN:
+      return ControlType::kBoolean;
+    case V4L2_CTRL_TYPE_MENU:
+      return ControlType::kMenu;
+    case V4L2_CTRL_TYPE_INTEGER_MENU:
+      return ControlType::kIntegerMenu;
+    case V4L2_CTRL_TYPE_BUTTON:
+      return ControlType::kButton;
+    case V4L2_CTRL_TYPE_INTEGER64:
+      return ControlType::kInteger64;
+    default:
+      return ControlType::kOther;
   }
 }
 
@@ -42,28 +49,35 @@ Error V4l2Camera::errno_error(const std::string& what, int err) const {
   const std::string where = identity_.path.empty() ? std::string("device") : identity_.path;
   if (err == ENODEV || err == ENXIO)
     return make_error("no_device", where + ": " + what + ": the camera is gone (unplugged?)");
-  if (err == EBUSY) return make_error("busy", where + ": " + what + ": device busy (in use by another process?)");
-  if (err == ERANGE) return make_error("out_of_range", where + ": " + what + ": value out of range");
+  if (err == EBUSY)
+    return make_error("busy", where + ": " + what + ": device busy (in use by another process?)");
+  if (err == ERANGE)
+    return make_error("out_of_range", where + ": " + what + ": value out of range");
   if (err == EACCES) return make_error("permission", where + ": " + what + ": permission denied");
   return make_error("io_error", where + ": " + what + ": " + std::strerror(err));
 }
 
-Result<std::unique_ptr<V4l2Camera>> V4l2Camera::open(std::shared_ptr<V4l2Io> io, const std::string& path) {
+Result<std::unique_ptr<V4l2Camera>> V4l2Camera::open(std::shared_ptr<V4l2Io> io,
+                                                     const std::string& path) {
   const int fd = io->open(path.c_str(), O_RDWR | O_NONBLOCK);
   if (fd < 0) {
     const int err = errno;
     // ENODEV/ENXIO: the node exists but its device is gone (unplugged).
-    if (err == ENOENT || err == ENODEV || err == ENXIO) return make_error("no_device", path + ": no such device");
-    return make_error(err == EACCES ? ErrorCode::kPermission : ErrorCode::kIoError, path + ": cannot open: " + std::strerror(err));
+    if (err == ENOENT || err == ENODEV || err == ENXIO)
+      return make_error("no_device", path + ": no such device");
+    return make_error(err == EACCES ? ErrorCode::kPermission : ErrorCode::kIoError,
+                      path + ": cannot open: " + std::strerror(err));
   }
   std::unique_ptr<V4l2Camera> camera(new V4l2Camera(std::move(io), fd));
   camera->identity_.path = path;
   v4l2_capability cap{};
   if (xioctl(*camera->io_, fd, VIDIOC_QUERYCAP, &cap) != 0)
     return camera->errno_error("VIDIOC_QUERYCAP (not a V4L2 device?)", errno);
-  const uint32_t caps = (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
+  const uint32_t caps =
+      (cap.capabilities & V4L2_CAP_DEVICE_CAPS) ? cap.device_caps : cap.capabilities;
   if (!(caps & V4L2_CAP_VIDEO_CAPTURE) || !(caps & V4L2_CAP_STREAMING))
-    return make_error("unsupported", path + " is not a streaming single-plane video capture device");
+    return make_error("unsupported",
+                      path + " is not a streaming single-plane video capture device");
   camera->identity_.backend = "v4l2";
   camera->identity_.name = reinterpret_cast<const char*>(cap.card);
   camera->identity_.driver = reinterpret_cast<const char*>(cap.driver);
@@ -87,7 +101,8 @@ Result<std::vector<PixelFormatInfo>> V4l2Camera::formats() {
       if (errno == EINVAL) break;
       return errno_error("VIDIOC_ENUM_FMT", errno);
     }
-    PixelFormatInfo format{fourcc_text(desc.pixelformat), reinterpret_cast<const char*>(desc.description), {}};
+    PixelFormatInfo format{
+        fourcc_text(desc.pixelformat), reinterpret_cast<const char*>(desc.description), {}};
     for (uint32_t j = 0;; ++j) {
       v4l2_frmsizeenum size{};
       size.index = j;
@@ -111,7 +126,8 @@ Result<std::vector<PixelFormatInfo>> V4l2Camera::formats() {
         if (interval.type == V4L2_FRMIVAL_TYPE_DISCRETE)
           info.intervals.push_back({interval.discrete.numerator, interval.discrete.denominator});
         else
-          info.intervals.push_back({interval.stepwise.min.numerator, interval.stepwise.min.denominator});
+          info.intervals.push_back(
+              {interval.stepwise.min.numerator, interval.stepwise.min.denominator});
         if (interval.type != V4L2_FRMIVAL_TYPE_DISCRETE) break;
       }
       format.sizes.push_back(std::move(info));
@@ -129,7 +145,8 @@ Result<int64_t> V4l2Camera::read_control(uint32_t id, bool is_64_bit) {
   controls.which = V4L2_CTRL_WHICH_CUR_VAL;
   controls.count = 1;
   controls.controls = &control;
-  if (xioctl(*io_, fd_.get(), VIDIOC_G_EXT_CTRLS, &controls) != 0) return errno_error("VIDIOC_G_EXT_CTRLS", errno);
+  if (xioctl(*io_, fd_.get(), VIDIOC_G_EXT_CTRLS, &controls) != 0)
+    return errno_error("VIDIOC_G_EXT_CTRLS", errno);
   return is_64_bit ? control.value64 : control.value;
 }
 
@@ -144,7 +161,8 @@ Result<std::vector<ControlInfo>> V4l2Camera::controls() {
       return errno_error("VIDIOC_QUERY_EXT_CTRL", errno);
     }
     next = query.id | V4L2_CTRL_FLAG_NEXT_CTRL;
-    if (query.type == V4L2_CTRL_TYPE_CTRL_CLASS || (query.flags & V4L2_CTRL_FLAG_DISABLED)) continue;
+    if (query.type == V4L2_CTRL_TYPE_CTRL_CLASS || (query.flags & V4L2_CTRL_FLAG_DISABLED))
+      continue;
     ControlInfo info;
     info.id = query.id;
     info.label = query.name;
@@ -186,7 +204,8 @@ Result<ControlInfo> V4l2Camera::find_control(const std::string& name) {
     if (c.name == name) return c;
     known += (known.empty() ? "" : ", ") + c.name;
   }
-  return make_error("unknown_control", identity_.path + " has no control '" + name + "' (it has: " + known + ")");
+  return make_error("unknown_control",
+                    identity_.path + " has no control '" + name + "' (it has: " + known + ")");
 }
 
 Result<int64_t> V4l2Camera::get_control(const std::string& name) {
@@ -200,10 +219,11 @@ Result<int64_t> V4l2Camera::set_control(const std::string& name, int64_t value) 
   if (!control) return control.error();
   if (control->read_only) return make_error("unsupported", name + " is read-only");
   if (value < control->minimum || value > control->maximum)
-    return make_error("out_of_range", name + " = " + std::to_string(value) + " is outside [" +
-                                          std::to_string(control->minimum) + ", " +
-                                          std::to_string(control->maximum) + "]" +
-                                          (control->unit.empty() ? "" : " (" + control->unit + ")"));
+    return make_error("out_of_range",
+                      name + " = " + std::to_string(value) + " is outside [" +
+                          std::to_string(control->minimum) + ", " +
+                          std::to_string(control->maximum) + "]" +
+                          (control->unit.empty() ? "" : " (" + control->unit + ")"));
   // A manual value is ignored while the automatic mode is on: switch it off first.
   if (control->id == V4L2_CID_EXPOSURE_ABSOLUTE) {
     auto mode = read_control(V4L2_CID_EXPOSURE_AUTO);
@@ -217,33 +237,40 @@ Result<int64_t> V4l2Camera::set_control(const std::string& name, int64_t value) 
       if (Status set = write_control(V4L2_CID_FOCUS_AUTO, 0, false); !set) return set.error();
     }
   }
-  if (Status set = write_control(control->id, value, control->type == ControlType::kInteger64); !set)
-    return make_error(set.error().code, "setting " + name + " = " + std::to_string(value) + ": " + set.error().message);
+  if (Status set = write_control(control->id, value, control->type == ControlType::kInteger64);
+      !set)
+    return make_error(set.error().code, "setting " + name + " = " + std::to_string(value) + ": " +
+                                            set.error().message);
   return read_control(control->id, control->type == ControlType::kInteger64);  // what was applied
 }
 
 Status V4l2Camera::write_control(uint32_t id, int64_t value, bool is_64_bit) {
   v4l2_ext_control ext{};
   ext.id = id;
-  if (is_64_bit) ext.value64 = value;
-  else ext.value = static_cast<int32_t>(value);
+  if (is_64_bit)
+    ext.value64 = value;
+  else
+    ext.value = static_cast<int32_t>(value);
   v4l2_ext_controls controls{};
   controls.which = V4L2_CTRL_WHICH_CUR_VAL;
   controls.count = 1;
   controls.controls = &ext;
-  if (xioctl(*io_, fd_.get(), VIDIOC_S_EXT_CTRLS, &controls) != 0) return errno_error("VIDIOC_S_EXT_CTRLS", errno);
+  if (xioctl(*io_, fd_.get(), VIDIOC_S_EXT_CTRLS, &controls) != 0)
+    return errno_error("VIDIOC_S_EXT_CTRLS", errno);
   return {};
 }
 
 Result<StreamFormat> V4l2Camera::configure(const StreamFormat& requested) {
-  if (streaming_) return make_error("busy", identity_.path + ": stop streaming before changing the format");
+  if (streaming_)
+    return make_error("busy", identity_.path + ": stop streaming before changing the format");
   v4l2_format format{};
   format.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   format.fmt.pix.width = requested.width;
   format.fmt.pix.height = requested.height;
   format.fmt.pix.pixelformat = fourcc_from_text(requested.fourcc);
   format.fmt.pix.field = V4L2_FIELD_NONE;
-  if (xioctl(*io_, fd_.get(), VIDIOC_S_FMT, &format) != 0) return errno_error("VIDIOC_S_FMT", errno);
+  if (xioctl(*io_, fd_.get(), VIDIOC_S_FMT, &format) != 0)
+    return errno_error("VIDIOC_S_FMT", errno);
   StreamFormat applied;
   applied.fourcc = fourcc_text(format.fmt.pix.pixelformat);
   applied.width = format.fmt.pix.width;
@@ -258,7 +285,8 @@ Result<StreamFormat> V4l2Camera::configure(const StreamFormat& requested) {
       return errno_error("VIDIOC_S_PARM", errno);
   }
   if (xioctl(*io_, fd_.get(), VIDIOC_G_PARM, &parm) == 0)
-    applied.interval = {parm.parm.capture.timeperframe.numerator, parm.parm.capture.timeperframe.denominator};
+    applied.interval = {parm.parm.capture.timeperframe.numerator,
+                        parm.parm.capture.timeperframe.denominator};
   return applied;
 }
 
@@ -273,7 +301,8 @@ void V4l2Camera::free_buffers() {
 Status V4l2Camera::start(int buffer_count) {
   if (streaming_) return make_error("busy", identity_.path + " is already streaming");
   if (buffer_count < 2 || buffer_count > 32)
-    return make_error("out_of_range", "buffer count " + std::to_string(buffer_count) + " is not in [2, 32]");
+    return make_error("out_of_range",
+                      "buffer count " + std::to_string(buffer_count) + " is not in [2, 32]");
   const int fd = fd_.get();
   v4l2_requestbuffers request{};
   request.count = static_cast<uint32_t>(buffer_count);
@@ -288,21 +317,26 @@ Status V4l2Camera::start(int buffer_count) {
     return error;
   };
   if (request.count < 2)
-    return give_back(make_error("io_error", identity_.path + ": the driver granted fewer than 2 buffers"));
+    return give_back(
+        make_error("io_error", identity_.path + ": the driver granted fewer than 2 buffers"));
   for (uint32_t i = 0; i < request.count; ++i) {
     v4l2_buffer buffer{};
     buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
     buffer.memory = V4L2_MEMORY_MMAP;
     buffer.index = i;
-    if (xioctl(*io_, fd, VIDIOC_QUERYBUF, &buffer) != 0) return give_back(errno_error("VIDIOC_QUERYBUF", errno));
-    V4l2Mapping mapping(io_->mmap(buffer.length, PROT_READ | PROT_WRITE, MAP_SHARED, fd, buffer.m.offset),
-                        buffer.length, V4l2IoUnmapper{io_.get()});
+    if (xioctl(*io_, fd, VIDIOC_QUERYBUF, &buffer) != 0)
+      return give_back(errno_error("VIDIOC_QUERYBUF", errno));
+    V4l2Mapping mapping(
+        io_->mmap(buffer.length, PROT_READ | PROT_WRITE, MAP_SHARED, fd, buffer.m.offset),
+        buffer.length, V4l2IoUnmapper{io_.get()});
     if (!mapping) return give_back(errno_error("mmap of buffer " + std::to_string(i), errno));
     buffers_.push_back(std::move(mapping));
-    if (xioctl(*io_, fd, VIDIOC_QBUF, &buffer) != 0) return give_back(errno_error("VIDIOC_QBUF", errno));
+    if (xioctl(*io_, fd, VIDIOC_QBUF, &buffer) != 0)
+      return give_back(errno_error("VIDIOC_QBUF", errno));
   }
   int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-  if (xioctl(*io_, fd, VIDIOC_STREAMON, &type) != 0) return give_back(errno_error("VIDIOC_STREAMON", errno));
+  if (xioctl(*io_, fd, VIDIOC_STREAMON, &type) != 0)
+    return give_back(errno_error("VIDIOC_STREAMON", errno));
   streaming_ = true;
   have_sequence_ = false;
   return {};
@@ -329,13 +363,16 @@ Result<Frame> V4l2Camera::dequeue(std::chrono::milliseconds timeout) {
   } while (ready < 0 && errno == EINTR);
   if (ready < 0) return errno_error("poll", errno);
   if (ready == 0)
-    return make_error("timeout", identity_.path + ": no frame within " + std::to_string(timeout.count()) + " ms");
+    return make_error(
+        "timeout", identity_.path + ": no frame within " + std::to_string(timeout.count()) + " ms");
   v4l2_buffer buffer{};
   buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   buffer.memory = V4L2_MEMORY_MMAP;
-  if (xioctl(*io_, fd_.get(), VIDIOC_DQBUF, &buffer) != 0) return errno_error("VIDIOC_DQBUF", errno);
+  if (xioctl(*io_, fd_.get(), VIDIOC_DQBUF, &buffer) != 0)
+    return errno_error("VIDIOC_DQBUF", errno);
   if (buffer.index >= buffers_.size())
-    return make_error("io_error", identity_.path + ": driver returned buffer index " + std::to_string(buffer.index));
+    return make_error("io_error", identity_.path + ": driver returned buffer index " +
+                                      std::to_string(buffer.index));
   Frame frame;
   frame.buffer_index = static_cast<int>(buffer.index);
   frame.data = buffers_[buffer.index].data();
@@ -343,9 +380,10 @@ Result<Frame> V4l2Camera::dequeue(std::chrono::milliseconds timeout) {
   frame.meta.sequence = buffer.sequence;
   frame.meta.timestamp_ns = static_cast<int64_t>(buffer.timestamp.tv_sec) * 1'000'000'000 +
                             static_cast<int64_t>(buffer.timestamp.tv_usec) * 1000;
-  frame.meta.clock = (buffer.flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC
-                         ? "monotonic"
-                         : "unknown";
+  frame.meta.clock =
+      (buffer.flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC
+          ? "monotonic"
+          : "unknown";
   frame.meta.bytes_used = buffer.bytesused;
   frame.meta.error = buffer.flags & V4L2_BUF_FLAG_ERROR;
   if (have_sequence_ && buffer.sequence > last_sequence_ + 1)

@@ -22,7 +22,8 @@ namespace camlab::device {
 class V4l2Camera final : public Camera {
  public:
   // Opens `path` (non-blocking) through `io` and checks it is a streaming capture device.
-  static Result<std::unique_ptr<V4l2Camera>> open(std::shared_ptr<V4l2Io> io, const std::string& path);
+  static Result<std::unique_ptr<V4l2Camera>> open(std::shared_ptr<V4l2Io> io,
+                                                  const std::string& path);
   ~V4l2Camera() override;
 
   const CameraIdentity& identity() const override { return identity_; }

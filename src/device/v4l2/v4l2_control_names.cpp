@@ -23,16 +23,23 @@ std::string control_name_from_label(const std::string& label) {
 
 std::string control_unit(uint32_t id) {
   switch (id) {
-    case V4L2_CID_EXPOSURE_ABSOLUTE: return "100 us";
+    case V4L2_CID_EXPOSURE_ABSOLUTE:
+      return "100 us";
     case V4L2_CID_FOCUS_ABSOLUTE:
-    case V4L2_CID_FOCUS_RELATIVE: return "focus steps (larger = closer)";
-    case V4L2_CID_IRIS_ABSOLUTE: return "iris steps (larger = wider)";
-    case V4L2_CID_ZOOM_ABSOLUTE: return "zoom steps";
+    case V4L2_CID_FOCUS_RELATIVE:
+      return "focus steps (larger = closer)";
+    case V4L2_CID_IRIS_ABSOLUTE:
+      return "iris steps (larger = wider)";
+    case V4L2_CID_ZOOM_ABSOLUTE:
+      return "zoom steps";
     case V4L2_CID_GAIN:
-    case V4L2_CID_ANALOGUE_GAIN: return "gain units (driver-defined, linear)";
+    case V4L2_CID_ANALOGUE_GAIN:
+      return "gain units (driver-defined, linear)";
     case V4L2_CID_PAN_ABSOLUTE:
-    case V4L2_CID_TILT_ABSOLUTE: return "arc seconds";
-    default: return "";
+    case V4L2_CID_TILT_ABSOLUTE:
+      return "arc seconds";
+    default:
+      return "";
   }
 }
 

@@ -23,7 +23,8 @@ inline DownloadedFrame download_frame(const Daemon& daemon, int64_t job, int ind
   auto png = daemon.get(base);
   EXPECT_EQ(png.status, 200) << base;
   EXPECT_EQ(png.headers["content-type"], "image/png");
-  frame.image = cv::imdecode(std::vector<uchar>(png.body.begin(), png.body.end()), cv::IMREAD_UNCHANGED);
+  frame.image =
+      cv::imdecode(std::vector<uchar>(png.body.begin(), png.body.end()), cv::IMREAD_UNCHANGED);
   auto meta = daemon.get(base + "/meta");
   EXPECT_EQ(meta.status, 200) << base;
   frame.sidecar = meta.json();
@@ -33,7 +34,8 @@ inline DownloadedFrame download_frame(const Daemon& daemon, int64_t job, int ind
 // Mean DN above the sidecar's black level over the central half of the frame, and
 // whether any pixel there is clipped.
 inline double mean_above_black(const DownloadedFrame& frame, bool* clipped = nullptr) {
-  const cv::Rect centre(frame.image.cols / 4, frame.image.rows / 4, frame.image.cols / 2, frame.image.rows / 2);
+  const cv::Rect centre(frame.image.cols / 4, frame.image.rows / 4, frame.image.cols / 2,
+                        frame.image.rows / 2);
   double max_value = 0;
   cv::minMaxLoc(frame.image(centre), nullptr, &max_value);
   const int bit_depth = frame.sidecar.value("bit_depth", 8);
@@ -54,8 +56,9 @@ inline double sharpness(const cv::Mat& image) {
 // Runs a 1, 2, 4, 8 ms bracket on `camera_path` and checks the mean signal above black is
 // proportional to exposure within 2%, with nothing clipped.
 inline void check_bracket_is_linear(const Daemon& daemon, const std::string& camera_path) {
-  auto r = daemon.post(camera_path + "/captures",
-                       {{"kind", "bracket"}, {"exposures_us", {1000, 2000, 4000, 8000}}, {"controls", {{"iris_absolute", 5}}}});
+  auto r = daemon.post(camera_path + "/captures", {{"kind", "bracket"},
+                                                   {"exposures_us", {1000, 2000, 4000, 8000}},
+                                                   {"controls", {{"iris_absolute", 5}}}});
   ASSERT_EQ(r.status, 202) << r.body;
   const int64_t id = r.json()["id"];
   const nlohmann::json job = daemon.wait_finished(id);
@@ -74,7 +77,8 @@ inline void check_bracket_is_linear(const Daemon& daemon, const std::string& cam
     per_us.push_back(signal / exposure_us);
   }
   for (int i = 1; i < 4; ++i)
-    EXPECT_NEAR(per_us[i] / per_us[0], 1.0, 0.02) << "signal/exposure of " << (1 << i) << " ms vs 1 ms";
+    EXPECT_NEAR(per_us[i] / per_us[0], 1.0, 0.02)
+        << "signal/exposure of " << (1 << i) << " ms vs 1 ms";
 }
 
 // One daemon shared by a suite's tests (they only read its cameras and add jobs), on the

@@ -36,12 +36,10 @@ namespace fs = std::filesystem;
 using namespace std::chrono_literals;
 
 struct HttpResult {
-  int status = 0;  // 0: no answer (connection refused, reset, timeout)
+  int status = 0;                              // 0: no answer (connection refused, reset, timeout)
   std::map<std::string, std::string> headers;  // names lower-cased
   std::string body;
-  nlohmann::json json() const {
-    return nlohmann::json::parse(body, nullptr, false);
-  }
+  nlohmann::json json() const { return nlohmann::json::parse(body, nullptr, false); }
   std::string error_code() const {
     auto j = json();
     return j.is_object() && j.contains("error") ? j["error"].value("code", "") : "";
@@ -50,11 +48,13 @@ struct HttpResult {
 
 // Sends `bytes` on a new loopback connection to `port` and reads one response (headers,
 // then Content-Length bytes); `timeout` bounds the whole exchange.
-inline HttpResult raw_exchange(int port, const std::string& bytes, std::chrono::milliseconds timeout = 10s) {
+inline HttpResult raw_exchange(int port, const std::string& bytes,
+                               std::chrono::milliseconds timeout = 10s) {
   HttpResult result;
   const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (fd < 0) return result;
-  timeval tv{static_cast<time_t>(timeout.count() / 1000), static_cast<suseconds_t>((timeout.count() % 1000) * 1000)};
+  timeval tv{static_cast<time_t>(timeout.count() / 1000),
+             static_cast<suseconds_t>((timeout.count() % 1000) * 1000)};
   setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
   setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
   sockaddr_in addr{};
@@ -107,12 +107,15 @@ inline HttpResult raw_exchange(int port, const std::string& bytes, std::chrono::
   return result;
 }
 
-inline HttpResult http(int port, const std::string& method, const std::string& path, const std::string& token = "",
-                       const std::string& body = "", std::chrono::milliseconds timeout = 10s) {
-  std::string request = method + " " + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n";
+inline HttpResult http(int port, const std::string& method, const std::string& path,
+                       const std::string& token = "", const std::string& body = "",
+                       std::chrono::milliseconds timeout = 10s) {
+  std::string request =
+      method + " " + path + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n";
   if (!token.empty()) request += "Authorization: Bearer " + token + "\r\n";
   if (!body.empty() || method == "POST" || method == "PUT")
-    request += "Content-Type: application/json\r\nContent-Length: " + std::to_string(body.size()) + "\r\n";
+    request +=
+        "Content-Type: application/json\r\nContent-Length: " + std::to_string(body.size()) + "\r\n";
   request += "\r\n" + body;
   return raw_exchange(port, request, timeout);
 }
@@ -144,7 +147,8 @@ class Daemon {
  public:
   // `prefix`: a command that runs camlabd (e.g. {"camlab", "vcam", "run", "--"}); the
   // child is then put in its own process group so signals reach camlabd too.
-  bool start(const fs::path& dir, std::vector<std::string> args, std::vector<std::string> prefix = {}) {
+  bool start(const fs::path& dir, std::vector<std::string> args,
+             std::vector<std::string> prefix = {}) {
     dir_ = dir;
     fs::create_directories(dir);
     log_ = dir / ("camlabd." + std::to_string(++starts_) + ".log");
@@ -154,7 +158,8 @@ class Daemon {
     argv.insert(argv.end(), args.begin(), args.end());
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_.c_str(),
+                                     O_WRONLY | O_CREAT | O_TRUNC, 0644);
     posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
     posix_spawnattr_t attr;
     posix_spawnattr_init(&attr);
@@ -174,7 +179,8 @@ class Daemon {
       if (auto at = text.find(marker); at != std::string::npos) {
         port_ = std::atoi(text.c_str() + at + marker.size());
         token_ = read_file(dir / "data" / "token");
-        while (!token_.empty() && std::isspace(static_cast<unsigned char>(token_.back()))) token_.pop_back();
+        while (!token_.empty() && std::isspace(static_cast<unsigned char>(token_.back())))
+          token_.pop_back();
         return port_ > 0 && !token_.empty();
       }
       int status = 0;
@@ -242,10 +248,13 @@ class Daemon {
     return job;
   }
   nlohmann::json wait_finished(int64_t id, std::chrono::seconds timeout = 120s) const {
-    return wait_job(id, [](const nlohmann::json& j) {
-      const std::string s = j.value("state", "");
-      return s != "queued" && s != "running";
-    }, timeout);
+    return wait_job(
+        id,
+        [](const nlohmann::json& j) {
+          const std::string s = j.value("state", "");
+          return s != "queued" && s != "running";
+        },
+        timeout);
   }
 
   // The first camera's id (or the one whose transport contains `transport`).
@@ -272,7 +281,8 @@ class Daemon {
 };
 
 inline fs::path fresh_test_dir(const std::string& name) {
-  const fs::path dir = fs::temp_directory_path() / ("camlabd_test_" + name + "_" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("camlabd_test_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;

@@ -24,10 +24,11 @@ class ServiceApi : public ::testing::Test {
     write_test_specs(*dir_);
     daemon_ = new Daemon();
     // 4 cameras: 0 for the API, 1 fail_next_dequeues, 2 drop/stall, 3 unplug.
-    started_ = daemon_->start(*dir_, {"--no-scan", "--camera-spec", (*dir_ / "camera.json").string(), "--scene",
-                                      (*dir_ / "scene.json").string(), "--virtual-count", "4", "--test-faults",
-                                      "--frame-timeout-ms", "1500", "--max-body-bytes", "65536",
-                                      "--max-header-bytes", "4096", "--max-queued-jobs", "4"});
+    started_ =
+        daemon_->start(*dir_, {"--no-scan", "--camera-spec", (*dir_ / "camera.json").string(),
+                               "--scene", (*dir_ / "scene.json").string(), "--virtual-count", "4",
+                               "--test-faults", "--frame-timeout-ms", "1500", "--max-body-bytes",
+                               "65536", "--max-header-bytes", "4096", "--max-queued-jobs", "4"});
     if (started_) {
       const json list = daemon_->get("/v1/cameras").json();
       for (const auto& c : list["cameras"]) cameras_.push_back(c["id"]);
@@ -54,7 +55,8 @@ class ServiceApi : public ::testing::Test {
   }
   static json wait_frames(int64_t id, int frames) {
     return daemon_->wait_job(id, [frames](const json& j) {
-      return j["progress"]["frames_done"].get<int>() >= frames || (j["state"] != "queued" && j["state"] != "running");
+      return j["progress"]["frames_done"].get<int>() >= frames ||
+             (j["state"] != "queued" && j["state"] != "running");
     });
   }
 
@@ -68,9 +70,15 @@ TEST_F(ServiceApi, HealthIsPublicAndEverythingElseNeedsTheToken) {
   auto health = http(daemon_->port(), "GET", "/v1/health");
   EXPECT_EQ(health.status, 200);
   EXPECT_EQ(health.json()["status"], "ok");
-  for (const auto& [method, path] : std::vector<std::pair<std::string, std::string>>{
-           {"GET", "/v1/cameras"}, {"GET", "/metrics"}, {"GET", "/v1/openapi.json"}, {"GET", "/v1/jobs"},
-           {"GET", "/v1/jobs/1"}, {"DELETE", "/v1/jobs/1"}, {"POST", "/v1/calibrations"}, {"GET", "/v1/nothing"}}) {
+  for (const auto& [method, path] :
+       std::vector<std::pair<std::string, std::string>>{{"GET", "/v1/cameras"},
+                                                        {"GET", "/metrics"},
+                                                        {"GET", "/v1/openapi.json"},
+                                                        {"GET", "/v1/jobs"},
+                                                        {"GET", "/v1/jobs/1"},
+                                                        {"DELETE", "/v1/jobs/1"},
+                                                        {"POST", "/v1/calibrations"},
+                                                        {"GET", "/v1/nothing"}}) {
     auto none = http(daemon_->port(), method, path);
     EXPECT_EQ(none.status, 401) << method << " " << path;
     EXPECT_EQ(none.error_code(), "unauthorized");
@@ -101,7 +109,8 @@ TEST_F(ServiceApi, ListsAndDescribesCamerasWithRangesAndUnits) {
   EXPECT_TRUE(exposure) << camera.dump();
   EXPECT_FALSE(camera["formats"].empty());
   EXPECT_EQ(daemon_->get("/v1/cameras/v4l2%3Anope").status, 404);
-  EXPECT_EQ(daemon_->get("/v1/cameras/%2e%2e%2Fetc").status, 400);  // an encoded '/' never becomes a path
+  EXPECT_EQ(daemon_->get("/v1/cameras/%2e%2e%2Fetc").status,
+            400);  // an encoded '/' never becomes a path
 }
 
 TEST_F(ServiceApi, ControlsAreSetAndOutOfRangeValuesGet422NamingTheRange) {
@@ -111,7 +120,8 @@ TEST_F(ServiceApi, ControlsAreSetAndOutOfRangeValuesGet422NamingTheRange) {
   auto high = daemon_->put(camera_path(0) + "/controls", {{"exposure_time_absolute", 5000}});
   EXPECT_EQ(high.status, 422) << high.body;
   EXPECT_EQ(high.error_code(), "out_of_range");
-  EXPECT_NE(high.json()["error"]["message"].get<std::string>().find("[1, 200]"), std::string::npos) << high.body;
+  EXPECT_NE(high.json()["error"]["message"].get<std::string>().find("[1, 200]"), std::string::npos)
+      << high.body;
   auto unknown = daemon_->put(camera_path(0) + "/controls", {{"warp_drive", 1}});
   EXPECT_EQ(unknown.status, 422);
   auto typed = daemon_->put(camera_path(0) + "/controls", {{"gain", "loud"}});
@@ -134,15 +144,16 @@ TEST_F(ServiceApi, MalformedAndOversizedRequestsGet4xxAndTheDaemonKeepsServing) 
   EXPECT_EQ(not_object.status, 400);
   auto bad_kind = daemon_->post(camera_path(0) + "/captures", {{"kind", "timelapse"}});
   EXPECT_EQ(bad_kind.status, 400) << bad_kind.body;
-  auto out_of_range = daemon_->post(camera_path(0) + "/captures", {{"kind", "bracket"}, {"exposures_us", {1000, 900000}}});
+  auto out_of_range = daemon_->post(camera_path(0) + "/captures",
+                                    {{"kind", "bracket"}, {"exposures_us", {1000, 900000}}});
   EXPECT_EQ(out_of_range.status, 422) << out_of_range.body;
   auto garbage = raw_exchange(port, "THIS IS NOT HTTP\r\n\r\n");
   EXPECT_EQ(garbage.status, 400);
   const std::string big_body(200000, ' ');
   auto big = http(port, "POST", camera_path(0) + "/captures", daemon_->token(), big_body);
   EXPECT_EQ(big.status, 413);
-  auto big_header = raw_exchange(port, "GET /v1/health HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(20000, 'x') +
-                                           "\r\n\r\n");
+  auto big_header = raw_exchange(
+      port, "GET /v1/health HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(20000, 'x') + "\r\n\r\n");
   EXPECT_EQ(big_header.status, 431);
   EXPECT_EQ(daemon_->get("/v1/jobs/abc").status, 400);
   EXPECT_EQ(daemon_->get("/v1/jobs/99999999999999999999").status, 400);
@@ -154,7 +165,8 @@ TEST_F(ServiceApi, MalformedAndOversizedRequestsGet4xxAndTheDaemonKeepsServing) 
 }
 
 TEST_F(ServiceApi, CaptureJobRunsAndItsFramesDownloadAsPngWithSidecars) {
-  const int64_t id = capture(0, {{"kind", "bracket"}, {"exposures_us", {1000, 2000}}, {"repeats", 2}});
+  const int64_t id =
+      capture(0, {{"kind", "bracket"}, {"exposures_us", {1000, 2000}}, {"repeats", 2}});
   ASSERT_GT(id, 0);
   const json job = daemon_->wait_finished(id);
   ASSERT_EQ(job["state"], "succeeded") << job.dump();
@@ -167,7 +179,8 @@ TEST_F(ServiceApi, CaptureJobRunsAndItsFramesDownloadAsPngWithSidecars) {
   auto png = daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/3");
   ASSERT_EQ(png.status, 200);
   EXPECT_EQ(png.headers["content-type"], "image/png");
-  cv::Mat image = cv::imdecode(std::vector<uchar>(png.body.begin(), png.body.end()), cv::IMREAD_UNCHANGED);
+  cv::Mat image =
+      cv::imdecode(std::vector<uchar>(png.body.begin(), png.body.end()), cv::IMREAD_UNCHANGED);
   EXPECT_EQ(image.cols, 160);
   EXPECT_EQ(image.rows, 120);
   auto meta = daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/3/meta");
@@ -175,15 +188,18 @@ TEST_F(ServiceApi, CaptureJobRunsAndItsFramesDownloadAsPngWithSidecars) {
   EXPECT_DOUBLE_EQ(meta.json()["settings"]["exposure_us"].get<double>(), 2000.0) << meta.body;
   EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/4").status, 404);
   EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/-1").status, 400);
-  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/..%2Fmanifest.json").status, 400);
+  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/..%2Fmanifest.json").status,
+            400);
   auto list = daemon_->get("/v1/jobs?state=succeeded&limit=5");
   ASSERT_EQ(list.status, 200);
   EXPECT_FALSE(list.json()["jobs"].empty());
-  EXPECT_EQ(daemon_->del("/v1/jobs/" + std::to_string(id)).status, 409) << "finished jobs cannot be cancelled";
+  EXPECT_EQ(daemon_->del("/v1/jobs/" + std::to_string(id)).status, 409)
+      << "finished jobs cannot be cancelled";
 }
 
 TEST_F(ServiceApi, CancelStopsARunningCaptureKeepingItsFramesAndCancelsAQueuedOne) {
-  const int64_t running = capture(0, {{"kind", "bracket"}, {"exposures_us", {1000, 2000}}, {"repeats", 50}});
+  const int64_t running =
+      capture(0, {{"kind", "bracket"}, {"exposures_us", {1000, 2000}}, {"repeats", 50}});
   const int64_t queued = capture(0, {{"kind", "single"}});
   ASSERT_GT(running, 0);
   ASSERT_GT(queued, 0);
@@ -234,7 +250,8 @@ TEST_F(ServiceApi, MetricsCountRequestsFramesAndJobs) {
   for (const char* name : {"camlabd_http_requests_total{", "camlabd_jobs{state=\"succeeded\"}",
                            "camlabd_frames_captured_total ", "camlabd_frames_discarded_total "})
     EXPECT_NE(r.body.find(name), std::string::npos) << name << "\n" << r.body;
-  EXPECT_NE(r.body.find("route=\"/v1/cameras/{id}\""), std::string::npos) << "counted by route pattern, not path";
+  EXPECT_NE(r.body.find("route=\"/v1/cameras/{id}\""), std::string::npos)
+      << "counted by route pattern, not path";
   EXPECT_EQ(r.body.find("camlabd_frames_captured_total 0\n"), std::string::npos) << r.body;
 }
 
@@ -260,13 +277,16 @@ TEST_F(ServiceApi, OpenApiDocumentMatchesTheRoutes) {
   for (const auto& route : router.routes()) routed.insert(route.method + " " + route.pattern);
   EXPECT_EQ(documented, routed);
   EXPECT_TRUE(doc["paths"]["/v1/test/cameras/{id}/faults"]["post"].value("x-test-only", false));
-  EXPECT_FALSE(camlab::service::openapi_document(false)["paths"].contains("/v1/test/cameras/{id}/faults"));
+  EXPECT_FALSE(
+      camlab::service::openapi_document(false)["paths"].contains("/v1/test/cameras/{id}/faults"));
   for (const auto& entry : documented) {
     const std::string method = entry.substr(0, entry.find(' '));
     std::string path = entry.substr(entry.find(' ') + 1);
     for (auto [from, to] : {std::pair<std::string, std::string>{"{id}", "999999"}, {"{n}", "0"}})
-      for (size_t at; (at = path.find(from)) != std::string::npos;) path.replace(at, from.size(), to);
-    auto answer = http(daemon_->port(), method, path, daemon_->token(), method == "GET" || method == "DELETE" ? "" : "{}");
+      for (size_t at; (at = path.find(from)) != std::string::npos;)
+        path.replace(at, from.size(), to);
+    auto answer = http(daemon_->port(), method, path, daemon_->token(),
+                       method == "GET" || method == "DELETE" ? "" : "{}");
     EXPECT_NE(answer.status, 0) << entry;
     EXPECT_NE(answer.error_code(), "no_route") << entry;
     EXPECT_NE(answer.status, 405) << entry;
@@ -277,14 +297,16 @@ TEST_F(ServiceApi, DequeueErrorsFailTheJobKeepingFramesAndTheCameraRecovers) {
   const int64_t id = capture(1, {{"kind", "single"}, {"repeats", 40}});
   ASSERT_GT(id, 0);
   EXPECT_GE(wait_frames(id, 2)["progress"]["frames_done"].get<int>(), 2);
-  auto fault = daemon_->post("/v1/test/cameras/" + url_segment(cameras_[1]) + "/faults", {{"fail_next_dequeues", 1}});
+  auto fault = daemon_->post("/v1/test/cameras/" + url_segment(cameras_[1]) + "/faults",
+                             {{"fail_next_dequeues", 1}});
   ASSERT_EQ(fault.status, 200) << fault.body;
   const json job = daemon_->wait_finished(id);
   EXPECT_EQ(job["state"], "failed") << job.dump();
   EXPECT_FALSE(job["error"]["message"].get<std::string>().empty());
   const int kept = job["progress"]["frames_done"];
   EXPECT_GE(kept, 2);
-  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames").json()["frames"].size(), static_cast<size_t>(kept));
+  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames").json()["frames"].size(),
+            static_cast<size_t>(kept));
   EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/0").status, 200);
   // The next job on the same camera works.
   const int64_t next = capture(1, {{"kind", "single"}});
@@ -292,14 +314,19 @@ TEST_F(ServiceApi, DequeueErrorsFailTheJobKeepingFramesAndTheCameraRecovers) {
 }
 
 TEST_F(ServiceApi, DroppedFramesAreCountedAndTheSettingsStayFrameAccurate) {
-  const int64_t id = capture(2, {{"kind", "bracket"}, {"exposures_us", {1000, 4000}}, {"repeats", 3}});
+  const int64_t id =
+      capture(2, {{"kind", "bracket"}, {"exposures_us", {1000, 4000}}, {"repeats", 3}});
   ASSERT_GT(id, 0);
-  daemon_->post("/v1/test/cameras/" + url_segment(cameras_[2]) + "/faults", {{"drop_next_frames", 4}});
+  daemon_->post("/v1/test/cameras/" + url_segment(cameras_[2]) + "/faults",
+                {{"drop_next_frames", 4}});
   const json job = daemon_->wait_finished(id);
   ASSERT_EQ(job["state"], "succeeded") << job.dump();
   for (int i = 0; i < 6; ++i) {
-    auto meta = daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/" + std::to_string(i) + "/meta").json();
-    EXPECT_DOUBLE_EQ(meta["settings"]["exposure_us"].get<double>(), i < 3 ? 1000.0 : 4000.0) << meta.dump();
+    auto meta =
+        daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/" + std::to_string(i) + "/meta")
+            .json();
+    EXPECT_DOUBLE_EQ(meta["settings"]["exposure_us"].get<double>(), i < 3 ? 1000.0 : 4000.0)
+        << meta.dump();
   }
 }
 
@@ -318,9 +345,13 @@ TEST_F(ServiceApi, AStalledCameraTimesOutTheJobAndServesAgainWhenItResumes) {
 TEST_F(ServiceApi, AnUnpluggedCameraFailsItsJobKeepsFramesAndTheOthersKeepCapturing) {
   const int64_t id = capture(3, {{"kind", "single"}, {"repeats", 60}});
   ASSERT_GT(id, 0);
-  const int64_t other = capture(0, {{"kind", "single"}, {"repeats", 3}});  // in parallel on camera 0
+  const int64_t other =
+      capture(0, {{"kind", "single"}, {"repeats", 3}});  // in parallel on camera 0
   EXPECT_GE(wait_frames(id, 2)["progress"]["frames_done"].get<int>(), 2);
-  ASSERT_EQ(daemon_->post("/v1/test/cameras/" + url_segment(cameras_[3]) + "/faults", {{"unplug", true}}).status, 200);
+  ASSERT_EQ(
+      daemon_->post("/v1/test/cameras/" + url_segment(cameras_[3]) + "/faults", {{"unplug", true}})
+          .status,
+      200);
   const json job = daemon_->wait_finished(id);
   EXPECT_EQ(job["state"], "failed") << job.dump();
   EXPECT_EQ(job["error"]["code"], "no_device") << job.dump();
@@ -330,7 +361,9 @@ TEST_F(ServiceApi, AnUnpluggedCameraFailsItsJobKeepsFramesAndTheOthersKeepCaptur
   EXPECT_FALSE(daemon_->get(camera_path(3)).json()["available"].get<bool>());
   auto refused = daemon_->post(camera_path(3) + "/captures", {{"kind", "single"}});
   EXPECT_EQ(refused.status, 503) << refused.body;
-  EXPECT_EQ(daemon_->post("/v1/test/cameras/" + url_segment(cameras_[3]) + "/faults", {{"warp", 1}}).status, 400);
+  EXPECT_EQ(daemon_->post("/v1/test/cameras/" + url_segment(cameras_[3]) + "/faults", {{"warp", 1}})
+                .status,
+            400);
 }
 
 }  // namespace

@@ -13,9 +13,11 @@ using nlohmann::json;
 class ServiceLifecycle : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir = fresh_test_dir(std::string("lifecycle_") + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    dir = fresh_test_dir(std::string("lifecycle_") +
+                         ::testing::UnitTest::GetInstance()->current_test_info()->name());
     write_test_specs(dir);
-    args = {"--no-scan", "--camera-spec", (dir / "camera.json").string(), "--scene", (dir / "scene.json").string()};
+    args = {"--no-scan", "--camera-spec", (dir / "camera.json").string(), "--scene",
+            (dir / "scene.json").string()};
   }
   void TearDown() override { fs::remove_all(dir); }
 
@@ -26,7 +28,8 @@ class ServiceLifecycle : public ::testing::Test {
     EXPECT_EQ(r.status, 202) << r.body;
     if (r.status != 202) return -1;
     const int64_t id = r.json()["id"];
-    const json job = daemon.wait_job(id, [](const json& j) { return j["progress"]["frames_done"].get<int>() >= 2; });
+    const json job = daemon.wait_job(
+        id, [](const json& j) { return j["progress"]["frames_done"].get<int>() >= 2; });
     EXPECT_GE(job["progress"]["frames_done"].get<int>(), 2) << job.dump();
     return id;
   }
@@ -52,12 +55,19 @@ TEST_F(ServiceLifecycle, KillNineDuringAJobThenRestartLeavesItInterruptedWithFra
   EXPECT_GE(count, 2u);
   EXPECT_FALSE(frames.json()["complete"].get<bool>());
   for (size_t i = 0; i < count; ++i) {
-    EXPECT_EQ(second.get("/v1/jobs/" + std::to_string(id) + "/frames/" + std::to_string(i)).status, 200) << i;
-    EXPECT_EQ(second.get("/v1/jobs/" + std::to_string(id) + "/frames/" + std::to_string(i) + "/meta").status, 200) << i;
+    EXPECT_EQ(second.get("/v1/jobs/" + std::to_string(id) + "/frames/" + std::to_string(i)).status,
+              200)
+        << i;
+    EXPECT_EQ(
+        second.get("/v1/jobs/" + std::to_string(id) + "/frames/" + std::to_string(i) + "/meta")
+            .status,
+        200)
+        << i;
   }
   // The database is consistent: the job list is readable and new jobs run.
   EXPECT_EQ(second.get("/v1/jobs?state=running").json()["jobs"].size(), 0u);
-  auto next = second.post("/v1/cameras/" + url_segment(second.camera_id()) + "/captures", {{"kind", "single"}});
+  auto next = second.post("/v1/cameras/" + url_segment(second.camera_id()) + "/captures",
+                          {{"kind", "single"}});
   ASSERT_EQ(next.status, 202);
   EXPECT_EQ(second.wait_finished(next.json()["id"])["state"], "succeeded");
   EXPECT_EQ(second.stop(SIGTERM), 0) << second.log();
@@ -77,7 +87,9 @@ TEST_F(ServiceLifecycle, SigtermDuringAJobExitsZeroAndInterruptsTheJob) {
   Daemon again;
   ASSERT_TRUE(again.start(dir, args)) << again.log();
   EXPECT_EQ(again.get("/v1/jobs/" + std::to_string(id)).json()["state"], "interrupted");
-  EXPECT_EQ(again.get("/v1/jobs/" + std::to_string(queued.json()["id"].get<int64_t>())).json()["state"], "interrupted");
+  EXPECT_EQ(
+      again.get("/v1/jobs/" + std::to_string(queued.json()["id"].get<int64_t>())).json()["state"],
+      "interrupted");
   EXPECT_EQ(again.get("/v1/jobs/" + std::to_string(id) + "/frames/0").status, 200);
   EXPECT_EQ(again.stop(SIGINT), 0);
 }

@@ -25,7 +25,9 @@ class ServicePhysics : public SharedDaemonSuite<ServicePhysics> {
   }
 };
 
-TEST_F(ServicePhysics, BracketSignalIsProportionalToExposure) { check_bracket_is_linear(*daemon_, camera_); }
+TEST_F(ServicePhysics, BracketSignalIsProportionalToExposure) {
+  check_bracket_is_linear(*daemon_, camera_);
+}
 
 TEST_F(ServicePhysics, FocusStackIsSharpestWhereTheThinLensIsInFocus) {
   // The edge is at 1.288 m: 1/f = 1/z_o + 1/z_i gives z_i = 8.05 mm, focus position
@@ -33,8 +35,12 @@ TEST_F(ServicePhysics, FocusStackIsSharpestWhereTheThinLensIsInFocus) {
   const double f_mm = 8.0, z_o_mm = 1288.0;
   const double truth_position = (1.0 / (1.0 / f_mm - 1.0 / z_o_mm) - f_mm) / 0.001;
   ASSERT_NEAR(truth_position, 50.0, 0.1);
-  auto r = daemon_->post(camera_ + "/captures", {{"kind", "focus_stack"}, {"start", 20}, {"stop", 80}, {"step", 10},
-                                                 {"controls", {{"iris_absolute", 7}, {"exposure_time_absolute", 10}}}});
+  auto r = daemon_->post(camera_ + "/captures",
+                         {{"kind", "focus_stack"},
+                          {"start", 20},
+                          {"stop", 80},
+                          {"step", 10},
+                          {"controls", {{"iris_absolute", 7}, {"exposure_time_absolute", 10}}}});
   ASSERT_EQ(r.status, 202) << r.body;
   const int64_t id = r.json()["id"];
   const json job = daemon_->wait_finished(id);
@@ -57,7 +63,8 @@ TEST_F(ServicePhysics, FocusStackIsSharpestWhereTheThinLensIsInFocus) {
 }
 
 TEST_F(ServicePhysics, ApertureSeriesSignalFallsAsOneOverNSquared) {
-  auto r = daemon_->post(camera_ + "/captures", {{"kind", "aperture_series"}, {"f_numbers", {2.8, 4, 5.6, 8}},
+  auto r = daemon_->post(camera_ + "/captures", {{"kind", "aperture_series"},
+                                                 {"f_numbers", {2.8, 4, 5.6, 8}},
                                                  {"controls", {{"exposure_time_absolute", 80}}}});
   ASSERT_EQ(r.status, 202) << r.body;
   const int64_t id = r.json()["id"];

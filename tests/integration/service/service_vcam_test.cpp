@@ -16,7 +16,8 @@ class ServiceVcam : public SharedDaemonSuite<ServiceVcam> {
     start_shared_daemon("vcam", [](const fs::path& dir) {
       const std::string camera = (dir / "camera.json").string();
       return Launch{{"--no-virtual", "--device", "/dev/video0", "--device-spec", camera},
-                    {CAMLAB_CLI_PATH, "vcam", "run", "--camera", camera, "--scene", (dir / "scene.json").string(), "--"}};
+                    {CAMLAB_CLI_PATH, "vcam", "run", "--camera", camera, "--scene",
+                     (dir / "scene.json").string(), "--"}};
     });
   }
 };
@@ -40,7 +41,9 @@ TEST_F(ServiceVcam, OutOfRangeControlsGet422NamingTheRange) {
   EXPECT_EQ(daemon_->put(camera_ + "/controls", {{"exposure_time_absolute", 30}}).status, 200);
 }
 
-TEST_F(ServiceVcam, BracketSignalIsProportionalToExposure) { check_bracket_is_linear(*daemon_, camera_); }
+TEST_F(ServiceVcam, BracketSignalIsProportionalToExposure) {
+  check_bracket_is_linear(*daemon_, camera_);
+}
 
 TEST_F(ServiceVcam, LatencyProbeFindsThreeFrames) {
   auto r = daemon_->post(camera_ + "/latency-probe", json::object());

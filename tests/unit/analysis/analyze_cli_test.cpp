@@ -16,26 +16,41 @@ namespace {
 
 nlohmann::json camera_json() {
   return {{"name", "cli test"},
-          {"sensor", {{"width_px", 160}, {"height_px", 160}, {"pixel_pitch_um", 6.0}, {"bit_depth", 12},
-                      {"black_level_dn", 64}, {"full_well_e", 20000}, {"read_noise_e", 2.0}}},
-          {"lens", {{"focal_mm", 8.0}, {"model", "LENSMODEL_PINHOLE"}, {"f_number_min", 1.4},
-                    {"focus", {{"position_min", 0}, {"position_max", 2000}, {"extension_mm_per_step", 0.001}}}}},
+          {"sensor",
+           {{"width_px", 160},
+            {"height_px", 160},
+            {"pixel_pitch_um", 6.0},
+            {"bit_depth", 12},
+            {"black_level_dn", 64},
+            {"full_well_e", 20000},
+            {"read_noise_e", 2.0}}},
+          {"lens",
+           {{"focal_mm", 8.0},
+            {"model", "LENSMODEL_PINHOLE"},
+            {"f_number_min", 1.4},
+            {"focus",
+             {{"position_min", 0}, {"position_max", 2000}, {"extension_mm_per_step", 0.001}}}}},
           {"timing", {{"frame_interval_us", 100000}}},
           {"controls", {{"exposure_time_absolute", {{"min", 1}, {"max", 1000}, {"default", 30}}}}}};
 }
 
 TEST(AnalyzeCli, DefocusJsonReportAndPlots) {
-  auto renderer = testing::make_renderer(
-      camera_json(), {{"illuminance_lux", 1000},
-                      {"targets", {{{"type", "slanted_edge"}, {"name", "edge"}, {"size_m", {0.03, 0.03}},
-                                    {"angle_deg", 5}, {"pose", {{"position_m", {0.0, 0.0, 0.35}}}}}}}});
+  auto renderer =
+      testing::make_renderer(camera_json(), {{"illuminance_lux", 1000},
+                                             {"targets",
+                                              {{{"type", "slanted_edge"},
+                                                {"name", "edge"},
+                                                {"size_m", {0.03, 0.03}},
+                                                {"angle_deg", 5},
+                                                {"pose", {{"position_m", {0.0, 0.0, 0.35}}}}}}}});
   const auto dir = testing::fresh_dir("cli_defocus");
   std::vector<mock::RenderSettings> settings;
-  for (double n : {2.0, 4.0, 8.0}) settings.push_back({std::round(27.0 * n * n / 4) * 100.0, 1.0, n, 0});
+  for (double n : {2.0, 4.0, 8.0})
+    settings.push_back({std::round(27.0 * n * n / 4) * 100.0, 1.0, n, 0});
   testing::render_frames(renderer, dir, settings, 5);
   const auto plots = dir.string() + "_plots", report = dir.string() + "_report.json";
-  const auto run = camlab::testing::run_cli("analyze defocus " + dir.string() + " --json --plots " + plots +
-                                            " --report " + report);
+  const auto run = camlab::testing::run_cli("analyze defocus " + dir.string() + " --json --plots " +
+                                            plots + " --report " + report);
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto j = nlohmann::json::parse(run.out);
   EXPECT_EQ(j["sweep"], "f_number");
@@ -55,10 +70,13 @@ TEST(AnalyzeCli, DefocusJsonReportAndPlots) {
 }
 
 TEST(AnalyzeCli, ExposureAndFocusRunOnTheirCaptures) {
-  auto renderer = testing::make_renderer(
-      camera_json(), {{"illuminance_lux", 1000},
-                      {"targets", {{{"type", "texture"}, {"size_m", {0.5, 0.5}}, {"feature_m", 0.0006},
-                                    {"pose", {{"position_m", {0.0, 0.0, 0.5}}}}}}}});
+  auto renderer =
+      testing::make_renderer(camera_json(), {{"illuminance_lux", 1000},
+                                             {"targets",
+                                              {{{"type", "texture"},
+                                                {"size_m", {0.5, 0.5}},
+                                                {"feature_m", 0.0006},
+                                                {"pose", {{"position_m", {0.0, 0.0, 0.5}}}}}}}});
   const auto dir = testing::fresh_dir("cli_focus");
   mock::RenderCaptureRequest req;
   req.out_dir = dir;
@@ -66,7 +84,8 @@ TEST(AnalyzeCli, ExposureAndFocusRunOnTheirCaptures) {
   req.base.f_number = 2.0;
   req.sweep = mock::Sweep{"focus_position", {100, 110, 120, 130, 140, 150, 160}};
   ASSERT_TRUE(mock::render_capture(renderer, req).ok());
-  const auto focus = camlab::testing::run_cli("analyze focus " + dir.string() + " --json --region 80");
+  const auto focus =
+      camlab::testing::run_cli("analyze focus " + dir.string() + " --json --region 80");
   ASSERT_EQ(focus.exit_code, 0) << focus.err;
   const auto j = nlohmann::json::parse(focus.out);
   // z_i - f for 0.5 m: 8 * 500 / 492 - 8 mm = 130.08 steps.
@@ -78,7 +97,8 @@ TEST(AnalyzeCli, ExposureAndFocusRunOnTheirCaptures) {
   // The same folder has one exposure: photon transfer needs pairs, and says so.
   const auto exposure = camlab::testing::run_cli("analyze exposure " + dir.string() + " --json");
   ASSERT_EQ(exposure.exit_code, 0) << exposure.err;
-  EXPECT_NE(nlohmann::json::parse(exposure.out)["photon_transfer"]["error"].get<std::string>().find("too_few"),
+  EXPECT_NE(nlohmann::json::parse(exposure.out)["photon_transfer"]["error"].get<std::string>().find(
+                "too_few"),
             std::string::npos);
   std::filesystem::remove_all(dir);
 }

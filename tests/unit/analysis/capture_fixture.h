@@ -13,8 +13,8 @@
 #include <nlohmann/json.hpp>
 
 #include "image/capture_folder.h"
-#include "mock_device/spec/camera_spec.h"
 #include "mock_device/render/renderer.h"
+#include "mock_device/spec/camera_spec.h"
 #include "mock_device/spec/scene_spec.h"
 
 namespace camlab::analysis::testing {
@@ -40,8 +40,10 @@ inline void render_frames(mock::Renderer& renderer, const std::filesystem::path&
                           const std::vector<mock::RenderSettings>& settings, uint64_t seed,
                           bool noise = true, bool keep_truth = true) {
   const auto& cam = renderer.camera();
-  nlohmann::json source = {{"backend", "virtual"}, {"camera", cam.name},
-                           {"camera_spec", cam.source}, {"scene_spec", renderer.scene().source}};
+  nlohmann::json source = {{"backend", "virtual"},
+                           {"camera", cam.name},
+                           {"camera_spec", cam.source},
+                           {"scene_spec", renderer.scene().source}};
   if (!keep_truth) source = {{"backend", "unknown"}};
   auto writer = image::CaptureFolderWriter::create(dir, "render", source, {{"seed", seed}});
   if (!writer) throw std::runtime_error(writer.error().message);

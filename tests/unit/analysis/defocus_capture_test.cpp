@@ -21,13 +21,23 @@ namespace {
 nlohmann::json camera_json(double baseline_sigma_px) {
   return {
       {"name", "analysis test"},
-      {"sensor", {{"width_px", 192}, {"height_px", 192}, {"pixel_pitch_um", 6.0},
-                  {"bit_depth", 12}, {"black_level_dn", 64}, {"full_well_e", 20000},
-                  {"read_noise_e", 2.0}, {"quantum_efficiency", 0.6}}},
-      {"lens", {{"focal_mm", 8.0}, {"model", "LENSMODEL_PINHOLE"}, {"f_number_min", 1.4},
-                {"f_number_max", 22.0}, {"baseline_blur_sigma_px", baseline_sigma_px},
-                {"focus", {{"position_min", 0}, {"position_max", 2000},
-                           {"extension_mm_per_step", 0.001}}}}},
+      {"sensor",
+       {{"width_px", 192},
+        {"height_px", 192},
+        {"pixel_pitch_um", 6.0},
+        {"bit_depth", 12},
+        {"black_level_dn", 64},
+        {"full_well_e", 20000},
+        {"read_noise_e", 2.0},
+        {"quantum_efficiency", 0.6}}},
+      {"lens",
+       {{"focal_mm", 8.0},
+        {"model", "LENSMODEL_PINHOLE"},
+        {"f_number_min", 1.4},
+        {"f_number_max", 22.0},
+        {"baseline_blur_sigma_px", baseline_sigma_px},
+        {"focus",
+         {{"position_min", 0}, {"position_max", 2000}, {"extension_mm_per_step", 0.001}}}}},
       {"timing", {{"frame_interval_us", 100000}}},
       {"controls", {{"exposure_time_absolute", {{"min", 1}, {"max", 1000}, {"default", 100}}}}},
   };
@@ -36,9 +46,14 @@ nlohmann::json camera_json(double baseline_sigma_px) {
 nlohmann::json edge_scene_json(double distance_m) {
   return {{"illuminance_lux", 1000},
           {"background_reflectance", 0.18},
-          {"targets", {{{"type", "slanted_edge"}, {"name", "edge"}, {"size_m", {0.035, 0.035}},
-                        {"angle_deg", 5}, {"dark_reflectance", 0.1}, {"light_reflectance", 0.8},
-                        {"pose", {{"position_m", {0.0, 0.0, distance_m}}}}}}}};
+          {"targets",
+           {{{"type", "slanted_edge"},
+             {"name", "edge"},
+             {"size_m", {0.035, 0.035}},
+             {"angle_deg", 5},
+             {"dark_reflectance", 0.1},
+             {"light_reflectance", 0.8},
+             {"pose", {{"position_m", {0.0, 0.0, distance_m}}}}}}}};
 }
 
 // Exposure for a light level near 60% of the well at f-number n (signal ~ T / N^2).
@@ -133,7 +148,8 @@ TEST(DefocusCapture, FocusSweepVCurveFindsTheTargetsFocusThroughBaselineBlur) {
 // automatically, and the one at the target's edge gives the same C x N.
 TEST(DefocusCapture, EdgesFoundWithoutTruthGiveTheSameK) {
   auto renderer = testing::make_renderer(camera_json(0.0), edge_scene_json(0.35));
-  const auto with_truth = testing::fresh_dir("found_truth"), bare = testing::fresh_dir("found_bare");
+  const auto with_truth = testing::fresh_dir("found_truth"),
+             bare = testing::fresh_dir("found_bare");
   std::vector<mock::RenderSettings> settings;
   for (double n : {2.0, 4.0, 8.0}) settings.push_back({exposure_us_for(n), 1.0, n, 0});
   testing::render_frames(renderer, with_truth, settings, 3);
@@ -172,10 +188,11 @@ TEST(DefocusCapture, EdgesFoundWithoutTruthGiveTheSameK) {
 }
 
 TEST(DefocusCapture, FolderWithoutEdgesIsASpecificError) {
-  auto renderer = testing::make_renderer(
-      camera_json(0.0),
-      {{"targets", {{{"type", "uniform"}, {"size_m", {1.0, 1.0}},
-                     {"pose", {{"position_m", {0.0, 0.0, 1.0}}}}}}}});
+  auto renderer =
+      testing::make_renderer(camera_json(0.0), {{"targets",
+                                                 {{{"type", "uniform"},
+                                                   {"size_m", {1.0, 1.0}},
+                                                   {"pose", {{"position_m", {0.0, 0.0, 1.0}}}}}}}});
   const auto dir = testing::fresh_dir("noedge");
   testing::render_frames(renderer, dir, {{10000, 1.0, 4.0, 0}}, 1, false);
   auto report = analyze_defocus(dir, {});

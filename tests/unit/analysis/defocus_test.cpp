@@ -54,7 +54,8 @@ TEST(BaselineBlur, InversionUndoesTheForwardMap) {
       EXPECT_FALSE(inv->at_baseline);
       EXPECT_NEAR(inv->diameter_px, d, 2e-4) << "sigma " << sigma;
       // The slope maps sigmas: check it against a central difference of the forward map.
-      auto up = apparent_diameter_px(d + 0.1, sigma, 0.1), down = apparent_diameter_px(d - 0.1, sigma, 0.1);
+      auto up = apparent_diameter_px(d + 0.1, sigma, 0.1),
+           down = apparent_diameter_px(d - 0.1, sigma, 0.1);
       ASSERT_TRUE(up.ok() && down.ok());
       EXPECT_NEAR(inv->slope, (*up - *down) / 0.2, 0.02);
       EXPECT_GT(inv->slope, 0.0);
@@ -133,8 +134,12 @@ TEST(MeasureEdge, NeighbourWithinTheBlurIsFittedJointly) {
   const cv::Mat right =
       render_edge_model(size, size, EdgeLine{c + 6.0 / std::sin(a), c, a}, 12.0, 0.0, 0.0, 1.0);
   const cv::Mat image = 100.0 + 900.0 * (left - right);  // dark outside, light in the bar
-  EdgeSegment e1{"left", c - 80 * std::cos(a), c - 80 * std::sin(a), c + 80 * std::cos(a),
-                 c + 80 * std::sin(a), 0};
+  EdgeSegment e1{"left",
+                 c - 80 * std::cos(a),
+                 c - 80 * std::sin(a),
+                 c + 80 * std::cos(a),
+                 c + 80 * std::sin(a),
+                 0};
   EdgeSegment e2 = e1;
   e2.name = "right";
   e2.start_x_px += 6.0 / std::sin(a);
@@ -152,12 +157,20 @@ TEST(MeasureEdge, NeighbourWithinTheBlurIsFittedJointly) {
 TEST(MeasureEdge, NeighbourWithinTheBlurButFarFromParallelIsRejected) {
   const double a = 95.0 * kPi / 180.0, c = 100.31;
   const cv::Mat image = render_edge_model(200, 200, EdgeLine{c, c, a}, 12.0, 0.0, 100.0, 1000.0);
-  const EdgeSegment e1{"edge", c - 80 * std::cos(a), c - 80 * std::sin(a), c + 80 * std::cos(a),
-                       c + 80 * std::sin(a), 0};
+  const EdgeSegment e1{"edge",
+                       c - 80 * std::cos(a),
+                       c - 80 * std::sin(a),
+                       c + 80 * std::cos(a),
+                       c + 80 * std::sin(a),
+                       0};
   // A segment 8 px to the side, 25 degrees off: it passes alongside within the blur.
   const double b = a + 25.0 * kPi / 180.0;
-  const EdgeSegment e2{"slanted", c - 8 - 10 * std::cos(b), c - 10 * std::sin(b), c - 8 + 10 * std::cos(b),
-                       c + 10 * std::sin(b), 0};
+  const EdgeSegment e2{"slanted",
+                       c - 8 - 10 * std::cos(b),
+                       c - 10 * std::sin(b),
+                       c - 8 + 10 * std::cos(b),
+                       c + 10 * std::sin(b),
+                       0};
   const std::vector<EdgeSegment> all = {e1, e2};
   auto m = measure_edge(image, all[0], all, {});
   ASSERT_TRUE(m.ok());

@@ -63,8 +63,8 @@ TEST(EdgeFitCore, NonFinitePixelsAreLeftOut) {
 
 TEST(EdgeFitCore, WindowReachingBeyondTheImageIsAnError) {
   const cv::Mat image(40, 50, CV_8U, cv::Scalar(0));
-  auto pixels = sample_window(image, {3.0, 20.0, std::numbers::pi / 2, 5.0, -4.0, 4.0},
-                              "the fit window");
+  auto pixels =
+      sample_window(image, {3.0, 20.0, std::numbers::pi / 2, 5.0, -4.0, 4.0}, "the fit window");
   ASSERT_FALSE(pixels);
   EXPECT_EQ(pixels.error().code, ErrorCode::kWindowOutsideImage);
   EXPECT_NE(pixels.error().message.find("the fit window spans x -1"), std::string::npos)

@@ -21,9 +21,10 @@ constexpr double kCentre = 110.27;
 // A bright bar `width` px wide (level 1800 on 1000) under a disk of `diameter` px.
 cv::Mat bar(double diameter, double width, unsigned seed, double cnr = 50.0) {
   const double shift = width / std::sin(kAngle);
-  const cv::Mat left = render_edge_model(220, 220, EdgeLine{kCentre, kCentre, kAngle}, diameter, 0.0, 0.0, 1.0);
-  const cv::Mat right =
-      render_edge_model(220, 220, EdgeLine{kCentre + shift, kCentre, kAngle}, diameter, 0.0, 0.0, 1.0);
+  const cv::Mat left =
+      render_edge_model(220, 220, EdgeLine{kCentre, kCentre, kAngle}, diameter, 0.0, 0.0, 1.0);
+  const cv::Mat right = render_edge_model(220, 220, EdgeLine{kCentre + shift, kCentre, kAngle},
+                                          diameter, 0.0, 0.0, 1.0);
   cv::Mat image = 1000.0 - 800.0 * (left - right);
   cv::Mat noise(image.size(), CV_32F);
   cv::RNG rng(seed);
@@ -34,7 +35,8 @@ cv::Mat bar(double diameter, double width, unsigned seed, double cnr = 50.0) {
 std::vector<EdgeSegment> bar_edges(double width) {
   const double shift = width / std::sin(kAngle), c = std::cos(kAngle), s = std::sin(kAngle);
   return {{"left", kCentre - 80 * c, kCentre - 80 * s, kCentre + 80 * c, kCentre + 80 * s, 0},
-          {"right", kCentre + shift - 80 * c, kCentre - 80 * s, kCentre + shift + 80 * c, kCentre + 80 * s, 0}};
+          {"right", kCentre + shift - 80 * c, kCentre - 80 * s, kCentre + shift + 80 * c,
+           kCentre + 80 * s, 0}};
 }
 
 // Bias over noise draws within the limit (0.05 px or 1%, the larger) for bars
@@ -44,8 +46,8 @@ TEST(EdgePair, SharedDiameterIsUnbiasedWhereTheBlursOverlap) {
   struct Case {
     double diameter, width;
   };
-  for (const Case& k : {Case{1.0, 4.0}, Case{3.0, 8.0}, Case{10.0, 2.0}, Case{10.0, 8.0}, Case{20.0, 8.0},
-                        Case{30.0, 16.0}}) {
+  for (const Case& k : {Case{1.0, 4.0}, Case{3.0, 8.0}, Case{10.0, 2.0}, Case{10.0, 8.0},
+                        Case{20.0, 8.0}, Case{30.0, 16.0}}) {
     const auto edges = bar_edges(k.width);
     double sum = 0, sum2 = 0;
     constexpr int kDraws = 4;
@@ -53,13 +55,15 @@ TEST(EdgePair, SharedDiameterIsUnbiasedWhereTheBlursOverlap) {
       const cv::Mat image = bar(k.diameter, k.width, 50 + draw);
       auto m = measure_edge(image, edges[draw % 2], edges, {});
       ASSERT_TRUE(m.ok());
-      ASSERT_EQ(m->status, kEdgeOk) << "D " << k.diameter << " width " << k.width << ": " << m->message;
+      ASSERT_EQ(m->status, kEdgeOk)
+          << "D " << k.diameter << " width " << k.width << ": " << m->message;
       EXPECT_EQ(m->joint_with, edges[1 - draw % 2].name);
       EXPECT_NEAR(m->joint_separation_px, k.width, 0.25);
       sum += m->diameter_px;
       sum2 += m->diameter_px * m->diameter_px;
     }
-    const double mean = sum / kDraws, spread = std::sqrt(std::max(0.0, sum2 / kDraws - mean * mean));
+    const double mean = sum / kDraws,
+                 spread = std::sqrt(std::max(0.0, sum2 / kDraws - mean * mean));
     // The mean of 4 draws carries spread / 2 of noise besides any bias.
     EXPECT_NEAR(mean, k.diameter, std::max(0.05, 0.01 * k.diameter) + spread)
         << "D " << k.diameter << " width " << k.width << " spread " << spread;
@@ -73,8 +77,9 @@ TEST(EdgePair, FitRecoversLevelsLinesAndAnHonestSigma) {
   o.half_length_px = 60;
   o.across_min_px = -20;  // line b lies on line a's -n side (n = (-sin a, cos a))
   o.across_max_px = 12;
-  auto f = fit_pillbox_edge_pair(image, EdgeLine{kCentre + 0.4, kCentre, kAngle + 0.01},
-                                 EdgeLine{kCentre + 5.0 / std::sin(kAngle) - 0.3, kCentre, kAngle}, o);
+  auto f =
+      fit_pillbox_edge_pair(image, EdgeLine{kCentre + 0.4, kCentre, kAngle + 0.01},
+                            EdgeLine{kCentre + 5.0 / std::sin(kAngle) - 0.3, kCentre, kAngle}, o);
   ASSERT_TRUE(f.ok()) << f.error().message;
   EXPECT_NEAR(f->diameter_px, 6.0, 4 * f->diameter_sigma_px + 0.01);
   EXPECT_GT(f->diameter_sigma_px, 0.005);

@@ -184,8 +184,10 @@ const Scene& scene_for(double diameter, double angle_deg) {
     // 64 x 64 where the profile is steep; 32 x 32 suffices (and halves the render time)
     // once the blur spans several pixels: the sampling error scales as 1 / (n D)^2.
     const int n = diameter < 5.0 ? 64 : 32;
-    it = cache.emplace(std::make_pair(diameter, angle_deg),
-                       render_scene(diameter, deg(angle_deg), n)).first;
+    it =
+        cache
+            .emplace(std::make_pair(diameter, angle_deg), render_scene(diameter, deg(angle_deg), n))
+            .first;
   }
   return it->second;
 }
@@ -257,8 +259,8 @@ TEST(PillboxEsfPixel, MatchesSupersampledDiskAreas) {
 }
 
 TEST(PillboxEsfPixel, UnblurredPixelIsTheClippedSquareArea) {
-  for (const double angle_deg : {0.0, 1e-10, 1e-6, 3.0, 30.0, 45.0, 45.0 + 1e-9, 90.0, 135.0,
-                                 200.0, 301.0}) {
+  for (const double angle_deg :
+       {0.0, 1e-10, 1e-6, 3.0, 30.0, 45.0, 45.0 + 1e-9, 90.0, 135.0, 200.0, 301.0}) {
     const double nx = -std::sin(deg(angle_deg)), ny = std::cos(deg(angle_deg));
     for (double d = -1.0; d <= 1.0; d += 0.0137) {
       const double truth = clipped_square_area(d, nx, ny);
@@ -318,9 +320,9 @@ TEST(PillboxEsfPixel, NeverNaN) {
   for (const double d : odd) {
     for (const double diameter : odd) {
       for (const double n : odd) {
-        for (const double v : {pillbox_esf(d, diameter), pillbox_esf_pixel(d, diameter, n, 1.0),
-                               pillbox_esf_pixel(d, diameter, 0.0, n),
-                               pillbox_esf_pixel(d, diameter, n, n)}) {
+        for (const double v :
+             {pillbox_esf(d, diameter), pillbox_esf_pixel(d, diameter, n, 1.0),
+              pillbox_esf_pixel(d, diameter, 0.0, n), pillbox_esf_pixel(d, diameter, n, n)}) {
           ASSERT_TRUE(v >= 0.0 && v <= 1.0) << d << " " << diameter << " " << n << " -> " << v;
         }
       }
@@ -334,10 +336,9 @@ TEST(FitPillboxEdge, RecoversDiameterNoiseFree) {
   for (const double angle_deg : kAngles_deg) {
     for (const double diameter : kDiameters_px) {
       const Scene& scene = scene_for(diameter, angle_deg);
-      const auto fit = fit_pillbox_edge(scene.image, perturbed_guess(scene.truth),
-                                        options_for(diameter));
-      ASSERT_TRUE(fit.ok()) << angle_deg << " deg, D " << diameter << ": "
-                            << fit.error().message;
+      const auto fit =
+          fit_pillbox_edge(scene.image, perturbed_guess(scene.truth), options_for(diameter));
+      ASSERT_TRUE(fit.ok()) << angle_deg << " deg, D " << diameter << ": " << fit.error().message;
       if (angle_deg == 0.0 && diameter < 1.0) {
         // Axis-aligned: every row is the same, and with this phase one row holds the whole
         // transition, so offset and D trade off along a valley. The fit must say so.
@@ -417,10 +418,9 @@ TEST(FitPillboxEdge, RecoversDiameterWithNoise) {
         cv::Mat noisy = scene.image.clone();
         for (auto it = noisy.begin<float>(); it != noisy.end<float>(); ++it) *it += noise(rng);
         const auto start = std::chrono::steady_clock::now();
-        const auto fit = fit_pillbox_edge(noisy, perturbed_guess(scene.truth),
-                                          options_for(diameter));
-        total_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - start)
-                       .count();
+        const auto fit =
+            fit_pillbox_edge(noisy, perturbed_guess(scene.truth), options_for(diameter));
+        total_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         ++fits;
         ASSERT_TRUE(fit.ok()) << fit.error().message;
         ASSERT_TRUE(std::isfinite(fit->diameter_sigma_px));
@@ -434,8 +434,8 @@ TEST(FitPillboxEdge, RecoversDiameterWithNoise) {
       double var = 0;
       for (const double e : estimates) var += (e - mean) * (e - mean) / (kSeeds - 1);
       const double spread = std::sqrt(var), bias = mean - diameter;
-      EXPECT_LE(std::fabs(bias), std::max(0.05, 0.01 * diameter)) << angle_deg << " deg, D "
-                                                                  << diameter;
+      EXPECT_LE(std::fabs(bias), std::max(0.05, 0.01 * diameter))
+          << angle_deg << " deg, D " << diameter;
       EXPECT_LE(spread, 0.05) << angle_deg << " deg, D " << diameter;
       // The Jacobian's 1-sigma must describe the real scatter (30 seeds: +-25% at 2 sigma).
       EXPECT_GT(mean_sigma, 0.6 * spread);
@@ -519,7 +519,9 @@ TEST(FitPillboxEdge, RejectsAWindowNarrowerThanTheBlur) {
 TEST(FitPillboxEdge, RejectsInvalidArgumentsAndTinyWindows) {
   const Scene& scene = scene_for(2.0, 0.0);
   const EdgeLine good = scene.truth;
-  const auto code = [](const Result<EdgeFit>& r) { return r.ok() ? std::string_view("ok") : name_of(r.error().code); };
+  const auto code = [](const Result<EdgeFit>& r) {
+    return r.ok() ? std::string_view("ok") : name_of(r.error().code);
+  };
   EXPECT_EQ(code(fit_pillbox_edge(cv::Mat(), good, options_for(2.0))), kErrInvalidArgument);
   EXPECT_EQ(code(fit_pillbox_edge(cv::Mat(50, 50, CV_8UC3), good, options_for(2.0))),
             kErrInvalidArgument);
@@ -527,8 +529,7 @@ TEST(FitPillboxEdge, RejectsInvalidArgumentsAndTinyWindows) {
             kErrInvalidArgument);
   EXPECT_EQ(code(fit_pillbox_edge(scene.image, {kNaN, good.y_px, 0.0}, options_for(2.0))),
             kErrInvalidArgument);
-  EXPECT_EQ(code(fit_pillbox_edge(scene.image, good, {60.0, kNaN})),
-            kErrInvalidArgument);
+  EXPECT_EQ(code(fit_pillbox_edge(scene.image, good, {60.0, kNaN})), kErrInvalidArgument);
   EXPECT_EQ(code(fit_pillbox_edge(scene.image, good, {-1.0, 8.0})), kErrInvalidArgument);
   EXPECT_EQ(code(fit_pillbox_edge(scene.image, good, {1.0, 4.0})), kErrTooFewPixels);
 }
@@ -546,14 +547,14 @@ TEST(FitPillboxEdge, NeverReturnsNaN) {
   for (const cv::Mat* image : {&clipped, &holes, &spike}) {
     const auto fit = fit_pillbox_edge(*image, perturbed_guess(scene.truth), options_for(diameter));
     if (!fit.ok()) continue;
-    for (const double v : {fit->diameter_px, fit->diameter_sigma_px, fit->offset_px,
-                           fit->angle_rad, fit->dark_level, fit->light_level,
-                           fit->rms_residual, fit->contrast_to_noise, fit->line.x_px}) {
+    for (const double v :
+         {fit->diameter_px, fit->diameter_sigma_px, fit->offset_px, fit->angle_rad, fit->dark_level,
+          fit->light_level, fit->rms_residual, fit->contrast_to_noise, fit->line.x_px}) {
       EXPECT_FALSE(std::isnan(v));
     }
   }
-  const auto with_holes = fit_pillbox_edge(holes, perturbed_guess(scene.truth),
-                                           options_for(diameter));
+  const auto with_holes =
+      fit_pillbox_edge(holes, perturbed_guess(scene.truth), options_for(diameter));
   ASSERT_TRUE(with_holes.ok()) << with_holes.error().message;
   EXPECT_NEAR(with_holes->diameter_px, diameter, 0.01);
 }

@@ -27,7 +27,8 @@ cv::Mat sensor_frame(int size, double electrons, double k, double read_e, double
   for (int r = 0; r < size; ++r)
     for (int c = 0; c < size; ++c) {
       const double e = std::min<double>(shot(rng), full_well) + read(rng);
-      m.at<uint16_t>(r, c) = static_cast<uint16_t>(std::clamp(std::round(e * k + 64.0), 0.0, 4095.0));
+      m.at<uint16_t>(r, c) =
+          static_cast<uint16_t>(std::clamp(std::round(e * k + 64.0), 0.0, 4095.0));
     }
   return m;
 }
@@ -36,7 +37,8 @@ TEST(PhotonTransfer, RecoversGainDarkNoiseAndSaturationOnSyntheticPairs) {
   const double k = 0.25, read_e = 3.0, full_well = 12000;
   std::mt19937 rng(5);
   std::vector<PairStats> pairs;
-  for (double e : {0.0, 50.0, 200.0, 800.0, 2000.0, 4000.0, 6000.0, 8000.0, 10000.0, 11800.0, 13000.0, 20000.0}) {
+  for (double e : {0.0, 50.0, 200.0, 800.0, 2000.0, 4000.0, 6000.0, 8000.0, 10000.0, 11800.0,
+                   13000.0, 20000.0}) {
     const cv::Mat a = sensor_frame(128, e, k, read_e, full_well, rng);
     const cv::Mat b = sensor_frame(128, e, k, read_e, full_well, rng);
     auto ps = pair_stats(a, b, 64.0);
@@ -62,8 +64,8 @@ TEST(PhotonTransfer, RecoversGainDarkNoiseAndSaturationOnSyntheticPairs) {
 TEST(PhotonTransfer, TooFewPairsOrDarkOnlyAreErrors) {
   std::vector<PairStats> two = {{1, 1, 100, 25, 1000, false}, {2, 1, 200, 50, 1000, false}};
   EXPECT_EQ(fit_photon_transfer(two).error().code, "too_few_samples");
-  std::vector<PairStats> dark = {{1, 1, 0, 1, 1000, false}, {2, 1, -0.1, 1, 1000, false},
-                                 {3, 1, 0, 1, 1000, false}};
+  std::vector<PairStats> dark = {
+      {1, 1, 0, 1, 1000, false}, {2, 1, -0.1, 1, 1000, false}, {3, 1, 0, 1, 1000, false}};
   EXPECT_EQ(fit_photon_transfer(dark).error().code, "no_signal");
   const cv::Mat a(8, 8, CV_16U, cv::Scalar(5)), b(9, 8, CV_16U, cv::Scalar(5));
   EXPECT_FALSE(pair_stats(a, b, 0).ok());
@@ -88,7 +90,8 @@ TEST(HdrMerge, InverseVarianceMergeIsUnbiasedAndClippedEverywhereIsFlagged) {
   const double k = 0.2, read_var = 1.0;
   std::mt19937 rng(9);
   cv::Mat truth(1, n, CV_32F);
-  for (int i = 0; i < n; ++i) truth.at<float>(0, i) = static_cast<float>(0.01 * std::pow(1e4, i / (n - 1.0)));
+  for (int i = 0; i < n; ++i)
+    truth.at<float>(0, i) = static_cast<float>(0.01 * std::pow(1e4, i / (n - 1.0)));
   truth.at<float>(0, n - 1) = 1e5f;  // clipped in every frame
   std::vector<HdrFrame> frames;
   for (double t : {10.0, 100.0, 1000.0}) {
@@ -100,7 +103,8 @@ TEST(HdrMerge, InverseVarianceMergeIsUnbiasedAndClippedEverywhereIsFlagged) {
       for (int i = 0; i < n; ++i) {
         const double mean = truth.at<float>(0, i) * t;
         std::normal_distribution<double> noise(0.0, std::sqrt(k * mean + read_var));
-        f.signal_dn.at<float>(r, i) = static_cast<float>(std::min(4000.0, std::round(mean + noise(rng))));
+        f.signal_dn.at<float>(r, i) =
+            static_cast<float>(std::min(4000.0, std::round(mean + noise(rng))));
       }
     frames.push_back(f);
   }
@@ -128,28 +132,39 @@ TEST(HdrMerge, InverseVarianceMergeIsUnbiasedAndClippedEverywhereIsFlagged) {
 
 // The virtual camera: f = 8 mm, 4 um, 12 bits, black 64, full well 20000 e-, read 2 e-.
 nlohmann::json camera_json(int size) {
-  return {{"name", "exposure test"},
-          {"sensor", {{"width_px", size}, {"height_px", size}, {"pixel_pitch_um", 4.0}, {"bit_depth", 12},
-                      {"black_level_dn", 64}, {"full_well_e", 20000}, {"read_noise_e", 2.0},
-                      {"quantum_efficiency", 0.6}}},
-          {"lens", {{"focal_mm", 8.0}, {"model", "LENSMODEL_PINHOLE"}}},
-          {"timing", {{"frame_interval_us", 100000}}},
-          {"controls", {{"exposure_time_absolute", {{"min", 1}, {"max", 1000}, {"default", 100}}}}}};
+  return {
+      {"name", "exposure test"},
+      {"sensor",
+       {{"width_px", size},
+        {"height_px", size},
+        {"pixel_pitch_um", 4.0},
+        {"bit_depth", 12},
+        {"black_level_dn", 64},
+        {"full_well_e", 20000},
+        {"read_noise_e", 2.0},
+        {"quantum_efficiency", 0.6}}},
+      {"lens", {{"focal_mm", 8.0}, {"model", "LENSMODEL_PINHOLE"}}},
+      {"timing", {{"frame_interval_us", 100000}}},
+      {"controls", {{"exposure_time_absolute", {{"min", 1}, {"max", 1000}, {"default", 100}}}}}};
 }
 
 TEST(ExposureCapture, PhotonTransferMatchesTheSpecAndSignalIsLinear) {
-  auto renderer = testing::make_renderer(
-      camera_json(160), {{"illuminance_lux", 1000},
-                         {"background_reflectance", 0.5},
-                         {"targets", {{{"type", "uniform"}, {"size_m", {10.0, 10.0}}, {"light_reflectance", 0.5},
-                                       {"pose", {{"position_m", {0.0, 0.0, 1.0}}}}}}}});
+  auto renderer =
+      testing::make_renderer(camera_json(160), {{"illuminance_lux", 1000},
+                                                {"background_reflectance", 0.5},
+                                                {"targets",
+                                                 {{{"type", "uniform"},
+                                                   {"size_m", {10.0, 10.0}},
+                                                   {"light_reflectance", 0.5},
+                                                   {"pose", {{"position_m", {0.0, 0.0, 1.0}}}}}}}});
   const auto dir = testing::fresh_dir("ptc");
   mock::RenderCaptureRequest req;
   req.out_dir = dir;
   req.base = renderer.default_settings();
   req.base.f_number = 4.0;
-  req.sweep = mock::Sweep{"exposure_us", {100, 300, 1000, 3000, 6000, 10000, 15000, 20000, 30000,
-                                          40000, 50000, 60000, 70000, 80000, 100000}};
+  req.sweep = mock::Sweep{"exposure_us",
+                          {100, 300, 1000, 3000, 6000, 10000, 15000, 20000, 30000, 40000, 50000,
+                           60000, 70000, 80000, 100000}};
   req.repeats = 2;
   req.options.seed = 21;
   ASSERT_TRUE(mock::render_capture(renderer, req).ok());

@@ -2,8 +2,8 @@
 // against a direct computation, flags on flat and end-peaked stacks, and end to end on
 // virtual-camera focus sweeps of textured targets at known distances (truth: the focus
 // position whose image distance equals the target's, z_i = f z_o / (z_o - f)).
-#include "analysis/focus_report.h"
 #include "analysis/focus_stack.h"
+#include "analysis/focus_report.h"
 
 #include <cmath>
 #include <cstdio>
@@ -28,8 +28,8 @@ TEST(LogParabola, ExactForGaussianPeaks) {
     auto g = [&](double x) { return 5.0 * std::exp(-(x - mu) * (x - mu) / (2 * w * w)); };
     EXPECT_NEAR(log_parabola_delta(g(-1), g(0), g(1)), mu, 1e-12);
   }
-  EXPECT_EQ(log_parabola_delta(1, 1, 1), 0.0);   // flat: no peak
-  EXPECT_EQ(log_parabola_delta(0, 1, 2), 0.0);   // non-positive sample
+  EXPECT_EQ(log_parabola_delta(1, 1, 1), 0.0);  // flat: no peak
+  EXPECT_EQ(log_parabola_delta(0, 1, 2), 0.0);  // non-positive sample
 }
 
 // The fused measure against OpenCV's three passes (Laplacian, square, box filter, all
@@ -44,8 +44,8 @@ TEST(FocusMeasure, MatchesOpenCvLaplacianSquaredBoxFilter) {
         cv::Mat f, lap, reference;
         image.convertTo(f, CV_32F);
         cv::Laplacian(f, lap, CV_32F, 1, 1.0, 0.0, cv::BORDER_REFLECT);
-        cv::boxFilter(lap.mul(lap), reference, CV_32F, cv::Size(window, window), cv::Point(-1, -1), true,
-                      cv::BORDER_REFLECT);
+        cv::boxFilter(lap.mul(lap), reference, CV_32F, cv::Size(window, window), cv::Point(-1, -1),
+                      true, cv::BORDER_REFLECT);
         const cv::Mat measure = focus_measure(image, window);
         double max_ref = 0;
         cv::minMaxLoc(reference, nullptr, &max_ref);
@@ -72,8 +72,8 @@ TEST(FocusMeasure, StripesReusedBufferAndWideWindowsStayRelativelyExact) {
   for (int window : {5, 9, 33, 35, 61}) {
     cv::Mat lap, reference;
     cv::Laplacian(image, lap, CV_32F, 1, 1.0, 0.0, cv::BORDER_REFLECT);
-    cv::boxFilter(lap.mul(lap), reference, CV_32F, cv::Size(window, window), cv::Point(-1, -1), true,
-                  cv::BORDER_REFLECT);
+    cv::boxFilter(lap.mul(lap), reference, CV_32F, cv::Size(window, window), cv::Point(-1, -1),
+                  true, cv::BORDER_REFLECT);
     focus_measure(image, window, &out, 2.5);
     cv::Mat relative = cv::abs(out - 2.5 * reference) / (2.5 * reference);
     double worst = 0;
@@ -87,7 +87,7 @@ TEST(DistanceAtIndex, InterpolatesInDioptresWithInfinity) {
   const std::vector<double> d = {1.0, 0.5, INFINITY};
   EXPECT_NEAR(distance_at_index(d, 0.5), 1.0 / 1.5, 1e-12);
   EXPECT_TRUE(std::isinf(distance_at_index({INFINITY, INFINITY}, 0.5)));
-  EXPECT_NEAR(distance_at_index(d, 1.5), 1.0, 1e-12);  // 2 and 0 dioptres -> 1 dpt
+  EXPECT_NEAR(distance_at_index(d, 1.5), 1.0, 1e-12);   // 2 and 0 dioptres -> 1 dpt
   EXPECT_NEAR(distance_at_index(d, -3.0), 1.0, 1e-12);  // clamped
 }
 
@@ -193,17 +193,31 @@ TEST(FocusStack, FlatTextureAndPeakAtTheEndAreFlagged) {
 void check_plane(double z_m, int step, unsigned seed, const char* name, bool strict) {
   const nlohmann::json camera = {
       {"name", "focus test"},
-      {"sensor", {{"width_px", 128}, {"height_px", 128}, {"pixel_pitch_um", 6.0}, {"bit_depth", 12},
-                  {"black_level_dn", 64}, {"full_well_e", 20000}, {"read_noise_e", 2.0}}},
-      {"lens", {{"focal_mm", 8.0}, {"model", "LENSMODEL_PINHOLE"}, {"f_number_min", 1.4},
-                {"focus", {{"position_min", 0}, {"position_max", 2000}, {"extension_mm_per_step", 0.001}}}}},
+      {"sensor",
+       {{"width_px", 128},
+        {"height_px", 128},
+        {"pixel_pitch_um", 6.0},
+        {"bit_depth", 12},
+        {"black_level_dn", 64},
+        {"full_well_e", 20000},
+        {"read_noise_e", 2.0}}},
+      {"lens",
+       {{"focal_mm", 8.0},
+        {"model", "LENSMODEL_PINHOLE"},
+        {"f_number_min", 1.4},
+        {"focus",
+         {{"position_min", 0}, {"position_max", 2000}, {"extension_mm_per_step", 0.001}}}}},
       {"timing", {{"frame_interval_us", 100000}}},
       {"controls", {{"exposure_time_absolute", {{"min", 1}, {"max", 1000}, {"default", 30}}}}}};
-  const nlohmann::json scene = {
-      {"illuminance_lux", 1000},
-      {"targets", {{{"type", "texture"}, {"size_m", {0.5, 0.5}}, {"feature_m", 0.0012 * z_m},
-                    {"seed", static_cast<int>(seed)}, {"dark_reflectance", 0.1}, {"light_reflectance", 0.8},
-                    {"pose", {{"position_m", {0.0, 0.0, z_m}}}}}}}};
+  const nlohmann::json scene = {{"illuminance_lux", 1000},
+                                {"targets",
+                                 {{{"type", "texture"},
+                                   {"size_m", {0.5, 0.5}},
+                                   {"feature_m", 0.0012 * z_m},
+                                   {"seed", static_cast<int>(seed)},
+                                   {"dark_reflectance", 0.1},
+                                   {"light_reflectance", 0.8},
+                                   {"pose", {{"position_m", {0.0, 0.0, z_m}}}}}}}};
   auto renderer = testing::make_renderer(camera, scene);
   const auto dir = testing::fresh_dir(name);
   const double truth = (8.0 * z_m * 1e3 / (z_m * 1e3 - 8.0) - 8.0) / 0.001;  // z_i - f in steps
@@ -213,7 +227,8 @@ void check_plane(double z_m, int step, unsigned seed, const char* name, bool str
   req.base.f_number = 2.0;
   std::vector<double> positions;
   // The sweep is placed off-centre (and off-grid) around the truth.
-  for (int p = static_cast<int>(truth) - 11 * step + 2; p <= truth + 8 * step; p += step) positions.push_back(p);
+  for (int p = static_cast<int>(truth) - 11 * step + 2; p <= truth + 8 * step; p += step)
+    positions.push_back(p);
   req.sweep = mock::Sweep{"focus_position", positions};
   req.options.seed = seed;
   ASSERT_TRUE(mock::render_capture(renderer, req).ok());
@@ -251,7 +266,9 @@ void check_plane(double z_m, int step, unsigned seed, const char* name, bool str
   std::filesystem::remove_all(dir);
 }
 
-TEST(FocusCapture, RegionBestFocusWithinFiveHundredthsOfAStepNear) { check_plane(0.4, 5, 8, "focus_near", true); }
+TEST(FocusCapture, RegionBestFocusWithinFiveHundredthsOfAStepNear) {
+  check_plane(0.4, 5, 8, "focus_near", true);
+}
 TEST(FocusCapture, RegionBestFocusFineStepsFar) { check_plane(0.9, 3, 9, "focus_far", false); }
 
 }  // namespace

@@ -81,7 +81,8 @@ TEST(ErrorCode, TheUsersPageListsEveryCodeWithItsStatus) {
   std::stringstream text;
   text << page.rdbuf();
   for (const ErrorCodeInfo& info : kErrorCodes) {
-    const std::string row = "| `" + std::string(info.name) + "` | " + std::to_string(info.http_status) + " |";
+    const std::string row =
+        "| `" + std::string(info.name) + "` | " + std::to_string(info.http_status) + " |";
     EXPECT_NE(text.str().find(row), std::string::npos) << "docs/errors.md has no row " << row;
   }
 }

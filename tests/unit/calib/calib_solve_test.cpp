@@ -38,10 +38,12 @@ TEST(CalibSolve, WideOpencv8RecoversTheTruthByProjection) {
   EXPECT_NEAR(fov->horizontal_deg, fov_truth->horizontal_deg, 0.2);
   EXPECT_NEAR(fov->vertical_deg, fov_truth->vertical_deg, 0.2);
   EXPECT_NEAR(fov->diagonal_deg, fov_truth->diagonal_deg, 0.3);
-  std::printf("seed %s f=%.1f  fx=%.3f fy=%.3f cx=%.3f cy=%.3f rms=%.4f diff=%.4f (max %.4f) hfov %.3f/%.3f time %.3f s\n",
-              s->seed_projection.c_str(), s->seed_focal_px, s->model.intrinsics[0],
-              s->model.intrinsics[1], s->model.intrinsics[2], s->model.intrinsics[3], s->rms_px,
-              diff->rms_px, diff->max_px, fov->horizontal_deg, fov_truth->horizontal_deg, s->solve_s);
+  std::printf(
+      "seed %s f=%.1f  fx=%.3f fy=%.3f cx=%.3f cy=%.3f rms=%.4f diff=%.4f (max %.4f) hfov "
+      "%.3f/%.3f time %.3f s\n",
+      s->seed_projection.c_str(), s->seed_focal_px, s->model.intrinsics[0], s->model.intrinsics[1],
+      s->model.intrinsics[2], s->model.intrinsics[3], s->rms_px, diff->rms_px, diff->max_px,
+      fov->horizontal_deg, fov_truth->horizontal_deg, s->solve_s);
 }
 
 TEST(CalibReport, ImplausibleIntrinsicsAreWarnedNotPassedOff) {

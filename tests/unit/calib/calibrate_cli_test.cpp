@@ -31,8 +31,8 @@ class CalibrateCli : public ::testing::Test {
 };
 
 TEST_F(CalibrateCli, CornersVnlToCameramodelYamlAndReport) {
-  const LensModel truth{"LENSMODEL_OPENCV5", {1100, 1100, 962, 541, -0.3, 0.1, 0.0003, -0.0002, -0.01},
-                        1920, 1080};
+  const LensModel truth{
+      "LENSMODEL_OPENCV5", {1100, 1100, 962, 541, -0.3, 0.1, 0.0003, -0.0002, -0.01}, 1920, 1080};
   testing::ViewSetSpec spec;
   spec.views = 16;
   spec.noise_px = 0.15;
@@ -41,10 +41,11 @@ TEST_F(CalibrateCli, CornersVnlToCameramodelYamlAndReport) {
     std::ofstream out(path("corners.vnl"));
     out << to_corners_vnl(data.views);
   }
-  const auto run = camlab::testing::run_cli(
-      "calibrate --corners " + path("corners.vnl") + " --imager 1920x1080 --board 9x6 --spacing-m 0.06"
-      " --model LENSMODEL_OPENCV5 --sensor 1/2.3in --out " + path("cam.cameramodel") +
-      " --opencv-yaml " + path("cam.yaml") + " --report " + path("report.json"));
+  const auto run = camlab::testing::run_cli("calibrate --corners " + path("corners.vnl") +
+                                            " --imager 1920x1080 --board 9x6 --spacing-m 0.06"
+                                            " --model LENSMODEL_OPENCV5 --sensor 1/2.3in --out " +
+                                            path("cam.cameramodel") + " --opencv-yaml " +
+                                            path("cam.yaml") + " --report " + path("report.json"));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("FOV (unprojected image edges)"), std::string::npos) << run.out;
 
@@ -88,9 +89,10 @@ TEST_F(CalibrateCli, AutoPrintsTheEvidenceTable) {
     std::ofstream out(path("corners.vnl"));
     out << to_corners_vnl(data.views);
   }
-  const auto run = camlab::testing::run_cli(
-      "calibrate --corners " + path("corners.vnl") + " --imager 1280x960 --board 8x6 --spacing-m 0.05"
-      " --out " + path("cam.cameramodel") + " --json");
+  const auto run = camlab::testing::run_cli("calibrate --corners " + path("corners.vnl") +
+                                            " --imager 1280x960 --board 8x6 --spacing-m 0.05"
+                                            " --out " +
+                                            path("cam.cameramodel") + " --json");
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto j = nlohmann::json::parse(run.out);
   ASSERT_GE(j["model_selection"].size(), 3u);
@@ -99,10 +101,13 @@ TEST_F(CalibrateCli, AutoPrintsTheEvidenceTable) {
 }
 
 TEST_F(CalibrateCli, BadInputFailsWithCode2AndAMessage) {
-  auto run = camlab::testing::run_cli("calibrate --corners /nonexistent.vnl --imager 640x480 --board 9x6 "
-                                      "--spacing-m 0.05 --out " + path("x.cameramodel"));
+  auto run = camlab::testing::run_cli(
+      "calibrate --corners /nonexistent.vnl --imager 640x480 --board 9x6 "
+      "--spacing-m 0.05 --out " +
+      path("x.cameramodel"));
   EXPECT_EQ(run.exit_code, 2);
-  EXPECT_NE(run.err.find("camlab calibrate: cannot read '/nonexistent.vnl'"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("camlab calibrate: cannot read '/nonexistent.vnl'"), std::string::npos)
+      << run.err;
   run = camlab::testing::run_cli("calibrate --corners a.vnl --board 9 --spacing-m 0.05 --out " +
                                  path("x.cameramodel"));
   EXPECT_EQ(run.exit_code, 2);
@@ -135,7 +140,8 @@ cv::Mat draw_board(const LensModel& pinhole, const BoardSpec& b, const std::arra
       int sum = 0;
       for (int sy = 0; sy < 4; ++sy)
         for (int sx = 0; sx < 4; ++sx) {
-          const cv::Vec3d d((x - 0.375 + 0.25 * sx - cx) / fx, (y - 0.375 + 0.25 * sy - cy) / fy, 1);
+          const cv::Vec3d d((x - 0.375 + 0.25 * sx - cx) / fx, (y - 0.375 + 0.25 * sy - cy) / fy,
+                            1);
           const double s = n.dot(t) / n.dot(d);
           const cv::Vec3d pb = R.t() * (d * s - t);
           // Square (i, j) spans [(i - 1) s, i s): corner (0, 0) of the inner grid at 0.
@@ -143,7 +149,8 @@ cv::Mat draw_board(const LensModel& pinhole, const BoardSpec& b, const std::arra
           const bool on_board = u >= -1 && v >= -1 && u < b.cols + 2 && v < b.rows + 2;
           const bool squares = u >= 0 && v >= 0 && u < b.cols + 1 && v < b.rows + 1;
           int value = on_board ? 230 : 120;
-          if (squares && ((static_cast<int>(std::floor(u)) + static_cast<int>(std::floor(v))) % 2 == 0))
+          if (squares &&
+              ((static_cast<int>(std::floor(u)) + static_cast<int>(std::floor(v))) % 2 == 0))
             value = 25;
           sum += value;
         }
@@ -164,9 +171,11 @@ TEST_F(CalibrateCli, ImagesFolderThroughOpencvCorners) {
     cv::imwrite((dir_ / "images" / ("view" + std::to_string(i) + ".png")).string(),
                 draw_board(truth, board, rt));
   }
-  const auto run = camlab::testing::run_cli(
-      "calibrate --images " + path("images") + " --board 7x5 --spacing-m 0.03 --model LENSMODEL_PINHOLE"
-      " --quiet --json --out " + path("cam.cameramodel"));
+  const auto run =
+      camlab::testing::run_cli("calibrate --images " + path("images") +
+                               " --board 7x5 --spacing-m 0.03 --model LENSMODEL_PINHOLE"
+                               " --quiet --json --out " +
+                               path("cam.cameramodel"));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto j = nlohmann::json::parse(run.out);
   EXPECT_EQ(j["views"]["used"].get<int>(), 6);

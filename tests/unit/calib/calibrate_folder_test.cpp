@@ -59,7 +59,8 @@ TEST_F(CalibrateFolder, WritesTheOutputsAndReportsTheUncertainty) {
   auto j = calibrate_folder(o);
   ASSERT_TRUE(j.ok()) << j.error().message;
   EXPECT_EQ((*j)["lensmodel"], "LENSMODEL_OPENCV8");
-  for (const auto& f : {o.out_cameramodel, o.out_report_json, o.out_opencv_yaml}) EXPECT_TRUE(fs::exists(f)) << f;
+  for (const auto& f : {o.out_cameramodel, o.out_report_json, o.out_opencv_yaml})
+    EXPECT_TRUE(fs::exists(f)) << f;
   std::ifstream in(o.out_report_json);
   EXPECT_EQ(nlohmann::json::parse(in), *j);
   // The uncertainty at the five points; corners (extrapolated) above the centre.
@@ -73,8 +74,8 @@ TEST_F(CalibrateFolder, WritesTheOutputsAndReportsTheUncertainty) {
   EXPECT_LT(centre, 0.15);
   // Five plots, each a readable image of the requested size.
   ASSERT_EQ((*j)["files"]["plots"].size(), 5u) << j->dump();
-  for (const char* name : {"residuals.png", "residual_histogram.png", "coverage.png", "uncertainty.png",
-                           "distortion.png"}) {
+  for (const char* name : {"residuals.png", "residual_histogram.png", "coverage.png",
+                           "uncertainty.png", "distortion.png"}) {
     const cv::Mat img = cv::imread((o.plots_dir / name).string());
     ASSERT_FALSE(img.empty()) << name;
     EXPECT_GE(img.cols, 640) << name;

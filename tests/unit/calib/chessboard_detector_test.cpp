@@ -1,6 +1,6 @@
 // The chessboard detectors against the virtual camera's truth: mrgingham
-// (calib/corners/mrgingham_corners.h) and OpenCV (calib/corners/chessboard_corners.h) on rendered 10x10
-// boards seen through the wide OPENCV8 lens (mock_device/examples), the detector choice
+// (calib/corners/mrgingham_corners.h) and OpenCV (calib/corners/chessboard_corners.h) on rendered
+// 10x10 boards seen through the wide OPENCV8 lens (mock_device/examples), the detector choice
 // (calib/corners/chessboard_detector.h) and what calibrate() records of it, and bad images.
 //
 // A square board looks the same after a quarter turn, so a detector may label it from

@@ -30,7 +30,7 @@ TEST(CornersVnl, ParsesLevelsMissingCornersAndImagesWithoutBoard) {
   EXPECT_DOUBLE_EQ(a.corners[0].x_px, 10.5);
   EXPECT_DOUBLE_EQ(a.corners[0].y_px, 20.25);
   EXPECT_DOUBLE_EQ(a.corners[0].weight, 1.0);
-  EXPECT_DOUBLE_EQ(a.corners[1].weight, 0.5);   // level 1
+  EXPECT_DOUBLE_EQ(a.corners[1].weight, 0.5);  // level 1
   EXPECT_FALSE(a.corners[2].present);
   EXPECT_DOUBLE_EQ(a.corners[3].weight, 0.25);  // level 2
   EXPECT_EQ(a.present_count(), 3);
@@ -41,7 +41,9 @@ TEST(CornersVnl, ParsesLevelsMissingCornersAndImagesWithoutBoard) {
 TEST(CornersVnl, WriteThenReadIsExact) {
   BoardView v;
   v.name = "frame_000001.png";
-  v.corners = {{1.0 / 3, 2.0 / 7, 1.0, true}, {0, 0, 1.0, false}, {5.125, 6.5, 0.5, true},
+  v.corners = {{1.0 / 3, 2.0 / 7, 1.0, true},
+               {0, 0, 1.0, false},
+               {5.125, 6.5, 0.5, true},
                {1e-9, 799.999999999, 0.25, true}};
   auto back = parse_corners_vnl(to_corners_vnl({v}), kBoard);
   ASSERT_TRUE(back.ok()) << back.error().message;
@@ -56,7 +58,8 @@ TEST(CornersVnl, WriteThenReadIsExact) {
 }
 
 TEST(CornersVnl, WeightColumnAndThreeColumnForms) {
-  auto w = parse_corners_vnl("# filename x y weight\nq 1 2 0.5\nq 1 2 1\nq 1 2 1\nq 1 2 1\n", kBoard);
+  auto w =
+      parse_corners_vnl("# filename x y weight\nq 1 2 0.5\nq 1 2 1\nq 1 2 1\nq 1 2 1\n", kBoard);
   ASSERT_TRUE(w.ok());
   EXPECT_DOUBLE_EQ((*w)[0].corners[0].weight, 0.5);
   auto three = parse_corners_vnl("# filename x y\nq 1 2\nq - -\nq 1 2\nq 1 2\n", kBoard);

@@ -57,9 +57,10 @@ TEST(LensModel, RejectsUnknownModels) {
 
 TEST(ModelIo, MrcalReadsTheCameramodelBackExactly) {
   const LensModel m{"LENSMODEL_OPENCV8",
-                    {733.1234567890123, 733.5, 642.3, 398.1, -0.22, 0.05, 0.0004, -0.0003,
-                     -0.003, 0.05, 0.01, 1.0 / 3},
-                    1280, 800};
+                    {733.1234567890123, 733.5, 642.3, 398.1, -0.22, 0.05, 0.0004, -0.0003, -0.003,
+                     0.05, 0.01, 1.0 / 3},
+                    1280,
+                    800};
   const std::string text = cameramodel_text(m, "test");
   mrcal_cameramodel_t* read = mrcal_read_cameramodel_string(text.c_str(), 0);
   ASSERT_NE(read, nullptr) << text;
@@ -71,8 +72,8 @@ TEST(ModelIo, MrcalReadsTheCameramodelBackExactly) {
 }
 
 TEST(ModelIo, OpencvYamlHoldsCameraMatrixAndDistortion) {
-  const LensModel m{"LENSMODEL_OPENCV5", {700, 701, 640, 400, -0.1, 0.02, 0.001, -0.002, 0.003},
-                    1280, 800};
+  const LensModel m{
+      "LENSMODEL_OPENCV5", {700, 701, 640, 400, -0.1, 0.02, 0.001, -0.002, 0.003}, 1280, 800};
   auto yaml = opencv_yaml_text(m);
   ASSERT_TRUE(yaml.ok());
   cv::FileStorage fs(*yaml, cv::FileStorage::READ | cv::FileStorage::MEMORY);

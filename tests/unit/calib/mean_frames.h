@@ -17,7 +17,8 @@
 
 namespace camlab::calib::testing {
 
-inline cv::Vec3d transform_rt(const std::array<double, 6>& rt, const cv::Vec3d& p, bool inverse, bool rotate_only) {
+inline cv::Vec3d transform_rt(const std::array<double, 6>& rt, const cv::Vec3d& p, bool inverse,
+                              bool rotate_only) {
   cv::Matx33d R;
   cv::Rodrigues(cv::Vec3d(rt[0], rt[1], rt[2]), R);
   const cv::Vec3d t = rotate_only ? cv::Vec3d(0, 0, 0) : cv::Vec3d(rt[3], rt[4], rt[5]);
@@ -25,13 +26,15 @@ inline cv::Vec3d transform_rt(const std::array<double, 6>& rt, const cv::Vec3d& 
 }
 
 // Both solves must hold the same views in the same order.
-inline cv::Vec2d reproject_mean_frames(const Solution& base, const Solution& s, double x, double y, double d) {
+inline cv::Vec2d reproject_mean_frames(const Solution& base, const Solution& s, double x, double y,
+                                       double d) {
   auto v = unproject(base.model, {x, y});
   const bool inf = !std::isfinite(d);
   const cv::Vec3d p_cam = cv::Vec3d((*v)[0], (*v)[1], (*v)[2]) * (inf ? 1.0 : d);
   cv::Vec3d mean(0, 0, 0);
   for (size_t i = 0; i < base.rt_cam_board.size(); ++i)
-    mean += transform_rt(s.rt_cam_board[i], transform_rt(base.rt_cam_board[i], p_cam, true, inf), false, inf);
+    mean += transform_rt(s.rt_cam_board[i], transform_rt(base.rt_cam_board[i], p_cam, true, inf),
+                         false, inf);
   mean *= 1.0 / base.rt_cam_board.size();
   auto q = project(s.model, {mean[0], mean[1], mean[2]});
   return {(*q)[0], (*q)[1]};

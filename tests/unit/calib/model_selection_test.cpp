@@ -35,8 +35,8 @@ TEST(ModelSelection, PinholeLensKeepsPinhole) {
 }
 
 TEST(ModelSelection, BarrelLensPicksOpencv4AndStops) {
-  const LensModel truth{"LENSMODEL_OPENCV4", {1000, 1000, 805, 598, -0.25, 0.08, 0.0005, -0.0004},
-                        1600, 1200};
+  const LensModel truth{
+      "LENSMODEL_OPENCV4", {1000, 1000, 805, 598, -0.25, 0.08, 0.0005, -0.0004}, 1600, 1200};
   testing::ViewSetSpec spec;
   spec.views = 18;
   spec.noise_px = 0.2;
@@ -49,7 +49,8 @@ TEST(ModelSelection, BarrelLensPicksOpencv4AndStops) {
   EXPECT_GT(pinhole->heldout_px, 3 * sel->chosen.rms_px);  // distortion is real
   auto d = projection_difference(truth, sel->chosen.model, 0.8);
   ASSERT_TRUE(d.ok());
-  std::printf("barrel: chosen %s diff %.3f px rms %.3f\n", sel->chosen.model.lensmodel.c_str(), d->rms_px, sel->chosen.rms_px);
+  std::printf("barrel: chosen %s diff %.3f px rms %.3f\n", sel->chosen.model.lensmodel.c_str(),
+              d->rms_px, sel->chosen.rms_px);
   for (double v : sel->chosen.model.intrinsics) std::printf(" %.5g", v);
   std::printf("\n");
   EXPECT_LT(d->rms_px, 0.2);

@@ -21,21 +21,22 @@ namespace camlab::calib::testing {
 struct ViewSetSpec {
   int views = 30;
   double distance_min_m = 0.4, distance_max_m = 1.0;  // board centre's range
-  double max_tilt_deg = 40;       // tilt of the board normal off the line of sight
+  double max_tilt_deg = 40;  // tilt of the board normal off the line of sight
   double min_tilt_deg = 0;
-  double centre_fraction = 0.9;   // board centres aimed within this central share of the imager
-  double noise_px = 0.2;          // Gaussian sigma per coordinate
-  double outlier_share = 0;       // corners displaced by 5-30 px
-  bool keep_partial = true;       // keep views with off-imager corners (those are missing)
+  double centre_fraction = 0.9;  // board centres aimed within this central share of the imager
+  double noise_px = 0.2;         // Gaussian sigma per coordinate
+  double outlier_share = 0;      // corners displaced by 5-30 px
+  bool keep_partial = true;      // keep views with off-imager corners (those are missing)
   uint32_t seed = 1;
 };
 
 inline LensModel wide_opencv8_truth() {
   // mock_device/examples/camera_wide_1280x800.json at its nominal focus: f 2.2 mm, 3 um px.
   return {"LENSMODEL_OPENCV8",
-          {733.3333333333334, 733.3333333333334, 642.3, 398.1, -0.22, 0.05, 0.0004, -0.0003,
-           -0.003, 0.05, 0.01, 0.0},
-          1280, 800};
+          {733.3333333333334, 733.3333333333334, 642.3, 398.1, -0.22, 0.05, 0.0004, -0.0003, -0.003,
+           0.05, 0.01, 0.0},
+          1280,
+          800};
 }
 
 // Rotation vector of R = Rz(roll) * Ry(b) * Rx(a) composed with the aim rotation.
@@ -60,15 +61,15 @@ inline std::array<double, 6> pose_facing(const cv::Vec3d& centre_cam, double til
 // Projects the board in pose rt through `truth`; corners behind the camera or off the
 // imager are missing. Noise and outliers come from `rng`.
 inline BoardView observe(const LensModel& truth, const BoardSpec& b,
-                         const std::array<double, 6>& rt, double noise_px,
-                         double outlier_share, std::mt19937& rng, const std::string& name) {
+                         const std::array<double, 6>& rt, double noise_px, double outlier_share,
+                         std::mt19937& rng, const std::string& name) {
   cv::Matx33d R;
   cv::Rodrigues(cv::Vec3d(rt[0], rt[1], rt[2]), R);
   std::vector<double> p;
   for (int j = 0; j < b.rows; ++j)
     for (int i = 0; i < b.cols; ++i) {
-      const cv::Vec3d q = R * cv::Vec3d(i * b.spacing_m, j * b.spacing_m, 0) +
-                          cv::Vec3d(rt[3], rt[4], rt[5]);
+      const cv::Vec3d q =
+          R * cv::Vec3d(i * b.spacing_m, j * b.spacing_m, 0) + cv::Vec3d(rt[3], rt[4], rt[5]);
       p.insert(p.end(), {q[0], q[1], q[2]});
     }
   auto q = project(truth, p);
@@ -93,9 +94,11 @@ inline BoardView observe(const LensModel& truth, const BoardSpec& b,
     if (c.present) {
       const double n = std::sqrt(p[3 * k] * p[3 * k] + p[3 * k + 1] * p[3 * k + 1] +
                                  p[3 * k + 2] * p[3 * k + 2]);
-      const double dot = dirs.empty() || !valid[k] ? 0.0
-                                                   : (dirs[3 * k] * p[3 * k] + dirs[3 * k + 1] * p[3 * k + 1] +
-                                                      dirs[3 * k + 2] * p[3 * k + 2]) / n;
+      const double dot = dirs.empty() || !valid[k]
+                             ? 0.0
+                             : (dirs[3 * k] * p[3 * k] + dirs[3 * k + 1] * p[3 * k + 1] +
+                                dirs[3 * k + 2] * p[3 * k + 2]) /
+                                   n;
       c.present = dot > std::cos(1e-5);
     }
     c.x_px = x + noise(rng);
@@ -125,11 +128,12 @@ inline CalibrationData make_views(const LensModel& truth, const BoardSpec& board
     const double fy = 0.5 + (u01(rng) - 0.5) * spec.centre_fraction;
     auto dir = unproject(truth, {fx * truth.width_px, fy * truth.height_px});
     if (!dir) continue;
-    const double dist = spec.distance_min_m + (spec.distance_max_m - spec.distance_min_m) * u01(rng);
+    const double dist =
+        spec.distance_min_m + (spec.distance_max_m - spec.distance_min_m) * u01(rng);
     const cv::Vec3d centre = cv::Vec3d((*dir)[0], (*dir)[1], (*dir)[2]) * dist;
     // Tilt magnitude in [min, max], random direction; roll up to +-20 deg.
-    const double tilt = (spec.min_tilt_deg + (spec.max_tilt_deg - spec.min_tilt_deg) * u01(rng)) *
-                        M_PI / 180;
+    const double tilt =
+        (spec.min_tilt_deg + (spec.max_tilt_deg - spec.min_tilt_deg) * u01(rng)) * M_PI / 180;
     const double az = 2 * M_PI * u01(rng);
     const double roll = (u01(rng) - 0.5) * 40 * M_PI / 180;
     auto rt = pose_facing(centre, tilt * std::cos(az), tilt * std::sin(az), roll, board);

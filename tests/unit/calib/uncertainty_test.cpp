@@ -97,7 +97,8 @@ TEST(ProjectionUncertainty, MatchesTheSpreadOfRepeatedNoisySolves) {
     auto s = solve(noisy(sc, 100 + k), options());
     ASSERT_TRUE(s.ok()) << s.error().message;
     ASSERT_EQ(s->rt_cam_board.size(), base->rt_cam_board.size());
-    for (size_t i = 0; i < qs.size(); ++i) q[i].push_back(testing::reproject_mean_frames(*base, *s, qs[i].x, qs[i].y, qs[i].d));
+    for (size_t i = 0; i < qs.size(); ++i)
+      q[i].push_back(testing::reproject_mean_frames(*base, *s, qs[i].x, qs[i].y, qs[i].d));
   }
   double log_ratio_sum = 0;
   for (size_t i = 0; i < qs.size(); ++i) {
@@ -113,8 +114,11 @@ TEST(ProjectionUncertainty, MatchesTheSpreadOfRepeatedNoisySolves) {
     auto predicted = projection_uncertainty(*base, qs[i].x, qs[i].y, qs[i].d, kSigmaPx);
     ASSERT_TRUE(predicted.ok()) << predicted.error().message;
     const double ratio = empirical_rms / predicted->rms_px();
-    std::printf("  q (%6.1f, %6.1f) d %-4g predicted rms %.4f px (worst %.4f), empirical %.4f, ratio %.3f\n",
-                qs[i].x, qs[i].y, qs[i].d, predicted->rms_px(), predicted->worst_px(), empirical_rms, ratio);
+    std::printf(
+        "  q (%6.1f, %6.1f) d %-4g predicted rms %.4f px (worst %.4f), empirical %.4f, ratio "
+        "%.3f\n",
+        qs[i].x, qs[i].y, qs[i].d, predicted->rms_px(), predicted->worst_px(), empirical_rms,
+        ratio);
     // 20 solves estimate a stdev to about +-16% (1 sigma): 30% is two sigmas.
     EXPECT_GT(ratio, 0.7) << i;
     EXPECT_LT(ratio, 1.3) << i;
@@ -158,13 +162,17 @@ TEST(ProjectionUncertainty, AgreesWithMrcalPython) {
   const auto qs = queries(s->model);
   nlohmann::json spec = {{"optimization_inputs", *inputs}, {"sigma_px", kSigmaPx}};
   for (const auto& q : qs)
-    spec["queries"].push_back({{"x", q.x}, {"y", q.y}, {"distance_m", std::isfinite(q.d) ? nlohmann::json(q.d) : nlohmann::json()}});
+    spec["queries"].push_back(
+        {{"x", q.x},
+         {"y", q.y},
+         {"distance_m", std::isfinite(q.d) ? nlohmann::json(q.d) : nlohmann::json()}});
   const auto dir = std::filesystem::temp_directory_path();
   const auto in = dir / ("camlab_uncertainty_in_" + std::to_string(::getpid()) + ".json");
   const auto out = dir / ("camlab_uncertainty_out_" + std::to_string(::getpid()) + ".json");
   std::ofstream(in) << spec.dump();
   const std::string cmd = std::string("/usr/bin/python3 ") + CAMLAB_SOURCE_DIR +
-                          "/tests/unit/calib/mrcal_uncertainty.py " + in.string() + " " + out.string();
+                          "/tests/unit/calib/mrcal_uncertainty.py " + in.string() + " " +
+                          out.string();
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   nlohmann::json result;
   std::ifstream(out) >> result;

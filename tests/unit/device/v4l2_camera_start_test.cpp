@@ -45,7 +45,8 @@ class FailingIo final : public device::V4l2Io {
       errno = error;
       return -1;
     }
-    if (request == VIDIOC_REQBUFS) reqbufs_counts.push_back(static_cast<v4l2_requestbuffers*>(arg)->count);
+    if (request == VIDIOC_REQBUFS)
+      reqbufs_counts.push_back(static_cast<v4l2_requestbuffers*>(arg)->count);
     const int result = inner_->ioctl(fd, request, arg);
     if (request == VIDIOC_REQBUFS && result == 0 && granted_count > 0) {
       auto* asked = static_cast<v4l2_requestbuffers*>(arg);
@@ -66,7 +67,9 @@ class FailingIo final : public device::V4l2Io {
     --live_mappings;
     return inner_->munmap(address, length);
   }
-  int poll(struct pollfd* fds, nfds_t count, int timeout_ms) override { return inner_->poll(fds, count, timeout_ms); }
+  int poll(struct pollfd* fds, nfds_t count, int timeout_ms) override {
+    return inner_->poll(fds, count, timeout_ms);
+  }
 
  private:
   std::shared_ptr<device::V4l2Io> inner_;
@@ -140,15 +143,16 @@ TEST_P(V4l2CameraStartFailure, GivesEveryBufferBack) {
   EXPECT_EQ(failing_io_->live_mappings, 0);
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    EveryStep, V4l2CameraStartFailure,
-    ::testing::Values(Failure{"FewerThanTwoBuffersGranted", 0, 0, false, 1},
-                      Failure{"FirstQuerybuf", VIDIOC_QUERYBUF, 0, false, 0},
-                      Failure{"ThirdQuerybuf", VIDIOC_QUERYBUF, 2, false, 0},
-                      Failure{"SecondMmap", 0, 0, true, 0},
-                      Failure{"LastQbuf", VIDIOC_QBUF, 3, false, 0},
-                      Failure{"Streamon", VIDIOC_STREAMON, 0, false, 0}),
-    [](const ::testing::TestParamInfo<Failure>& info) { return info.param.name; });
+INSTANTIATE_TEST_SUITE_P(EveryStep, V4l2CameraStartFailure,
+                         ::testing::Values(Failure{"FewerThanTwoBuffersGranted", 0, 0, false, 1},
+                                           Failure{"FirstQuerybuf", VIDIOC_QUERYBUF, 0, false, 0},
+                                           Failure{"ThirdQuerybuf", VIDIOC_QUERYBUF, 2, false, 0},
+                                           Failure{"SecondMmap", 0, 0, true, 0},
+                                           Failure{"LastQbuf", VIDIOC_QBUF, 3, false, 0},
+                                           Failure{"Streamon", VIDIOC_STREAMON, 0, false, 0}),
+                         [](const ::testing::TestParamInfo<Failure>& info) {
+                           return info.param.name;
+                         });
 
 }  // namespace
 }  // namespace camlab

@@ -52,7 +52,8 @@ class V4l2Backend : public ::testing::Test {
 
   // Mean signal above black of a Y16 frame (10-bit DN shifted up by 6), in DN.
   static double mean_dn(const device::Frame& frame, uint32_t width, uint32_t height) {
-    cv::Mat image(static_cast<int>(height), static_cast<int>(width), CV_16UC1, const_cast<uint8_t*>(frame.data));
+    cv::Mat image(static_cast<int>(height), static_cast<int>(width), CV_16UC1,
+                  const_cast<uint8_t*>(frame.data));
     return cv::mean(image)[0] / 64.0 - 16.0;
   }
 
@@ -84,7 +85,8 @@ TEST_F(V4l2Backend, ControlsHaveTheSpecRangesAndUnits) {
   auto controls = camera_->controls();
   ASSERT_TRUE(controls.ok()) << controls.error().message;
   auto find = [&](const std::string& name) {
-    auto it = std::find_if(controls->begin(), controls->end(), [&](const auto& c) { return c.name == name; });
+    auto it = std::find_if(controls->begin(), controls->end(),
+                           [&](const auto& c) { return c.name == name; });
     EXPECT_NE(it, controls->end()) << name;
     return it == controls->end() ? device::ControlInfo{} : *it;
   };
@@ -99,7 +101,8 @@ TEST_F(V4l2Backend, ControlsHaveTheSpecRangesAndUnits) {
   EXPECT_EQ(mode.menu[1].first, V4L2_EXPOSURE_APERTURE_PRIORITY);
   EXPECT_EQ(find("gain").maximum, 1600);
   EXPECT_EQ(find("focus_absolute").maximum, 2000);
-  EXPECT_EQ(find("iris_absolute").maximum, static_cast<int64_t>(device_->camera().lens.iris.f_numbers.size() - 1));
+  EXPECT_EQ(find("iris_absolute").maximum,
+            static_cast<int64_t>(device_->camera().lens.iris.f_numbers.size() - 1));
   EXPECT_EQ(find("focus_automatic_continuous").type, device::ControlType::kBoolean);
 }
 
@@ -111,14 +114,16 @@ TEST_F(V4l2Backend, SetControlReadsBackAndRefusesOutOfRange) {
   auto refused = camera_->set_control("exposure_time_absolute", 5000);
   ASSERT_FALSE(refused.ok());
   EXPECT_EQ(refused.error().code, "out_of_range");
-  EXPECT_NE(refused.error().message.find("[1, 100] (100 us)"), std::string::npos) << refused.error().message;
+  EXPECT_NE(refused.error().message.find("[1, 100] (100 us)"), std::string::npos)
+      << refused.error().message;
   EXPECT_EQ(camera_->set_control("no_such_control", 1).error().code, "unknown_control");
 }
 
 TEST_F(V4l2Backend, ManualExposureSwitchesAutoExposureOff) {
   ASSERT_TRUE(camera_->set_control("auto_exposure", V4L2_EXPOSURE_APERTURE_PRIORITY).ok());
   auto controls = camera_->controls();
-  auto exposure = std::find_if(controls->begin(), controls->end(), [](const auto& c) { return c.name == "exposure_time_absolute"; });
+  auto exposure = std::find_if(controls->begin(), controls->end(),
+                               [](const auto& c) { return c.name == "exposure_time_absolute"; });
   EXPECT_TRUE(exposure->inactive) << "a manual value is ignored under auto exposure";
   ASSERT_TRUE(camera_->set_control("exposure_time_absolute", 20).ok());
   EXPECT_EQ(*camera_->get_control("auto_exposure"), V4L2_EXPOSURE_MANUAL);
@@ -134,7 +139,8 @@ TEST_F(V4l2Backend, StreamsTheRenderersFramesInOrder) {
   EXPECT_EQ(format->size_bytes, 160u * 120u);
   ASSERT_TRUE(camera_->start(4).ok());
   // The expected frame: the renderer's DN (noise off) reduced to 8 bits.
-  mock::Renderer reference = mock::testing::make_renderer(test_camera_json(3), mock::testing::uniform_scene_json(1.0, 0.5));
+  mock::Renderer reference = mock::testing::make_renderer(
+      test_camera_json(3), mock::testing::uniform_scene_json(1.0, 0.5));
   mock::RenderSettings settings = reference.default_settings();
   mock::RenderOptions options;
   auto expected = reference.render(settings, 0, options);
@@ -160,7 +166,8 @@ TEST_F(V4l2Backend, StreamsTheRenderersFramesInOrder) {
 
 TEST_F(V4l2Backend, ANewExposureShowsExactlyLatencyFramesLater) {
   ASSERT_TRUE(camera_->configure({"Y16", 160, 120}).ok());
-  ASSERT_TRUE(camera_->set_control("exposure_time_absolute", 30).ok());  // before streaming: at once
+  ASSERT_TRUE(
+      camera_->set_control("exposure_time_absolute", 30).ok());  // before streaming: at once
   ASSERT_TRUE(camera_->start(3).ok());
   // Hold all three buffers: the device (paced by buffers, not by a clock, in this test)
   // then waits with frame 3 next to start, so the frame a new value lands in is known.
@@ -218,7 +225,8 @@ TEST_F(V4l2Backend, AStalledCameraTimesOut) {
   ASSERT_TRUE(camera_->dequeue(2000ms).ok());  // buffers 1 and 2 may already be full
   device_->stall(true);
   Result<device::Frame> frame = make_error("internal", "not run yet");
-  for (int i = 0; i < 4 && frame.ok() == false && frame.error().code == "internal"; ++i) frame = camera_->dequeue(100ms);
+  for (int i = 0; i < 4 && frame.ok() == false && frame.error().code == "internal"; ++i)
+    frame = camera_->dequeue(100ms);
   for (int i = 0; i < 4 && frame.ok(); ++i) frame = camera_->dequeue(100ms);
   ASSERT_FALSE(frame.ok());
   EXPECT_EQ(frame.error().code, "timeout");
@@ -267,7 +275,8 @@ TEST_F(V4l2Backend, ARealtimePacedDeviceStreamsInSequence) {
 }
 
 TEST(V4l2BackendOpen, MissingDeviceIsNoDevice) {
-  auto io = std::make_shared<mock::VirtualV4l2Io>(std::vector<std::shared_ptr<mock::VirtualV4l2Device>>{});
+  auto io = std::make_shared<mock::VirtualV4l2Io>(
+      std::vector<std::shared_ptr<mock::VirtualV4l2Device>>{});
   auto camera = device::V4l2Camera::open(io, "/dev/video7");
   ASSERT_FALSE(camera.ok());
   EXPECT_EQ(camera.error().code, "no_device");

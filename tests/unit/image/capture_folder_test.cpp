@@ -112,7 +112,10 @@ TEST_F(CaptureFolderTest, BrokenFoldersGiveSpecificErrors) {
   fs::create_directories(dir);
   { std::ofstream(dir / "manifest.json") << "{ not json"; }
   EXPECT_EQ(CaptureFolder::open(dir).error().code, "bad_manifest");
-  { std::ofstream(dir / "manifest.json") << R"({"format": "camlab-capture", "version": 99, "frames": []})"; }
+  {
+    std::ofstream(dir / "manifest.json")
+        << R"({"format": "camlab-capture", "version": 99, "frames": []})";
+  }
   EXPECT_EQ(CaptureFolder::open(dir).error().code, "unsupported_version");
   {
     std::ofstream(dir / "manifest.json") << R"({"format": "camlab-capture", "version": 1,

@@ -2,8 +2,8 @@
 // out fds of the MMAP buffers' memory, V4L2_MEMORY_DMABUF renders into buffers the
 // client brings, and libcamera's sequence (export MMAP buffers, free them, import the
 // exported fds as DMABUF) delivers the same frames as plain MMAP streaming.
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <linux/videodev2.h>
 #include <sys/mman.h>
 #include <unistd.h>
@@ -100,7 +100,8 @@ class BufferSharing : public ::testing::Test {
   static std::vector<uint8_t> read_fd(int buffer_fd, size_t bytes) {
     void* address = mmap(nullptr, bytes, PROT_READ, MAP_SHARED, buffer_fd, 0);
     if (address == MAP_FAILED) return {};
-    std::vector<uint8_t> data(static_cast<uint8_t*>(address), static_cast<uint8_t*>(address) + bytes);
+    std::vector<uint8_t> data(static_cast<uint8_t*>(address),
+                              static_cast<uint8_t*>(address) + bytes);
     munmap(address, bytes);
     return data;
   }
@@ -116,7 +117,8 @@ class BufferSharing : public ::testing::Test {
     EXPECT_EQ(io->ioctl(fd, VIDIOC_QBUF, &b), 0);
     EXPECT_EQ(stream(true), 0);
     dequeue(V4L2_MEMORY_MMAP);
-    std::vector<uint8_t> data(static_cast<uint8_t*>(address), static_cast<uint8_t*>(address) + kFrameBytes);
+    std::vector<uint8_t> data(static_cast<uint8_t*>(address),
+                              static_cast<uint8_t*>(address) + kFrameBytes);
     EXPECT_EQ(stream(false), 0);
     io->munmap(address, b.length);
     EXPECT_EQ(reqbufs(0, V4L2_MEMORY_MMAP), 0);
@@ -154,7 +156,8 @@ TEST_F(BufferSharing, ExportedFdSeesTheBufferAndHonoursFlags) {
   ASSERT_EQ(reqbufs(0, V4L2_MEMORY_MMAP), 0);
   EXPECT_NE(through_export, std::vector<uint8_t>(kFrameBytes, 0));
   EXPECT_EQ(through_export, mmap_frame());
-  EXPECT_EQ(read_fd(exported, kFrameBytes), through_export) << "the memory outlives the freed buffers";
+  EXPECT_EQ(read_fd(exported, kFrameBytes), through_export)
+      << "the memory outlives the freed buffers";
   close(exported);
   close(read_only);
 }
@@ -166,7 +169,8 @@ TEST_F(BufferSharing, ExpbufChecksItsArgumentsLikeVb2) {
   EXPECT_EQ(errno, EINVAL) << "supported (not ENOTTY), so v4l2-compliance tests it";
   ASSERT_EQ(reqbufs(2, V4L2_MEMORY_MMAP), 2);
   EXPECT_EQ(export_buffer(2, O_RDWR, &exported), -EINVAL) << "index beyond the buffers";
-  EXPECT_EQ(export_buffer(0, O_RDWR | O_APPEND, &exported), -EINVAL) << "flags other than access and cloexec";
+  EXPECT_EQ(export_buffer(0, O_RDWR | O_APPEND, &exported), -EINVAL)
+      << "flags other than access and cloexec";
   v4l2_exportbuffer plane{};
   plane.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   plane.plane = 1;
@@ -277,7 +281,8 @@ TEST_F(BufferSharing, TransportFdIsUsedAndTheClientsNumberReported) {
   done.memory = V4L2_MEMORY_DMABUF;
   ASSERT_EQ(device->ioctl(file, VIDIOC_DQBUF, &done), 0);
   EXPECT_EQ(done.m.fd, 4321);
-  EXPECT_NE(read_fd(local, kFrameBytes), std::vector<uint8_t>(kFrameBytes, 0)) << "rendered into our memfd";
+  EXPECT_NE(read_fd(local, kFrameBytes), std::vector<uint8_t>(kFrameBytes, 0))
+      << "rendered into our memfd";
   close(local);  // the device keeps its mapping, not the fd
   ASSERT_EQ(device->ioctl(file, VIDIOC_STREAMOFF, &type), 0);
   device->close_file(file);

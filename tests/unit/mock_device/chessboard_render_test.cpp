@@ -15,7 +15,8 @@
 namespace camlab::mock {
 namespace {
 
-const std::filesystem::path kExamples = std::filesystem::path(CAMLAB_SOURCE_DIR) / "mock_device/examples";
+const std::filesystem::path kExamples =
+    std::filesystem::path(CAMLAB_SOURCE_DIR) / "mock_device/examples";
 
 class ChessboardRender : public ::testing::Test {
  protected:
@@ -50,7 +51,8 @@ TEST_F(ChessboardRender, OpenCvCornersMatchTheTruthWithinATenthOfAPixel) {
     auto& detected = found->corners_px;
     ASSERT_EQ(detected.size(), truth.size());
     auto dist = [&](size_t i, size_t j) {
-      return std::hypot(detected[i].x - truth[j][0].get<double>(), detected[i].y - truth[j][1].get<double>());
+      return std::hypot(detected[i].x - truth[j][0].get<double>(),
+                        detected[i].y - truth[j][1].get<double>());
     };
     if (dist(0, truth.size() - 1) < dist(0, 0)) std::reverse(detected.begin(), detected.end());
     for (size_t i = 0; i < detected.size(); ++i) {
@@ -64,7 +66,8 @@ TEST_F(ChessboardRender, OpenCvCornersMatchTheTruthWithinATenthOfAPixel) {
   ASSERT_GE(views_found, 4) << "the detector should find most boards of the example set";
   const double rms_px = std::sqrt(sum_sq / corners);
   RecordProperty("corner_rms_px", std::to_string(rms_px));
-  std::printf("corner RMS against truth: %.4f px over %d corners in %d views\n", rms_px, corners, views_found);
+  std::printf("corner RMS against truth: %.4f px over %d corners in %d views\n", rms_px, corners,
+              views_found);
   EXPECT_LT(rms_px, 0.1) << corners << " corners in " << views_found << " views";
 }
 
@@ -72,12 +75,14 @@ TEST_F(ChessboardRender, TruthCameraModelLoadsInMrcalAtFullPrecision) {
   auto frame = renderer_->render(renderer_->default_settings(), 0, RenderOptions{.noise = false});
   ASSERT_TRUE(frame.ok());
   const std::string text = frame->truth["cameramodel"].get<std::string>();
-  mrcal_cameramodel_t* model = mrcal_read_cameramodel_string(text.c_str(), static_cast<int>(text.size()));
+  mrcal_cameramodel_t* model =
+      mrcal_read_cameramodel_string(text.c_str(), static_cast<int>(text.size()));
   ASSERT_NE(model, nullptr) << text;
   const auto& intrinsics = frame->truth["intrinsics"];
   ASSERT_EQ(mrcal_lensmodel_num_params(&model->lensmodel), static_cast<int>(intrinsics.size()));
   for (size_t i = 0; i < intrinsics.size(); ++i)
-    EXPECT_EQ(model->intrinsics[i], intrinsics[i].get<double>()) << "intrinsic " << i << " lost precision";
+    EXPECT_EQ(model->intrinsics[i], intrinsics[i].get<double>())
+        << "intrinsic " << i << " lost precision";
   EXPECT_EQ(model->imagersize[0], 1280u);
   mrcal_free_cameramodel(&model);
 }
@@ -86,7 +91,8 @@ TEST_F(ChessboardRender, MrcalPythonToolsProjectTheTruthCornersIdentically) {
   if (!std::filesystem::exists("/usr/bin/python3")) GTEST_SKIP() << "Debian's python3 is absent";
   auto frame = renderer_->render(renderer_->default_settings(), 1, RenderOptions{.noise = false});
   ASSERT_TRUE(frame.ok());
-  const auto dir = std::filesystem::temp_directory_path() / ("camlab_mrcal_" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("camlab_mrcal_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   std::ofstream(dir / "truth.cameramodel") << frame->truth["cameramodel"].get<std::string>();
   const auto& board = frame->truth["targets"][0];
@@ -100,7 +106,8 @@ TEST_F(ChessboardRender, MrcalPythonToolsProjectTheTruthCornersIdentically) {
       << "q = mrcal.project(mrcal.transform_point_rt(rt, obj), *m.intrinsics())\n"
       << "print(json.dumps(q.reshape(-1, 2).tolist()))\n";
   const std::string command = "/usr/bin/python3 " + (dir / "check.py").string() + " " +
-                              (dir / "truth.cameramodel").string() + " '" + board["rt_cam_target"].dump() + "'";
+                              (dir / "truth.cameramodel").string() + " '" +
+                              board["rt_cam_target"].dump() + "'";
   FILE* pipe = popen(command.c_str(), "r");
   ASSERT_NE(pipe, nullptr);
   std::string output;

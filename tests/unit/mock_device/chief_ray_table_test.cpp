@@ -9,8 +9,8 @@
 namespace camlab::mock {
 namespace {
 
-const std::vector<double> kWideOpencv8 = {733.3, 733.3, 642.3, 398.1, -0.22, 0.05, 0.0004,
-                                          -0.0003, -0.003, 0.05, 0.01, 0.0};
+const std::vector<double> kWideOpencv8 = {733.3,  733.3,   642.3,  398.1, -0.22, 0.05,
+                                          0.0004, -0.0003, -0.003, 0.05,  0.01,  0.0};
 
 // Projects a normalised ray (xn, yn, 1) with mrcal.
 mrcal_point2_t project(const std::vector<double>& intrinsics, double xn, double yn) {
@@ -56,7 +56,8 @@ TEST(ChiefRayTable, RescaledTableEqualsAFreshUnprojectionAtTheNewFocalLength) {
 TEST(ChiefRayTable, AModelThatFoldsOverMarksTheFoldedPixelsInvalid) {
   // Strong barrel distortion whose radial map peaks inside the imager: the corners have
   // no preimage, and must be flagged rather than rendered from a wrong ray.
-  std::vector<double> folded = {733.3, 733.3, 642.3, 398.1, -0.28, 0.08, 0.0, 0.0, -0.01, 0.05, 0.01, 0.0};
+  std::vector<double> folded = {733.3, 733.3, 642.3, 398.1, -0.28, 0.08,
+                                0.0,   0.0,   -0.01, 0.05,  0.01,  0.0};
   auto table = ChiefRayTable::create("LENSMODEL_OPENCV8", folded, 1280, 800);
   ASSERT_TRUE(table.ok());
   EXPECT_GT(table->invalid_fraction(), 0.01);

@@ -15,7 +15,8 @@ TEST(DefaultSpecs, TheDefaultCameraParsesWithIrisGainAndFocus) {
   EXPECT_EQ(camera->sensor.height_px, 480);
   EXPECT_GE(camera->lens.iris.f_numbers.size(), 2u) << "aperture series need an iris";
   EXPECT_GT(camera->controls.gain.max, camera->controls.gain.min) << "brackets may step gain";
-  EXPECT_GT(camera->lens.focus.position_max, camera->lens.focus.position_min) << "focus stacks need a motor";
+  EXPECT_GT(camera->lens.focus.position_max, camera->lens.focus.position_min)
+      << "focus stacks need a motor";
   EXPECT_EQ(default_camera_spec().source, default_camera_spec_json());
 }
 

@@ -13,16 +13,21 @@ namespace {
 
 nlohmann::json edge_scene_json(double distance_m) {
   return {{"illuminance_lux", 2000},
-          {"targets", {{{"type", "slanted_edge"}, {"size_m", {1.0, 1.0}}, {"angle_deg", 5.0},
-                        {"dark_reflectance", 0.1}, {"light_reflectance", 0.7},
-                        {"pose", {{"position_m", {0.0, 0.0, distance_m}}}}}}}};
+          {"targets",
+           {{{"type", "slanted_edge"},
+             {"size_m", {1.0, 1.0}},
+             {"angle_deg", 5.0},
+             {"dark_reflectance", 0.1},
+             {"light_reflectance", 0.7},
+             {"pose", {{"position_m", {0.0, 0.0, distance_m}}}}}}}};
 }
 
 // Focus distance (mm) that gives a CoC of coc_mm for an object at object_mm, focusing
 // in front of the object: from C z_o (s - f) = A f (z_o - s).
 double focus_for_coc_mm(double focal_mm, double f_number, double object_mm, double coc_mm) {
   const double aperture_mm = focal_mm / f_number;
-  return focal_mm * object_mm * (aperture_mm + coc_mm) / (coc_mm * object_mm + aperture_mm * focal_mm);
+  return focal_mm * object_mm * (aperture_mm + coc_mm) /
+         (coc_mm * object_mm + aperture_mm * focal_mm);
 }
 
 class DefocusRender : public ::testing::TestWithParam<double> {};
@@ -30,9 +35,10 @@ class DefocusRender : public ::testing::TestWithParam<double> {};
 TEST_P(DefocusRender, MeasuredBlurDiameterMatchesTheThinLensCoc) {
   const double target_px = GetParam();
   const double object_m = 1.0, f_number = 2.0, focal_mm = 8.0, pitch_mm = 0.004;
-  Renderer renderer = testing::make_renderer(testing::pinhole_camera_json(256, 256),
-                                             edge_scene_json(object_m));
-  const double focus_mm = focus_for_coc_mm(focal_mm, f_number, object_m * 1e3, target_px * pitch_mm);
+  Renderer renderer =
+      testing::make_renderer(testing::pinhole_camera_json(256, 256), edge_scene_json(object_m));
+  const double focus_mm =
+      focus_for_coc_mm(focal_mm, f_number, object_m * 1e3, target_px * pitch_mm);
   auto z_s = optics::lens_to_sensor_mm(focal_mm, focus_mm);
   ASSERT_TRUE(z_s.ok());
   RenderSettings settings = renderer.default_settings();
@@ -75,7 +81,8 @@ INSTANTIATE_TEST_SUITE_P(BlurDiameters, DefocusRender,
                          });
 
 TEST(DefocusRenderPolicy, InFocusTargetsAreNotApertureSampled) {
-  Renderer renderer = testing::make_renderer(testing::pinhole_camera_json(64, 64), edge_scene_json(1.0));
+  Renderer renderer =
+      testing::make_renderer(testing::pinhole_camera_json(64, 64), edge_scene_json(1.0));
   RenderSettings settings = renderer.default_settings();
   auto z_s = optics::lens_to_sensor_mm(8.0, 1000.0);
   settings.focus_position = static_cast<int>(std::lround((*z_s - 8.0) / 0.001));

@@ -73,11 +73,12 @@ TEST_F(ExposurePhysics, SignalMatchesTheRadiometricPrediction) {
   auto frame = renderer.render(s, 0, options);
   ASSERT_TRUE(frame.ok());
   const double photons_per_lux_s_m2 = 4.0906e15;
-  const double expected_e = 0.6 * (0.5 * 1000 / (4 * 16.0)) * photons_per_lux_s_m2 *
-                            (4e-6 * 4e-6) * 1000e-6;
+  const double expected_e =
+      0.6 * (0.5 * 1000 / (4 * 16.0)) * photons_per_lux_s_m2 * (4e-6 * 4e-6) * 1000e-6;
   const double k_dn_per_e = (4095.0 - 64) / 20000;
   EXPECT_NEAR(mean_above_black(*frame, 64) / (expected_e * k_dn_per_e), 1.0, 0.01);
-  EXPECT_NEAR(frame->truth["electrons_per_unit_reflectance"].get<double>() * 0.5 / expected_e, 1.0, 1e-9);
+  EXPECT_NEAR(frame->truth["electrons_per_unit_reflectance"].get<double>() * 0.5 / expected_e, 1.0,
+              1e-9);
 }
 
 TEST_F(ExposurePhysics, GainIsLinear) {
@@ -193,7 +194,8 @@ TEST_F(ExposurePhysics, OutOfRangeSettingsAreRejectedWithTheAllowedRange) {
   auto frame = renderer.render(s, 0, options);
   ASSERT_FALSE(frame.ok());
   EXPECT_EQ(frame.error().code, "out_of_range");
-  EXPECT_NE(frame.error().message.find("[100, 100000] us"), std::string::npos) << frame.error().message;
+  EXPECT_NE(frame.error().message.find("[100, 100000] us"), std::string::npos)
+      << frame.error().message;
   s = base();
   s.f_number = 1.0;
   frame = renderer.render(s, 0, options);

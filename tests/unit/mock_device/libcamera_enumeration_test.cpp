@@ -3,8 +3,8 @@
 // in process on the fake sysfs tree and the in-process transport: if these steps work
 // here, the same files and ioctls serve libcamera once a transport redirects /sys and
 // routes /dev/media0 (which the preload does; tests/integration/libcamera_test.cpp).
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <linux/media.h>
 #include <linux/videodev2.h>
 #include <sys/ioctl.h>
@@ -36,7 +36,8 @@ std::string first_line(const fs::path& path) {
 
 // lookupDeviceNode(): DEVNAME= from /sys/dev/char/M:m/uevent.
 std::string device_node(const fs::path& sys, uint32_t major, uint32_t minor) {
-  std::ifstream uevent(sys / "dev/char" / (std::to_string(major) + ":" + std::to_string(minor)) / "uevent");
+  std::ifstream uevent(sys / "dev/char" / (std::to_string(major) + ":" + std::to_string(minor)) /
+                       "uevent");
   for (std::string word; uevent >> word;)
     if (word.rfind("DEVNAME=", 0) == 0) return "/dev/" + word.substr(8);
   return {};
@@ -102,21 +103,24 @@ TEST_F(LibcameraEnumeration, FindsEachCameraFromBusMediaToItsVideoNodeAndUsbId) 
     ASSERT_NE(video, nullptr);
     const media_v2_interface* interface = nullptr;
     for (const auto& l : links)
-      if ((l.flags & MEDIA_LNK_FL_LINK_TYPE) == MEDIA_LNK_FL_INTERFACE_LINK && l.sink_id == video->id)
+      if ((l.flags & MEDIA_LNK_FL_LINK_TYPE) == MEDIA_LNK_FL_INTERFACE_LINK &&
+          l.sink_id == video->id)
         for (const auto& i : interfaces)
           if (i.id == l.source_id) interface = &i;
     ASSERT_NE(interface, nullptr);
     EXPECT_EQ(interface->devnode.major, kVideoMajor);
     const std::string node = device_node(sys, interface->devnode.major, interface->devnode.minor);
     EXPECT_EQ(node, "/dev/video" + std::to_string(n));
-    EXPECT_EQ(device_node(sys, kMediaMajor, static_cast<uint32_t>(n)), "/dev/media" + std::to_string(n));
+    EXPECT_EQ(device_node(sys, kMediaMajor, static_cast<uint32_t>(n)),
+              "/dev/media" + std::to_string(n));
 
     // V4L2VideoDevice::open() on it.
     const int video_fd = io->open(node.c_str(), O_RDWR | O_NONBLOCK);
     ASSERT_GE(video_fd, 0);
     v4l2_capability cap{};
     ASSERT_EQ(io->ioctl(video_fd, VIDIOC_QUERYCAP, &cap), 0);
-    EXPECT_STREQ(reinterpret_cast<const char*>(cap.bus_info), info.bus_info) << "one device, one bus_info";
+    EXPECT_STREQ(reinterpret_cast<const char*>(cap.bus_info), info.bus_info)
+        << "one device, one bus_info";
     EXPECT_GE(cap.version, (5u << 16)) << "libcamera needs V4L2 API 5.0 or later";
     io->close(video_fd);
 
@@ -139,7 +143,8 @@ TEST_F(LibcameraEnumeration, FindsEachCameraFromBusMediaToItsVideoNodeAndUsbId) 
         break;
       }
     EXPECT_EQ(controller, kControllerFirmwarePath);
-    const std::string id = controller + "-" + usb_id + "-" + first_line(interface_path / "../idVendor") + ":" +
+    const std::string id = controller + "-" + usb_id + "-" +
+                           first_line(interface_path / "../idVendor") + ":" +
                            first_line(interface_path / "../idProduct");
     EXPECT_EQ(id, std::string("\\_SB_.CAMLAB-") + std::to_string(n + 1) + ":1.0-1d6b:0102");
   }
@@ -151,7 +156,8 @@ TEST_F(LibcameraEnumeration, ClassFoldersStillListTheVideoNodes) {
     const fs::path video = sys / "class/video4linux" / ("video" + std::to_string(n));
     EXPECT_EQ(first_line(video / "name"), n == 0 ? "test pinhole" : "second camera");
     EXPECT_EQ(first_line(video / "dev"), "81:" + std::to_string(n));
-    EXPECT_EQ(first_line(sys / "class/media" / ("media" + std::to_string(n)) / "dev"), "236:" + std::to_string(n));
+    EXPECT_EQ(first_line(sys / "class/media" / ("media" + std::to_string(n)) / "dev"),
+              "236:" + std::to_string(n));
   }
 }
 
@@ -169,7 +175,8 @@ TEST(FakeSysfsPaths, RedirectsExactlyTheTreesPaths) {
   EXPECT_FALSE(is_fake_sysfs_path("/sys/dev/char/1:3", 1));
   EXPECT_FALSE(is_fake_sysfs_path("/sys/bus/mediafoo", 1));
   EXPECT_FALSE(is_fake_sysfs_path("/sys/devices/platform/serial8250", 1));
-  EXPECT_FALSE(is_fake_sysfs_path("/sys/subsystem/media/devices", 1)) << "libcamera's first guess must fail";
+  EXPECT_FALSE(is_fake_sysfs_path("/sys/subsystem/media/devices", 1))
+      << "libcamera's first guess must fail";
   EXPECT_FALSE(is_fake_sysfs_path("/dev/video0", 1));
 }
 

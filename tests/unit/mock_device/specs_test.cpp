@@ -10,7 +10,8 @@
 namespace camlab::mock {
 namespace {
 
-const std::filesystem::path kExamples = std::filesystem::path(CAMLAB_SOURCE_DIR) / "mock_device/examples";
+const std::filesystem::path kExamples =
+    std::filesystem::path(CAMLAB_SOURCE_DIR) / "mock_device/examples";
 
 TEST(Specs, EveryExampleLoadsAndRenders) {
   int cameras = 0, scenes = 0;
@@ -51,20 +52,27 @@ TEST_P(BadCameraSpec, IsRefusedNamingTheField) {
 INSTANTIATE_TEST_SUITE_P(
     Fields, BadCameraSpec,
     ::testing::Values(
-        BadCamera{"negative pitch", "/sensor/pixel_pitch_um"_json_pointer, -3.0, "camera.sensor.pixel_pitch_um"},
+        BadCamera{"negative pitch", "/sensor/pixel_pitch_um"_json_pointer, -3.0,
+                  "camera.sensor.pixel_pitch_um"},
         BadCamera{"zero pitch", "/sensor/pixel_pitch_um"_json_pointer, 0.0, "(0, 100]"},
         BadCamera{"string width", "/sensor/width_px"_json_pointer, "640", "must be an integer"},
         BadCamera{"bit depth 20", "/sensor/bit_depth"_json_pointer, 20, "[8, 16]"},
-        BadCamera{"unknown model", "/lens/model"_json_pointer, "LENSMODEL_FOO", "not an mrcal lens model"},
+        BadCamera{"unknown model", "/lens/model"_json_pointer, "LENSMODEL_FOO",
+                  "not an mrcal lens model"},
         BadCamera{"wrong distortion count", "/lens/model"_json_pointer, "LENSMODEL_OPENCV8",
                   "camera.lens.distortion is required"},
         BadCamera{"negative focal", "/lens/focal_mm"_json_pointer, -8.0, "camera.lens.focal_mm"},
         BadCamera{"exposure past the frame interval",
-                  "/controls/exposure_time_absolute/max"_json_pointer, 5000, "exceeds the frame interval"},
-        BadCamera{"iris not falling", "/lens/iris"_json_pointer, {{"f_numbers", {2.0, 4.0}}}, "must fall"}),
+                  "/controls/exposure_time_absolute/max"_json_pointer, 5000,
+                  "exceeds the frame interval"},
+        BadCamera{"iris not falling",
+                  "/lens/iris"_json_pointer,
+                  {{"f_numbers", {2.0, 4.0}}},
+                  "must fall"}),
     [](const auto& info) {
       std::string name = info.param.description;
-      for (char& c : name) if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+      for (char& c : name)
+        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
       return name;
     });
 
@@ -74,7 +82,8 @@ TEST(Specs, DistortionOfTheWrongLengthIsRefused) {
   camera["lens"]["distortion"] = {0.1, 0.2};
   auto spec = parse_camera_spec(camera);
   ASSERT_FALSE(spec.ok());
-  EXPECT_NE(spec.error().message.find("array of 4 numbers"), std::string::npos) << spec.error().message;
+  EXPECT_NE(spec.error().message.find("array of 4 numbers"), std::string::npos)
+      << spec.error().message;
 }
 
 TEST(Specs, SceneErrorsNameTheTarget) {
@@ -82,7 +91,8 @@ TEST(Specs, SceneErrorsNameTheTarget) {
   scene["targets"][0]["pose"] = {{"position_m", {0.0, 0.0, -1.0}}};
   auto spec = parse_scene_spec(scene);
   ASSERT_FALSE(spec.ok());
-  EXPECT_NE(spec.error().message.find("scene.targets[0].pose"), std::string::npos) << spec.error().message;
+  EXPECT_NE(spec.error().message.find("scene.targets[0].pose"), std::string::npos)
+      << spec.error().message;
   EXPECT_NE(spec.error().message.find("in front of the camera"), std::string::npos);
 
   scene = testing::uniform_scene_json();
@@ -96,8 +106,8 @@ TEST(Specs, SceneErrorsNameTheTarget) {
   scene["targets"][0].erase("pose");
   scene["targets"][0]["poses"] = {{{"position_m", {0, 0, 1}}}, {{"position_m", {0, 0, 2}}}};
   scene["targets"][1].erase("pose");
-  scene["targets"][1]["poses"] = {{{"position_m", {0, 0, 1}}}, {{"position_m", {0, 0, 2}}},
-                                  {{"position_m", {0, 0, 3}}}};
+  scene["targets"][1]["poses"] = {
+      {{"position_m", {0, 0, 1}}}, {{"position_m", {0, 0, 2}}}, {{"position_m", {0, 0, 3}}}};
   spec = parse_scene_spec(scene);
   ASSERT_FALSE(spec.ok());
   EXPECT_NE(spec.error().message.find("every target must have 1 or"), std::string::npos);

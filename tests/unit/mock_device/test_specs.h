@@ -4,8 +4,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "mock_device/spec/camera_spec.h"
 #include "mock_device/render/renderer.h"
+#include "mock_device/spec/camera_spec.h"
 #include "mock_device/spec/scene_spec.h"
 
 namespace camlab::mock::testing {
@@ -14,12 +14,22 @@ namespace camlab::mock::testing {
 inline nlohmann::json pinhole_camera_json(int width_px = 256, int height_px = 256) {
   return {
       {"name", "test pinhole"},
-      {"sensor", {{"width_px", width_px}, {"height_px", height_px}, {"pixel_pitch_um", 4.0},
-                  {"bit_depth", 12}, {"black_level_dn", 64}, {"full_well_e", 20000},
-                  {"read_noise_e", 2.0}, {"quantum_efficiency", 0.6}}},
-      {"lens", {{"focal_mm", 8.0}, {"model", "LENSMODEL_PINHOLE"}, {"f_number_min", 1.4},
-                {"f_number_max", 22.0},
-                {"focus", {{"position_min", 0}, {"position_max", 2000}, {"extension_mm_per_step", 0.001}}}}},
+      {"sensor",
+       {{"width_px", width_px},
+        {"height_px", height_px},
+        {"pixel_pitch_um", 4.0},
+        {"bit_depth", 12},
+        {"black_level_dn", 64},
+        {"full_well_e", 20000},
+        {"read_noise_e", 2.0},
+        {"quantum_efficiency", 0.6}}},
+      {"lens",
+       {{"focal_mm", 8.0},
+        {"model", "LENSMODEL_PINHOLE"},
+        {"f_number_min", 1.4},
+        {"f_number_max", 22.0},
+        {"focus",
+         {{"position_min", 0}, {"position_max", 2000}, {"extension_mm_per_step", 0.001}}}}},
       {"timing", {{"frame_interval_us", 100000}}},
       {"controls", {{"exposure_time_absolute", {{"min", 1}, {"max", 1000}, {"default", 100}}}}},
   };
@@ -28,9 +38,11 @@ inline nlohmann::json pinhole_camera_json(int width_px = 256, int height_px = 25
 inline nlohmann::json uniform_scene_json(double distance_m = 1.0, double reflectance = 0.5) {
   return {{"illuminance_lux", 1000},
           {"background_reflectance", reflectance},
-          {"targets", {{{"type", "uniform"}, {"size_m", {10.0, 10.0}},
-                        {"light_reflectance", reflectance},
-                        {"pose", {{"position_m", {0.0, 0.0, distance_m}}}}}}}};
+          {"targets",
+           {{{"type", "uniform"},
+             {"size_m", {10.0, 10.0}},
+             {"light_reflectance", reflectance},
+             {"pose", {{"position_m", {0.0, 0.0, distance_m}}}}}}}};
 }
 
 inline Renderer make_renderer(const nlohmann::json& camera, const nlohmann::json& scene) {

@@ -2,8 +2,8 @@
 // pads exist, ids are unique and match between the v1 and v2 APIs), the ioctls follow
 // mc-device.c (G_TOPOLOGY's count protocol and ENOSPC, ENUM_ENTITIES' NEXT flag,
 // immutable links), and the arrays a transport must marshal are described exactly.
-#include <gtest/gtest.h>
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <linux/media.h>
 #include <sys/ioctl.h>
 #include <unistd.h>
@@ -22,8 +22,12 @@ namespace {
 
 class MediaDevice : public ::testing::Test {
  protected:
-  MediaDevice() : media({.index = 0, .model = "test pinhole", .bus_info = "platform:camlab-vcam-0",
-                         .video_major = 81, .video_minor = 0}) {
+  MediaDevice()
+      : media({.index = 0,
+               .model = "test pinhole",
+               .bus_info = "platform:camlab-vcam-0",
+               .video_major = 81,
+               .video_minor = 0}) {
     file = media.open_file(false);
   }
   ~MediaDevice() override { media.close_file(file); }
@@ -65,7 +69,8 @@ TEST_F(MediaDevice, DeviceInfoIsUvcvideoWithAKernelMediaVersion) {
   EXPECT_EQ(info.driver_version, info.media_version);
   for (uint32_t word : info.reserved) EXPECT_EQ(word, 0u);
   EXPECT_EQ(media.ioctl(file, MEDIA_IOC_DEVICE_INFO, nullptr), -EFAULT);
-  EXPECT_EQ(media.ioctl(file, MEDIA_IOC_REQUEST_ALLOC, nullptr), -ENOTTY);  // checked before the argument
+  EXPECT_EQ(media.ioctl(file, MEDIA_IOC_REQUEST_ALLOC, nullptr),
+            -ENOTTY);  // checked before the argument
   EXPECT_EQ(media.ioctl(file + 100, MEDIA_IOC_DEVICE_INFO, &info), -EBADF);
 }
 
@@ -156,7 +161,8 @@ TEST_F(MediaDevice, TopologyCountsProtocolAndTooSmallArrays) {
   large.ptr_links = 4096;  // never dereferenced by user_buffers
   buffers = media.user_buffers(MEDIA_IOC_G_TOPOLOGY, &large);
   ASSERT_EQ(buffers.size(), 1u);
-  EXPECT_EQ(buffers[0].size_bytes, 3 * sizeof(media_v2_link)) << "never more than the device writes";
+  EXPECT_EQ(buffers[0].size_bytes, 3 * sizeof(media_v2_link))
+      << "never more than the device writes";
 }
 
 TEST_F(MediaDevice, EnumEntitiesAndLinksAgreeWithTheTopology) {
@@ -164,7 +170,8 @@ TEST_F(MediaDevice, EnumEntitiesAndLinksAgreeWithTheTopology) {
   std::map<uint32_t, media_entity_desc> by_id;
   media_entity_desc desc{};
   desc.id = 0;
-  EXPECT_EQ(media.ioctl(file, MEDIA_IOC_ENUM_ENTITIES, &desc), -EINVAL) << "entity id 0 never exists";
+  EXPECT_EQ(media.ioctl(file, MEDIA_IOC_ENUM_ENTITIES, &desc), -EINVAL)
+      << "entity id 0 never exists";
   uint32_t last = 0;
   for (;;) {
     std::memset(&desc, 0xff, sizeof desc);
@@ -254,7 +261,8 @@ TEST(MediaDeviceIo, DevMediaOpensAndBadPointersAreEfault) {
   std::vector<media_v2_pad> pads(t.num_pads);
   t.ptr_pads = reinterpret_cast<uintptr_t>(pads.data());
   ASSERT_EQ(io.ioctl(fd, MEDIA_IOC_G_TOPOLOGY, &t), 0);
-  EXPECT_EQ(t.ptr_pads, reinterpret_cast<uintptr_t>(pads.data())) << "the caller's pointer comes back";
+  EXPECT_EQ(t.ptr_pads, reinterpret_cast<uintptr_t>(pads.data()))
+      << "the caller's pointer comes back";
   EXPECT_NE(pads[0].id, 0u);
   t.ptr_entities = 4;  // v4l2-compliance's bad pointer
   EXPECT_EQ(io.ioctl(fd, MEDIA_IOC_G_TOPOLOGY, &t), -1);

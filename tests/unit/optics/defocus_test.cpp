@@ -89,8 +89,8 @@ TEST(OpticsCircleOfConfusion, DistantObjectNearFocusIsAccurate) {
     double focus_mm, object_mm;
   };
   // s = 10 m, z_o = 10.001 m and s = 1 km, z_o = 1.0001 km (and the mirror cases).
-  for (const Case c : {Case{1e4, 1.0001e4}, Case{1e6, 1.0001e6}, Case{1.0001e4, 1e4},
-                       Case{1.0001e6, 1e6}}) {
+  for (const Case c :
+       {Case{1e4, 1.0001e4}, Case{1e6, 1.0001e6}, Case{1.0001e4, 1e4}, Case{1.0001e6, 1e6}}) {
     for (const double focal_mm : {24.0, 50.0, 200.0}) {
       const double coc = *circle_of_confusion_mm(focal_mm, 2.8, c.focus_mm, c.object_mm);
       const long double reference =
@@ -109,8 +109,8 @@ TEST(OpticsCircleOfConfusion, DistantObjectNearFocusIsAccurate) {
 TEST(OpticsCircleOfConfusion, AgreesWithImageSideFormInLongDouble) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> log_focal(0.5, 2.7);   // 3 .. 500 mm
-  std::uniform_real_distribution<double> log_n(0.0, 1.6);        // f/1 .. f/40
-  std::uniform_real_distribution<double> log_ratio(-3.0, 5.0);   // distance / f - 1
+  std::uniform_real_distribution<double> log_n(0.0, 1.6);       // f/1 .. f/40
+  std::uniform_real_distribution<double> log_ratio(-3.0, 5.0);  // distance / f - 1
   for (int i = 0; i < 5000; ++i) {
     const double f = std::pow(10.0, log_focal(rng));
     const double n = std::pow(10.0, log_n(rng));
@@ -152,20 +152,16 @@ TEST(OpticsCircleOfConfusion, FocusOrObjectInsideFocalLengthIsNoRealImage) {
   expect_error(circle_of_confusion_mm(50.0, 2.8, 50.0, 1000.0), kErrNoRealImage, "focus_mm");
   expect_error(circle_of_confusion_mm(50.0, 2.8, 30.0, 1000.0), kErrNoRealImage, "focus_mm");
   expect_error(circle_of_confusion_mm(50.0, 2.8, 1000.0, 49.9), kErrNoRealImage, "object_mm");
-  expect_error(circle_of_confusion_mm(50.0, 2.8, kInfinity, 10.0), kErrNoRealImage,
-               "object_mm");
+  expect_error(circle_of_confusion_mm(50.0, 2.8, kInfinity, 10.0), kErrNoRealImage, "object_mm");
 }
 
 TEST(OpticsCircleOfConfusion, RejectsInvalidInputs) {
   for (const double bad : {0.0, -5.0, kNaN, -kInfinity}) {
-    expect_error(circle_of_confusion_mm(bad, 2.8, 1000.0, 2000.0), kErrInvalidArgument,
-                 "focal_mm");
+    expect_error(circle_of_confusion_mm(bad, 2.8, 1000.0, 2000.0), kErrInvalidArgument, "focal_mm");
     expect_error(circle_of_confusion_mm(50.0, bad, 1000.0, 2000.0), kErrInvalidArgument,
                  "f_number");
-    expect_error(circle_of_confusion_mm(50.0, 2.8, bad, 2000.0), kErrInvalidArgument,
-                 "focus_mm");
-    expect_error(circle_of_confusion_mm(50.0, 2.8, 1000.0, bad), kErrInvalidArgument,
-                 "object_mm");
+    expect_error(circle_of_confusion_mm(50.0, 2.8, bad, 2000.0), kErrInvalidArgument, "focus_mm");
+    expect_error(circle_of_confusion_mm(50.0, 2.8, 1000.0, bad), kErrInvalidArgument, "object_mm");
     expect_error(circle_of_confusion_px(0.01, bad), kErrInvalidArgument, "pixel_pitch_um");
     expect_error(airy_diameter_um(bad), kErrInvalidArgument, "f_number");
     expect_error(airy_diameter_um(8.0, bad), kErrInvalidArgument, "wavelength_nm");
@@ -186,8 +182,7 @@ TEST(OpticsCircleOfConfusion, PixelsAndDiffractionFloor) {
   EXPECT_NEAR(*airy_diameter_um(8.0), 10.7, 0.05);
   EXPECT_NEAR(*airy_diameter_um(8.0), 2.44 * 0.550 * 8.0, 1e-12);
   EXPECT_NEAR(*airy_diameter_um(16.0) / *airy_diameter_um(8.0), 2.0, 1e-15);
-  EXPECT_NEAR(*airy_diameter_um(8.0, 450.0) / *airy_diameter_um(8.0, 550.0), 450.0 / 550.0,
-              1e-15);
+  EXPECT_NEAR(*airy_diameter_um(8.0, 450.0) / *airy_diameter_um(8.0, 550.0), 450.0 / 550.0, 1e-15);
 }
 
 TEST(OpticsDepthOfField, HyperfocalAndItsLimits) {
@@ -282,9 +277,9 @@ TEST(OpticsDepthOfField, FocusAtOrInsideFocalLengthAndInvalidInputs) {
 TEST(OpticsDepthOfField, RandomSweepIsOrderedAndConsistentWithCoc) {
   std::mt19937_64 rng(12345);
   std::uniform_real_distribution<double> log_focal(0.0, 3.0);    // 1 mm .. 1 m
-  std::uniform_real_distribution<double> log_n(-0.15, 2.0);       // f/0.7 .. f/100
-  std::uniform_real_distribution<double> log_coc(-4.0, -0.5);     // 0.1 um .. 0.3 mm
-  std::uniform_real_distribution<double> log_ratio(-10.0, 8.0);   // s / f - 1
+  std::uniform_real_distribution<double> log_n(-0.15, 2.0);      // f/0.7 .. f/100
+  std::uniform_real_distribution<double> log_coc(-4.0, -0.5);    // 0.1 um .. 0.3 mm
+  std::uniform_real_distribution<double> log_ratio(-10.0, 8.0);  // s / f - 1
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   int checked_limits = 0;
   for (int i = 0; i < 20000; ++i) {
@@ -296,8 +291,8 @@ TEST(OpticsDepthOfField, RandomSweepIsOrderedAndConsistentWithCoc) {
     if (!(s > f)) continue;
     auto dof = depth_of_field(f, n, s, c);
     ASSERT_TRUE(dof.ok()) << f << " " << n << " " << s << " " << c;
-    ASSERT_FALSE(std::isnan(dof->near_mm) || std::isnan(dof->far_mm) ||
-                 std::isnan(dof->total_mm) || std::isnan(dof->hyperfocal_mm));
+    ASSERT_FALSE(std::isnan(dof->near_mm) || std::isnan(dof->far_mm) || std::isnan(dof->total_mm) ||
+                 std::isnan(dof->hyperfocal_mm));
     ASSERT_GT(dof->near_mm, 0.0);
     ASSERT_LE(dof->near_mm, s);
     ASSERT_GE(dof->far_mm, s);

@@ -103,8 +103,7 @@ TEST(OpticsExposure, ExposureValueMatchesDefinition) {
   EXPECT_NEAR(*exposure_value(16.0, 0.01), 14.64, 0.005);
   // One stop: half the time, or N x sqrt 2, is +1 EV.
   EXPECT_NEAR(*exposure_value(5.6, 1.0 / 250) - *exposure_value(5.6, 1.0 / 125), 1.0, 1e-12);
-  EXPECT_NEAR(*exposure_value(4.0 * std::sqrt(2.0), 0.01) - *exposure_value(4.0, 0.01), 1.0,
-              1e-12);
+  EXPECT_NEAR(*exposure_value(4.0 * std::sqrt(2.0), 0.01) - *exposure_value(4.0, 0.01), 1.0, 1e-12);
   // Extremes: the log of the ratio, computed without forming the ratio.
   auto extreme = exposure_value(1e200, 1e-200);
   ASSERT_TRUE(extreme.ok());

@@ -128,9 +128,15 @@ TEST(OpticsSensorFormats, CropFactorsMatchLectureTable) {
     double crop;
     int decimals;
   };
-  constexpr std::array<Printed, 9> kPrinted = {
-      {{0.64, 2}, {1.0, 1}, {1.29, 2}, {1.52, 2}, {2.0, 1}, {2.7, 1}, {4.3, 1}, {5.62, 2},
-       {7.61, 2}}};
+  constexpr std::array<Printed, 9> kPrinted = {{{0.64, 2},
+                                                {1.0, 1},
+                                                {1.29, 2},
+                                                {1.52, 2},
+                                                {2.0, 1},
+                                                {2.7, 1},
+                                                {4.3, 1},
+                                                {5.62, 2},
+                                                {7.61, 2}}};
   const auto formats = sensor_formats();
   ASSERT_EQ(formats.size(), kPrinted.size());
   for (std::size_t i = 0; i < formats.size(); ++i) {
@@ -148,8 +154,7 @@ TEST(OpticsSensorFormats, CropFactorsMatchLectureTable) {
 TEST(OpticsSensorFormats, CropTimesDiagonalIsFullFrameDiagonal) {
   for (const SensorFormat& format : sensor_formats()) {
     const double crop = *crop_factor(format.width_mm, format.height_mm);
-    EXPECT_NEAR(crop * diagonal_mm(format.width_mm, format.height_mm), kFullFrameDiagonal_mm,
-                1e-12)
+    EXPECT_NEAR(crop * diagonal_mm(format.width_mm, format.height_mm), kFullFrameDiagonal_mm, 1e-12)
         << format.name;
   }
 }
@@ -183,11 +188,21 @@ TEST(OpticsSensorFormats, TableIsLargestFirstAndNamesRoundTrip) {
 
 TEST(OpticsSensorFormats, AcceptsCommonSpellings) {
   const std::array<std::pair<std::string_view, std::string_view>, 16> kCases = {{
-      {"FF", "full-frame"},        {"35mm", "full-frame"},     {"Full Frame", "full-frame"},
-      {"APS-C", "aps-c"},          {"apsc", "aps-c"},          {"aps_h", "aps-h"},
-      {"4/3", "four-thirds"},      {"m43", "four-thirds"},     {"1\"", "1in"},
-      {"1 inch", "1in"},           {"1/2.3\"", "1/2.3in"},     {"1/2.3", "1/2.3in"},
-      {"1/1.63in", "1/1.63in"},    {"1/3.2 in", "1/3.2in"},    {"medium format", "medium-format"},
+      {"FF", "full-frame"},
+      {"35mm", "full-frame"},
+      {"Full Frame", "full-frame"},
+      {"APS-C", "aps-c"},
+      {"apsc", "aps-c"},
+      {"aps_h", "aps-h"},
+      {"4/3", "four-thirds"},
+      {"m43", "four-thirds"},
+      {"1\"", "1in"},
+      {"1 inch", "1in"},
+      {"1/2.3\"", "1/2.3in"},
+      {"1/2.3", "1/2.3in"},
+      {"1/1.63in", "1/1.63in"},
+      {"1/3.2 in", "1/3.2in"},
+      {"medium format", "medium-format"},
       {"Medium-Format", "medium-format"},
   }};
   for (const auto& [spelling, name] : kCases) {
