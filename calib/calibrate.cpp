@@ -18,6 +18,7 @@
 #include "calib/plots.h"
 #include "calib/solver.h"
 #include "image/capture_folder.h"
+#include "image/frame_views.h"
 #include "optics/optics.h"
 
 namespace camlab::calib {
@@ -60,8 +61,12 @@ Result<std::vector<NamedImage>> load_job(const fs::path& dir) {
   CAMLAB_ASSIGN(folder, image::CaptureFolder::open(dir));
   std::vector<NamedImage> out;
   for (size_t i = 0; i < folder.frames().size(); ++i) {
-    cv::Mat m;
-    CAMLAB_ASSIGN(m, folder.load_image(static_cast<int>(i)));
+    // Corners are geometry: colour frames are searched in their luminance.
+    cv::Mat stored, m;
+    image::FrameSidecar sidecar;
+    CAMLAB_ASSIGN(sidecar, folder.load_sidecar(static_cast<int>(i)));
+    CAMLAB_ASSIGN(stored, folder.load_stored_image(static_cast<int>(i)));
+    CAMLAB_ASSIGN(m, image::luminance_view(stored, sidecar));
     out.emplace_back(folder.frames()[i].image_file, m);
   }
   if (out.empty())

@@ -10,7 +10,7 @@ if [ -z "$clang_format" ]; then
   echo "check-format: clang-format not found (scripts/install-deps.sh installs it)" >&2
   exit 1
 fi
-mapfile -t files < <(git ls-files '*.cpp' '*.h' 2>/dev/null || find src calib mock_device service cli tests \( -name '*.cpp' -o -name '*.h' \))
+mapfile -t files < <(git ls-files --cached --others --exclude-standard '*.cpp' '*.h' 2>/dev/null || find src calib mock_device service cli tests \( -name '*.cpp' -o -name '*.h' \))
 if [ "${1:-}" = "--fix" ]; then
   "$clang_format" -i "${files[@]}"
   exit 0

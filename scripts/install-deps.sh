@@ -7,6 +7,7 @@ packages=(
   build-essential cmake pkg-config git
   clang-format           # scripts/check-format.sh (Debian 12: version 14, the one .clang-format is checked with)
   libopencv-dev          # image I/O, chessboard detection, filtering
+  libturbojpeg0-dev      # MJPEG frames: decode (3x OpenCV's imdecode) and the virtual camera's encoder
   libmrcal-dev mrcal python3-mrcal   # lens models (C API) and mrcal's own tools for interop tests
   libmrgingham-dev       # mrcal's chessboard detector (square boards), calib/corners/mrgingham_corners.h
   libboost-dev           # Beast / Asio (header-only parts)

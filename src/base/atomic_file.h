@@ -17,7 +17,7 @@ Status write_file_atomically(const std::filesystem::path& path,
                              std::span<const unsigned char> bytes);
 Status write_file_atomically(const std::filesystem::path& path, std::string_view text);
 
-// Reads a whole file; errors name the path and the reason.
+// Reads a whole file, byte for byte (binary files too); errors name the path and the reason.
 Result<std::string> read_text_file(const std::filesystem::path& path);
 
 }  // namespace camlab

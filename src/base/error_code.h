@@ -66,6 +66,7 @@ enum class ErrorCode : uint8_t {
   kMissingSettings,
   kNoFrames,
   kImagerMismatch,
+  kNotLinear,
   // Measurements and fits: the data do not support an answer.
   kTooFewSamples,
   kTooFewViews,
@@ -173,7 +174,8 @@ inline constexpr std::array kErrorCodes = {
                   "An image cannot be decoded or has the wrong shape (channels, bit depth, "
                   "size)."},
     ErrorCodeInfo{ErrorCode::kBadFrame, "bad_frame", 502,
-                  "A frame buffer from the camera is shorter than its format says."},
+                  "A frame from the camera is shorter than its format says, or a JPEG that does "
+                  "not decode."},
     ErrorCodeInfo{ErrorCode::kBadVnl, "bad_vnl", 422,
                   "A corners.vnl file is malformed; the message gives the line."},
     ErrorCodeInfo{ErrorCode::kMissingSettings, "missing_settings", 422,
@@ -181,6 +183,9 @@ inline constexpr std::array kErrorCodes = {
     ErrorCodeInfo{ErrorCode::kNoFrames, "no_frames", 422, "The capture or job holds no frames."},
     ErrorCodeInfo{ErrorCode::kImagerMismatch, "imager_mismatch", 422,
                   "Images of one calibration have different sizes."},
+    ErrorCodeInfo{ErrorCode::kNotLinear, "not_linear", 422,
+                  "The frames are JPEG (gamma-encoded, lossy): their DN are not proportional "
+                  "to light, which the measurement needs; capture a raw format."},
     ErrorCodeInfo{ErrorCode::kTooFewSamples, "too_few_samples", 422,
                   "Too few usable points, pixels or frames for the fit."},
     ErrorCodeInfo{ErrorCode::kTooFewViews, "too_few_views", 422,

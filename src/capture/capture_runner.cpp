@@ -181,14 +181,21 @@ Status Runner::process(const device::Frame& frame) {
     sidecar.timestamp_ns = frame.meta.timestamp_ns;
     sidecar.clock = frame.meta.clock.empty() ? "monotonic" : frame.meta.clock;
     sidecar.pixel_format = converted->pixel_format;
+    sidecar.delivered_format = converted->delivered_format;
+    sidecar.layout = converted->layout;
+    sidecar.cfa_pattern = converted->cfa_pattern;
     sidecar.bit_depth = converted->bit_depth;
     sidecar.black_level_dn = converted->black_level_dn;
+    sidecar.white_level_dn = converted->white_level_dn;
+    sidecar.linear = converted->linear;
     sidecar.frames_discarded = not_kept_since_last_;
     sidecar.settings = change.settings;
     sidecar.labels = step.labels;
     sidecar.labels["repeat"] = repeat;
     not_kept_since_last_ = 0;
-    if (Status pushed = writer_->push(std::move(converted->image), std::move(sidecar)); !pushed)
+    if (Status pushed = writer_->push(std::move(converted->image), std::move(sidecar),
+                                      std::move(converted->jpeg));
+        !pushed)
       return pushed;
   }
   if (!written) return written;
@@ -217,7 +224,8 @@ Status Runner::start_stream() {
                           std::to_string(plan_.format.height));
   if (!can_convert(format_.fourcc))
     return make_error("unsupported", "pixel format '" + format_.fourcc +
-                                         "' cannot be captured (GREY, Y16, YUYV can)");
+                                         "' cannot be captured (camlab captures " +
+                                         image::capturable_fourcc_list() + ")");
   // Step 0 goes out before the stream starts: every frame is after it.
   if (Status s = write_change(to_write_.front(), true, 0); !s) return s;
   to_write_.pop_front();

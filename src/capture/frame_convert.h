@@ -1,36 +1,51 @@
-// From a driver buffer to the capture folder's single-channel image of raw DN
-// (docs/capture-folder.md), in one pass that is also the one copy out of the buffer (the
-// buffer goes back to the driver before the frame is written).
+// From a driver buffer to what the capture folder stores (docs/capture-folder.md), in one
+// pass that is also the one copy out of the buffer (the buffer goes back to the driver
+// before the frame is written).
 //
-//   GREY  -> CV_8UC1, 8 bits
-//   YUYV  -> CV_8UC1 of the Y samples, 8 bits
-//   Y16   -> CV_16UC1: the sensor's DN right-aligned (Y16 carries them MSB-aligned) when
-//            its bit depth is known, else the 16-bit values unchanged (bit depth 16)
+//   GREY, YUYV (its Y samples)       -> CV_8UC1, 8 bits
+//   Y16, Bayer 16                    -> CV_16UC1: the sensor's DN right-aligned (they arrive
+//                                       MSB-aligned) when its bit depth is known, else the
+//                                       16-bit values unchanged (bit depth 16)
+//   Y10P, Y12P, Bayer 10/12 (packed  -> CV_16UC1 of the DN, nothing rescaled; Bayer stays
+//   or not), Bayer 8                    the raw mosaic (CV_8UC1 for 8 bits)
+//   RGB3, BGR3, NV12, YU12           -> CV_8UC3 (B, G, R), YUV converted as declared
+//   MJPG, JPEG                       -> the stream's bytes as delivered, not linear
+//
 // The black level follows the bit depth (a 12-bit sensor's 64 DN is 4 DN in GREY).
 //
 // Reentrant: pure functions.
 #pragma once
 
+#include <cstdint>
 #include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 #include "base/result.h"
 #include "device/camera.h"
+#include "image/pixel_format.h"
 
 namespace camlab::capture {
 
 struct ConvertedFrame {
-  cv::Mat image;  // owns its pixels
+  cv::Mat image;              // owns its pixels; empty for JPEG
+  std::vector<uint8_t> jpeg;  // the stream as delivered, for MJPG/JPEG
+  image::FrameLayout layout = image::FrameLayout::kMono;
+  std::string cfa_pattern;  // "RGGB" ... for a mosaic, else ""
   int bit_depth = 8;
-  int black_level_dn = 0;    // in DN of bit_depth bits
-  std::string pixel_format;  // what the DN are: "GREY", "Y10", "Y12", "Y14" or "Y16"
+  int black_level_dn = 0;        // in DN of bit_depth bits
+  int white_level_dn = 255;      // the largest DN the format can carry: 2^bit_depth - 1
+  bool linear = true;            // false for JPEG
+  std::string pixel_format;      // what the stored DN are: "GREY", "Y12", "SRGGB10", "RGB3", "MJPG"
+  std::string delivered_format;  // the V4L2 fourcc as the camera sent it ("pRAA", "NV12")
 };
 
-// Whether convert_frame and frame_mean read this V4L2 fourcc ("GREY", "Y16 ", "YUYV").
+// Whether convert_frame and frame_mean read this V4L2 fourcc.
 bool can_convert(const std::string& fourcc);
 
-// Whether a buffer holds a whole frame of `format` in a format convert_frame knows.
-// Errors "bad_frame" (buffer shorter than the format says), "unsupported" (another fourcc).
+// Whether a buffer holds a whole frame of `format` in a format convert_frame knows (for
+// JPEG: a stream whose header decodes to the format's size). Errors "bad_frame" (buffer
+// shorter than the format says, or a JPEG that is not one), "unsupported" (another fourcc).
 Status check_frame(const device::Frame& frame, const device::StreamFormat& format);
 
 // `sensor_bit_depth` / `black_level_dn`: the sensor's, 0 when unknown. Errors
@@ -38,8 +53,9 @@ Status check_frame(const device::Frame& frame, const device::StreamFormat& forma
 Result<ConvertedFrame> convert_frame(const device::Frame& frame, const device::StreamFormat& format,
                                      int sensor_bit_depth, int black_level_dn);
 
-// The mean value of a frame's samples in the units of its format (the Y samples of
-// YUYV), read in place; for watching the signal change frame by frame.
+// The mean value of a frame's samples in the units of its format (the Y samples of YUYV,
+// every channel of colour formats, a 1/8-scale decode of JPEG), read without keeping a
+// copy; for watching the signal change frame by frame.
 Result<double> frame_mean(const device::Frame& frame, const device::StreamFormat& format);
 
 }  // namespace camlab::capture

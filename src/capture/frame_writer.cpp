@@ -18,11 +18,11 @@ FrameWriter::~FrameWriter() {
   thread_.join();
 }
 
-Status FrameWriter::push(cv::Mat image, image::FrameSidecar sidecar) {
+Status FrameWriter::push(cv::Mat image, image::FrameSidecar sidecar, std::vector<uint8_t> jpeg) {
   std::unique_lock lock(mutex_);
   changed_.wait(lock, [&] { return queue_.size() < max_queued_ || error_; });
   if (error_) return *error_;
-  queue_.push_back({std::move(image), std::move(sidecar)});
+  queue_.push_back({std::move(image), std::move(sidecar), std::move(jpeg)});
   changed_.notify_all();
   return {};
 }
@@ -63,7 +63,8 @@ void FrameWriter::run() {
     busy_ = true;
     changed_.notify_all();  // room in the queue
     lock.unlock();
-    auto entry = folder_.add_frame(job.image, job.sidecar);
+    auto entry = job.jpeg.empty() ? folder_.add_frame(job.image, job.sidecar)
+                                  : folder_.add_jpeg_frame(job.jpeg, job.sidecar);
     lock.lock();
     busy_ = false;
     if (entry)

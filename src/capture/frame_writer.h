@@ -34,9 +34,10 @@ class FrameWriter {
   FrameWriter(const FrameWriter&) = delete;
   FrameWriter& operator=(const FrameWriter&) = delete;
 
-  // Queues a frame (taking the image's pixels); blocks while the queue is full. Fails
-  // with the first write error once one happened (nothing more is written then).
-  Status push(cv::Mat image, image::FrameSidecar sidecar);
+  // Queues a frame (taking the image's pixels, or a camera's JPEG stream when `jpeg` is
+  // not empty); blocks while the queue is full. Fails with the first write error once one
+  // happened (nothing more is written then).
+  Status push(cv::Mat image, image::FrameSidecar sidecar, std::vector<uint8_t> jpeg = {});
 
   // Frames written since the last call, in order.
   std::vector<Written> take_written();
@@ -49,6 +50,7 @@ class FrameWriter {
   struct Job {
     cv::Mat image;
     image::FrameSidecar sidecar;
+    std::vector<uint8_t> jpeg;
   };
   void run();
 

@@ -10,6 +10,7 @@
 #include "capture/control_keeper.h"
 #include "capture/frame_convert.h"
 #include "capture/settle_tracker.h"
+#include "image/pixel_format.h"
 
 namespace camlab::capture {
 
@@ -69,7 +70,8 @@ class Probe {
 Status Probe::start() {
   auto formats = camera_.formats();
   if (!formats) return formats.error();
-  // The mean signal needs no resolution: the smallest size of the deepest greyscale format.
+  // The mean signal needs no resolution: the smallest size of the deepest greyscale
+  // format; else of any format camlab reads, linear ones (raw Bayer, RGB) before JPEG.
   const device::PixelFormatInfo* chosen = nullptr;
   for (const char* fourcc : {"Y16 ", "GREY", "YUYV"}) {
     auto it = std::find_if(formats->begin(), formats->end(),
@@ -79,9 +81,16 @@ Status Probe::start() {
       break;
     }
   }
+  for (bool want_linear : {true, false}) {
+    for (const auto& f : *formats) {
+      if (chosen) break;
+      const auto info = image::pixel_format_info(f.fourcc);
+      if (info && info->linear == want_linear && !f.sizes.empty()) chosen = &f;
+    }
+  }
   if (!chosen)
-    return make_error("unsupported",
-                      "the camera offers no GREY, Y16 or YUYV format to measure signal in");
+    return make_error("unsupported", "the camera offers no format camlab reads (" +
+                                         image::capturable_fourcc_list() + ")");
   const auto& size = *std::min_element(
       chosen->sizes.begin(), chosen->sizes.end(), [](const auto& a, const auto& b) {
         return uint64_t{a.width} * a.height < uint64_t{b.width} * b.height;
@@ -95,7 +104,11 @@ Status Probe::start() {
   format_ = *applied;
   if (!can_convert(format_.fourcc))
     return make_error("unsupported", "the camera chose format " + format_.fourcc);
-  full_scale_ = format_.fourcc == "Y16 " ? 65535.0 : 255.0;
+  // frame_mean's units: 16-bit words for MSB-aligned formats, else the format's DN.
+  const auto info = image::pixel_format_info(format_.fourcc);
+  full_scale_ = info->packing == image::SamplePacking::k16High
+                    ? 65535.0
+                    : std::ldexp(1.0, info->bits_per_sample) - 1;
   return camera_.start(kBuffers);
 }
 

@@ -38,7 +38,7 @@ struct FrameSizeInfo {
 };
 
 struct PixelFormatInfo {
-  std::string fourcc;  // "GREY", "Y16 ", "YUYV"
+  std::string fourcc;  // "GREY", "Y16 ", "YUYV", "pRAA", "MJPG" ...
   std::string description;
   std::vector<FrameSizeInfo> sizes;
 };
@@ -61,6 +61,12 @@ struct ControlInfo {
   bool inactive = false;  // e.g. exposure_time_absolute while exposure_auto is on
 };
 
+// How a YUV format's samples map to R, G, B, as the driver declares it (V4L2's
+// quantization and ycbcr_enc); kDefault means the format's default: limited range and
+// BT.601 for YUYV, NV12 and YU12.
+enum class YcbcrQuantization { kDefault, kFull, kLimited };
+enum class YcbcrEncoding { kDefault, kBt601, kBt709 };
+
 struct StreamFormat {
   std::string fourcc;
   uint32_t width = 0;
@@ -68,6 +74,8 @@ struct StreamFormat {
   uint32_t bytes_per_line = 0;
   uint32_t size_bytes = 0;
   FrameInterval interval;
+  YcbcrQuantization quantization = YcbcrQuantization::kDefault;
+  YcbcrEncoding ycbcr_encoding = YcbcrEncoding::kDefault;
 };
 
 struct FrameMetadata {

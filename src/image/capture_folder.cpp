@@ -1,13 +1,16 @@
 #include "image/capture_folder.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
+#include <optional>
 #include <system_error>
 
 #include <opencv2/imgcodecs.hpp>
 
 #include "base/atomic_file.h"
+#include "image/jpeg_codec.h"
 
 namespace camlab::image {
 
@@ -36,7 +39,25 @@ bool is_plain_file_name(const std::string& name) {
          name.find('\0') == std::string::npos;
 }
 
+std::optional<FrameLayout> layout_named(const std::string& name) {
+  for (FrameLayout layout : {FrameLayout::kMono, FrameLayout::kMosaic, FrameLayout::kRgb})
+    if (name_of(layout) == name) return layout;
+  return std::nullopt;
+}
+
 }  // namespace
+
+std::string_view name_of(FrameLayout layout) {
+  switch (layout) {
+    case FrameLayout::kMono:
+      return "mono";
+    case FrameLayout::kMosaic:
+      return "mosaic";
+    case FrameLayout::kRgb:
+      return "rgb";
+  }
+  return "mono";
+}
 
 nlohmann::json to_json(const FrameSidecar& sidecar) {
   nlohmann::json json = {
@@ -44,8 +65,16 @@ nlohmann::json to_json(const FrameSidecar& sidecar) {
       {"timestamp_ns", sidecar.timestamp_ns},
       {"clock", sidecar.clock},
       {"pixel_format", sidecar.pixel_format},
+      {"delivered_format", sidecar.delivered_format},
+      {"layout", name_of(sidecar.layout)},
+      {"cfa_pattern",
+       sidecar.cfa_pattern.empty() ? nlohmann::json() : nlohmann::json(sidecar.cfa_pattern)},
       {"bit_depth", sidecar.bit_depth},
       {"black_level_dn", sidecar.black_level_dn},
+      {"white_level_dn", sidecar.white_level_dn > 0
+                             ? sidecar.white_level_dn
+                             : (1 << std::clamp(sidecar.bit_depth, 1, 16)) - 1},
+      {"linear", sidecar.linear},
       {"frames_discarded", sidecar.frames_discarded},
       {"settings", sidecar.settings},
       {"labels", sidecar.labels},
@@ -62,8 +91,22 @@ Result<FrameSidecar> frame_sidecar_from_json(const nlohmann::json& json) {
     sidecar.timestamp_ns = json.at("timestamp_ns").get<int64_t>();
     sidecar.clock = json.value("clock", "monotonic");
     sidecar.pixel_format = json.value("pixel_format", "");
+    sidecar.delivered_format = json.value("delivered_format", "");
     sidecar.bit_depth = json.at("bit_depth").get<int>();
     sidecar.black_level_dn = json.value("black_level_dn", 0);
+    // Version 1 sidecars have none of the colour keys: mono, linear, full scale.
+    const std::string layout = json.value("layout", "mono");
+    if (auto named = layout_named(layout)) {
+      sidecar.layout = *named;
+    } else {
+      return make_error("bad_sidecar",
+                        "frame sidecar: layout \"" + layout + "\" is not mono, mosaic or rgb");
+    }
+    if (json.contains("cfa_pattern") && !json["cfa_pattern"].is_null())
+      sidecar.cfa_pattern = json["cfa_pattern"].get<std::string>();
+    sidecar.linear = json.value("linear", true);
+    if (sidecar.bit_depth >= 1 && sidecar.bit_depth <= 16)
+      sidecar.white_level_dn = json.value("white_level_dn", (1 << sidecar.bit_depth) - 1);
     sidecar.frames_discarded = json.value("frames_discarded", 0);
     sidecar.settings = json.value("settings", nlohmann::json::object());
     sidecar.labels = json.value("labels", nlohmann::json::object());
@@ -74,6 +117,17 @@ Result<FrameSidecar> frame_sidecar_from_json(const nlohmann::json& json) {
   if (sidecar.bit_depth < 1 || sidecar.bit_depth > 16)
     return make_error("bad_sidecar", "frame sidecar: bit_depth " +
                                          std::to_string(sidecar.bit_depth) + " is not in 1..16");
+  if (sidecar.layout == FrameLayout::kMosaic && !is_bayer_pattern(sidecar.cfa_pattern))
+    return make_error("bad_sidecar",
+                      "frame sidecar: a mosaic needs cfa_pattern RGGB, BGGR, "
+                      "GRBG or GBRG, not \"" +
+                          sidecar.cfa_pattern + "\"");
+  if (sidecar.white_level_dn <= sidecar.black_level_dn ||
+      sidecar.white_level_dn > (1 << sidecar.bit_depth) - 1)
+    return make_error("bad_sidecar",
+                      "frame sidecar: white_level_dn " + std::to_string(sidecar.white_level_dn) +
+                          " is not above black_level_dn " + std::to_string(sidecar.black_level_dn) +
+                          " and within " + std::to_string(sidecar.bit_depth) + " bits");
   return sidecar;
 }
 
@@ -107,29 +161,47 @@ Result<CaptureFolderWriter> CaptureFolderWriter::create(const fs::path& dir,
 Result<CaptureFrameEntry> CaptureFolderWriter::add_frame(const cv::Mat& image,
                                                          const FrameSidecar& sidecar) {
   const int expected_depth = sidecar.bit_depth <= 8 ? CV_8U : CV_16U;
-  if (image.empty() || image.channels() != 1 || image.depth() != expected_depth)
-    return make_error("bad_frame", "frame must be a single-channel " +
-                                       std::string(expected_depth == CV_8U ? "8" : "16") +
-                                       "-bit image for bit depth " +
-                                       std::to_string(sidecar.bit_depth));
-  CaptureFrameEntry entry;
-  entry.index = frame_count();
-  const std::string stem = frame_stem(entry.index);
-  entry.image_file = stem + ".png";
-  entry.sidecar_file = stem + ".json";
-
+  const int expected_channels = sidecar.layout == FrameLayout::kRgb ? 3 : 1;
+  if (image.empty() || image.channels() != expected_channels || image.depth() != expected_depth)
+    return make_error("bad_frame",
+                      "a " + std::string(name_of(sidecar.layout)) + " frame must be a " +
+                          std::to_string(expected_channels) + "-channel " +
+                          std::string(expected_depth == CV_8U ? "8" : "16") +
+                          "-bit image for bit depth " + std::to_string(sidecar.bit_depth));
   std::vector<unsigned char> png;
   // Level 1: frames are written on the capture path; bigger levels cost 3-5x the time
   // for a few percent of size on noisy sensor data.
   if (!cv::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 1}))
-    return make_error("io_error", "PNG encoding failed for frame " + stem);
-  if (Status s = write_file_atomically(dir_ / entry.image_file, png); !s) return s.error();
+    return make_error("io_error", "PNG encoding failed for frame " + frame_stem(frame_count()));
+  return write_frame(png, ".png", sidecar, image.cols, image.rows);
+}
+
+Result<CaptureFrameEntry> CaptureFolderWriter::add_jpeg_frame(std::span<const uint8_t> jpeg,
+                                                              const FrameSidecar& sidecar) {
+  if (sidecar.layout != FrameLayout::kRgb || sidecar.linear)
+    return make_error("invalid_argument",
+                      "a JPEG frame's sidecar must say layout rgb, linear false");
+  auto header = read_jpeg_header(jpeg);
+  if (!header) return make_error("bad_frame", header.error().message);
+  return write_frame(jpeg, ".jpg", sidecar, header->width, header->height);
+}
+
+Result<CaptureFrameEntry> CaptureFolderWriter::write_frame(std::span<const uint8_t> encoded,
+                                                           const char* extension,
+                                                           const FrameSidecar& sidecar, int width,
+                                                           int height) {
+  CaptureFrameEntry entry;
+  entry.index = frame_count();
+  const std::string stem = frame_stem(entry.index);
+  entry.image_file = stem + extension;
+  entry.sidecar_file = stem + ".json";
+  if (Status s = write_file_atomically(dir_ / entry.image_file, encoded); !s) return s.error();
 
   nlohmann::json sidecar_json = to_json(sidecar);
   sidecar_json["index"] = entry.index;
   sidecar_json["image"] = entry.image_file;
-  sidecar_json["width"] = image.cols;
-  sidecar_json["height"] = image.rows;
+  sidecar_json["width"] = width;
+  sidecar_json["height"] = height;
   if (Status s = write_file_atomically(dir_ / entry.sidecar_file, sidecar_json.dump(2) + "\n"); !s)
     return s.error();
 
@@ -189,17 +261,48 @@ Result<CaptureFolder> CaptureFolder::open(const fs::path& dir) {
   return folder;
 }
 
-Result<cv::Mat> CaptureFolder::load_image(int index) const {
+Result<cv::Mat> CaptureFolder::load_stored_image(int index) const {
   if (index < 0 || index >= static_cast<int>(frames_.size()))
     return make_error("out_of_range", "frame " + std::to_string(index) + " is not in 0.." +
                                           std::to_string(static_cast<int>(frames_.size()) - 1));
   const fs::path path = dir_ / frames_[index].image_file;
+  if (path.extension() == ".jpg") {
+    auto bytes = read_text_file(path);  // any bytes: the name says text, the read is binary
+    if (!bytes) return bytes.error();
+    auto image = decode_jpeg({reinterpret_cast<const uint8_t*>(bytes->data()), bytes->size()});
+    if (!image) return make_error("bad_image", path.string() + ": " + image.error().message);
+    return *image;
+  }
   cv::Mat image = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
   if (image.empty())
     return make_error("bad_image", "cannot decode " + path.string() + " (missing or corrupt)");
-  if (image.channels() != 1)
+  if (image.channels() != 1 && image.channels() != 3)
     return make_error("bad_image", path.string() + " has " + std::to_string(image.channels()) +
-                                       " channels; camlab frames are single-channel");
+                                       " channels; camlab frames have 1 or 3");
+  return image;
+}
+
+Result<cv::Mat> CaptureFolder::load_image(int index) const {
+  auto sidecar = load_sidecar(index);
+  if (!sidecar) return sidecar.error();
+  const std::string frame = "frame " + std::to_string(index) + " of " + dir_.string();
+  if (!sidecar->linear)
+    return make_error("not_linear", frame + " is a JPEG (" + sidecar->delivered_format +
+                                        "): gamma-encoded and lossy, so its DN are not "
+                                        "proportional to light; capture a raw format instead");
+  if (sidecar->layout != FrameLayout::kMono)
+    return make_error("unsupported", frame + " is " +
+                                         (sidecar->layout == FrameLayout::kMosaic
+                                              ? "a raw " + sidecar->cfa_pattern + " Bayer mosaic"
+                                              : std::string("an RGB frame")) +
+                                         " (" + sidecar->pixel_format +
+                                         "); this measurement reads mono frames");
+  auto image = load_stored_image(index);
+  if (!image) return image.error();
+  if (image->channels() != 1)
+    return make_error("bad_image", (dir_ / frames_[index].image_file).string() + " has " +
+                                       std::to_string(image->channels()) +
+                                       " channels; its sidecar says mono");
   return image;
 }
 

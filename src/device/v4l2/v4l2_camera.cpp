@@ -13,6 +13,24 @@ namespace camlab::device {
 
 namespace {
 
+// V4L2's quantization and encoding, resolved as the kernel's V4L2_MAP_* macros do for the
+// colour spaces cameras use: only an explicit full range or BT.709 departs from the
+// limited-range BT.601 default of YUV formats.
+YcbcrQuantization quantization_of(const v4l2_pix_format& pix) {
+  if (pix.quantization == V4L2_QUANTIZATION_FULL_RANGE) return YcbcrQuantization::kFull;
+  if (pix.quantization == V4L2_QUANTIZATION_LIM_RANGE) return YcbcrQuantization::kLimited;
+  return pix.colorspace == V4L2_COLORSPACE_JPEG ? YcbcrQuantization::kFull
+                                                : YcbcrQuantization::kDefault;
+}
+
+YcbcrEncoding ycbcr_encoding_of(const v4l2_pix_format& pix) {
+  if (pix.ycbcr_enc == V4L2_YCBCR_ENC_709) return YcbcrEncoding::kBt709;
+  if (pix.ycbcr_enc == V4L2_YCBCR_ENC_601) return YcbcrEncoding::kBt601;
+  if (pix.ycbcr_enc == V4L2_YCBCR_ENC_DEFAULT && pix.colorspace == V4L2_COLORSPACE_REC709)
+    return YcbcrEncoding::kBt709;
+  return YcbcrEncoding::kDefault;
+}
+
 std::string fourcc_text(uint32_t fourcc) {
   std::string text(4, ' ');
   for (int i = 0; i < 4; ++i) text[i] = static_cast<char>((fourcc >> (8 * i)) & 0xff);
@@ -277,6 +295,8 @@ Result<StreamFormat> V4l2Camera::configure(const StreamFormat& requested) {
   applied.height = format.fmt.pix.height;
   applied.bytes_per_line = format.fmt.pix.bytesperline;
   applied.size_bytes = format.fmt.pix.sizeimage;
+  applied.quantization = quantization_of(format.fmt.pix);
+  applied.ycbcr_encoding = ycbcr_encoding_of(format.fmt.pix);
   v4l2_streamparm parm{};
   parm.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   if (requested.interval.denominator != 0) {

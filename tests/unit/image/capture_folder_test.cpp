@@ -6,10 +6,12 @@
 #include <fstream>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "base/atomic_file.h"
 #include "image/cameramodel_file.h"
 #include "image/capture_folder.h"
+#include "image/frame_views.h"
 
 namespace camlab::image {
 namespace {
@@ -130,9 +132,151 @@ TEST_F(CaptureFolderTest, BrokenFoldersGiveSpecificErrors) {
   }
   auto folder = CaptureFolder::open(dir);
   ASSERT_TRUE(folder.ok());
-  EXPECT_EQ(folder->load_image(0).error().code, "bad_image");
+  EXPECT_EQ(folder->load_stored_image(0).error().code, "bad_image");
   EXPECT_EQ(folder->load_sidecar(0).error().code, "bad_sidecar");
+  EXPECT_EQ(folder->load_image(0).error().code, "bad_sidecar") << "the sidecar says what it is";
   EXPECT_EQ(folder->load_image(5).error().code, "out_of_range");
+}
+
+// Format version 2: Bayer mosaics, RGB and JPEG frames round trip with their colour keys;
+// version 1 folders still read (as mono, linear, full scale); mono-only readers refuse
+// colour frames by name rather than measure a filter pattern.
+
+FrameSidecar mosaic_sidecar() {
+  FrameSidecar s;
+  s.pixel_format = "SGRBG12";
+  s.delivered_format = "pgCC";
+  s.layout = FrameLayout::kMosaic;
+  s.cfa_pattern = "GRBG";
+  s.bit_depth = 12;
+  s.black_level_dn = 256;
+  s.white_level_dn = 4000;
+  return s;
+}
+
+TEST_F(CaptureFolderTest, MosaicRgbAndJpegFramesRoundTripWithTheirKeys) {
+  auto writer = CaptureFolderWriter::create(dir, "single", {}, {});
+  ASSERT_TRUE(writer.ok());
+  cv::Mat mosaic(6, 8, CV_16UC1);
+  cv::randu(mosaic, 0, 4096);
+  ASSERT_TRUE(writer->add_frame(mosaic, mosaic_sidecar()).ok());
+
+  cv::Mat bgr(6, 8, CV_8UC3, cv::Scalar(10, 100, 250));
+  FrameSidecar rgb;
+  rgb.pixel_format = "RGB3";
+  rgb.delivered_format = "NV12";
+  rgb.layout = FrameLayout::kRgb;
+  ASSERT_TRUE(writer->add_frame(bgr, rgb).ok());
+
+  std::vector<uint8_t> jpeg;
+  cv::imencode(".jpg", bgr, jpeg, {cv::IMWRITE_JPEG_QUALITY, 95});
+  FrameSidecar jpeg_side = rgb;
+  jpeg_side.pixel_format = "MJPG";
+  jpeg_side.delivered_format = "MJPG";
+  jpeg_side.linear = false;
+  ASSERT_TRUE(writer->add_jpeg_frame(jpeg, jpeg_side).ok());
+  EXPECT_FALSE(writer->add_jpeg_frame(jpeg, rgb).ok()) << "a JPEG is never linear";
+  ASSERT_TRUE(writer->finish().ok());
+
+  auto folder = CaptureFolder::open(dir);
+  ASSERT_TRUE(folder.ok()) << folder.error().message;
+  EXPECT_EQ(folder->manifest()["version"], 2);
+  EXPECT_EQ(folder->frames()[2].image_file, "frame_000002.jpg");
+  // The JPEG is on disk byte for byte as delivered.
+  std::ifstream in(dir / "frame_000002.jpg", std::ios::binary);
+  std::vector<uint8_t> on_disk((std::istreambuf_iterator<char>(in)), {});
+  EXPECT_EQ(on_disk, jpeg);
+
+  auto m = folder->load_sidecar(0);
+  ASSERT_TRUE(m.ok()) << m.error().message;
+  EXPECT_EQ(m->layout, FrameLayout::kMosaic);
+  EXPECT_EQ(m->cfa_pattern, "GRBG");
+  EXPECT_EQ(m->white_level_dn, 4000);
+  EXPECT_EQ(m->delivered_format, "pgCC");
+  EXPECT_EQ(cv::norm(*folder->load_stored_image(0), mosaic, cv::NORM_INF), 0);
+  EXPECT_EQ(folder->load_image(0).error().code, ErrorCode::kUnsupported);
+
+  auto r = folder->load_stored_image(1);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->at<cv::Vec3b>(3, 3), cv::Vec3b(10, 100, 250)) << "B, G, R as written";
+  EXPECT_EQ(folder->load_image(1).error().code, ErrorCode::kUnsupported);
+
+  auto j = folder->load_sidecar(2);
+  ASSERT_TRUE(j.ok());
+  EXPECT_FALSE(j->linear);
+  EXPECT_EQ(folder->load_image(2).error().code, ErrorCode::kNotLinear);
+  auto decoded = folder->load_stored_image(2);
+  ASSERT_TRUE(decoded.ok());
+  EXPECT_LE(cv::norm(*decoded, bgr, cv::NORM_INF), 3.0);
+}
+
+TEST_F(CaptureFolderTest, VersionOneFoldersReadAsMonoLinearFullScale) {
+  fs::create_directories(dir);
+  cv::imwrite((dir / "frame_000000.png").string(), cv::Mat(4, 4, CV_16UC1, cv::Scalar(900)));
+  std::ofstream(dir / "manifest.json") << R"({"format": "camlab-capture", "version": 1,
+    "kind": "single", "complete": true, "frame_count": 1,
+    "frames": [{"index": 0, "image": "frame_000000.png", "sidecar": "frame_000000.json"}]})";
+  std::ofstream(dir / "frame_000000.json") << R"({"sequence": 7, "timestamp_ns": 0,
+    "pixel_format": "Y10", "bit_depth": 10, "black_level_dn": 16, "settings": {}})";
+  auto folder = CaptureFolder::open(dir);
+  ASSERT_TRUE(folder.ok()) << folder.error().message;
+  auto side = folder->load_sidecar(0);
+  ASSERT_TRUE(side.ok()) << side.error().message;
+  EXPECT_EQ(side->layout, FrameLayout::kMono);
+  EXPECT_TRUE(side->linear);
+  EXPECT_EQ(side->white_level_dn, 1023);
+  auto image = folder->load_image(0);
+  ASSERT_TRUE(image.ok()) << image.error().message;
+  EXPECT_EQ(image->at<uint16_t>(2, 2), 900);
+}
+
+TEST_F(CaptureFolderTest, InconsistentColourKeysAreBadSidecars) {
+  nlohmann::json base = {{"sequence", 0}, {"timestamp_ns", 0}, {"bit_depth", 10}};
+  auto with = [&](nlohmann::json extra) {
+    nlohmann::json j = base;
+    j.update(extra);
+    return frame_sidecar_from_json(j);
+  };
+  EXPECT_TRUE(with({{"layout", "mosaic"}, {"cfa_pattern", "BGGR"}}).ok());
+  EXPECT_EQ(with({{"layout", "mosaic"}}).error().code, ErrorCode::kBadSidecar);
+  EXPECT_EQ(with({{"layout", "mosaic"}, {"cfa_pattern", "RGBW"}}).error().code,
+            ErrorCode::kBadSidecar);
+  EXPECT_EQ(with({{"layout", "hexagonal"}}).error().code, ErrorCode::kBadSidecar);
+  EXPECT_EQ(with({{"white_level_dn", 4095}}).error().code, ErrorCode::kBadSidecar)
+      << "4095 does not fit in 10 bits";
+  EXPECT_EQ(with({{"white_level_dn", 10}, {"black_level_dn", 64}}).error().code,
+            ErrorCode::kBadSidecar);
+}
+
+TEST(FrameViews, CfaPlanesHoldTheSamplesOfEachColour) {
+  // A mosaic whose every sample says its colour: R = 1000, G = 2000, B = 3000.
+  const std::string cfa = "GBRG";
+  cv::Mat mosaic(4, 6, CV_16UC1);
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 6; ++x) {
+      const char c = cfa[static_cast<size_t>(2 * (y % 2) + x % 2)];
+      mosaic.at<uint16_t>(y, x) = c == 'R' ? 1000 : c == 'G' ? 2000 : 3000;
+    }
+  FrameSidecar side;
+  side.layout = FrameLayout::kMosaic;
+  side.cfa_pattern = cfa;
+  side.bit_depth = 12;
+  auto planes = cfa_planes(mosaic, side);
+  ASSERT_TRUE(planes.ok());
+  for (int k = 0; k < 4; ++k) {
+    const char c = planes->colours[static_cast<size_t>(k)];
+    const double want = c == 'R' ? 1000 : c == 'G' ? 2000 : 3000;
+    const cv::Mat& plane = planes->planes[static_cast<size_t>(k)];
+    EXPECT_EQ(plane.size(), cv::Size(3, 2));
+    double lo, hi;
+    cv::minMaxLoc(plane, &lo, &hi);
+    EXPECT_EQ(lo, want) << k;
+    EXPECT_EQ(hi, want) << k;
+  }
+  // A flat grey through the demosaic keeps its weighted level (away from the border).
+  auto lum = luminance_view(mosaic, side);
+  ASSERT_TRUE(lum.ok());
+  EXPECT_NEAR(lum->at<uint16_t>(2, 3), 0.299 * 1000 + 0.587 * 2000 + 0.114 * 3000, 2);
 }
 
 TEST(CameraModelText, PrintsEveryDoubleRoundTripExact) {

@@ -1,0 +1,77 @@
+#include "image/frame_views.h"
+
+#include <opencv2/imgproc.hpp>
+
+namespace camlab::image {
+
+namespace {
+
+// OpenCV names a Bayer pattern by the second row's second and third samples, so V4L2's
+// RGGB is OpenCV's "BG".
+int demosaic_to_bgr_code(const std::string& cfa) {
+  if (cfa == "RGGB") return cv::COLOR_BayerBG2BGR;
+  if (cfa == "BGGR") return cv::COLOR_BayerRG2BGR;
+  if (cfa == "GRBG") return cv::COLOR_BayerGB2BGR;
+  return cv::COLOR_BayerGR2BGR;  // GBRG
+}
+
+}  // namespace
+
+Result<cv::Mat> luminance_view(const cv::Mat& stored, const FrameSidecar& sidecar) {
+  if (stored.empty()) return make_error("bad_image", "the frame is empty");
+  switch (sidecar.layout) {
+    case FrameLayout::kMono:
+      if (stored.channels() != 1)
+        return make_error("bad_image",
+                          "a mono frame with " + std::to_string(stored.channels()) + " channels");
+      return stored;
+    case FrameLayout::kMosaic: {
+      if (stored.channels() != 1 || !is_bayer_pattern(sidecar.cfa_pattern))
+        return make_error("bad_image", "a mosaic frame must be one channel with a Bayer pattern");
+      if (stored.rows < 2 || stored.cols < 2)
+        return make_error("bad_image", "a mosaic frame needs at least 2x2 samples");
+      cv::Mat bgr, grey;
+      cv::cvtColor(stored, bgr, demosaic_to_bgr_code(sidecar.cfa_pattern));
+      cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
+      return grey;
+    }
+    case FrameLayout::kRgb: {
+      if (stored.channels() != 3)
+        return make_error("bad_image",
+                          "an rgb frame with " + std::to_string(stored.channels()) + " channels");
+      cv::Mat grey;
+      cv::cvtColor(stored, grey, cv::COLOR_BGR2GRAY);
+      return grey;
+    }
+  }
+  return make_error("bad_image", "unknown frame layout");
+}
+
+Result<CfaPlanes> cfa_planes(const cv::Mat& stored, const FrameSidecar& sidecar) {
+  if (sidecar.layout != FrameLayout::kMosaic || !is_bayer_pattern(sidecar.cfa_pattern))
+    return make_error("unsupported", "only a raw Bayer mosaic has colour planes");
+  if (stored.channels() != 1 || stored.rows < 2 || stored.cols < 2)
+    return make_error("bad_image", "a mosaic frame must be one channel of at least 2x2 samples");
+  const int rows = stored.rows / 2, cols = stored.cols / 2;
+  CfaPlanes out;
+  for (int k = 0; k < 4; ++k) {
+    out.colours[static_cast<size_t>(k)] = sidecar.cfa_pattern[static_cast<size_t>(k)];
+    cv::Mat& plane = out.planes[static_cast<size_t>(k)];
+    plane.create(rows, cols, stored.type());
+    const int dy = k / 2, dx = k % 2;
+    for (int y = 0; y < rows; ++y) {
+      if (stored.depth() == CV_8U) {
+        const uint8_t* in = stored.ptr<uint8_t>(2 * y + dy);
+        uint8_t* row = plane.ptr<uint8_t>(y);
+        for (int x = 0; x < cols; ++x) row[x] = in[2 * x + dx];
+      } else {
+        const uint16_t* in = stored.ptr<uint16_t>(2 * y + dy);
+        uint16_t* row = plane.ptr<uint16_t>(y);
+        for (int x = 0; x < cols; ++x) row[x] = in[2 * x + dx];
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace camlab::image
