@@ -55,6 +55,12 @@ PlotSeries series(std::string label, bool line, int colour) {
 Result<Paths> write_defocus_plots(const fs::path& dir, const DefocusReport& r) {
   if (Status s = make_dir(dir); !s) return s.error();
   Paths written;
+  for (const DefocusReport& channel : r.channels) {  // colour: one set per channel
+    auto one = write_defocus_plots(dir, channel);
+    if (!one) return one.error();
+    written.insert(written.end(), one->begin(), one->end());
+  }
+  const std::string prefix = r.channel.empty() ? "" : r.channel + "_";
   const bool aperture = r.sweep == "f_number";
   for (const TargetDefocus& t : r.targets) {
     PlotSpec spec;
@@ -69,7 +75,7 @@ Result<Paths> write_defocus_plots(const fs::path& dir, const DefocusReport& r) {
     if (measured.x.empty()) continue;
     const auto [lo_it, hi_it] = std::minmax_element(measured.x.begin(), measured.x.end());
     if (aperture && t.aperture) {
-      spec.title = t.name + ": CoC vs f-number";
+      spec.title = prefix + t.name + ": CoC vs f-number";
       spec.x_label = "f-number N";
       fit.label = format_printf("fit C = %.3f / N", t.aperture->k_px);
       for (double n = *lo_it; n <= *hi_it * 1.001; n *= 1.02) {
@@ -77,7 +83,7 @@ Result<Paths> write_defocus_plots(const fs::path& dir, const DefocusReport& r) {
         fit.y.push_back(t.aperture->k_px / n);
       }
     } else if (!aperture && t.v_curve) {
-      spec.title = t.name + ": V-curve";
+      spec.title = prefix + t.name + ": V-curve";
       spec.x_label = "focus position (steps)";
       fit.label = format_printf("fit: best %.2f, slope %.4f px/step", t.v_curve->best_position,
                                 t.v_curve->slope_px_per_step);
@@ -95,8 +101,8 @@ Result<Paths> write_defocus_plots(const fs::path& dir, const DefocusReport& r) {
     }
     spec.y_label = "blur diameter (px)";
     spec.series = {measured, fit};
-    if (Status s =
-            plot(dir / (t.name + (aperture ? "_coc_vs_n.png" : "_v_curve.png")), spec, &written);
+    if (Status s = plot(dir / (prefix + t.name + (aperture ? "_coc_vs_n.png" : "_v_curve.png")),
+                        spec, &written);
         !s)
       return s.error();
   }

@@ -32,7 +32,9 @@ nlohmann::json with_plots(nlohmann::json report, const std::vector<std::filesyst
 
 }  // namespace
 
-std::string to_text(const DefocusReport& r) {
+namespace {
+
+std::string defocus_text(const DefocusReport& r) {
   std::string text =
       line("defocus: %zu target(s), sweep %s, pitch %.3g um, f %.4g mm, baseline sigma %.3g px\n",
            r.targets.size(), r.sweep.c_str(), r.pixel_pitch_um, r.focal_mm, r.baseline_sigma_px);
@@ -80,6 +82,25 @@ std::string to_text(const DefocusReport& r) {
     } else if (!t.v_curve_error.empty()) {
       text += "  V-curve: " + t.v_curve_error + "\n";
     }
+  }
+  return text;
+}
+
+}  // namespace
+
+std::string to_text(const DefocusReport& r) {
+  if (r.channels.empty()) return defocus_text(r);
+  std::string text =
+      line("defocus of a colour capture: each channel on its own sites, in sensor px\n");
+  for (const DefocusReport& c : r.channels)
+    text += "\n== channel " + c.channel + " ==\n" + defocus_text(c);
+  if (!r.chromatic.empty())
+    text += "\nlongitudinal chromatic aberration (mm at the sensor, + = farther from the lens):\n";
+  for (const ChromaticFocusShift& c : r.chromatic) {
+    text += line("  %s (%s): R %+.5f +- %.5f, B %+.5f +- %.5f%s\n", c.target.c_str(),
+                 c.method.c_str(), c.shift_r_mm, c.shift_r_sigma_mm, c.shift_b_mm,
+                 c.shift_b_sigma_mm, c.side_assumed ? " (side of the sensor assumed)" : "");
+    if (!c.warning.empty()) text += "    warning: " + c.warning + "\n";
   }
   return text;
 }

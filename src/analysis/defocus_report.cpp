@@ -10,8 +10,11 @@
 
 #include <opencv2/core.hpp>
 
+#include "analysis/channel_signal.h"
+#include "analysis/chromatic_aberration.h"
 #include "analysis/edge/edge_finder.h"
 #include "image/capture_folder.h"
+#include "image/frame_views.h"
 #include "optics/optics.h"
 
 namespace camlab::analysis {
@@ -77,31 +80,60 @@ std::vector<EdgeSegment> edges_from_truth(const json& truth, const json& manifes
   return edges;
 }
 
+// A target's entry in a colour channel's truth, by name.
+const json* channel_target(const json* channel_truth, const std::string& name) {
+  if (!channel_truth || !channel_truth->contains("targets") ||
+      !(*channel_truth)["targets"].is_array())
+    return nullptr;
+  for (const json& t : (*channel_truth)["targets"])
+    if (t.value("name", std::string()) == name) return &t;
+  return nullptr;
+}
+
 struct FrameResult {
   Status status;
   std::vector<FrameEdge> edges;
   std::vector<std::optional<double>> distances;
-  double pitch_um = 0, focal_mm = 0, baseline = 0;
+  double pitch_um = 0, focal_mm = 0, channel_focal_mm = 0, baseline = 0;
 };
 
 // `detected`: edges found automatically (used when the frame's truth has none).
 FrameResult measure_frame(const image::CaptureFolder& folder, int index,
-                          const DefocusOptions& options, const std::vector<EdgeSegment>& detected) {
+                          const DefocusOptions& options, const std::vector<EdgeSegment>& detected,
+                          const std::string& channel) {
   FrameResult out;
-  auto image = folder.load_image(index);
   auto side = folder.load_sidecar(index);
-  if (!image || !side) {
-    out.status = !image ? image.error() : side.error();
+  if (!side) {
+    out.status = side.error();
+    return out;
+  }
+  auto image = folder.load_stored_image(index);
+  if (!image) {
+    out.status = image.error();
+    return out;
+  }
+  auto signal = channel_signal(*image, *side, channel);
+  if (!signal) {
+    out.status = signal.error();
     return out;
   }
   const json& camera = folder.manifest().contains("source")
                            ? folder.manifest()["source"].value("camera_spec", json::object())
                            : json::object();
   const json& truth = side->truth;
+  // A colour channel's own optics, where the truth gives them (longitudinal chromatic
+  // aberration: each channel has its focal length and its CoC).
+  const json* channel_truth = nullptr;
+  if (!channel.empty() && truth.is_object() && truth.contains("channels") &&
+      truth["channels"].is_object() && truth["channels"].contains(channel))
+    channel_truth = &truth["channels"][channel];
   out.pitch_um = number_or(truth, "pixel_pitch_um",
                            number_or(camera.value("sensor", json::object()), "pixel_pitch_um", 0));
   out.focal_mm =
       number_or(truth, "focal_mm", number_or(camera.value("lens", json::object()), "focal_mm", 0));
+  // The aperture is f / N of the nominal focal length for every channel; a channel's own
+  // focal length moves only where it focuses.
+  if (channel_truth) out.channel_focal_mm = number_or(*channel_truth, "focal_mm", 0);
   out.baseline = options.baseline_sigma_px >= 0
                      ? options.baseline_sigma_px
                      : number_or(truth, "baseline_blur_sigma_px",
@@ -120,16 +152,14 @@ FrameResult measure_frame(const image::CaptureFolder& folder, int index,
                                 "was found in the capture");
     return out;
   }
-  cv::Mat signal;
-  image->convertTo(signal, CV_32F, 1.0, -side->black_level_dn);
   const json& settings = side->settings;
   const double f_number = number_or(settings, "f_number", number_or(truth, "f_number", 0));
   EdgeMeasureOptions mo;
   mo.baseline_sigma_px = out.baseline;
-  mo.saturation_level = std::ldexp(1.0, side->bit_depth) - 1.0 - side->black_level_dn;
+  mo.saturation_level = side->white_level_dn - side->black_level_dn;
   if (out.pitch_um > 0 && f_number > 0) mo.airy_diameter_px = 2.44 * 0.55 * f_number / out.pitch_um;
   for (size_t i = 0; i < edges.size(); ++i) {
-    auto m = measure_edge(signal, edges[i], edges, mo);
+    auto m = measure_edge(*signal, edges[i], edges, mo);
     if (!m) {
       out.status = m.error();
       return out;
@@ -141,6 +171,8 @@ FrameResult measure_frame(const image::CaptureFolder& folder, int index,
     fe.lens_to_sensor_mm = number_or(settings, "lens_to_sensor_mm", 0);
     const json* t = targets[i];
     if (t && t->contains("coc_px")) fe.truth_coc_px = number_or((*t)["coc_px"], "at_origin", 0);
+    if (const json* ct = channel_target(channel_truth, edges[i].name); ct && ct->contains("coc_px"))
+      fe.truth_coc_px = number_or((*ct)["coc_px"], "at_origin", 0);
     fe.edge = std::move(*m);
     out.edges.push_back(std::move(fe));
     out.distances.push_back(t && t->contains("distance_m") && (*t)["distance_m"].is_number()
@@ -172,7 +204,16 @@ void fit_aperture(TargetDefocus* t, const DefocusReport& r, const DefocusOptions
     // C / A = (k / N) pitch / (f / N) = k pitch / f.
     t->implied_defocus = fit->k_px * r.pixel_pitch_um * 1e-3 / r.focal_mm;
     t->implied_defocus_sigma = fit->k_sigma_px * r.pixel_pitch_um * 1e-3 / r.focal_mm;
-    if (t->distance_m && focus_distance_mm > 0) {
+    if (t->distance_m && r.channel_focal_mm > 0 && !t->frames.empty() &&
+        t->frames.front().lens_to_sensor_mm > 0) {
+      // A colour channel with its own focal length f_c: its image of the object lies at
+      // z_i = 1 / (1/f_c - 1/z_o), the sensor where the lens is (z_s), and the blur
+      // disk is (f / N) |z_s - z_i| / z_i, so C x N = f |z_s - z_i| / z_i.
+      auto zi = optics::image_distance_mm(r.channel_focal_mm, *t->distance_m * 1e3);
+      const double zs = t->frames.front().lens_to_sensor_mm;
+      if (zi)
+        t->thin_lens_k_px = r.focal_mm * std::fabs(zs - *zi) / *zi / (r.pixel_pitch_um * 1e-3);
+    } else if (t->distance_m && focus_distance_mm > 0) {
       auto c =
           optics::circle_of_confusion_mm(r.focal_mm, 1.0, focus_distance_mm, *t->distance_m * 1e3);
       if (c) t->thin_lens_k_px = *c / (r.pixel_pitch_um * 1e-3);
@@ -203,6 +244,7 @@ void fit_focus(TargetDefocus* t, const DefocusReport& r, const DefocusOptions& o
   if (!(det > 0) || r.pixel_pitch_um <= 0 || r.focal_mm <= 0) return;
   const double mm_per_step = (n * sxy - sx * sy) / det, intercept = (sy - mm_per_step * sx) / n;
   if (!(mm_per_step > 0)) return;
+  t->mm_per_step = mm_per_step;
   t->aperture_over_zi = fit->slope_px_per_step * r.pixel_pitch_um * 1e-3 / mm_per_step;
   const double zs = intercept + mm_per_step * fit->best_position;
   t->best_lens_to_sensor_mm = zs;
@@ -218,42 +260,48 @@ void fit_focus(TargetDefocus* t, const DefocusReport& r, const DefocusOptions& o
   }
 }
 
-}  // namespace
-
-Result<DefocusReport> analyze_defocus(const std::filesystem::path& capture_dir,
-                                      const DefocusOptions& options) {
-  image::CaptureFolder folder;
-  CAMLAB_ASSIGN(folder, image::CaptureFolder::open(capture_dir));
-  const int count = static_cast<int>(folder.frames().size());
-  if (count == 0) return make_error("no_frames", "the capture folder holds no frames");
-  // Without truth geometry, edges are found automatically: on every frame, keeping the
-  // frame where most are found (the sharpest, usually), and used for all frames (the
-  // fit refines each edge's position and angle per frame).
+// Edges found automatically, for captures whose truth has no edge geometry: on every
+// frame (colour frames in their luminance), keeping the frame where most are found (the
+// sharpest, usually), and used for all frames (the fit refines each edge's position and
+// angle per frame).
+Result<std::vector<EdgeSegment>> detect_edges(const image::CaptureFolder& folder,
+                                              const DefocusOptions& options) {
   std::vector<EdgeSegment> detected;
-  {
-    auto side = folder.load_sidecar(0);
-    std::vector<const json*> unused;
+  const int count = static_cast<int>(folder.frames().size());
+  auto first = folder.load_sidecar(0);
+  if (!first) return first.error();
+  std::vector<const json*> unused;
+  if (!edges_from_truth(first->truth, folder.manifest(), &unused).empty()) return detected;
+  for (int i = 0; i < count; ++i) {
+    auto side = folder.load_sidecar(i);
     if (!side) return side.error();
-    if (edges_from_truth(side->truth, folder.manifest(), &unused).empty()) {
-      for (int i = 0; i < count; ++i) {
-        auto image = folder.load_image(i);
-        if (!image) return image.error();
-        std::vector<EdgeSegment> found = find_edges(*image, options.edge_finder);
-        if (found.size() > detected.size()) detected = std::move(found);
-      }
-    }
+    auto stored = folder.load_stored_image(i);
+    if (!stored) return stored.error();
+    auto luminance = image::luminance_view(*stored, *side);
+    if (!luminance) return luminance.error();
+    std::vector<EdgeSegment> found = find_edges(*luminance, options.edge_finder);
+    if (found.size() > detected.size()) detected = std::move(found);
   }
+  return detected;
+}
+
+Result<DefocusReport> analyze_channel(const image::CaptureFolder& folder,
+                                      const DefocusOptions& options,
+                                      const std::vector<EdgeSegment>& detected,
+                                      const std::string& channel) {
+  const int count = static_cast<int>(folder.frames().size());
   std::vector<FrameResult> results(count);
   const int threads = std::clamp(options.threads, 1, 16);
   std::vector<std::thread> pool;
   for (int w = 0; w < threads; ++w)
     pool.emplace_back([&, w] {
       for (int i = w; i < count; i += threads)
-        results[i] = measure_frame(folder, i, options, detected);
+        results[i] = measure_frame(folder, i, options, detected, channel);
     });
   for (auto& th : pool) th.join();
 
   DefocusReport report;
+  report.channel = channel;
   report.acceptable_coc_px = options.acceptable_coc_px;
   std::map<std::string, size_t> by_name;
   std::set<double> f_numbers, positions;
@@ -263,6 +311,7 @@ Result<DefocusReport> analyze_defocus(const std::filesystem::path& capture_dir,
     if (!fr.status) return fr.status.error();
     report.pixel_pitch_um = fr.pitch_um;
     report.focal_mm = fr.focal_mm;
+    report.channel_focal_mm = fr.channel_focal_mm;
     report.baseline_sigma_px = fr.baseline;
     for (size_t e = 0; e < fr.edges.size(); ++e) {
       const FrameEdge& fe = fr.edges[e];
@@ -286,6 +335,7 @@ Result<DefocusReport> analyze_defocus(const std::filesystem::path& capture_dir,
                  : positions.size() > 1 && f_numbers.size() <= 1 ? "focus_position"
                  : f_numbers.size() > 1                          ? "mixed"
                                                                  : "none";
+  report.focus_distance_mm = focus_distance_mm;
   for (TargetDefocus& t : report.targets) {
     if (report.sweep == "f_number") fit_aperture(&t, report, options, focus_distance_mm);
     if (report.sweep == "focus_position") fit_focus(&t, report, options);
@@ -293,7 +343,39 @@ Result<DefocusReport> analyze_defocus(const std::filesystem::path& capture_dir,
   return report;
 }
 
-json to_json(const DefocusReport& r) {
+}  // namespace
+
+Result<DefocusReport> analyze_defocus(const std::filesystem::path& capture_dir,
+                                      const DefocusOptions& options) {
+  image::CaptureFolder folder;
+  CAMLAB_ASSIGN(folder, image::CaptureFolder::open(capture_dir));
+  if (folder.frames().empty()) return make_error("no_frames", "the capture folder holds no frames");
+  image::FrameSidecar first;
+  CAMLAB_ASSIGN(first, folder.load_sidecar(0));
+  std::vector<std::string> channels;
+  CAMLAB_ASSIGN(channels, measurable_channels(first));
+  std::vector<EdgeSegment> detected;
+  CAMLAB_ASSIGN(detected, detect_edges(folder, options));
+  if (channels.size() == 1) return analyze_channel(folder, options, detected, channels[0]);
+  // Colour: each channel measured and fitted on its own, then compared.
+  DefocusReport report;
+  report.acceptable_coc_px = options.acceptable_coc_px;
+  for (const std::string& channel : channels) {
+    DefocusReport one;
+    CAMLAB_ASSIGN(one, analyze_channel(folder, options, detected, channel));
+    report.sweep = one.sweep;
+    report.pixel_pitch_um = one.pixel_pitch_um;
+    report.focal_mm = one.focal_mm;
+    report.baseline_sigma_px = one.baseline_sigma_px;
+    report.channels.push_back(std::move(one));
+  }
+  report.chromatic = longitudinal_chromatic_aberration(report.channels);
+  return report;
+}
+
+namespace {
+
+json targets_json(const DefocusReport& r) {
   json targets = json::array();
   for (const TargetDefocus& t : r.targets) {
     json frames = json::array();
@@ -357,13 +439,48 @@ json to_json(const DefocusReport& r) {
     }
     targets.push_back(jt);
   }
-  return {{"kind", "defocus"},
-          {"sweep", r.sweep},
-          {"pixel_pitch_um", r.pixel_pitch_um},
-          {"focal_mm", r.focal_mm},
-          {"baseline_sigma_px", r.baseline_sigma_px},
-          {"acceptable_coc_px", r.acceptable_coc_px},
-          {"targets", targets}};
+  return targets;
+}
+
+json chromatic_json(const ChromaticFocusShift& c) {
+  json j = {{"target", c.target},
+            {"method", c.method},
+            {"image_distance_mm",
+             {{"R", c.image_distance_mm[0]},
+              {"G", c.image_distance_mm[1]},
+              {"B", c.image_distance_mm[2]}}},
+            {"shift_r_mm", num(c.shift_r_mm)},
+            {"shift_r_sigma_mm", num(c.shift_r_sigma_mm)},
+            {"shift_b_mm", num(c.shift_b_mm)},
+            {"shift_b_sigma_mm", num(c.shift_b_sigma_mm)},
+            {"side_assumed", c.side_assumed}};
+  if (!c.warning.empty()) j["warning"] = c.warning;
+  return j;
+}
+
+}  // namespace
+
+json to_json(const DefocusReport& r) {
+  json out = {{"kind", "defocus"},
+              {"sweep", r.sweep},
+              {"pixel_pitch_um", r.pixel_pitch_um},
+              {"focal_mm", r.focal_mm},
+              {"baseline_sigma_px", r.baseline_sigma_px},
+              {"acceptable_coc_px", r.acceptable_coc_px}};
+  if (r.channels.empty()) {
+    out["targets"] = targets_json(r);
+    return out;
+  }
+  // Colour: per channel, diameters in sensor pixels; then the focus shift between them.
+  json channels = json::object();
+  for (const DefocusReport& c : r.channels)
+    channels[c.channel] = {{"focal_mm", c.channel_focal_mm > 0 ? c.channel_focal_mm : c.focal_mm},
+                           {"targets", targets_json(c)}};
+  out["channels"] = channels;
+  json shifts = json::array();
+  for (const ChromaticFocusShift& c : r.chromatic) shifts.push_back(chromatic_json(c));
+  out["longitudinal_chromatic_aberration"] = shifts;
+  return out;
 }
 
 }  // namespace camlab::analysis

@@ -43,6 +43,8 @@ Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir
   for (int i = 0; i < report.frame_count; ++i) {
     image::FrameSidecar side;
     CAMLAB_ASSIGN(side, folder.load_sidecar(i));
+    if (Status mono = image::check_mono_linear(side, "frame " + std::to_string(i)); !mono)
+      return mono.error();
     const double t = side.settings.value("exposure_us", 0.0), g = side.settings.value("gain", 1.0);
     if (!(t > 0) || !(g > 0))
       return make_error(

@@ -41,6 +41,8 @@ Result<FocusReport> analyze_focus(const std::filesystem::path& capture_dir,
   for (int i = 0; i < count; ++i) {
     image::FrameSidecar side;
     CAMLAB_ASSIGN(side, folder.load_sidecar(i));
+    if (Status mono = image::check_mono_linear(side, "frame " + std::to_string(i)); !mono)
+      return mono.error();
     const json& s = side.settings;
     if (!s.contains("focus_position") || !s["focus_position"].is_number())
       return make_error("missing_settings",

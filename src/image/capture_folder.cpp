@@ -59,6 +59,21 @@ std::string_view name_of(FrameLayout layout) {
   return "mono";
 }
 
+Status check_mono_linear(const FrameSidecar& sidecar, const std::string& what) {
+  if (!sidecar.linear)
+    return make_error("not_linear", what + " is a JPEG (" + sidecar.delivered_format +
+                                        "): gamma-encoded and lossy, so its DN are not "
+                                        "proportional to light; capture a raw format instead");
+  if (sidecar.layout != FrameLayout::kMono)
+    return make_error("unsupported", what + " is " +
+                                         (sidecar.layout == FrameLayout::kMosaic
+                                              ? "a raw " + sidecar.cfa_pattern + " Bayer mosaic"
+                                              : std::string("an RGB frame")) +
+                                         " (" + sidecar.pixel_format +
+                                         "); this measurement reads mono frames");
+  return {};
+}
+
 nlohmann::json to_json(const FrameSidecar& sidecar) {
   nlohmann::json json = {
       {"sequence", sidecar.sequence},
@@ -285,18 +300,10 @@ Result<cv::Mat> CaptureFolder::load_stored_image(int index) const {
 Result<cv::Mat> CaptureFolder::load_image(int index) const {
   auto sidecar = load_sidecar(index);
   if (!sidecar) return sidecar.error();
-  const std::string frame = "frame " + std::to_string(index) + " of " + dir_.string();
-  if (!sidecar->linear)
-    return make_error("not_linear", frame + " is a JPEG (" + sidecar->delivered_format +
-                                        "): gamma-encoded and lossy, so its DN are not "
-                                        "proportional to light; capture a raw format instead");
-  if (sidecar->layout != FrameLayout::kMono)
-    return make_error("unsupported", frame + " is " +
-                                         (sidecar->layout == FrameLayout::kMosaic
-                                              ? "a raw " + sidecar->cfa_pattern + " Bayer mosaic"
-                                              : std::string("an RGB frame")) +
-                                         " (" + sidecar->pixel_format +
-                                         "); this measurement reads mono frames");
+  if (Status mono =
+          check_mono_linear(*sidecar, "frame " + std::to_string(index) + " of " + dir_.string());
+      !mono)
+    return mono.error();
   auto image = load_stored_image(index);
   if (!image) return image.error();
   if (image->channels() != 1)

@@ -61,6 +61,10 @@ struct FrameSidecar {
 };
 
 nlohmann::json to_json(const FrameSidecar& sidecar);
+
+// For measurements that read mono, light-linear frames: "not_linear" for JPEG frames,
+// "unsupported" for mosaics and RGB frames, naming `what` ("frame 3 of DIR").
+Status check_mono_linear(const FrameSidecar& sidecar, const std::string& what);
 Result<FrameSidecar> frame_sidecar_from_json(const nlohmann::json& json);
 
 struct CaptureFrameEntry {
