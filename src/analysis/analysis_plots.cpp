@@ -112,10 +112,16 @@ Result<Paths> write_defocus_plots(const fs::path& dir, const DefocusReport& r) {
 Result<Paths> write_exposure_plots(const fs::path& dir, const ExposureReport& r) {
   if (Status s = make_dir(dir); !s) return s.error();
   Paths written;
+  for (const ExposureReport& channel : r.channels) {  // colour: one set per channel
+    auto one = write_exposure_plots(dir, channel);
+    if (!one) return one.error();
+    written.insert(written.end(), one->begin(), one->end());
+  }
+  const std::string prefix = r.channel.empty() ? "" : r.channel + "_";
   if (r.photon_transfer) {
     const auto& pt = *r.photon_transfer;
     PlotSpec spec;
-    spec.title = "photon transfer";
+    spec.title = prefix + "photon transfer";
     spec.x_label = "mean signal above dark (DN)";
     spec.y_label = "temporal variance (DN^2)";
     PlotSeries pts = series("frame pairs", false, 0xc00000),
@@ -131,7 +137,8 @@ Result<Paths> write_exposure_plots(const fs::path& dir, const ExposureReport& r)
       fit.y.push_back(pt.dark_variance_dn2 + pt.system_gain_dn_per_e * m);
     }
     spec.series = {pts, used, fit};
-    if (Status s = plot(dir / "photon_transfer.png", spec, &written); !s) return s.error();
+    if (Status s = plot(dir / (prefix + "photon_transfer.png"), spec, &written); !s)
+      return s.error();
   }
   if (!r.linearity.empty()) {
     PlotSpec spec;
@@ -148,7 +155,7 @@ Result<Paths> write_exposure_plots(const fs::path& dir, const ExposureReport& r)
       fit.y.push_back(r.linearity_slope_dn_per_us * l.exposure_gain_us);
     }
     spec.series = {pts, fit};
-    if (Status s = plot(dir / "linearity.png", spec, &written); !s) return s.error();
+    if (Status s = plot(dir / (prefix + "linearity.png"), spec, &written); !s) return s.error();
   }
   return written;
 }

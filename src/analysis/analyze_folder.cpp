@@ -105,7 +105,9 @@ std::string to_text(const DefocusReport& r) {
   return text;
 }
 
-std::string to_text(const ExposureReport& r) {
+namespace {
+
+std::string exposure_text(const ExposureReport& r) {
   std::string text =
       line("exposure: %d frames, %zu exposure settings\n", r.frame_count, r.linearity.size());
   if (!r.linearity.empty()) {
@@ -145,6 +147,26 @@ std::string to_text(const ExposureReport& r) {
           line("    median radiance error vs truth %.3f%%\n", 100 * *r.hdr_median_relative_error);
   } else if (!r.hdr_error.empty()) {
     text += "  HDR merge: " + r.hdr_error + "\n";
+  }
+  return text;
+}
+
+}  // namespace
+
+std::string to_text(const ExposureReport& r) {
+  if (r.channels.empty()) return exposure_text(r);
+  std::string text = line("exposure of a colour capture: each channel on its own samples\n");
+  for (const ExposureReport& c : r.channels)
+    text += "\n== channel " + c.channel + " ==\n" + exposure_text(c);
+  text += "\nsummary       K [DN/e-]   read noise [e-]   full well [e-]   max |linearity error|\n";
+  for (const ExposureReport& c : r.channels) {
+    text += line("  %-10s", c.channel.c_str());
+    if (c.photon_transfer)
+      text += line(" %9.4f   %15.2f   %14.0f", c.photon_transfer->system_gain_dn_per_e,
+                   c.photon_transfer->dark_noise_e, c.photon_transfer->saturation_capacity_e);
+    else
+      text += line(" %9s   %15s   %14s", "-", "-", "-");
+    text += line("   %.3f%%\n", c.max_linearity_error_pct);
   }
   return text;
 }

@@ -26,4 +26,11 @@ Result<std::vector<std::string>> measurable_channels(const image::FrameSidecar& 
 Result<cv::Mat> channel_signal(const cv::Mat& stored, const image::FrameSidecar& sidecar,
                                const std::string& channel);
 
+// The samples of one channel, compact and unchanged (DN, black included), for statistics
+// over pixels: the frame itself (mono, channel ""), that plane of an RGB frame, or for a
+// mosaic the channel's sample planes side by side (green: its two planes, 2 x (cols/2)
+// wide). Pairs of frames give pairs of sample images with the same layout.
+Result<cv::Mat> channel_samples(const cv::Mat& stored, const image::FrameSidecar& sidecar,
+                                const std::string& channel);
+
 }  // namespace camlab::analysis

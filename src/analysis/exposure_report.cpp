@@ -6,6 +6,7 @@
 #include <map>
 #include <utility>
 
+#include "analysis/channel_signal.h"
 #include "image/capture_folder.h"
 
 namespace camlab::analysis {
@@ -21,41 +22,35 @@ double spec_number(const json& j, const char* section, const char* key, double f
   return s.contains(key) && s[key].is_number() ? s[key].get<double>() : fallback;
 }
 
-}  // namespace
-
-Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir,
-                                        const ExposureOptions& options) {
-  image::CaptureFolder folder;
-  CAMLAB_ASSIGN(folder, image::CaptureFolder::open(capture_dir));
+Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
+                                       const ExposureOptions& options, const std::string& channel) {
   ExposureReport report;
+  report.channel = channel;
   report.frame_count = static_cast<int>(folder.frames().size());
-  if (report.frame_count == 0) return make_error("no_frames", "the capture folder holds no frames");
-  if (!(options.roi_fraction > 0 && options.roi_fraction <= 1))
-    return make_error("invalid_argument", "roi_fraction must be in (0, 1]");
 
   // Group by setting; keep up to two frames per group (the pair).
   struct Group {
     double exposure_us, gain;
     std::vector<cv::Mat> frames;
-    int black = 0, bits = 8;
+    int black = 0, white = 255;
   };
   std::map<std::pair<double, double>, Group> groups;
   for (int i = 0; i < report.frame_count; ++i) {
     image::FrameSidecar side;
     CAMLAB_ASSIGN(side, folder.load_sidecar(i));
-    if (Status mono = image::check_mono_linear(side, "frame " + std::to_string(i)); !mono)
-      return mono.error();
     const double t = side.settings.value("exposure_us", 0.0), g = side.settings.value("gain", 1.0);
     if (!(t > 0) || !(g > 0))
       return make_error(
           "missing_settings",
           "frame " + std::to_string(i) + " has no positive exposure_us and gain in its settings");
-    Group& grp = groups.try_emplace({t, g}, Group{t, g, {}, side.black_level_dn, side.bit_depth})
-                     .first->second;
+    Group& grp =
+        groups.try_emplace({t, g}, Group{t, g, {}, side.black_level_dn, side.white_level_dn})
+            .first->second;
     if (grp.frames.size() >= 2) continue;
-    cv::Mat image;
-    CAMLAB_ASSIGN(image, folder.load_image(i));
-    grp.frames.push_back(image);
+    cv::Mat stored, samples;
+    CAMLAB_ASSIGN(stored, folder.load_stored_image(i));
+    CAMLAB_ASSIGN(samples, channel_samples(stored, side, channel));
+    grp.frames.push_back(samples);
   }
   const json camera = folder.manifest().contains("source")
                           ? folder.manifest()["source"].value("camera_spec", json::object())
@@ -71,7 +66,7 @@ Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir
   double max_dn = 0;
   double gain_sum = 0;
   for (auto& [key, grp] : groups) {
-    max_dn = std::ldexp(1.0, grp.bits) - 1.0 - grp.black;
+    max_dn = grp.white - grp.black;
     gain_sum += grp.gain;
     LinearityPoint lp;
     lp.exposure_gain_us = grp.exposure_us * grp.gain;
@@ -155,8 +150,34 @@ Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir
   return report;
 }
 
-json to_json(const ExposureReport& r) {
-  json j = {{"kind", "exposure"}, {"frames", r.frame_count}};
+}  // namespace
+
+Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir,
+                                        const ExposureOptions& options) {
+  image::CaptureFolder folder;
+  CAMLAB_ASSIGN(folder, image::CaptureFolder::open(capture_dir));
+  if (folder.frames().empty()) return make_error("no_frames", "the capture folder holds no frames");
+  if (!(options.roi_fraction > 0 && options.roi_fraction <= 1))
+    return make_error("invalid_argument", "roi_fraction must be in (0, 1]");
+  image::FrameSidecar first;
+  CAMLAB_ASSIGN(first, folder.load_sidecar(0));
+  std::vector<std::string> channels;
+  CAMLAB_ASSIGN(channels, measurable_channels(first));
+  if (channels.size() == 1) return analyze_channel(folder, options, channels[0]);
+  ExposureReport report;
+  report.frame_count = static_cast<int>(folder.frames().size());
+  for (const std::string& channel : channels) {
+    ExposureReport one;
+    CAMLAB_ASSIGN(one, analyze_channel(folder, options, channel));
+    report.channels.push_back(std::move(one));
+  }
+  return report;
+}
+
+namespace {
+
+json channel_json(const ExposureReport& r) {
+  json j = json::object();
   json lin = json::array();
   for (const auto& p : r.linearity)
     lin.push_back({{"exposure_gain_us", p.exposure_gain_us},
@@ -203,6 +224,20 @@ json to_json(const ExposureReport& r) {
   } else {
     j["hdr"] = {{"error", r.hdr_error}};
   }
+  return j;
+}
+
+}  // namespace
+
+json to_json(const ExposureReport& r) {
+  json j = {{"kind", "exposure"}, {"frames", r.frame_count}};
+  if (r.channels.empty()) {
+    j.update(channel_json(r));
+    return j;
+  }
+  json channels = json::object();
+  for (const ExposureReport& c : r.channels) channels[c.channel] = channel_json(c);
+  j["channels"] = channels;
   return j;
 }
 

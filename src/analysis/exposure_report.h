@@ -5,6 +5,9 @@
 // spec when present (conversion_gain_dn_per_e, or its default (2^bits - 1 - black) /
 // full well).
 //
+// Colour captures (Bayer mosaics, linear RGB) are analysed per channel on that channel's
+// samples (a mosaic's sites of one colour); JPEG captures are refused ("not_linear").
+//
 // Reentrant.
 #pragma once
 
@@ -26,6 +29,7 @@ struct ExposureOptions {
 
 struct ExposureReport {
   int frame_count = 0;
+  std::string channel;  // "" for mono captures; "R", "G", "B" for one channel of colour
   std::vector<LinearityPoint> linearity;
   double linearity_slope_dn_per_us = 0;
   double max_linearity_error_pct = 0;
@@ -36,6 +40,8 @@ struct ExposureReport {
   std::optional<HdrResult> hdr;
   std::string hdr_error;
   std::optional<double> hdr_median_relative_error;  // set by callers that know the truth
+  // Colour captures: one report per channel, on that channel's samples only.
+  std::vector<ExposureReport> channels;
 };
 
 Result<ExposureReport> analyze_exposure(const std::filesystem::path& capture_dir,
