@@ -1,6 +1,7 @@
 // `camlab analyze` and POST /v1/analyses: dispatch, text summaries (analyze_folder.h).
 #include "analysis/analyze_folder.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
@@ -171,7 +172,9 @@ std::string to_text(const ExposureReport& r) {
   return text;
 }
 
-std::string to_text(const FocusReport& r, int region_px) {
+namespace {
+
+std::string focus_text(const FocusReport& r, int region_px) {
   int ok = 0, flat = 0, end = 0;
   for (const auto& rr : r.regions) {
     ok += rr.focus.status == kFocusOk;
@@ -196,6 +199,24 @@ std::string to_text(const FocusReport& r, int region_px) {
   }
   text += line("  depth map: %.1f%% of pixels valid\n",
                100.0 * cv::countNonZero(r.valid) / double(r.valid.total()));
+  return text;
+}
+
+}  // namespace
+
+std::string to_text(const FocusReport& r, int region_px) {
+  if (r.channels.empty()) return focus_text(r, region_px);
+  std::string text = "luminance of a colour capture:\n" + focus_text(r, region_px);
+  text += "\nper channel (one sample plane each; regions of " + std::to_string(region_px) +
+          " plane px):\n  channel  regions ok  median best position\n";
+  for (const FocusReport& c : r.channels) {
+    std::vector<double> best;
+    for (const auto& rr : c.regions)
+      if (rr.focus.status == kFocusOk) best.push_back(rr.best_position);
+    std::sort(best.begin(), best.end());
+    text += line("  %-7s  %10zu", c.channel.c_str(), best.size());
+    text += best.empty() ? std::string("  -\n") : line("  %19.3f\n", best[best.size() / 2]);
+  }
   return text;
 }
 

@@ -3,6 +3,9 @@
 // pixel best focus converted to focus positions (linear between frames) and to object
 // distances through each frame's settings.focus_distance_m (dioptre interpolation).
 //
+// Colour captures: the luminance, and each channel on its own samples; JPEG captures are
+// refused ("not_linear").
+//
 // Reentrant.
 #pragma once
 
@@ -27,6 +30,11 @@ struct RegionFocusReport {
 
 struct FocusReport {
   int frames = 0;
+  // "" for mono captures. Colour captures: the report is the luminance's ("Y", full
+  // resolution) and `channels` holds R, G and B, each on one sample plane of that colour
+  // (a mosaic's: half resolution, so its regions and maps are in plane pixels).
+  std::string channel;
+  std::vector<FocusReport> channels;
   std::vector<double> positions;         // sorted focus positions
   std::vector<double> focus_distance_m;  // per sorted frame (+inf = infinity)
   std::vector<RegionFocusReport> regions;

@@ -181,15 +181,6 @@ TEST(ColourDefocus, EachChannelsCtimesNMatchesItsThinLensAndTheFocusShiftIsTheLc
   fs::remove_all(dir);
 }
 
-TEST(ColourDefocus, FocusStacksNotYetPerChannelRefuseMosaicsByName) {
-  const fs::path dir = write_aperture_series("refused");
-  auto focus = analyze_focus(dir, {});
-  ASSERT_FALSE(focus.ok());
-  EXPECT_EQ(focus.error().code, ErrorCode::kUnsupported);
-  EXPECT_NE(focus.error().message.find("Bayer"), std::string::npos) << focus.error().message;
-  fs::remove_all(dir);
-}
-
 TEST(ColourDefocus, JpegCapturesAreRefusedAsNotLinear) {
   const fs::path dir =
       fs::temp_directory_path() / ("camlab_colour_defocus_jpeg_" + std::to_string(::getpid()));
@@ -204,7 +195,8 @@ TEST(ColourDefocus, JpegCapturesAreRefusedAsNotLinear) {
   side.linear = false;
   ASSERT_TRUE(writer->add_jpeg_frame(jpeg, side).ok());
   ASSERT_TRUE(writer->finish().ok());
-  for (auto code : {analyze_defocus(dir, {}).error().code, analyze_exposure(dir, {}).error().code})
+  for (auto code : {analyze_defocus(dir, {}).error().code, analyze_exposure(dir, {}).error().code,
+                    analyze_focus(dir, {}).error().code})
     EXPECT_EQ(code, ErrorCode::kNotLinear);
   fs::remove_all(dir);
 }
