@@ -185,9 +185,8 @@ json to_json(const FocusReport& r) {
   json channels = json::object();
   for (const FocusReport& c : r.channels) {
     channels[c.channel] = view_json(c);
-    channels[c.channel]["pixel_scale"] = c.valid.empty() || r.valid.empty()
-                                             ? 1.0
-                                             : double(r.valid.cols) / double(c.valid.cols);
+    channels[c.channel]["pixel_scale"] =
+        c.valid.empty() || r.valid.empty() ? 1.0 : double(r.valid.cols) / double(c.valid.cols);
   }
   j["channels"] = channels;
   return j;

@@ -1,6 +1,7 @@
 // JPEG frames (MJPG cameras, and the virtual camera's MJPEG output) through libjpeg-turbo's
-// TurboJPEG API: about 3x faster than OpenCV's imdecode on the same data (1280x720:
-// 3.8 ms against 12.3 ms per frame; docs/BENCHMARKS.md, tests/bench/jpeg_bench), and it can
+// TurboJPEG API: about 2x faster than OpenCV's imdecode on the same data, with identical
+// pixels (1280x720: 2.7 ms against 5.6 ms per frame; docs/BENCHMARKS.md,
+// tests/bench/format_bench), and it can
 // decode at 1/8 scale from the DC coefficients alone, which is how a frame's mean is read
 // while a capture watches its settings settle.
 //

@@ -21,7 +21,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr double kBestPosition[3] = {4.0, 5.0, 6.0};  // R, G, B
-constexpr double kSigmaPerStep = 0.9;                   // px of blur per step off focus
+constexpr double kSigmaPerStep = 0.9;                 // px of blur per step off focus
 const std::string kCfa = "RGGB";
 
 double median_best(const FocusReport& r) {
@@ -48,7 +48,8 @@ TEST(ColourFocus, EachChannelPeaksAtItsOwnFocusAndLuminanceBetween) {
     for (int c = 0; c < 3; ++c) {
       const double sigma = kSigmaPerStep * std::fabs(p - kBestPosition[c]);
       channel[c] = sigma > 0.05 ? cv::Mat() : texture.clone();
-      if (sigma > 0.05) cv::GaussianBlur(texture, channel[c], {0, 0}, sigma, sigma, cv::BORDER_REFLECT);
+      if (sigma > 0.05)
+        cv::GaussianBlur(texture, channel[c], {0, 0}, sigma, sigma, cv::BORDER_REFLECT);
     }
     cv::Mat mosaic(texture.size(), CV_16UC1);
     for (int y = 0; y < mosaic.rows; ++y)
