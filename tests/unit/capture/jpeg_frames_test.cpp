@@ -48,6 +48,30 @@ TEST(JpegFrames, TruncatedWrongSizedAndNonJpegBuffersAreBadFrames) {
   EXPECT_EQ(check_frame(frame_over(zeros), format).error().code, ErrorCode::kBadFrame);
 }
 
+// UVC cameras send MJPEG without Huffman tables (DHT): the decoder must use JPEG's
+// standard tables (Annex K), as libjpeg-turbo does.
+TEST(JpegFrames, UvcStyleFramesWithoutHuffmanTablesAreAcceptedAndDecode) {
+  auto jpeg = opencv_jpeg(64, 48, 90);
+  std::vector<uint8_t> stripped(jpeg.begin(), jpeg.begin() + 2);
+  for (size_t i = 2; i + 4 <= jpeg.size() && jpeg[i] == 0xFF;) {
+    const int marker = jpeg[i + 1], length = (jpeg[i + 2] << 8) | jpeg[i + 3];
+    if (marker == 0xDA) {  // start of scan: the rest is entropy-coded data
+      stripped.insert(stripped.end(), jpeg.begin() + static_cast<long>(i), jpeg.end());
+      break;
+    }
+    if (marker != 0xC4)  // DHT
+      stripped.insert(stripped.end(), jpeg.begin() + static_cast<long>(i),
+                      jpeg.begin() + static_cast<long>(i + 2 + length));
+    i += 2 + static_cast<size_t>(length);
+  }
+  ASSERT_LT(stripped.size(), jpeg.size()) << "the tables were removed";
+  const device::StreamFormat format{"MJPG", 64, 48, 0, 64 * 48 * 2, {}};
+  EXPECT_TRUE(check_frame(frame_over(stripped), format).ok());
+  auto with = image::decode_jpeg(jpeg), without = image::decode_jpeg(stripped);
+  ASSERT_TRUE(with.ok() && without.ok());
+  EXPECT_EQ(cv::norm(*with, *without, cv::NORM_INF), 0) << "OpenCV writes the standard tables";
+}
+
 TEST(JpegFrames, FastMeanIsTheFullDecodesMeanWithinAQuarterDn) {
   for (auto [w, h] : {std::pair{64, 48}, std::pair{320, 240}, std::pair{100, 75}}) {
     auto jpeg = opencv_jpeg(w, h, 85);
