@@ -118,6 +118,72 @@ PeakFit fit_log_parabola_peak(const std::vector<double>& values, double floor, i
   return fit;
 }
 
+namespace {
+
+// Mirror residuals of l about m: l(x_i) - l_interpolated(2m - x_i) for the kept samples
+// whose mirror lies inside the curve, and the slope of the interpolation there.
+struct Mirror {
+  double cost = 0;
+  int count = 0;
+  double slope_sum2 = 0;
+};
+
+Mirror mirror_about(const std::vector<double>& l, const std::vector<int>& kept, double m) {
+  Mirror out;
+  const int n = static_cast<int>(l.size());
+  for (int i : kept) {
+    const double x = 2 * m - i;
+    if (x < 0 || x > n - 1) continue;
+    const int j = std::min(static_cast<int>(std::floor(x)), n - 2);
+    const double t = x - j, slope = l[static_cast<size_t>(j) + 1] - l[static_cast<size_t>(j)];
+    const double r = l[static_cast<size_t>(i)] - (l[static_cast<size_t>(j)] + t * slope);
+    out.cost += r * r;
+    out.slope_sum2 += 4 * slope * slope;  // d r / d m = -2 slope
+    ++out.count;
+  }
+  return out;
+}
+
+}  // namespace
+
+PeakFit fit_symmetric_peak(const std::vector<double>& values, double floor, int peak_index) {
+  PeakFit fit;
+  fit.index = peak_index;
+  const int n = static_cast<int>(values.size());
+  if (peak_index <= 0 || peak_index >= n - 1) return fit;
+  const double top = values[static_cast<size_t>(peak_index)] - floor;
+  if (!(top > 0) || !std::isfinite(top)) return fit;
+  std::vector<double> l(values.size());
+  std::vector<int> kept;
+  for (int i = 0; i < n; ++i) {
+    const double excess = values[static_cast<size_t>(i)] - floor;
+    l[static_cast<size_t>(i)] = std::log(std::max(excess, 1e-12 * top));
+    if (excess >= 0.1 * top) kept.push_back(i);
+  }
+  // The mirror cost is not convex in m (linear interpolation has kinks): scan the step
+  // either side of the maximum at 0.01, then refine around the best at 0.0002.
+  auto best_in = [&](double from, double to, double step) {
+    double best_m = peak_index, best_cost = std::numeric_limits<double>::infinity();
+    for (double m = from; m <= to + 1e-12; m += step) {
+      const Mirror mm = mirror_about(l, kept, m);
+      if (mm.count < 3) continue;
+      const double cost = mm.cost / mm.count;
+      if (cost < best_cost) best_cost = cost, best_m = m;
+    }
+    return std::pair{best_m, best_cost};
+  };
+  auto [coarse, coarse_cost] = best_in(peak_index - 1.0, peak_index + 1.0, 0.01);
+  if (!std::isfinite(coarse_cost)) return fit;
+  const double m = best_in(coarse - 0.01, coarse + 0.01, 0.0002).first;
+  const Mirror at = mirror_about(l, kept, m);
+  fit.index = m;
+  fit.samples = at.count;
+  const double s2 = at.count > 1 ? at.cost / (at.count - 1) : 0.0;
+  const double sigma = at.slope_sum2 > 0 ? std::sqrt(s2 / at.slope_sum2) : 0.0;
+  fit.sigma = std::max(kMinPeakSigma, std::isfinite(sigma) ? sigma : 1.0);
+  return fit;
+}
+
 double distance_at_index(const std::vector<double>& focus_distance_m, double index) {
   if (focus_distance_m.empty()) return std::numeric_limits<double>::infinity();
   const double last = static_cast<double>(focus_distance_m.size() - 1);
@@ -279,7 +345,9 @@ Result<FocusStackResult> FocusStackAccumulator::finish() {
     } else if (i == 0 || i == count_ - 1) {
       rf.status = kFocusPeakAtEnd;
     } else {
-      const PeakFit pf = fit_log_parabola_peak(rf.curve, region_floor, i);
+      PeakFit pf = fit_symmetric_peak(rf.curve, region_floor, i);
+      if (pf.samples < 3) pf = fit_log_parabola_peak(rf.curve, region_floor, i);
+      pf.sigma = std::max(pf.sigma, kMinPeakSigma);
       rf.best_index = pf.index;
       rf.best_index_sigma = pf.sigma;
       rf.status = kFocusOk;

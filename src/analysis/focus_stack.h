@@ -9,14 +9,12 @@
 // kernel's squared norm); sigma_n is estimated per frame by Immerkaer's estimator and the
 // least over the stack is used (the most defocused frame, where texture adds least).
 //
-// Peak between frames: with l = log(measure - floor) at the frame of the maximum and its
-// two neighbours, delta = (l- - l+) / (2 (l- - 2 l0 + l+)), best = index + delta in frame
-// steps (per pixel). Per region the whole curve is kept, and when the peak spans more
-// than 3 frames (fine steps, deep stacks) the parabola is fitted by least squares to the
-// log over the contiguous frames within the top half of the peak: three samples on a
-// broad, noisy top put the vertex off by tenths of a step, the wider fit does not. A
-// maximum at the first or last frame, or a peak that does not rise clearly above the
-// floor (flat texture), is flagged and not extrapolated.
+// Peak between frames, per pixel: with l = log(measure - floor) at the frame of the
+// maximum and its two neighbours, delta = (l- - l+) / (2 (l- - 2 l0 + l+)), best = index +
+// delta in frame steps. Per region the whole curve is kept and its peak is the curve's
+// centre of symmetry (fit_symmetric_peak below), with a sigma from the data. A maximum at
+// the first or last frame, or a peak that does not rise clearly above the floor (flat
+// texture), is flagged and not extrapolated.
 //
 // Brightness: the working aperture (f / z_s)^2, flicker or auto exposure change the
 // signal across a stack, and the measure grows as its square, which tilts the curve and
@@ -76,6 +74,19 @@ struct PeakFit {
   int samples = 0;
 };
 PeakFit fit_log_parabola_peak(const std::vector<double>& values, double floor, int peak_index);
+
+// The centre of symmetry of a sampled peak, for region curves: the m that makes
+// l(x) = log(value - floor) most nearly symmetric about it, l(m + t) = l(m - t), over the
+// samples whose excess is at least 10% of the peak's, each compared with the linear
+// interpolation of l at its mirror image 2m - x. A focus curve is symmetric about best
+// focus (the blur grows alike on both sides) but not log-parabolic: the three-point
+// parabola pulls the peak toward the nearest frame by up to a third of a step (at 1.3 px
+// of blur per step), the centre of symmetry does not (within 0.05 step on 99% of
+// regions of independent stacks; docs/analysis.md). sigma is the least-squares sigma of m from the
+// mirror residuals (never below kMinPeakSigma): asymmetry from noise or from the sampling shows up
+// in them. index = peak_index and sigma = 0 when fewer than 3 samples mirror inside.
+inline constexpr double kMinPeakSigma = 0.002;  // frame steps: the search's resolution
+PeakFit fit_symmetric_peak(const std::vector<double>& values, double floor, int peak_index);
 
 struct FocusStackOptions {
   int window_px = 9;            // per-pixel measure window
