@@ -12,6 +12,7 @@
 
 #include "analysis/channel_signal.h"
 #include "analysis/chromatic_aberration.h"
+#include "analysis/clip_level.h"
 #include "analysis/edge/edge_finder.h"
 #include "image/capture_folder.h"
 #include "image/frame_views.h"
@@ -95,6 +96,7 @@ struct FrameResult {
   std::vector<FrameEdge> edges;
   std::vector<std::optional<double>> distances;
   double pitch_um = 0, focal_mm = 0, channel_focal_mm = 0, baseline = 0;
+  std::optional<double> clip_level_dn;  // detected from the frame's histogram
 };
 
 // `detected`: edges found automatically (used when the frame's truth has none).
@@ -157,6 +159,14 @@ FrameResult measure_frame(const image::CaptureFolder& folder, int index,
   EdgeMeasureOptions mo;
   mo.baseline_sigma_px = out.baseline;
   mo.saturation_level = side->white_level_dn - side->black_level_dn;
+  // A full well below the ADC's top code clips lower than the white level: the frame's
+  // histogram shows it (clip_level.h).
+  if (image->channels() == 1) {
+    if (auto plateau = detect_clip_plateau(*image, side->black_level_dn)) {
+      out.clip_level_dn = plateau->level_dn;
+      mo.saturation_level = std::min(mo.saturation_level, plateau->level_dn - side->black_level_dn);
+    }
+  }
   if (out.pitch_um > 0 && f_number > 0) mo.airy_diameter_px = 2.44 * 0.55 * f_number / out.pitch_um;
   for (size_t i = 0; i < edges.size(); ++i) {
     auto m = measure_edge(*signal, edges[i], edges, mo);
@@ -312,6 +322,8 @@ Result<DefocusReport> analyze_channel(const image::CaptureFolder& folder,
     report.pixel_pitch_um = fr.pitch_um;
     report.focal_mm = fr.focal_mm;
     report.channel_focal_mm = fr.channel_focal_mm;
+    if (fr.clip_level_dn && (!report.clip_level_dn || *fr.clip_level_dn < *report.clip_level_dn))
+      report.clip_level_dn = fr.clip_level_dn;
     report.baseline_sigma_px = fr.baseline;
     for (size_t e = 0; e < fr.edges.size(); ++e) {
       const FrameEdge& fe = fr.edges[e];
@@ -467,6 +479,7 @@ json to_json(const DefocusReport& r) {
               {"focal_mm", r.focal_mm},
               {"baseline_sigma_px", r.baseline_sigma_px},
               {"acceptable_coc_px", r.acceptable_coc_px}};
+  if (r.clip_level_dn) out["clip_level_dn"] = *r.clip_level_dn;
   if (r.channels.empty()) {
     out["targets"] = targets_json(r);
     return out;

@@ -86,7 +86,11 @@ struct DefocusReport {
   double pixel_pitch_um = 0, focal_mm = 0, baseline_sigma_px = 0;
   double channel_focal_mm = 0;  // a colour channel's own focal length (truth), 0 unknown
   double acceptable_coc_px = 0;
-  double focus_distance_mm = 0;        // the frames' focus distance (infinity allowed); 0 unknown
+  double focus_distance_mm = 0;  // the frames' focus distance (infinity allowed); 0 unknown
+  // The lowest clip level found in the frames' histograms (raw DN), when a frame clips
+  // below its white level (a full well under the ADC's top code; clip_level.h). Edges
+  // with pixels at or above it are `clipped`.
+  std::optional<double> clip_level_dn;
   std::vector<TargetDefocus> targets;  // mono captures, and each entry of `channels`
   // Colour captures: one report per channel (blur measured on that channel's sites at
   // full sensor resolution, in sensor pixels), and the focus shift between channels.

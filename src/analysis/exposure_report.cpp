@@ -4,9 +4,11 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <optional>
 #include <utility>
 
 #include "analysis/channel_signal.h"
+#include "analysis/clip_level.h"
 #include "image/capture_folder.h"
 
 namespace camlab::analysis {
@@ -33,6 +35,7 @@ Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
     double exposure_us, gain;
     std::vector<cv::Mat> frames;
     int black = 0, white = 255;
+    std::optional<double> clip_level_dn;  // a pile-up at the top of the first frame
   };
   std::map<std::pair<double, double>, Group> groups;
   for (int i = 0; i < report.frame_count; ++i) {
@@ -74,6 +77,11 @@ Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
     for (const cv::Mat& f : grp.frames) mean += cv::mean(f(roi))[0] - grp.black;
     lp.mean_dn = mean / static_cast<double>(grp.frames.size());
     lin_points.push_back(lp);
+    if (auto plateau = detect_clip_plateau(grp.frames[0], grp.black)) {
+      grp.clip_level_dn = plateau->level_dn;
+      report.clip_level_dn =
+          std::min(report.clip_level_dn.value_or(plateau->level_dn), plateau->level_dn);
+    }
     if (grp.frames.size() == 2) {
       auto ps = pair_stats(grp.frames[0], grp.frames[1], grp.black, roi);
       if (!ps) return ps.error();
@@ -107,7 +115,10 @@ Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
       report.photon_transfer
           ? report.photon_transfer->saturation_mean_dn
           : (k0 > 0 && full_well > 0 ? std::min(max_dn, k0 * full_well * mean_gain) : max_dn);
-  auto lin = fit_linearity(lin_points, saturation);
+  // Frames that clip below their white level clip the linearity too.
+  const double clip_saturation =
+      report.clip_level_dn ? *report.clip_level_dn - groups.begin()->second.black : saturation;
+  auto lin = fit_linearity(lin_points, std::min(saturation, clip_saturation));
   if (lin) {
     report.linearity = lin->points;
     report.linearity_slope_dn_per_us = lin->slope_dn_per_us;
@@ -137,6 +148,12 @@ Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
       f.gain = grp.gain;
       f.clip_dn = max_dn;
       if (k0 > 0 && full_well > 0) f.clip_dn = std::min(max_dn, k0 * grp.gain * full_well);
+      // A full well below the ADC's top code shows as a pile-up at the top of the frame's
+      // histogram (clip_level.h); pixels in it are clipped whatever the white level says.
+      // The merge drops pixels above 97% of clip_dn, so clip_dn is set to keep the pile-up
+      // above that line.
+      if (grp.clip_level_dn)
+        f.clip_dn = std::min(f.clip_dn, (*grp.clip_level_dn - grp.black) / 0.97);
       frames.push_back(std::move(f));
     }
     auto hdr = merge_hdr(frames, noise);
@@ -178,6 +195,7 @@ namespace {
 
 json channel_json(const ExposureReport& r) {
   json j = json::object();
+  if (r.clip_level_dn) j["clip_level_dn"] = *r.clip_level_dn;
   json lin = json::array();
   for (const auto& p : r.linearity)
     lin.push_back({{"exposure_gain_us", p.exposure_gain_us},

@@ -40,6 +40,9 @@ struct ExposureReport {
   std::optional<HdrResult> hdr;
   std::string hdr_error;
   std::optional<double> hdr_median_relative_error;  // set by callers that know the truth
+  // The lowest clip level found in the frames' histograms (raw DN), when frames clip below
+  // their white level (a full well under the ADC's top code; clip_level.h).
+  std::optional<double> clip_level_dn;
   // Colour captures: one report per channel, on that channel's samples only.
   std::vector<ExposureReport> channels;
 };

@@ -20,6 +20,7 @@
 #include "analysis/defocus_report.h"
 #include "analysis/exposure_report.h"
 #include "analysis/focus_report.h"
+#include "analytic_edge.h"
 #include "image/capture_folder.h"
 
 namespace camlab::analysis {
@@ -50,16 +51,6 @@ double coc_px(int c, double n) {
   return (kNominalFocalMm / n) * std::fabs(zs - zi) / zi / (kPitchUm * 1e-3);
 }
 
-// Light fraction of a disk of radius r whose centre is at signed distance h from the edge.
-double disk_light_fraction(double h, double r) {
-  if (h >= r) return 1.0;
-  if (h <= -r) return 0.0;
-  const double a = std::fabs(h);
-  const double segment = r * r * std::acos(a / r) - a * std::sqrt(r * r - a * a);
-  const double dark = segment / (std::numbers::pi * r * r);
-  return h >= 0 ? 1.0 - dark : dark;
-}
-
 int colour_at(int x, int y) {
   const char c = kCfa[static_cast<size_t>(2 * (y % 2) + x % 2)];
   return c == 'R' ? 0 : c == 'G' ? 1 : 2;
@@ -73,24 +64,11 @@ const double kCentre = (kSize - 1) / 2.0;
 cv::Mat mosaic_at(double n, std::mt19937& rng) {
   std::normal_distribution<double> noise(0.0, 2.0);
   cv::Mat out(kSize, kSize, CV_16UC1);
-  const int ss = 16;
   for (int y = 0; y < kSize; ++y)
     for (int x = 0; x < kSize; ++x) {
-      const double r = 0.5 * coc_px(colour_at(x, y), n);
       const double d = (x - kCentre) * kNx + (y - kCentre) * kNy;
-      double fraction;
-      if (d > r + 1) {
-        fraction = 1;
-      } else if (d < -r - 1) {
-        fraction = 0;
-      } else {
-        double sum = 0;
-        for (int i = 0; i < ss; ++i)
-          for (int j = 0; j < ss; ++j)
-            sum += disk_light_fraction(
-                d + kNx * ((i + 0.5) / ss - 0.5) + kNy * ((j + 0.5) / ss - 0.5), r);
-        fraction = sum / (ss * ss);
-      }
+      const double fraction =
+          testing::pixel_light_fraction(d, coc_px(colour_at(x, y), n), kNx, kNy);
       const double dn = kBlack + kDark + (kLight - kDark) * fraction + noise(rng);
       out.at<uint16_t>(y, x) = static_cast<uint16_t>(std::clamp(std::lround(dn), 0L, 4095L));
     }

@@ -1,0 +1,166 @@
+// A sensor whose full well is reached below the ADC's top code, on data drawn here with
+// the physics written out (Poisson electrons, the full well capping them, read noise
+// after the cap, conversion gain, black level, 12-bit ADC whose top code is never
+// reached): edges that touch the full well are flagged `clipped` rather than read low,
+// C x N comes from the unclipped frames, and the HDR merge leaves clipped pixels out.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <random>
+#include <string>
+
+#include "analysis/clip_level.h"
+#include "analysis/defocus_report.h"
+#include "analysis/exposure_report.h"
+#include "analytic_edge.h"
+#include "image/capture_folder.h"
+
+namespace camlab::analysis {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr double kFullWellE = 10000, kReadNoiseE = 3, kGainDnPerE = 0.3;
+constexpr int kBlack = 64;  // full well = 3064 DN, the ADC's top code 4095
+
+struct Sensor {
+  std::mt19937 rng{5};
+  uint16_t dn(double mean_electrons) {
+    std::poisson_distribution<long> photo(std::max(mean_electrons, 0.0));
+    std::normal_distribution<double> read(0, kReadNoiseE);
+    const double e = std::min<double>(static_cast<double>(photo(rng)), kFullWellE) + read(rng);
+    return static_cast<uint16_t>(std::clamp(std::lround(kBlack + kGainDnPerE * e), 0L, 4095L));
+  }
+};
+
+fs::path fresh(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("camlab_clip_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+image::FrameSidecar sidecar(uint64_t sequence, nlohmann::json settings) {
+  image::FrameSidecar side;
+  side.sequence = sequence;
+  side.pixel_format = "Y12";
+  side.bit_depth = 12;
+  side.black_level_dn = kBlack;  // white_level_dn: 4095, the format's (the sensor clips lower)
+  side.settings = std::move(settings);
+  return side;
+}
+
+// An aperture series of one slanted edge: f/2 puts the light side over the full well.
+TEST(Clipping, EdgesAtTheFullWellAreFlaggedAndCtimesNComesFromTheOthers) {
+  const int size = 160;
+  const double k_px = 40.0;  // C x N, px
+  const double angle = 5.0 * std::numbers::pi / 180.0, nx = std::cos(angle), ny = -std::sin(angle);
+  const double centre = (size - 1) / 2.0;
+  const fs::path dir = fresh("edges");
+  auto writer =
+      image::CaptureFolderWriter::create(dir, "aperture_series", {{"backend", "test"}}, {});
+  ASSERT_TRUE(writer.ok());
+  Sensor sensor;
+  const double light_e_at_f2 = 16000, dark_e_at_f2 = 1000;  // f/2: light side 1.6 full wells
+  std::vector<double> f_numbers = {2.0, 2.8, 4.0, 5.6, 8.0};
+  for (size_t k = 0; k < f_numbers.size(); ++k) {
+    const double n = f_numbers[k], scale = 4.0 / (n * n);
+    cv::Mat frame(size, size, CV_16UC1);
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x) {
+        const double d = (x - centre) * nx + (y - centre) * ny;
+        const double f = testing::pixel_light_fraction(d, k_px / n, nx, ny, 8);
+        frame.at<uint16_t>(y, x) =
+            sensor.dn(scale * (dark_e_at_f2 + (light_e_at_f2 - dark_e_at_f2) * f));
+      }
+    const double half = 60;
+    auto point = [&](double along) {
+      return nlohmann::json::array({centre - ny * along, centre + nx * along});
+    };
+    image::FrameSidecar side = sidecar(k, {{"f_number", n}, {"focus_position", 0}});
+    side.truth = {{"targets",
+                   {{{"name", "edge"},
+                     {"edge_px",
+                      {{"start", point(-half)},
+                       {"end", point(half)},
+                       {"middle", point(0)},
+                       {"light_side_point", {centre + 5 * nx, centre + 5 * ny}}}}}}}};
+    ASSERT_TRUE(writer->add_frame(frame, side).ok());
+  }
+  ASSERT_TRUE(writer->finish().ok());
+
+  DefocusOptions options;
+  options.baseline_sigma_px = 0;
+  auto report = analyze_defocus(dir, options);
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  if (std::getenv("CAMLAB_EDGE_REPORT")) std::cout << to_json(*report).dump(1) << "\n";
+  ASSERT_TRUE(report->clip_level_dn) << "the full well shows in the f/2 frame's histogram";
+  EXPECT_NEAR(*report->clip_level_dn, kBlack + kGainDnPerE * kFullWellE, 15);
+  ASSERT_EQ(report->targets.size(), 1u);
+  const TargetDefocus& t = report->targets[0];
+  EXPECT_EQ(t.frames[0].edge.status, kEdgeClipped) << "f/2: the light side is at the full well";
+  for (size_t k = 1; k < t.frames.size(); ++k)
+    EXPECT_EQ(t.frames[k].edge.status, kEdgeOk) << "f/" << f_numbers[k];
+  ASSERT_TRUE(t.aperture) << t.aperture_error;
+  EXPECT_NEAR(t.aperture->k_px / k_px - 1, 0, 0.01) << t.aperture->k_px;
+  fs::remove_all(dir);
+}
+
+// An exposure bracket of a radiance ramp whose bright end fills the full well at the
+// longer exposures: the merge must leave those pixels out, not average them in.
+TEST(Clipping, HdrLeavesPixelsAtTheFullWellOutAndStaysWithinThreePercent) {
+  const int width = 256, height = 32;
+  const fs::path dir = fresh("hdr");
+  auto writer = image::CaptureFolderWriter::create(dir, "bracket", {{"backend", "test"}}, {});
+  ASSERT_TRUE(writer.ok());
+  Sensor sensor;
+  // Electrons per us, log-spaced from 20 to 20000 across the frame.
+  auto rate = [&](int x) { return 20.0 * std::pow(1000.0, x / (width - 1.0)); };
+  uint64_t sequence = 0;
+  for (double t : {0.4, 1.0, 2.5, 6.0, 15.0, 40.0})
+    for (int repeat = 0; repeat < 2; ++repeat) {
+      cv::Mat frame(height, width, CV_16UC1);
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) frame.at<uint16_t>(y, x) = sensor.dn(rate(x) * t);
+      ASSERT_TRUE(
+          writer->add_frame(frame, sidecar(sequence++, {{"exposure_us", t}, {"gain", 1.0}})).ok());
+    }
+  ASSERT_TRUE(writer->finish().ok());
+  auto report = analyze_exposure(dir, {});
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  ASSERT_TRUE(report->hdr) << report->hdr_error;
+  std::vector<double> errors;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      if (report->hdr->clipped.at<uint8_t>(y, x)) continue;
+      const double truth = kGainDnPerE * rate(x);  // DN per us at unity gain
+      errors.push_back(std::fabs(report->hdr->radiance.at<float>(y, x) / truth - 1));
+    }
+  ASSERT_GT(errors.size(), 0.9 * width * height)
+      << "the brightest pixels fit the shortest exposure";
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  const double median = errors[errors.size() / 2];
+  if (std::getenv("CAMLAB_EDGE_REPORT"))
+    std::cout << "HDR median relative error " << median << "\n";
+  EXPECT_LT(median, 0.03);
+  fs::remove_all(dir);
+}
+
+TEST(ClipLevel, AFlatBrightAreaWithShotNoiseIsNotAClip) {
+  Sensor sensor;
+  cv::Mat frame(100, 100, CV_16UC1);
+  for (int y = 0; y < 100; ++y)
+    for (int x = 0; x < 100; ++x) frame.at<uint16_t>(y, x) = sensor.dn(x < 50 ? 600 : 9000);
+  EXPECT_FALSE(detect_clip_plateau(frame, kBlack)) << "9000 e-, below the full well";
+  for (int y = 0; y < 100; ++y)
+    for (int x = 50; x < 100; ++x) frame.at<uint16_t>(y, x) = sensor.dn(20000);
+  auto plateau = detect_clip_plateau(frame, kBlack);
+  ASSERT_TRUE(plateau);
+  EXPECT_NEAR(plateau->fraction, 0.5, 0.05);
+}
+
+}  // namespace
+}  // namespace camlab::analysis
