@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "analysis/focus_report.h"
+#include "image/capture_folder.h"
 
 namespace camlab::analysis {
 namespace {
@@ -249,6 +250,16 @@ Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& 
                                               "'; use defocus, exposure or focus");
   }
   if (!done) return done.error();
+  // A capture cut short (camlabd stopped, the camera vanished) is still read, but never
+  // silently: its numbers come from the frames that made it to disk.
+  auto folder = image::CaptureFolder::open(dir);
+  if (folder && !folder->complete()) {
+    const std::string warning = "the capture is incomplete (manifest says complete: false): " +
+                                std::to_string(folder->frames().size()) +
+                                " frames were written before it stopped; results use those only";
+    run.report["warnings"].push_back(warning);
+    run.text = "warning: " + warning + "\n" + run.text;
+  }
   return run;
 }
 

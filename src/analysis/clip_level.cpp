@@ -62,6 +62,7 @@ std::optional<ClipPlateau> detect_clip_plateau(const cv::Mat& image, double blac
   ClipPlateau plateau;
   plateau.level_dn = top - band + 1;
   plateau.top_dn = top;
+  plateau.mean_dn = mean;
   plateau.fraction = static_cast<double>(in_band) / static_cast<double>(total);
   return plateau;
 }

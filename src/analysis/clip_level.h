@@ -27,6 +27,7 @@ namespace camlab::analysis {
 struct ClipPlateau {
   double level_dn = 0;  // raw DN (black included) from which pixels count as clipped
   double top_dn = 0;    // the robust maximum M
+  double mean_dn = 0;   // the plateau's mean: where the sensor clips, read noise aside
   double fraction = 0;  // of the frame's pixels in the plateau
 };
 

@@ -394,18 +394,28 @@ json targets_json(const DefocusReport& r) {
     for (size_t i = 0; i < t.frames.size(); ++i) {
       const FrameEdge& fe = t.frames[i];
       const EdgeMeasurement& m = fe.edge;
+      // A diameter only where the status gives one: a measurement, an edge in focus within
+      // the baseline (0, bounded by ci95[1]), or one below the diffraction floor (what the
+      // pixels show). Rejected edges have none: null, never a 0 that reads as sharp.
+      const bool has_diameter =
+          m.measured() || m.status == kEdgeAtBaseline || m.status == kEdgeBelowDiffraction;
       json f = {{"frame", fe.frame},
                 {"f_number", fe.f_number},
                 {"focus_position", fe.focus_position},
                 {"status", m.status},
-                {"diameter_px", num(m.diameter_px)},
-                {"diameter_sigma_px", num(m.diameter_sigma_px)},
-                {"ci95_px", {num(m.ci_low_px), num(m.ci_high_px)}},
+                {"diameter_px", has_diameter ? num(m.diameter_px) : json(nullptr)},
+                {"diameter_sigma_px", has_diameter ? num(m.diameter_sigma_px) : json(nullptr)},
+                {"ci95_px",
+                 has_diameter ? json::array({num(m.ci_low_px), num(m.ci_high_px)}) : json(nullptr)},
                 {"apparent_diameter_px", num(m.apparent_diameter_px)},
                 {"rms_residual", num(m.rms_residual)},
                 {"contrast_to_noise", num(m.contrast_to_noise)},
                 {"window_px", {num(2 * m.half_length_px), num(2 * m.half_width_px)}}};
       if (!m.message.empty()) f["message"] = m.message;
+      if (m.fit.samples > 0)  // where the fit put the edge: a point on it and its direction
+        f["edge_px"] = {{"x", num(m.fit.line.x_px)},
+                        {"y", num(m.fit.line.y_px)},
+                        {"angle_deg", num(m.fit.line.angle_rad * 180.0 / std::numbers::pi)}};
       if (!m.joint_with.empty()) {
         f["joint_fit_with"] = m.joint_with;  // fitted together with this overlapping neighbour
         f["joint_separation_px"] = m.joint_separation_px;

@@ -32,7 +32,8 @@ Result<PairStats> pair_stats(const cv::Mat& a, const cv::Mat& b, double black_le
   return s;
 }
 
-Result<PhotonTransfer> fit_photon_transfer(std::vector<PairStats> points) {
+Result<PhotonTransfer> fit_photon_transfer(std::vector<PairStats> points,
+                                           std::optional<double> clip_mean_dn) {
   if (points.empty()) return make_error("too_few_samples", "no frame pairs");
   std::sort(points.begin(), points.end(),
             [](const PairStats& x, const PairStats& y) { return x.mean_dn < y.mean_dn; });
@@ -41,6 +42,15 @@ Result<PhotonTransfer> fit_photon_transfer(std::vector<PairStats> points) {
       points.begin(), points.end(),
       [](const PairStats& x, const PairStats& y) { return x.variance_dn2 < y.variance_dn2; });
   pt.saturation_mean_dn = peak->mean_dn;
+  // A brighter pair whose variance has collapsed (under half the peak's) has most of its
+  // pixels clipped: its mean is where the sensor clips, which a coarse sweep's variance
+  // peak (doubling exposures: up to a factor 2 lower) does not reach.
+  for (auto p = peak + 1; p != points.end(); ++p)
+    if (p->variance_dn2 < 0.5 * peak->variance_dn2) {
+      pt.saturation_mean_dn = p->mean_dn;
+      break;
+    }
+  if (clip_mean_dn && *clip_mean_dn > pt.saturation_mean_dn) pt.saturation_mean_dn = *clip_mean_dn;
   if (!(pt.saturation_mean_dn > 0))
     return make_error("no_signal", "no frame pair has a signal above the black level");
   // If the brightest pair is the variance peak, the sweep may not reach saturation: the

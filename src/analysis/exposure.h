@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -62,8 +63,15 @@ struct PhotonTransfer {
   int used_count = 0;
   std::vector<PairStats> points;
 };
+// The saturation point: the pair of largest variance (EMVA 1288) places it up to a factor
+// 2 below the clip on a coarse sweep such as doubling exposures, and the saturation
+// capacity with it. So the first brighter pair whose variance has collapsed (under half
+// the peak's: mostly clipped) gives it instead, its mean being where the sensor clips; and
+// `clip_mean_dn` (the signal above black at which frames were seen to clip, from their
+// histograms), when given and higher, gives it.
 // Errors: "too_few_samples" (fewer than 3 pairs below 70% of saturation), "no_signal".
-Result<PhotonTransfer> fit_photon_transfer(std::vector<PairStats> points);
+Result<PhotonTransfer> fit_photon_transfer(std::vector<PairStats> points,
+                                           std::optional<double> clip_mean_dn = std::nullopt);
 
 // Linearity: the mean signal against H = T x gain, a line through the origin fitted to
 // the relative residuals over the points between 5% and 95% of `saturation_dn`;

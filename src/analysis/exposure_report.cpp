@@ -37,6 +37,7 @@ Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
     int black = 0, white = 255;
     std::optional<double> clip_level_dn;  // a pile-up at the top of the first frame
   };
+  std::optional<double> clip_mean_dn;  // where the frames clip (the lowest plateau's mean)
   std::map<std::pair<double, double>, Group> groups;
   for (int i = 0; i < report.frame_count; ++i) {
     image::FrameSidecar side;
@@ -79,6 +80,7 @@ Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
     lin_points.push_back(lp);
     if (auto plateau = detect_clip_plateau(grp.frames[0], grp.black)) {
       grp.clip_level_dn = plateau->level_dn;
+      clip_mean_dn = std::min(clip_mean_dn.value_or(plateau->mean_dn), plateau->mean_dn);
       report.clip_level_dn =
           std::min(report.clip_level_dn.value_or(plateau->level_dn), plateau->level_dn);
     }
@@ -98,7 +100,9 @@ Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
   if (k0 <= 0 && full_well > 0) k0 = max_dn / full_well;
 
   if (pairs.size() >= 3) {
-    auto pt = fit_photon_transfer(pairs);
+    std::optional<double> clip_mean;
+    if (clip_mean_dn) clip_mean = *clip_mean_dn - groups.begin()->second.black;
+    auto pt = fit_photon_transfer(pairs, clip_mean);
     if (pt) {
       report.photon_transfer = *pt;
       if (k0 > 0) report.photon_transfer->expected_gain_dn_per_e = k0 * mean_gain;

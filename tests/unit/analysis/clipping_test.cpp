@@ -10,8 +10,10 @@
 #include <filesystem>
 #include <iostream>
 #include <random>
+#include <stdexcept>
 #include <string>
 
+#include "analysis/analyze_folder.h"
 #include "analysis/clip_level.h"
 #include "analysis/defocus_report.h"
 #include "analysis/exposure_report.h"
@@ -54,20 +56,22 @@ image::FrameSidecar sidecar(uint64_t sequence, nlohmann::json settings) {
 }
 
 // An aperture series of one slanted edge: f/2 puts the light side over the full well.
-TEST(Clipping, EdgesAtTheFullWellAreFlaggedAndCtimesNComesFromTheOthers) {
+constexpr double kEdgeKPx = 40.0;  // C x N, px
+const std::vector<double> kFNumbers = {2.0, 2.8, 4.0, 5.6, 8.0};
+
+fs::path write_edge_series(const std::string& name, bool finish) {
   const int size = 160;
-  const double k_px = 40.0;  // C x N, px
+  const double k_px = kEdgeKPx;
   const double angle = 5.0 * std::numbers::pi / 180.0, nx = std::cos(angle), ny = -std::sin(angle);
   const double centre = (size - 1) / 2.0;
-  const fs::path dir = fresh("edges");
+  const fs::path dir = fresh(name);
   auto writer =
       image::CaptureFolderWriter::create(dir, "aperture_series", {{"backend", "test"}}, {});
-  ASSERT_TRUE(writer.ok());
+  if (!writer) throw std::runtime_error(writer.error().message);
   Sensor sensor;
   const double light_e_at_f2 = 16000, dark_e_at_f2 = 1000;  // f/2: light side 1.6 full wells
-  std::vector<double> f_numbers = {2.0, 2.8, 4.0, 5.6, 8.0};
-  for (size_t k = 0; k < f_numbers.size(); ++k) {
-    const double n = f_numbers[k], scale = 4.0 / (n * n);
+  for (size_t k = 0; k < kFNumbers.size(); ++k) {
+    const double n = kFNumbers[k], scale = 4.0 / (n * n);
     cv::Mat frame(size, size, CV_16UC1);
     for (int y = 0; y < size; ++y)
       for (int x = 0; x < size; ++x) {
@@ -88,9 +92,15 @@ TEST(Clipping, EdgesAtTheFullWellAreFlaggedAndCtimesNComesFromTheOthers) {
                        {"end", point(half)},
                        {"middle", point(0)},
                        {"light_side_point", {centre + 5 * nx, centre + 5 * ny}}}}}}}};
-    ASSERT_TRUE(writer->add_frame(frame, side).ok());
+    if (auto added = writer->add_frame(frame, side); !added)
+      throw std::runtime_error(added.error().message);
   }
-  ASSERT_TRUE(writer->finish().ok());
+  if (finish) (void)writer->finish();
+  return dir;
+}
+
+TEST(Clipping, EdgesAtTheFullWellAreFlaggedAndCtimesNComesFromTheOthers) {
+  const fs::path dir = write_edge_series("edges", true);
 
   DefocusOptions options;
   options.baseline_sigma_px = 0;
@@ -103,9 +113,22 @@ TEST(Clipping, EdgesAtTheFullWellAreFlaggedAndCtimesNComesFromTheOthers) {
   const TargetDefocus& t = report->targets[0];
   EXPECT_EQ(t.frames[0].edge.status, kEdgeClipped) << "f/2: the light side is at the full well";
   for (size_t k = 1; k < t.frames.size(); ++k)
-    EXPECT_EQ(t.frames[k].edge.status, kEdgeOk) << "f/" << f_numbers[k];
+    EXPECT_EQ(t.frames[k].edge.status, kEdgeOk) << "f/" << kFNumbers[k];
   ASSERT_TRUE(t.aperture) << t.aperture_error;
-  EXPECT_NEAR(t.aperture->k_px / k_px - 1, 0, 0.01) << t.aperture->k_px;
+  EXPECT_NEAR(t.aperture->k_px / kEdgeKPx - 1, 0, 0.01) << t.aperture->k_px;
+  // The report ties each edge to the scene and gives a rejected edge no diameter.
+  const auto json = to_json(*report);
+  const auto& f2 = json["targets"][0]["frames"][0];
+  EXPECT_TRUE(f2["diameter_px"].is_null()) << f2.dump();
+  EXPECT_TRUE(f2["ci95_px"].is_null());
+  // f/4 (measured): the drawn edge runs along (sin 5 deg, cos 5 deg), 85 degrees from +x
+  // as a line, through the centre.
+  const auto& f4 = json["targets"][0]["frames"][2];
+  EXPECT_NEAR(std::fmod(f4["edge_px"]["angle_deg"].get<double>() + 360.0, 180.0), 85.0, 0.2);
+  const double angle = 5.0 * std::numbers::pi / 180.0, centre = 79.5;
+  const double off_line = (f4["edge_px"]["x"].get<double>() - centre) * std::cos(angle) -
+                          (f4["edge_px"]["y"].get<double>() - centre) * std::sin(angle);
+  EXPECT_LT(std::fabs(off_line), 0.5) << "the reported point lies on the drawn edge";
   fs::remove_all(dir);
 }
 
@@ -146,6 +169,50 @@ TEST(Clipping, HdrLeavesPixelsAtTheFullWellOutAndStaysWithinThreePercent) {
   if (std::getenv("CAMLAB_EDGE_REPORT"))
     std::cout << "HDR median relative error " << median << "\n";
   EXPECT_LT(median, 0.03);
+  fs::remove_all(dir);
+}
+
+// Doubling exposures of a flat field: the pair of largest variance (8000 e-) lies a step
+// below the full well, so EMVA's saturation point alone reads the capacity 20% low and the
+// linearity fit (5-95% of saturation) drops that last unclipped setting.
+TEST(Clipping, DoublingExposuresGiveTheFullWellAndKeepTheLastUnclippedSetting) {
+  const fs::path dir = fresh("doubling");
+  auto writer = image::CaptureFolderWriter::create(dir, "bracket", {{"backend", "test"}}, {});
+  ASSERT_TRUE(writer.ok());
+  Sensor sensor;
+  uint64_t sequence = 0;
+  for (double t : {1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0})
+    for (int repeat = 0; repeat < 2; ++repeat) {
+      cv::Mat frame(128, 128, CV_16UC1);
+      for (int y = 0; y < 128; ++y)
+        for (int x = 0; x < 128; ++x) frame.at<uint16_t>(y, x) = sensor.dn(250.0 * t);
+      ASSERT_TRUE(
+          writer->add_frame(frame, sidecar(sequence++, {{"exposure_us", t}, {"gain", 1.0}})).ok());
+    }
+  ASSERT_TRUE(writer->finish().ok());
+  auto report = analyze_exposure(dir, {});
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  ASSERT_TRUE(report->photon_transfer) << report->photon_transfer_error;
+  EXPECT_NEAR(report->photon_transfer->saturation_capacity_e / kFullWellE - 1, 0, 0.03)
+      << report->photon_transfer->saturation_capacity_e;
+  EXPECT_NEAR(report->photon_transfer->system_gain_dn_per_e / kGainDnPerE - 1, 0, 0.03);
+  bool last_unclipped_used = false;
+  for (const auto& p : report->linearity)
+    if (std::fabs(p.exposure_gain_us - 32.0) < 1e-9) last_unclipped_used = p.used;
+  EXPECT_TRUE(last_unclipped_used) << "8000 e- is 80% of the full well";
+  EXPECT_LT(report->max_linearity_error_pct, 1.0);
+  fs::remove_all(dir);
+}
+
+TEST(Clipping, AnIncompleteCaptureIsReadWithAWarning) {
+  const fs::path dir = write_edge_series("incomplete", false);
+  AnalyzeOptions options;
+  options.defocus.baseline_sigma_px = 0;
+  auto run = analyze("defocus", dir, options);
+  ASSERT_TRUE(run.ok()) << run.error().message;
+  ASSERT_TRUE(run->report.contains("warnings"));
+  EXPECT_NE(run->report["warnings"][0].get<std::string>().find("incomplete"), std::string::npos);
+  EXPECT_EQ(run->text.rfind("warning: ", 0), 0u) << run->text.substr(0, 80);
   fs::remove_all(dir);
 }
 
