@@ -49,6 +49,7 @@ std::string defocus_text(const DefocusReport& r) {
       text += line("  %5d %6.3g %7.1f  %-24s %7.3f  [%6.3f, %6.3f]", fe.frame, fe.f_number,
                    fe.focus_position, m.status.c_str(), m.diameter_px, m.ci_low_px, m.ci_high_px);
       text += fe.truth_coc_px ? line("  %7.3f", *fe.truth_coc_px) : std::string();
+      if (m.low_signal) text += line("  LOW SIGNAL (CNR %.1f)", m.contrast_to_noise);
       text += m.joint_with.empty() ? std::string("\n")
                                    : "  (fitted jointly with " + m.joint_with + ")\n";
     }

@@ -441,6 +441,13 @@ Result<EdgeMeasurement> measure_edge(const cv::Mat& image, const EdgeSegment& ed
   }
   m.diameter_px = inv->diameter_px;
   m.diameter_sigma_px = std::isfinite(sigma) ? sigma / inv->slope : kInf;
+  // Low signal: the Jacobian's sigma assumes the noise level and the fit's linearity that
+  // a few DN of contrast do not give; measured on independent edges at CNR 4, diameters
+  // read 0.6% low and 95% intervals covered 92% (66 of 72). A 1% relative bias goes into
+  // the sigma in quadrature (then 93%).
+  m.low_signal = m.contrast_to_noise < kLowSignalCnr;
+  if (m.low_signal && std::isfinite(m.diameter_sigma_px))
+    m.diameter_sigma_px = std::hypot(m.diameter_sigma_px, kLowSignalRelativeBias * m.diameter_px);
   const double half = options.confidence_sigmas * m.diameter_sigma_px;
   m.ci_low_px = std::isfinite(half) ? std::max(0.0, m.diameter_px - half) : 0.0;
   m.ci_high_px = std::isfinite(half) ? m.diameter_px + half : kInf;

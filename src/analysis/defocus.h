@@ -27,6 +27,11 @@
 
 namespace camlab::analysis {
 
+// Contrast-to-noise per pixel (edge step over the noise sigma) under which an edge's
+// measurement is flagged low_signal, and the relative bias its sigma then includes.
+inline constexpr double kLowSignalCnr = 10.0;
+inline constexpr double kLowSignalRelativeBias = 0.01;
+
 // Status of one edge measurement. Only kEdgeOk is a measurement of D; the others say why
 // not, and keep whatever was fitted for reference.
 inline constexpr std::string_view kEdgeOk = "ok";
@@ -70,6 +75,9 @@ struct EdgeMeasurement {
   double apparent_diameter_px = 0;
   double rms_residual = 0;
   double contrast_to_noise = 0;
+  // Contrast-to-noise per pixel under kLowSignalCnr: the fit is still a measurement, but
+  // its noise is large and the interval was widened to cover it (docs/analysis.md).
+  bool low_signal = false;
   double half_length_px = 0, half_width_px = 0;  // the window used (or last tried)
   EdgeFit fit;  // valid unless status is a rejection before any fit succeeded
   // Set when a neighbouring edge's blur overlapped the window and both were fitted

@@ -412,6 +412,7 @@ json targets_json(const DefocusReport& r) {
                 {"contrast_to_noise", num(m.contrast_to_noise)},
                 {"window_px", {num(2 * m.half_length_px), num(2 * m.half_width_px)}}};
       if (!m.message.empty()) f["message"] = m.message;
+      if (m.low_signal) f["low_signal"] = true;  // CNR under 10: sigma includes a 1% bias
       if (m.fit.samples > 0)  // where the fit put the edge: a point on it and its direction
         f["edge_px"] = {{"x", num(m.fit.line.x_px)},
                         {"y", num(m.fit.line.y_px)},
