@@ -52,6 +52,70 @@ bool try_merge(Line* a, const Line& b) {
   return true;
 }
 
+// Whether parallel lines k and l are two ridges of one wide blurred edge rather than two
+// edges: along their overlap, the smoothed image rises (or falls) steadily from k's line
+// through the midway line to l's, in the same direction as the gradient at both lines. Two
+// edges of a bar have opposite gradients; one wide edge (its gradient's flat top leaves
+// ridges up to the blur's width apart) is a single ramp.
+bool one_ramp(const cv::Mat& smooth, const Line& k, const Line& l) {
+  const double len = k.length(), ux = (k.bx - k.ax) / len, uy = (k.by - k.ay) / len;
+  const double lx = 0.5 * (l.ax + l.bx), ly = 0.5 * (l.ay + l.by);
+  // Unit normal from k towards l.
+  double nx = -uy, ny = ux;
+  const double gap = (lx - k.ax) * nx + (ly - k.ay) * ny;
+  if (gap < 0) nx = -nx, ny = -ny;
+  const double d = std::fabs(gap);
+  auto at = [&](double x, double y) {
+    const int xi = std::clamp(static_cast<int>(std::lround(x)), 0, smooth.cols - 1);
+    const int yi = std::clamp(static_cast<int>(std::lround(y)), 0, smooth.rows - 1);
+    return static_cast<double>(smooth.at<float>(yi, xi));
+  };
+  int rising = 0, falling = 0, samples = 0;
+  for (double t = 0.2; t <= 0.8; t += 0.1) {
+    // A point on k within the overlap, and the points d/4 outside k, midway, and d/4
+    // beyond l along the normal: four values that a single ramp orders monotonically.
+    const double px = k.ax + ux * t * len, py = k.ay + uy * t * len;
+    const double v[4] = {at(px - 0.25 * d * nx, py - 0.25 * d * ny), at(px, py),
+                         at(px + 0.5 * d * nx, py + 0.5 * d * ny),
+                         at(px + 1.25 * d * nx, py + 1.25 * d * ny)};
+    ++samples;
+    rising += v[0] < v[1] && v[1] < v[2] && v[2] < v[3];
+    falling += v[0] > v[1] && v[1] > v[2] && v[2] > v[3];
+  }
+  return samples > 0 && std::max(rising, falling) >= samples - 1;
+}
+
+// Whether collinear pieces a and b (within 3 degrees, 3 reduced px of one line) are one
+// edge with a gap in the detected pixels between them, as a wide blur's weak gradient
+// leaves: at every point of the gap the image across the line steps the same way, by at
+// least half the step at the pieces.
+bool continues_across_gap(const cv::Mat& smooth, const Line& a, const Line& b) {
+  if (angle_between(a, b) > 3.0 * std::numbers::pi / 180.0) return false;
+  if (line_distance(a, b.ax, b.ay) > 3.0 || line_distance(a, b.bx, b.by) > 3.0) return false;
+  const double len = a.length(), ux = (a.bx - a.ax) / len, uy = (a.by - a.ay) / len;
+  const double nx = -uy, ny = ux, w = 3.0;
+  auto at = [&](double x, double y) {
+    const int xi = std::clamp(static_cast<int>(std::lround(x)), 0, smooth.cols - 1);
+    const int yi = std::clamp(static_cast<int>(std::lround(y)), 0, smooth.rows - 1);
+    return static_cast<double>(smooth.at<float>(yi, xi));
+  };
+  auto step_at = [&](double t) {
+    const double px = a.ax + ux * t, py = a.ay + uy * t;
+    return at(px + w * nx, py + w * ny) - at(px - w * nx, py - w * ny);
+  };
+  auto t_of = [&](double x, double y) { return (x - a.ax) * ux + (y - a.ay) * uy; };
+  const double tb0 = t_of(b.ax, b.ay), tb1 = t_of(b.bx, b.by);
+  const double gap_lo = tb0 > len ? len : std::max(tb0, tb1);
+  const double gap_hi = tb0 > len ? std::min(tb0, tb1) : 0.0;
+  const double from = std::min(gap_lo, gap_hi), to = std::max(gap_lo, gap_hi);
+  if (to - from > len + b.length()) return false;  // a gap longer than the pieces
+  const double reference = 0.5 * (step_at(0.5 * len) + step_at(0.5 * (tb0 + tb1)));
+  if (std::fabs(reference) < 1e-6) return false;
+  for (double t = from; t <= to; t += 1.0)
+    if (step_at(t) / reference < 0.5) return false;
+  return true;
+}
+
 }  // namespace
 
 std::vector<EdgeSegment> find_edges(const cv::Mat& image, const EdgeFinderOptions& options) {
@@ -106,19 +170,35 @@ std::vector<EdgeSegment> find_edges(const cv::Mat& image, const EdgeFinderOption
       }
     if (!absorbed) merged.push_back(l);
   }
-  // A second pass joins pieces that only met through later growth.
+  // A second pass joins pieces that only met through later growth, and collinear pieces
+  // the image shows to be one edge across a gap (continues_across_gap).
   for (size_t i = 0; i < merged.size(); ++i)
     for (size_t j = i + 1; j < merged.size();)
-      if (try_merge(&merged[i], merged[j]))
+      if (try_merge(&merged[i], merged[j])) {
         merged.erase(merged.begin() + static_cast<long>(j));
-      else
+      } else if (continues_across_gap(small, merged[i], merged[j])) {
+        Line joined = merged[i];
+        const double len = joined.length();
+        const double ux = (joined.bx - joined.ax) / len, uy = (joined.by - joined.ay) / len;
+        auto t_of = [&](double x, double y) { return (x - joined.ax) * ux + (y - joined.ay) * uy; };
+        const double lo =
+            std::min({0.0, t_of(merged[j].ax, merged[j].ay), t_of(merged[j].bx, merged[j].by)});
+        const double hi =
+            std::max({len, t_of(merged[j].ax, merged[j].ay), t_of(merged[j].bx, merged[j].by)});
+        merged[i] = {joined.ax + ux * lo, joined.ay + uy * lo, joined.ax + ux * hi,
+                     joined.ay + uy * hi};
+        merged.erase(merged.begin() + static_cast<long>(j));
+      } else {
         ++j;
+      }
   std::sort(merged.begin(), merged.end(),
             [](const Line& a, const Line& b) { return a.length() > b.length(); });
   // A blurred edge's gradient has a flat top (a disk's line spread is a half-ellipse), on
   // which non-maximum suppression can leave two or three parallel ridges: lines within 3
-  // degrees whose overlapping parts lie within 5 reduced px of each other are one edge
-  // (the longest is kept; the fit finds the true position).
+  // degrees whose overlapping parts lie within 5 reduced px of each other are one edge,
+  // and so are such lines farther apart (up to 40) when the image between them is one
+  // ramp (a blur of tens of px; one_ramp). The longest is kept; the fit finds the true
+  // position.
   std::vector<Line> kept;
   for (const Line& l : merged) {
     bool duplicate = false;
@@ -128,7 +208,8 @@ std::vector<EdgeSegment> find_edges(const cv::Mat& image, const EdgeFinderOption
       const double len = k.length(), ux = (k.bx - k.ax) / len, uy = (k.by - k.ay) / len;
       const double t = (mx - k.ax) * ux + (my - k.ay) * uy;
       if (t < 0 || t > len) continue;
-      if (line_distance(k, mx, my) < 5.0) {
+      const double distance = line_distance(k, mx, my);
+      if (distance < 5.0 || (distance < 40.0 && one_ramp(small, k, l))) {
         duplicate = true;
         break;
       }
