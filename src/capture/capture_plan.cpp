@@ -8,10 +8,23 @@
 #include <sstream>
 
 #include "capture/settings_json.h"
+#include "image/pixel_format.h"
 
 namespace camlab::capture {
 
 namespace {
+
+// How much of the sensor's signal a format keeps (higher is better; -1: camlab cannot
+// capture it): linear before JPEG, raw (mono, mosaic) before ISP colour, then bits, and
+// mono before mosaic at equal depth.
+int format_rank(const std::string& fourcc) {
+  const auto info = image::pixel_format_info(fourcc);
+  if (!info) return -1;
+  if (!info->linear) return 0;
+  if (info->layout == image::FrameLayout::kRgb || info->packing == image::SamplePacking::kYuyv)
+    return 1;
+  return 2 + 2 * info->bits_per_sample + (info->layout == image::FrameLayout::kMono ? 1 : 0);
+}
 
 using json = nlohmann::json;
 
@@ -222,14 +235,12 @@ Status PlanBuilder::read_format() {
       return out_of_range("format.fourcc '" + fourcc +
                           "' is not offered by the camera (it offers: " + listed + ")");
   } else {
-    // The deepest greyscale format keeps the most of the sensor's DN.
-    for (const char* preferred : {"Y16 ", "GREY"}) {
-      auto it = std::find_if(formats_.begin(), formats_.end(),
-                             [&](const auto& f) { return f.fourcc == preferred; });
-      if (it != formats_.end()) {
-        chosen = &*it;
-        break;
-      }
+    // The format that keeps the most of the sensor's DN: raw before processed, deeper
+    // before shallower, and JPEG (lossy, not linear) only when nothing else is offered.
+    int best_rank = -1;
+    for (const auto& f : formats_) {
+      const int rank = format_rank(f.fourcc);
+      if (rank > best_rank) best_rank = rank, chosen = &f;
     }
     if (!chosen) chosen = &formats_.front();
   }

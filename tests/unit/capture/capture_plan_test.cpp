@@ -205,3 +205,28 @@ TEST_F(CapturePlanTest, FixedControlsAreCheckedAndMayNotContradictTheKind) {
 
 }  // namespace
 }  // namespace camlab::capture
+
+namespace camlab::capture {
+namespace {
+
+// What a UVC webcam, a Bayer CSI sensor and a camera camlab cannot read list, and the
+// format a plan without one takes: the one that keeps the most of the sensor's signal.
+TEST(CapturePlanFormats, WithoutAFormatThePlanTakesTheRawestDeepestOne) {
+  auto listing = [](std::vector<std::string> fourccs) {
+    std::vector<device::PixelFormatInfo> formats;
+    for (auto& f : fourccs) formats.push_back({f, f, {{640, 480, {{1, 30}}}}});
+    return formats;
+  };
+  auto chosen = [&](std::vector<std::string> fourccs) {
+    auto p = plan_capture({{"kind", "single"}}, {}, listing(std::move(fourccs)), {});
+    return p.ok() ? p->format.fourcc : "error: " + p.error().message;
+  };
+  EXPECT_EQ(chosen({"MJPG", "YUYV"}), "YUYV") << "a webcam: linear YUYV before JPEG";
+  EXPECT_EQ(chosen({"MJPG"}), "MJPG") << "JPEG when nothing else is offered";
+  EXPECT_EQ(chosen({"BA81", "pRAA", "RG12", "YUYV"}), "RG12") << "12-bit raw first";
+  EXPECT_EQ(chosen({"RG16", "Y16 "}), "Y16 ") << "mono before a mosaic at one depth";
+  EXPECT_EQ(chosen({"H264", "GREY"}), "GREY") << "never a format camlab cannot read";
+}
+
+}  // namespace
+}  // namespace camlab::capture
