@@ -5,9 +5,10 @@
 // Loaded with LD_PRELOAD by `camlab vcam run`, it interposes the libc entry points a
 // V4L2 client uses on a device: open/openat (and their 64 and fortified forms), close,
 // dup/dup2/dup3/fcntl(F_DUPFD), ioctl, mmap/munmap, read/write, poll/ppoll/select/
-// pselect (and _chk forms), the stat family (a character device, 81:N or 236:N),
-// access, realpath, fopen/opendir/readlink (a fake sysfs), and syscall() for the same
-// calls, because libv4l2 and libcamera make some of them through syscall() directly.
+// pselect (and _chk forms), the stat family and glibc's old __xstat forms (a character
+// device, 81:N or 236:N), access, realpath, fopen/opendir/readlink (a fake sysfs), and
+// syscall() for the same calls, because libv4l2 and libcamera make some of them through
+// syscall() directly. ioctl requests are read as 32 bits, as the kernel reads them.
 // It also hides udev's monitor from libcamera (udev_monitor_new_from_netlink), so that
 // libcamera enumerates through the fake sysfs.
 //
@@ -115,7 +116,10 @@ int open_path(const char* path, int flags, mode_t mode, int dirfd, bool at) {
 }
 
 int ioctl_fd(int fd, unsigned long request, void* arg) {
-  if (auto file = BrokerClient::get().find(fd)) return file->ioctl(fd, request, arg);
+  // The kernel reads the request's low 32 bits: programs that pass it as an int (ustreamer,
+  // motion) hand VIDIOC_QUERYCAP over sign-extended, 0xffffffff80685600.
+  if (auto file = BrokerClient::get().find(fd))
+    return file->ioctl(fd, static_cast<uint32_t>(request), arg);
   return real().ioctl(fd, request, arg);
 }
 
@@ -382,6 +386,22 @@ int fstatat(int dirfd, const char* path, struct stat* st, int flags) {
 }
 int fstatat64(int dirfd, const char* path, struct stat64* st, int flags) {
   return fstatat(dirfd, path, reinterpret_cast<struct stat*>(st), flags);
+}
+
+// glibc before 2.33 compiled stat() and friends into these (programs built then, such as
+// fswebcam, still call them); `version` names the struct stat layout, which on x86-64 and
+// arm64 is the one struct stat has.
+int __xstat(int, const char* path, struct stat* st) { return stat(path, st); }
+int __xstat64(int, const char* path, struct stat64* st) { return stat64(path, st); }
+int __lxstat(int, const char* path, struct stat* st) { return lstat(path, st); }
+int __lxstat64(int, const char* path, struct stat64* st) { return lstat64(path, st); }
+int __fxstat(int, int fd, struct stat* st) { return fstat(fd, st); }
+int __fxstat64(int, int fd, struct stat64* st) { return fstat64(fd, st); }
+int __fxstatat(int, int dirfd, const char* path, struct stat* st, int flags) {
+  return fstatat(dirfd, path, st, flags);
+}
+int __fxstatat64(int, int dirfd, const char* path, struct stat64* st, int flags) {
+  return fstatat64(dirfd, path, st, flags);
 }
 
 int statx(int dirfd, const char* path, int flags, unsigned mask, struct statx* out) {

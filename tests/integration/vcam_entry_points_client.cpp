@@ -2,6 +2,7 @@
 // preload library interposes, including syscall() (as libv4l2 and libcamera do), the dup
 // family, read, ppoll/pselect/select and the stat family. Run under `camlab vcam run`;
 // prints one line per failed check and exits with the number of failures.
+#include <dlfcn.h>
 #include <fcntl.h>
 #include <linux/media.h>
 #include <linux/videodev2.h>
@@ -114,6 +115,15 @@ int main() {
   errno = 0;
   check(ioctl(fd, _IOR('V', 250, int), reinterpret_cast<void*>(16)) == -1 && errno == ENOTTY,
         "unknown ioctl is ENOTTY before the pointer is looked at");
+  // ustreamer and motion pass the request as an int: VIDIOC_QUERYCAP (0x80685600) then
+  // arrives sign-extended to 64 bits, and the kernel looks at its low 32 bits only.
+  const unsigned long sign_extended = static_cast<unsigned long>(static_cast<int>(VIDIOC_QUERYCAP));
+  check(sign_extended != VIDIOC_QUERYCAP, "the request is sign-extended on this host");
+  v4l2_capability as_int{};
+  check(ioctl(fd, sign_extended, &as_int) == 0 && as_int.driver[0], "ioctl with an int request");
+  as_int = {};
+  check(syscall(SYS_ioctl, fd, sign_extended, &as_int) == 0 && as_int.driver[0],
+        "syscall(SYS_ioctl) with an int request");
 
   // The dup family: more names for one open file, which lives until the last is closed.
   const int d1 = dup(fd);
@@ -149,6 +159,27 @@ int main() {
   check(statx(AT_FDCWD, "/dev/video0", 0, STATX_BASIC_STATS, &sx) == 0 && S_ISCHR(sx.stx_mode) &&
             sx.stx_rdev_major == 81,
         "statx");
+  // glibc's old stat entry points, which programs built before glibc 2.33 (fswebcam)
+  // call; the headers no longer declare them.
+  using XStat = int (*)(int, const char*, struct stat*);
+  using FXStat = int (*)(int, int, struct stat*);
+  using FXStatAt = int (*)(int, int, const char*, struct stat*, int);
+  for (const char* name : {"__xstat", "__xstat64", "__lxstat", "__lxstat64"}) {
+    auto fn = reinterpret_cast<XStat>(dlsym(RTLD_DEFAULT, name));
+    st = {};
+    check(fn && fn(1, "/dev/video0", &st) == 0 && S_ISCHR(st.st_mode) && major(st.st_rdev) == 81,
+          name);
+  }
+  for (const char* name : {"__fxstat", "__fxstat64"}) {
+    auto fn = reinterpret_cast<FXStat>(dlsym(RTLD_DEFAULT, name));
+    st = {};
+    check(fn && fn(1, d1, &st) == 0 && major(st.st_rdev) == 81, name);
+  }
+  for (const char* name : {"__fxstatat", "__fxstatat64"}) {
+    auto fn = reinterpret_cast<FXStatAt>(dlsym(RTLD_DEFAULT, name));
+    st = {};
+    check(fn && fn(1, AT_FDCWD, "/dev/video0", &st, 0) == 0 && major(st.st_rdev) == 81, name);
+  }
   check(access("/dev/video0", R_OK | W_OK) == 0, "access");
   char resolved[PATH_MAX];
   check(realpath("/dev/video0", resolved) && std::string(resolved) == "/dev/video0",
