@@ -2,12 +2,26 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 namespace camlab::mock {
 
+v4l2_fract frame_interval_fraction(double interval_us) {
+  const double fps = 1e6 / interval_us;
+  // Within 1e-5 of a whole rate (33333.3 us is 30.0000 fps) or of one over 1.001.
+  if (std::fabs(fps - std::round(fps)) < 1e-5 * fps && std::round(fps) >= 1)
+    return {1, static_cast<uint32_t>(std::round(fps))};
+  const double ntsc = fps * 1.001;
+  if (std::fabs(ntsc - std::round(ntsc)) < 1e-5 * ntsc && std::round(ntsc) >= 1)
+    return {1001, static_cast<uint32_t>(std::round(ntsc)) * 1000};
+  const auto us = static_cast<uint32_t>(std::max(1L, std::lround(interval_us)));
+  const uint32_t divisor = std::gcd(us, 1000000u);
+  return {us / divisor, 1000000u / divisor};
+}
+
 VirtualV4l2FrameClock::VirtualV4l2FrameClock(double sensor_frame_interval_us, bool realtime)
     : sensor_frame_interval_us_(sensor_frame_interval_us), realtime_(realtime) {
-  time_per_frame_ = {static_cast<uint32_t>(std::lround(sensor_frame_interval_us_)), 1000000};
+  time_per_frame_ = frame_interval_fraction(sensor_frame_interval_us_);
 }
 
 void VirtualV4l2FrameClock::set_time_per_frame(v4l2_fract asked) {
@@ -15,8 +29,7 @@ void VirtualV4l2FrameClock::set_time_per_frame(v4l2_fract asked) {
   const double asked_s =
       asked.denominator ? static_cast<double>(asked.numerator) / asked.denominator : base_s;
   const uint32_t multiple = asked_s > 1.5 * base_s ? 2 : 1;
-  time_per_frame_ = {static_cast<uint32_t>(std::lround(sensor_frame_interval_us_)) * multiple,
-                     1000000};
+  time_per_frame_ = frame_interval_fraction(sensor_frame_interval_us_ * multiple);
 }
 
 std::chrono::microseconds VirtualV4l2FrameClock::interval() const {

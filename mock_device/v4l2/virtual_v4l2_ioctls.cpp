@@ -90,9 +90,8 @@ int VirtualV4l2Device::enum_frameintervals(Call& call) {
   if (!size_ok || interval->index > 1 || !is_format(interval->pixel_format)) return -EINVAL;
   interval->type = V4L2_FRMIVAL_TYPE_DISCRETE;
   // The sensor's frame interval, and twice it (for longer exposures).
-  interval->discrete = {static_cast<uint32_t>(std::lround(camera.timing.frame_interval_us))
-                            << interval->index,
-                        1000000};
+  interval->discrete =
+      frame_interval_fraction(camera.timing.frame_interval_us * (1 << interval->index));
   return 0;
 }
 

@@ -9,18 +9,31 @@
 namespace camlab::mock {
 namespace {
 
+bool same(v4l2_fract a, v4l2_fract b) {
+  return a.numerator == b.numerator && a.denominator == b.denominator;
+}
+
 TEST(VirtualV4l2FrameClock, TimePerFrameIsTheSensorsIntervalOrTwiceIt) {
-  VirtualV4l2FrameClock clock(33333.4, true);
-  EXPECT_EQ(clock.time_per_frame().numerator, 33333u);
-  EXPECT_EQ(clock.time_per_frame().denominator, 1000000u);
+  VirtualV4l2FrameClock clock(33333.3, true);
+  EXPECT_TRUE(same(clock.time_per_frame(), {1, 30})) << "as drivers report 30 fps";
   EXPECT_EQ(clock.interval(), std::chrono::microseconds(33333));
   clock.set_time_per_frame({1, 15});  // 66.7 ms
-  EXPECT_EQ(clock.time_per_frame().numerator, 66666u);
+  EXPECT_TRUE(same(clock.time_per_frame(), {1, 15}));
   clock.set_time_per_frame({1, 25});  // 40 ms: nearer the sensor's
-  EXPECT_EQ(clock.time_per_frame().numerator, 33333u);
+  EXPECT_TRUE(same(clock.time_per_frame(), {1, 30}));
   clock.set_time_per_frame({1, 15});
   clock.set_time_per_frame({1, 0});  // no denominator: the sensor's
-  EXPECT_EQ(clock.time_per_frame().numerator, 33333u);
+  EXPECT_TRUE(same(clock.time_per_frame(), {1, 30}));
+}
+
+TEST(VirtualV4l2FrameClock, IntervalsAreTheFractionsDriversReport) {
+  EXPECT_TRUE(same(frame_interval_fraction(33333.3), {1, 30}));
+  EXPECT_TRUE(same(frame_interval_fraction(16666.7), {1, 60}));
+  EXPECT_TRUE(same(frame_interval_fraction(40000), {1, 25}));
+  EXPECT_TRUE(same(frame_interval_fraction(1e6), {1, 1}));
+  EXPECT_TRUE(same(frame_interval_fraction(33366.7), {1001, 30000})) << "29.97 fps";
+  EXPECT_TRUE(same(frame_interval_fraction(12345), {2469, 200000})) << "no whole rate: reduced";
+  EXPECT_TRUE(same(frame_interval_fraction(2e6), {2, 1})) << "half a frame per second";
 }
 
 TEST(VirtualV4l2FrameClock, SequenceNumbersCountFromStreamon) {
