@@ -79,6 +79,31 @@ CocRange predicted_coc(const CameraSpec& camera, const TargetSurface& surface, d
   return range;
 }
 
+CocRange predicted_coc(const ChannelOptics& optics, double pixel_pitch_um,
+                       const TargetSurface& surface) {
+  const TargetSpec& t = surface.spec();
+  const double us[] = {t.x_min_m(), t.x_max_m(), t.x_min_m(), t.x_max_m()};
+  const double vs[] = {t.y_min_m(), t.y_min_m(), t.y_max_m(), t.y_max_m()};
+  const double pitch_mm = pixel_pitch_um * 1e-3;
+  CocRange range;
+  range.at_origin_px = optics.coc_mm(surface.to_camera(0, 0)[2] * 1e3) / pitch_mm;
+  range.min_px = range.max_px = range.at_origin_px;
+  double z_min = 1e300, z_max = -1e300;
+  for (int i = 0; i < 4; ++i) {
+    const double depth_mm = surface.to_camera(us[i], vs[i])[2] * 1e3;
+    z_min = std::min(z_min, depth_mm);
+    z_max = std::max(z_max, depth_mm);
+    if (depth_mm <= 0) continue;  // behind the lens: not imaged
+    const double c = optics.coc_mm(depth_mm) / pitch_mm;
+    range.min_px = std::min(range.min_px, c);
+    range.max_px = std::max(range.max_px, c);
+  }
+  // A plane that crosses the channel's plane of focus is sharp somewhere on it.
+  const double s = optics.focus_distance_mm;
+  if (s > 0 && z_min <= s && s <= z_max) range.min_px = 0;
+  return range;
+}
+
 std::string truth_cameramodel_text(const CameraSpec& camera,
                                    const std::vector<double>& intrinsics) {
   image::CameraModelText model;
@@ -89,6 +114,67 @@ std::string truth_cameramodel_text(const CameraSpec& camera,
   model.comment = "camlab virtual camera truth: " + camera.name;
   return image::to_cameramodel_text(model);
 }
+
+namespace {
+
+// Noise-free DN of a reflectance in a channel: black + electrons (clipped at the full
+// well) x K x gain, clipped to the DN range; not rounded (a frame's mean over many
+// pixels of one reflectance is this within the rounding's +-0.5 DN).
+double expected_dn(const SensorSpec& sensor, double electrons, double gain) {
+  const double max_dn = (1 << sensor.bit_depth) - 1;
+  const double dn = sensor.black_level_dn + std::min(electrons, sensor.full_well_e) *
+                                                sensor.conversion_gain_dn_per_e * gain;
+  return std::clamp(dn, 0.0, max_dn);
+}
+
+// truth.channels: for each colour its optics, its predicted CoC of each target, and the
+// expected DN of each target's dark and light parts and of the background.
+nlohmann::json channels_truth(const TruthInputs& in) {
+  const CameraSpec& camera = *in.camera;
+  static const char* const kNames[3] = {"R", "G", "B"};
+  nlohmann::json channels = nlohmann::json::object();
+  for (int c = 0; c < 3; ++c) {
+    const ChannelTruthInputs& ch = in.channels[static_cast<size_t>(c)];
+    const double e = ch.electrons_per_unit_reflectance;
+    nlohmann::json targets = nlohmann::json::array();
+    for (const auto& surface : *in.surfaces) {
+      const TargetSpec& spec = surface.spec();
+      const double distance_mm = surface.to_camera(0, 0)[2] * 1e3;
+      const CocRange coc = predicted_coc(ch.optics, camera.sensor.pixel_pitch_um, surface);
+      auto z_i = ch.optics.image_distance_mm(distance_mm);
+      const double dark = spec.dark.rgb[static_cast<size_t>(c)];
+      const double light = spec.light.rgb[static_cast<size_t>(c)];
+      targets.push_back({
+          {"name", spec.name},
+          {"image_distance_mm", z_i ? nlohmann::json(*z_i) : nlohmann::json(nullptr)},
+          {"coc_px", {{"at_origin", coc.at_origin_px}, {"min", coc.min_px}, {"max", coc.max_px}}},
+          {"dark_reflectance", dark},
+          {"light_reflectance", light},
+          {"expected_dn",
+           {{"dark", expected_dn(camera.sensor, dark * e, in.gain)},
+            {"light", expected_dn(camera.sensor, light * e, in.gain)}}},
+      });
+    }
+    const double background = in.scene->background.rgb[static_cast<size_t>(c)];
+    const double s_mm = ch.optics.focus_distance_mm;
+    channels[kNames[c]] = {
+        {"focal_mm", ch.optics.focal_mm},
+        {"focus_shift_mm", camera.lens.chromatic_focus_shift_mm[static_cast<size_t>(c)]},
+        // null at infinity; negative beyond it (channel_optics.h)
+        {"focus_distance_m", std::isfinite(s_mm) ? nlohmann::json(s_mm / 1e3) : nullptr},
+        {"quantum_efficiency", ch.quantum_efficiency},
+        {"electrons_per_unit_reflectance", e},
+        {"aperture_samples", ch.aperture_samples},
+        {"background",
+         {{"reflectance", background},
+          {"expected_dn", expected_dn(camera.sensor, background * e, in.gain)}}},
+        {"targets", std::move(targets)},
+    };
+  }
+  return channels;
+}
+
+}  // namespace
 
 nlohmann::json make_frame_truth(const TruthInputs& in) {
   const CameraSpec& camera = *in.camera;
@@ -140,7 +226,7 @@ nlohmann::json make_frame_truth(const TruthInputs& in) {
     targets.push_back(std::move(target));
   }
   const double pitch_mm = camera.sensor.pixel_pitch_um * 1e-3;
-  return {
+  nlohmann::json truth = {
       {"cameramodel", truth_cameramodel_text(camera, in.intrinsics)},
       {"lensmodel", camera.lens.model},
       {"intrinsics", in.intrinsics},
@@ -157,6 +243,11 @@ nlohmann::json make_frame_truth(const TruthInputs& in) {
       {"view", in.view},
       {"targets", std::move(targets)},
   };
+  if (camera.sensor.is_colour()) {
+    truth["cfa"] = camera.sensor.cfa;
+    truth["channels"] = channels_truth(in);
+  }
+  return truth;
 }
 
 }  // namespace camlab::mock

@@ -1,15 +1,18 @@
 // The ground truth a virtual frame carries (docs/virtual-camera.md): the camera model as
 // mrcal .cameramodel text, each target's pose and distance, projected chessboard corners,
-// slanted-edge lines, and the predicted CoC per target.
+// slanted-edge lines, and the predicted CoC per target; for a colour sensor also the
+// CFA and, per channel, its optics, predicted CoC and expected signal.
 //
 // Reentrant.
 #pragma once
 
+#include <array>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "base/result.h"
+#include "mock_device/render/channel_optics.h"
 #include "mock_device/render/target_surface.h"
 #include "mock_device/spec/camera_spec.h"
 #include "mock_device/spec/scene_spec.h"
@@ -27,6 +30,18 @@ struct CocRange {
 CocRange predicted_coc(const CameraSpec& camera, const TargetSurface& surface, double f_number,
                        double focus_distance_mm);
 
+// The same for one colour channel's own focus (channel_optics.h).
+CocRange predicted_coc(const ChannelOptics& optics, double pixel_pitch_um,
+                       const TargetSurface& surface);
+
+// What the truth says of one colour channel of a frame.
+struct ChannelTruthInputs {
+  ChannelOptics optics;
+  double quantum_efficiency = 0;
+  double electrons_per_unit_reflectance = 0;  // with this channel's QE
+  int aperture_samples = 0;                   // lens samples per pixel (0: not sampled)
+};
+
 struct TruthInputs {
   const CameraSpec* camera = nullptr;
   const SceneSpec* scene = nullptr;
@@ -37,6 +52,8 @@ struct TruthInputs {
   double focus_distance_mm = 0;
   double lens_to_sensor_mm = 0;
   double electrons_per_unit_reflectance = 0;
+  double gain = 1;                             // linear analogue gain
+  std::array<ChannelTruthInputs, 3> channels;  // R, G, B: colour sensors only
 };
 
 nlohmann::json make_frame_truth(const TruthInputs& in);

@@ -1,10 +1,16 @@
 // The inner loop of the renderer: mean reflectance seen by each pixel, integrated over
 // the pixel's area and (when the lens is sampled) over the aperture disk.
 //
+// A pixel sees one channel: grey on a monochrome sensor, its own colour on a Bayer
+// sensor, so a colour frame costs what a grey one does. Each channel has its own plane of
+// focus (longitudinal chromatic aberration) and its own lens sample count.
+//
 // Reentrant: reads only its arguments.
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -14,21 +20,34 @@
 
 namespace camlab::mock {
 
+// What one channel (kRed .. kGrey) sees through the lens.
+struct ChannelSetup {
+  double background_reflectance = 0;
+  // The channel's plane of focus (m): +infinity when it focuses at infinity; negative
+  // when it focuses "beyond infinity" (its focal length exceeds the lens-to-sensor
+  // distance, so the rays of a pixel diverge into the scene as if they came from a point
+  // that far behind the lens).
+  double focus_distance_m = 0;
+  int lens_grid = 0;  // k: k x k stratified lens samples; 0 = pinhole
+};
+
 struct IntegratorSetup {
   const ChiefRayTable* rays = nullptr;
   const std::vector<TargetSurface>* surfaces = nullptr;
-  double background_reflectance = 0;
-  double aperture_radius_m = 0;  // A / 2
-  double focus_distance_m = 0;   // plane of focus; infinity allowed
-  int lens_grid = 0;             // k: k x k stratified lens samples; 0 = pinhole
-  int pixel_grid = 4;            // m: m x m area samples when the lens is not sampled
+  double aperture_radius_m = 0;          // A / 2, the same for every channel
+  std::array<ChannelSetup, 4> channels;  // by channel, kRed .. kGrey
+  // The channel each pixel sees: a Bayer order ("RGGB" ...: the top-left 2x2 pixels,
+  // row by row), or "" for `channel` at every pixel.
+  std::string cfa;
+  int channel = kGrey;
+  int pixel_grid = 4;  // m: m x m area samples when the lens is not sampled
   uint64_t seed = 0;
   int threads = 1;
 };
 
-// Returns a CV_32F image (height x width of the ray table) of mean reflectance. Pixels
-// whose chief rays fall outside the lens model's domain are 0 (black), as a real lens
-// with a mechanical vignette would show them.
+// Returns a CV_32F image (height x width of the ray table) of mean reflectance, each
+// pixel in its own channel. Pixels whose chief rays fall outside the lens model's domain
+// are 0 (black), as a real lens with a mechanical vignette would show them.
 cv::Mat integrate_reflectance(const IntegratorSetup& setup);
 
 }  // namespace camlab::mock

@@ -185,7 +185,14 @@ Result<RenderCaptureSummary> render_capture(Renderer& renderer,
         sidecar.timestamp_ns =
             static_cast<int64_t>(std::llround(sequence * camera.timing.frame_interval_us * 1e3));
         sidecar.clock = "virtual";
-        sidecar.pixel_format = pixel_format_for(camera.sensor.bit_depth);
+        if (camera.sensor.is_colour()) {
+          // The raw mosaic, as a Bayer sensor delivers it (SRGGB12 ...).
+          sidecar.layout = image::FrameLayout::kMosaic;
+          sidecar.cfa_pattern = camera.sensor.cfa;
+          sidecar.pixel_format = "S" + camera.sensor.cfa + std::to_string(camera.sensor.bit_depth);
+        } else {
+          sidecar.pixel_format = pixel_format_for(camera.sensor.bit_depth);
+        }
         sidecar.bit_depth = camera.sensor.bit_depth;
         sidecar.black_level_dn = camera.sensor.black_level_dn;
         sidecar.settings = frame->settings;

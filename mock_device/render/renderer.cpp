@@ -7,6 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "mock_device/render/channel_optics.h"
 #include "mock_device/render/frame_truth.h"
 #include "mock_device/render/radiance_integrator.h"
 #include "mock_device/render/sampling.h"
@@ -26,6 +27,21 @@ constexpr double kNegligibleCocPx = 0.1;
 // error-against-samples table this rule was chosen from.
 int lens_grid_for_coc(double coc_px) {
   return std::clamp(static_cast<int>(std::lround(4 + coc_px / 2.5)), 4, 16);
+}
+
+// The reflectance image with each pixel scaled by its channel's `ratio` (a shared,
+// unchanged image when every ratio is 1, as for a monochrome sensor).
+cv::Mat scaled_by_channel(const cv::Mat& reflectance, const SensorSpec& sensor,
+                          const std::array<double, 3>& ratio) {
+  if (!sensor.is_colour() || (ratio[0] == 1 && ratio[1] == 1 && ratio[2] == 1)) return reflectance;
+  cv::Mat out(reflectance.size(), CV_32F);
+  for (int y = 0; y < out.rows; ++y) {
+    const float* in = reflectance.ptr<float>(y);
+    float* row = out.ptr<float>(y);
+    for (int x = 0; x < out.cols; ++x)
+      row[x] = static_cast<float>(in[x] * ratio[static_cast<size_t>(sensor.channel_at(x, y))]);
+  }
+  return out;
 }
 
 std::string range_text(double lo, double hi, const char* unit) {
@@ -104,6 +120,35 @@ const ChiefRayTable& Renderer::rays_for(int focus_position) {
   return *rays_by_focus_.emplace(focus_position, std::move(table)).first->second;
 }
 
+cv::Mat Renderer::integrate(const IntegratorSetup& setup) const {
+  const double sigma_px = camera_.lens.baseline_blur_sigma_px;
+  if (sigma_px <= 0 || setup.cfa.empty()) {
+    cv::Mat reflectance = integrate_reflectance(setup);
+    if (sigma_px > 0)
+      cv::GaussianBlur(reflectance, reflectance, cv::Size(), sigma_px, sigma_px,
+                       cv::BORDER_REFLECT);
+    return reflectance;
+  }
+  // The baseline blur spreads each colour over its neighbours, which a mosaic does not
+  // hold: integrate R, G and B at every pixel (three times the cost), blur each plane and
+  // keep each pixel's own colour.
+  std::array<cv::Mat, 3> planes;
+  for (int c = 0; c < 3; ++c) {
+    IntegratorSetup one = setup;
+    one.cfa.clear();
+    one.channel = c;
+    planes[static_cast<size_t>(c)] = integrate_reflectance(one);
+    cv::GaussianBlur(planes[static_cast<size_t>(c)], planes[static_cast<size_t>(c)], cv::Size(),
+                     sigma_px, sigma_px, cv::BORDER_REFLECT);
+  }
+  cv::Mat mosaic(planes[0].size(), CV_32F);
+  for (int y = 0; y < mosaic.rows; ++y)
+    for (int x = 0; x < mosaic.cols; ++x)
+      mosaic.at<float>(y, x) =
+          planes[static_cast<size_t>(camera_.sensor.channel_at(x, y))].at<float>(y, x);
+  return mosaic;
+}
+
 cv::Mat Renderer::cached_reflectance(const IntegrationKey& key) const {
   for (const auto& [k, image] : reflectance_cache_)
     if (k == key) return image;  // shared, never written after insertion
@@ -135,46 +180,77 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
   for (size_t i = 0; i < scene_.targets.size(); ++i)
     surfaces.emplace_back(scene_.targets[i], scene_.pose(scene_.targets[i], view), textures_[i]);
 
-  RenderStats stats;
-  for (const auto& surface : surfaces)
-    stats.max_coc_px = std::max(
-        stats.max_coc_px, predicted_coc(camera_, surface, settings.f_number, *focus_mm).max_px);
+  // Lens samples for the largest predicted CoC a channel sees (docs/BENCHMARKS.md).
+  auto lens_grid_for = [&](double max_coc_px) {
+    if (options.aperture_samples > 0)
+      return std::max(1, static_cast<int>(std::lround(std::sqrt(options.aperture_samples))));
+    if (options.aperture_samples < 0 && max_coc_px >= kNegligibleCocPx)
+      return lens_grid_for_coc(max_coc_px);
+    return 0;
+  };
 
+  RenderStats stats;
   IntegratorSetup setup;
   setup.rays = &rays_for(settings.focus_position);
   setup.surfaces = &surfaces;
-  setup.background_reflectance = scene_.background_reflectance;
   setup.aperture_radius_m = lens.focal_mm / settings.f_number / 2 * 1e-3;
-  setup.focus_distance_m = *focus_mm * 1e-3;
-  if (options.aperture_samples > 0) {
-    setup.lens_grid =
-        std::max(1, static_cast<int>(std::lround(std::sqrt(options.aperture_samples))));
-  } else if (options.aperture_samples < 0 && stats.max_coc_px >= kNegligibleCocPx) {
-    setup.lens_grid = lens_grid_for_coc(stats.max_coc_px);
-  }
   setup.pixel_grid =
       options.pixel_samples > 0
           ? std::max(1, static_cast<int>(std::lround(std::sqrt(options.pixel_samples))))
           : 4;
+  const SensorSpec& sensor = camera_.sensor;
+  std::array<ChannelTruthInputs, 3> channels{};
+  std::array<int, 3> lens_grids = {0, 0, 0};
+  if (!sensor.is_colour()) {
+    for (const auto& surface : surfaces)
+      stats.max_coc_px = std::max(
+          stats.max_coc_px, predicted_coc(camera_, surface, settings.f_number, *focus_mm).max_px);
+    ChannelSetup& grey = setup.channels[kGrey];
+    grey.background_reflectance = scene_.background.grey;
+    grey.focus_distance_m = *focus_mm * 1e-3;
+    grey.lens_grid = lens_grid_for(stats.max_coc_px);
+    lens_grids[0] = grey.lens_grid;
+    stats.aperture_samples = grey.lens_grid * grey.lens_grid;
+    stats.pixel_samples =
+        grey.lens_grid > 0 ? stats.aperture_samples : setup.pixel_grid * setup.pixel_grid;
+  } else {
+    // Each pixel sees its own colour, through its channel's own focus.
+    setup.cfa = sensor.cfa;
+    for (int c = 0; c < 3; ++c) {
+      auto optics = channel_optics(camera_, c, settings.f_number, lens_to_sensor_mm);
+      if (!optics) return optics.error();
+      double max_coc_px = 0;
+      for (const auto& surface : surfaces)
+        max_coc_px =
+            std::max(max_coc_px, predicted_coc(*optics, sensor.pixel_pitch_um, surface).max_px);
+      stats.max_coc_px = std::max(stats.max_coc_px, max_coc_px);
+      ChannelSetup& channel = setup.channels[static_cast<size_t>(c)];
+      channel.background_reflectance = scene_.background.rgb[static_cast<size_t>(c)];
+      channel.focus_distance_m = optics->focus_distance_mm * 1e-3;
+      channel.lens_grid = lens_grid_for(max_coc_px);
+      lens_grids[static_cast<size_t>(c)] = channel.lens_grid;
+      const int samples = channel.lens_grid * channel.lens_grid;
+      stats.aperture_samples = std::max(stats.aperture_samples, samples);
+      stats.pixel_samples = std::max(stats.pixel_samples,
+                                     samples > 0 ? samples : setup.pixel_grid * setup.pixel_grid);
+      channels[static_cast<size_t>(c)].optics = *optics;
+      channels[static_cast<size_t>(c)].quantum_efficiency =
+          sensor.quantum_efficiency_rgb[static_cast<size_t>(c)];
+      channels[static_cast<size_t>(c)].aperture_samples = samples;
+    }
+  }
   // The scene integral depends on the seed but not on the frame: repeated frames of one
   // setting differ by sensor noise only, as a static scene's frames do (a frame-varying
   // sampling pattern would add rendering noise to photon-transfer measurements).
   setup.seed = mix_seed(options.seed, 1);
   setup.threads =
       options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
-  stats.aperture_samples = setup.lens_grid * setup.lens_grid;
-  stats.pixel_samples =
-      setup.lens_grid > 0 ? stats.aperture_samples : setup.pixel_grid * setup.pixel_grid;
 
-  const IntegrationKey key{
-      view,      settings.focus_position, settings.f_number, setup.lens_grid, setup.pixel_grid,
-      setup.seed};
+  const IntegrationKey key{view,       settings.focus_position, settings.f_number,
+                           lens_grids, setup.pixel_grid,        setup.seed};
   cv::Mat reflectance = cached_reflectance(key);
   if (reflectance.empty()) {
-    reflectance = integrate_reflectance(setup);
-    if (lens.baseline_blur_sigma_px > 0)
-      cv::GaussianBlur(reflectance, reflectance, cv::Size(), lens.baseline_blur_sigma_px,
-                       lens.baseline_blur_sigma_px, cv::BORDER_REFLECT);
+    reflectance = integrate(setup);
     remember_reflectance(key, reflectance);
     stats.cached = false;
   } else {
@@ -183,10 +259,19 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
 
   const double electrons_per_reflectance = electrons_per_unit_reflectance(
       camera_, scene_.illuminance_lux, settings.exposure_us, settings.f_number, lens_to_sensor_mm);
+  // A colour pixel collects its channel's QE where the sensor model counts the grey QE:
+  // its reflectance is scaled by the ratio.
+  std::array<double, 3> qe_ratio = {1, 1, 1};
+  for (int c = 0; c < 3 && sensor.is_colour(); ++c) {
+    qe_ratio[static_cast<size_t>(c)] =
+        sensor.quantum_efficiency_rgb[static_cast<size_t>(c)] / sensor.quantum_efficiency;
+    channels[static_cast<size_t>(c)].electrons_per_unit_reflectance =
+        electrons_per_reflectance * qe_ratio[static_cast<size_t>(c)];
+  }
   RenderedFrame frame;
-  frame.image =
-      expose(reflectance, camera_, electrons_per_reflectance, settings.gain, options.noise,
-             mix_seed(options.seed, options.frame_number * 2 + 2), setup.threads);
+  frame.image = expose(scaled_by_channel(reflectance, sensor, qe_ratio), camera_,
+                       electrons_per_reflectance, settings.gain, options.noise,
+                       mix_seed(options.seed, options.frame_number * 2 + 2), setup.threads);
 
   TruthInputs truth;
   truth.camera = &camera_;
@@ -198,6 +283,8 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
   truth.focus_distance_mm = *focus_mm;
   truth.lens_to_sensor_mm = lens_to_sensor_mm;
   truth.electrons_per_unit_reflectance = electrons_per_reflectance;
+  truth.gain = settings.gain;
+  truth.channels = channels;
   frame.truth = make_frame_truth(truth);
   frame.truth["render"] = {{"aperture_samples", stats.aperture_samples},
                            {"samples_per_pixel", stats.pixel_samples},

@@ -21,6 +21,7 @@
 // uses std::thread internally for rows.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -36,6 +37,8 @@
 #include "mock_device/spec/scene_spec.h"
 
 namespace camlab::mock {
+
+struct IntegratorSetup;  // radiance_integrator.h
 
 // The settings a frame is rendered with, in physical units.
 struct RenderSettings {
@@ -63,7 +66,9 @@ struct RenderStats {
 };
 
 struct RenderedFrame {
-  cv::Mat image;            // CV_8UC1 (bit depth 8) or CV_16UC1: raw DN
+  // CV_8UC1 (bit depth 8) or CV_16UC1: raw DN; for a colour sensor the raw Bayer mosaic
+  // (each pixel its own colour, sensor.cfa).
+  cv::Mat image;
   nlohmann::json settings;  // the settings in effect, with units in the keys
   nlohmann::json truth;     // ground truth (docs/virtual-camera.md)
   RenderStats stats;
@@ -77,7 +82,7 @@ class Renderer {
     int view;
     int focus_position;
     double f_number;
-    int lens_grid;
+    std::array<int, 3> lens_grids;  // grey (then 0, 0), or R, G, B
     int pixel_grid;
     uint64_t seed;
     bool operator==(const IntegrationKey&) const = default;
@@ -101,6 +106,9 @@ class Renderer {
 
  private:
   Renderer() = default;
+  // The scene integral (mean reflectance per pixel, each in its own channel) for `setup`,
+  // with the lens's baseline blur.
+  cv::Mat integrate(const IntegratorSetup& setup) const;
   const ChiefRayTable& rays_for(int focus_position);
   cv::Mat cached_reflectance(const IntegrationKey& key) const;
   void remember_reflectance(const IntegrationKey& key, const cv::Mat& reflectance);

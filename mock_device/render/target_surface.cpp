@@ -35,6 +35,11 @@ TargetSurface::TargetSurface(const TargetSpec& spec, const RtCamTarget& rt,
   // (cos a, -sin a).
   edge_cos_ = std::cos(angle_rad);
   edge_sin_ = std::sin(angle_rad);
+  for (int c = 0; c <= kGrey; ++c) {
+    dark_[c] = reflectance_in(spec.dark, c);
+    light_[c] = reflectance_in(spec.light, c);
+  }
+  grey_ = spec.dark.is_grey() && spec.light.is_grey();
 }
 
 std::array<double, 3> TargetSurface::to_camera(double u, double v) const {
@@ -42,26 +47,27 @@ std::array<double, 3> TargetSurface::to_camera(double u, double v) const {
           R_[6] * u + R_[7] * v + t_[2]};
 }
 
-double TargetSurface::reflectance_at(double u, double v) const {
+double TargetSurface::reflectance_at(double u, double v, int channel) const {
   const TargetSpec& s = *spec_;
+  if (grey_) channel = kGrey;
+  const double dark = dark_[channel], light = light_[channel];
   switch (s.type) {
     case TargetType::kChessboard: {
       // Squares span [-square, cols * square] x [-square, rows * square]; outside is the
       // light quiet zone. Square (i, j) with i + j even is dark, so the square whose
       // lower-right corner is the origin corner (i = j = -1) is dark.
       const double i = std::floor(u / s.square_m), j = std::floor(v / s.square_m);
-      if (i < -1 || j < -1 || i > s.corners_cols - 1 || j > s.corners_rows - 1)
-        return s.light_reflectance;
-      return (static_cast<long>(i + j) & 1) == 0 ? s.dark_reflectance : s.light_reflectance;
+      if (i < -1 || j < -1 || i > s.corners_cols - 1 || j > s.corners_rows - 1) return light;
+      return (static_cast<long>(i + j) & 1) == 0 ? dark : light;
     }
     case TargetType::kSlantedEdge:
-      return u * edge_cos_ - v * edge_sin_ < 0 ? s.dark_reflectance : s.light_reflectance;
+      return u * edge_cos_ - v * edge_sin_ < 0 ? dark : light;
     case TargetType::kBars: {
       const double period = s.bar_width_m + s.bar_gap_m;
       const double total = s.bar_count * period - s.bar_gap_m;
       const double x = u + total / 2;
-      if (x < 0 || x >= total) return s.light_reflectance;
-      return std::fmod(x, period) < s.bar_width_m ? s.dark_reflectance : s.light_reflectance;
+      if (x < 0 || x >= total) return light;
+      return std::fmod(x, period) < s.bar_width_m ? dark : light;
     }
     case TargetType::kTexture: {
       const cv::Mat& tex = *texture_;
@@ -72,11 +78,17 @@ double TargetSurface::reflectance_at(double u, double v) const {
       const double a = fx - x0, b = fy - y0;
       const float* r0 = tex.ptr<float>(y0);
       const float* r1 = tex.ptr<float>(y0 + 1);
-      return (1 - b) * ((1 - a) * r0[x0] + a * r0[x0 + 1]) +
-             b * ((1 - a) * r1[x0] + a * r1[x0 + 1]);
+      const double grey =
+          (1 - b) * ((1 - a) * r0[x0] + a * r0[x0 + 1]) + b * ((1 - a) * r1[x0] + a * r1[x0 + 1]);
+      if (channel == kGrey) return grey;
+      // The texture spans [dark, light] in grey; a channel spans its own [dark, light]
+      // at the same fraction of the way.
+      const double grey_span = light_[kGrey] - dark_[kGrey];
+      if (grey_span == 0) return light;
+      return dark + (grey - dark_[kGrey]) / grey_span * (light - dark);
     }
     case TargetType::kUniform:
-      return s.light_reflectance;
+      return light;
   }
   return 0;
 }

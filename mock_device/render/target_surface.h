@@ -13,6 +13,18 @@
 
 namespace camlab::mock {
 
+// What a pixel sees: colour channels 0, 1, 2 (R, G, B) of a Bayer sensor, or kGrey, the
+// reflectance a monochrome sensor sees (Reflectance::grey).
+inline constexpr int kRed = 0;
+inline constexpr int kGreen = 1;
+inline constexpr int kBlue = 2;
+inline constexpr int kGrey = 3;
+
+// The reflectance of `r` in `channel` (kRed .. kGrey).
+inline double reflectance_in(const Reflectance& r, int channel) {
+  return channel == kGrey ? r.grey : r.rgb[static_cast<size_t>(channel)];
+}
+
 // Rotation matrix (row-major 3x3) of an mrcal rotation vector (Rodrigues).
 std::array<double, 9> rotation_from_vector(double rx, double ry, double rz);
 
@@ -23,8 +35,9 @@ class TargetSurface {
 
   // Ray origin o and direction d in the camera frame (metres). Returns the ray parameter
   // lambda of the hit (point o + lambda d), or a negative number when the ray misses the
-  // target or meets it behind the origin. On a hit, *reflectance is the surface's.
-  double intersect(const double o[3], const double d[3], double* reflectance) const {
+  // target or meets it behind the origin. On a hit, *reflectance is the surface's in
+  // `channel` (kRed .. kGrey).
+  double intersect(const double o[3], const double d[3], int channel, double* reflectance) const {
     const double denom = n_[0] * d[0] + n_[1] * d[1] + n_[2] * d[2];
     if (denom > -1e-12 && denom < 1e-12) return -1;  // ray parallel to the plane
     const double lambda = (plane_offset_ - (n_[0] * o[0] + n_[1] * o[1] + n_[2] * o[2])) / denom;
@@ -35,12 +48,12 @@ class TargetSurface {
     const double u = R_[0] * p[0] + R_[3] * p[1] + R_[6] * p[2];
     const double v = R_[1] * p[0] + R_[4] * p[1] + R_[7] * p[2];
     if (u < x_min_ || u > x_max_ || v < y_min_ || v > y_max_) return -1;
-    *reflectance = reflectance_at(u, v);
+    *reflectance = reflectance_at(u, v, channel);
     return lambda;
   }
 
-  // Reflectance at target coordinates (u, v) in metres, inside the extent.
-  double reflectance_at(double u, double v) const;
+  // Reflectance in `channel` at target coordinates (u, v) in metres, inside the extent.
+  double reflectance_at(double u, double v, int channel) const;
 
   // A target point (metres, target frame) in the camera frame.
   std::array<double, 3> to_camera(double u, double v) const;
@@ -54,8 +67,13 @@ class TargetSurface {
   std::array<double, 3> n_;  // plane normal in the camera frame (R's third column)
   double plane_offset_;      // n . t
   double x_min_, x_max_, y_min_, y_max_;
-  double edge_cos_ = 1, edge_sin_ = 0;      // slanted edge normal in target coordinates
-  std::shared_ptr<const cv::Mat> texture_;  // CV_32F reflectance over the extent
+  double edge_cos_ = 1, edge_sin_ = 0;  // slanted edge normal in target coordinates
+  // Dark and light reflectance by channel (kRed .. kGrey); a grey target answers every
+  // channel with its grey values, exactly as a monochrome sensor sees it.
+  double dark_[4] = {0, 0, 0, 0};
+  double light_[4] = {0, 0, 0, 0};
+  bool grey_ = true;
+  std::shared_ptr<const cv::Mat> texture_;  // CV_32F grey reflectance over the extent
 };
 
 // The texture of a `texture` target: band-limited noise with features of about

@@ -10,6 +10,10 @@ namespace camlab::mock {
 
 namespace {
 
+bool is_cfa_order(const std::string& cfa) {
+  return cfa == "RGGB" || cfa == "BGGR" || cfa == "GRBG" || cfa == "GBRG";
+}
+
 Result<ControlRange> parse_range(const JsonFields& f, ControlRange fallback, int hard_min,
                                  int hard_max) {
   ControlRange r;
@@ -43,6 +47,32 @@ Result<SensorSpec> parse_sensor(const JsonFields& f) {
   const double default_gain = (max_dn - s.black_level_dn) / s.full_well_e;
   CAMLAB_ASSIGN(s.conversion_gain_dn_per_e,
                 f.number("conversion_gain_dn_per_e", 0, 1e4, default_gain, true));
+  CAMLAB_ASSIGN(s.cfa, f.string("cfa", ""));
+  if (f.has("cfa") && !is_cfa_order(s.cfa))
+    return make_error("invalid_argument", f.path_of("cfa") + " = \"" + s.cfa +
+                                              "\" is not a Bayer order (RGGB, BGGR, GRBG, GBRG)");
+  if (s.is_colour() && (s.width_px % 2 != 0 || s.height_px % 2 != 0))
+    return make_error("invalid_argument",
+                      f.path() + ": a Bayer sensor has whole 2x2 colour cells; " +
+                          std::to_string(s.width_px) + "x" + std::to_string(s.height_px) +
+                          " px must be even in both directions");
+  s.quantum_efficiency_rgb = {s.quantum_efficiency, s.quantum_efficiency, s.quantum_efficiency};
+  if (f.has("quantum_efficiency_rgb")) {
+    if (!s.is_colour())
+      return make_error("invalid_argument", f.path_of("quantum_efficiency_rgb") +
+                                                " needs a colour sensor (" + f.path_of("cfa") +
+                                                "); a monochrome sensor has quantum_efficiency");
+    std::vector<double> qe;
+    CAMLAB_ASSIGN(qe, f.numbers("quantum_efficiency_rgb", 3, 3, 0, 1));
+    for (int c = 0; c < 3; ++c) {
+      if (qe[c] <= 0)
+        return make_error("out_of_range", f.path_of("quantum_efficiency_rgb") + "[" +
+                                              std::to_string(c) +
+                                              "] = 0: a channel must see light "
+                                              "(0 < QE <= 1)");
+      s.quantum_efficiency_rgb[c] = qe[c];
+    }
+  }
   return s;
 }
 
@@ -87,6 +117,19 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
   CAMLAB_ASSIGN(lens.f_number_min, f.number("f_number_min", 0.5, 128, 2.0));
   CAMLAB_ASSIGN(lens.f_number_max, f.number("f_number_max", lens.f_number_min, 128, 16.0));
   CAMLAB_ASSIGN(lens.baseline_blur_sigma_px, f.number("baseline_blur_sigma_px", 0, 50, 0.0));
+  if (f.has("chromatic_focus_shift_mm")) {
+    if (!sensor.is_colour())
+      return make_error("invalid_argument",
+                        f.path_of("chromatic_focus_shift_mm") +
+                            " needs a colour sensor (camera.sensor.cfa): a monochrome sensor "
+                            "sees every colour at once, which the virtual camera does not model");
+    // Real lenses shift a few tenths of a percent of f; a tenth of f is far beyond any
+    // lens and keeps every channel's focal length positive.
+    const double bound_mm = 0.1 * lens.focal_mm;
+    std::vector<double> shift;
+    CAMLAB_ASSIGN(shift, f.numbers("chromatic_focus_shift_mm", 3, 3, -bound_mm, bound_mm));
+    for (int c = 0; c < 3; ++c) lens.chromatic_focus_shift_mm[c] = shift[c];
+  }
 
   JsonFields iris = f.child("iris");
   if (iris.has("f_numbers")) {
@@ -134,6 +177,8 @@ Result<CameraSpec> parse_camera_spec(const nlohmann::json& json) {
                 timing.number("frame_interval_us", 100, 10e6, 33333.3));
   CAMLAB_ASSIGN(spec.timing.control_latency_frames,
                 timing.integer("control_latency_frames", 0, 16, 0));
+
+  CAMLAB_ASSIGN(spec.isp.jpeg_quality, root.child("isp").integer("jpeg_quality", 1, 100, 90));
 
   JsonFields controls = root.child("controls");
   // exposure_time_absolute is in 100 us units and cannot exceed the frame interval.

@@ -5,6 +5,7 @@
 // downstream trusts a CameraSpec.
 #pragma once
 
+#include <array>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -26,6 +27,19 @@ struct SensorSpec {
   bool shot_noise = true;               // Poisson photon noise; off for noise-free truth renders
   double quantum_efficiency = 0;        // electrons per photon at 555 nm, 0..1
   double conversion_gain_dn_per_e = 0;  // DN per electron at unity gain (K)
+  // Colour (Bayer) sensors: the colour filter array's order over the top-left 2x2 pixels,
+  // row by row ("RGGB", "BGGR", "GRBG", "GBRG"); empty for a monochrome sensor.
+  std::string cfa;
+  // Electrons per photon behind each channel's filter (R, G, B), the filter's
+  // transmission included; quantum_efficiency for each when the spec gives none.
+  std::array<double, 3> quantum_efficiency_rgb = {0, 0, 0};
+
+  bool is_colour() const { return !cfa.empty(); }
+  // The colour of pixel (x, y) of a colour sensor: 0 R, 1 G, 2 B.
+  int channel_at(int x, int y) const {
+    const char c = cfa[static_cast<size_t>(2 * (y & 1) + (x & 1))];
+    return c == 'R' ? 0 : c == 'G' ? 1 : 2;
+  }
 };
 
 struct IrisSpec {
@@ -54,6 +68,14 @@ struct LensSpec {
   // In-focus blur of a real lens (aberrations), as a Gaussian sigma in pixels added to
   // every frame; 0 renders a perfect thin lens.
   double baseline_blur_sigma_px = 0;
+  // Longitudinal chromatic aberration (colour sensors): where R, G and B focus an object
+  // at infinity, in mm behind the nominal focal length (+ = farther from the lens). Each
+  // channel is a thin lens of focal length f_c = focal_mm + shift_c sharing the nominal
+  // aperture (A = focal_mm / N); docs/virtual-camera.md.
+  std::array<double, 3> chromatic_focus_shift_mm = {0, 0, 0};
+
+  // Channel c's focal length (c = 0, 1, 2 for R, G, B).
+  double channel_focal_mm(int c) const { return focal_mm + chromatic_focus_shift_mm[c]; }
 };
 
 struct TimingSpec {
@@ -79,11 +101,18 @@ struct ControlsSpec {
   bool focus_auto = false;
 };
 
+// What the camera's image processor does for the formats it makes from the sensor's
+// data (RGB, YUV, JPEG).
+struct IspSpec {
+  int jpeg_quality = 90;  // libjpeg quality of MJPEG frames, 1..100
+};
+
 struct CameraSpec {
   std::string name;
   SensorSpec sensor;
   LensSpec lens;
   TimingSpec timing;
+  IspSpec isp;
   ControlsSpec controls;
   nlohmann::json source;  // the JSON it was read from, for provenance in manifests
 };

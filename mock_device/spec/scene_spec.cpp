@@ -75,6 +75,25 @@ Result<RtCamTarget> parse_pose(const nlohmann::json& json, const std::string& pa
   return rt;
 }
 
+// A reflectance: a number in [0, 1] (grey), or [r, g, b] each in [0, 1].
+Result<Reflectance> parse_reflectance(const JsonFields& f, const char* key, double fallback) {
+  if (f.has(key) && f.json().at(key).is_array()) {
+    std::vector<double> rgb;
+    CAMLAB_ASSIGN(rgb, f.numbers(key, 3, 3, 0, 1));
+    Reflectance r;
+    r.rgb = {rgb[0], rgb[1], rgb[2]};
+    r.grey = 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2];
+    return r;
+  }
+  if (f.has(key) && !f.json().at(key).is_number())
+    return make_error("invalid_argument",
+                      f.path_of(key) + " must be a reflectance in [0, 1] or [r, g, b], not " +
+                          f.json().at(key).dump());
+  double grey = 0;
+  CAMLAB_ASSIGN(grey, f.number(key, 0, 1, fallback));
+  return Reflectance::uniform(grey);
+}
+
 Result<TargetSpec> parse_target(const JsonFields& f) {
   TargetSpec t;
   std::string type;
@@ -95,8 +114,10 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
                                               "\" is not one of chessboard, slanted_edge, bars, "
                                               "texture, uniform");
 
-  CAMLAB_ASSIGN(t.dark_reflectance, f.number("dark_reflectance", 0, 1, 0.05));
-  CAMLAB_ASSIGN(t.light_reflectance, f.number("light_reflectance", 0, 1, 0.85));
+  CAMLAB_ASSIGN(t.dark, parse_reflectance(f, "dark_reflectance", 0.05));
+  CAMLAB_ASSIGN(t.light, parse_reflectance(f, "light_reflectance", 0.85));
+  t.dark_reflectance = t.dark.grey;
+  t.light_reflectance = t.light.grey;
 
   if (t.type == TargetType::kChessboard) {
     std::vector<double> corners;
@@ -161,7 +182,8 @@ Result<SceneSpec> parse_scene_spec(const nlohmann::json& json) {
   scene.source = json;
   CAMLAB_ASSIGN(scene.name, root.string("name", "scene"));
   CAMLAB_ASSIGN(scene.illuminance_lux, root.number("illuminance_lux", 0, 1e6, 500.0));
-  CAMLAB_ASSIGN(scene.background_reflectance, root.number("background_reflectance", 0, 1, 0.18));
+  CAMLAB_ASSIGN(scene.background, parse_reflectance(root, "background_reflectance", 0.18));
+  scene.background_reflectance = scene.background.grey;
   if (!root.has("targets") || !json.at("targets").is_array())
     return make_error("invalid_argument", "scene.targets must be an array of targets");
   const auto& targets = json.at("targets");

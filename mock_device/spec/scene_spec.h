@@ -31,14 +31,29 @@ const char* target_type_name(TargetType type);
 
 using RtCamTarget = std::array<double, 6>;  // r (rad, rotation vector), t (m)
 
+// A Lambertian reflectance (0..1), grey or per colour channel. A spec gives a number (grey:
+// every channel the same) or [r, g, b]; a monochrome sensor sees `grey`, which for a
+// colour reflectance is its Rec. 709 luminance 0.2126 r + 0.7152 g + 0.0722 b (the
+// photopic response a bare silicon sensor with a luminance filter approximates).
+struct Reflectance {
+  double grey = 0;
+  std::array<double, 3> rgb = {0, 0, 0};  // R, G, B
+
+  static Reflectance uniform(double value) { return {value, {value, value, value}}; }
+  bool is_grey() const { return rgb[0] == grey && rgb[1] == grey && rgb[2] == grey; }
+};
+
 struct TargetSpec {
   std::string name;
   TargetType type = TargetType::kUniform;
   std::vector<RtCamTarget> poses;  // one, or one per view
 
-  // Lambertian reflectances of the dark and light parts (0..1).
+  // Lambertian reflectances of the dark and light parts (0..1): what a monochrome sensor
+  // sees, and per channel what a colour one sees.
   double dark_reflectance = 0.05;
   double light_reflectance = 0.85;
+  Reflectance dark = Reflectance::uniform(0.05);
+  Reflectance light = Reflectance::uniform(0.85);
 
   // Chessboard: inner corners cols x rows, square size, and a light quiet zone around
   // the outer squares (in squares) so detectors find the outer corners.
@@ -75,6 +90,7 @@ struct SceneSpec {
   std::string name;
   double illuminance_lux = 500;          // uniform illumination of every target
   double background_reflectance = 0.18;  // what rays that hit no target see (at infinity)
+  Reflectance background = Reflectance::uniform(0.18);
   std::vector<TargetSpec> targets;
   int view_count = 1;  // max number of poses over the targets
   nlohmann::json source;

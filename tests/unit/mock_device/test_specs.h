@@ -2,6 +2,8 @@
 // it depends on.
 #pragma once
 
+#include <array>
+
 #include <nlohmann/json.hpp>
 
 #include "mock_device/render/renderer.h"
@@ -33,6 +35,20 @@ inline nlohmann::json pinhole_camera_json(int width_px = 256, int height_px = 25
       {"timing", {{"frame_interval_us", 100000}}},
       {"controls", {{"exposure_time_absolute", {{"min", 1}, {"max", 1000}, {"default", 100}}}}},
   };
+}
+
+// The same camera with a Bayer sensor: CFA order `cfa`, QE per channel, and longitudinal
+// chromatic aberration (focus shift of R, G, B for an object at infinity, mm).
+inline nlohmann::json colour_camera_json(int width_px = 256, int height_px = 256,
+                                         const char* cfa = "RGGB",
+                                         std::array<double, 3> qe = {0.45, 0.6, 0.4},
+                                         std::array<double, 3> shift_mm = {0.02, 0.0, -0.015}) {
+  nlohmann::json camera = pinhole_camera_json(width_px, height_px);
+  camera["name"] = "test colour";
+  camera["sensor"]["cfa"] = cfa;
+  camera["sensor"]["quantum_efficiency_rgb"] = qe;
+  camera["lens"]["chromatic_focus_shift_mm"] = shift_mm;
+  return camera;
 }
 
 inline nlohmann::json uniform_scene_json(double distance_m = 1.0, double reflectance = 0.5) {
