@@ -28,11 +28,12 @@ VirtualV4l2Device::VirtualV4l2Device(Renderer renderer, VirtualDeviceOptions opt
     : renderer_(std::move(renderer)),
       options_(options),
       controls_(renderer_.camera().controls, renderer_.camera().timing.control_latency_frames),
-      clock_(renderer_.camera().timing.frame_interval_us, options_.realtime) {
+      clock_(renderer_.camera().timing.frame_interval_us, options_.realtime),
+      formats_(offered_formats(renderer_.camera().sensor)) {
   const SensorSpec& sensor = renderer_.camera().sensor;
   format_.width = static_cast<uint32_t>(sensor.width_px);
   format_.height = static_cast<uint32_t>(sensor.height_px);
-  format_.pixelformat = sensor.bit_depth > 8 ? V4L2_PIX_FMT_Y16 : V4L2_PIX_FMT_GREY;
+  format_.pixelformat = default_fourcc(sensor);
   v4l2_format f{};
   f.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   f.fmt.pix = format_;

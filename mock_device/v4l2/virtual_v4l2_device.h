@@ -6,8 +6,9 @@
 // through the preload library (device issue, to come).
 //
 // Frames: while streaming, a producer thread ticks at the frame interval; each tick is a
-// sequence number. A tick with a queued buffer renders into it (GREY, Y16 or YUYV from
-// the sensor's DN); a tick without one is a dropped frame, as on hardware. Controls set
+// sequence number. A tick with a queued buffer renders into it (in the format set, from
+// the sensor's DN: virtual_v4l2_formats.h); a tick without one is a dropped frame, as
+// on hardware. Controls set
 // while frame n is the next to start show in frame n + control_latency_frames.
 //
 // Faults for tests: unplug (ENODEV from then on, POLLERR), EIO on the next dequeues,
@@ -29,11 +30,13 @@
 #include <memory>
 #include <mutex>
 #include <thread>
+#include <vector>
 
 #include "base/result.h"
 #include "mock_device/render/renderer.h"
 #include "mock_device/v4l2/virtual_v4l2_controls.h"
 #include "mock_device/v4l2/virtual_v4l2_files.h"
+#include "mock_device/v4l2/virtual_v4l2_formats.h"
 #include "mock_device/v4l2/virtual_v4l2_frame_clock.h"
 #include "mock_device/v4l2/virtual_v4l2_queue.h"
 
@@ -159,6 +162,7 @@ class VirtualV4l2Device {
   int streamoff(Call& call);
 
   // Helpers of the handlers.
+  const OfferedFormat* find_format(uint32_t fourcc) const;  // null: not offered
   int set_format(v4l2_format* format, bool apply);
   // G/S_CTRL through the extended ioctl `request` with one control, as v4l2-ctrls does.
   int old_ctrl(Call& call, unsigned long request);
@@ -171,10 +175,12 @@ class VirtualV4l2Device {
 
   // The producer thread (virtual_v4l2_producer.cpp).
   void produce_frames();
-  // Renders frame `sequence` into buffer `index` (unlocking while rendering); false when
-  // the stream stopped or the buffers changed meanwhile.
-  // A frame that cannot be rendered sets *failed and is returned flagged with an error.
-  bool render_into(int index, uint64_t sequence, std::unique_lock<std::mutex>& lock, bool* failed);
+  // Renders frame `sequence` into buffer `index` in the format set (unlocking while
+  // rendering and encoding), its length in *bytes_used; false when the stream stopped or
+  // the buffers changed meanwhile. A frame that cannot be rendered sets *failed and is
+  // returned flagged with an error.
+  bool render_into(int index, uint64_t sequence, std::unique_lock<std::mutex>& lock,
+                   uint32_t* bytes_used, bool* failed);
   RenderSettings settings_in_effect() const;
 
   Renderer renderer_;
@@ -185,7 +191,8 @@ class VirtualV4l2Device {
   VirtualV4l2Controls controls_;
   VirtualV4l2Queue queue_;
   VirtualV4l2FrameClock clock_;
-  v4l2_pix_format format_{};
+  std::vector<OfferedFormat> formats_;  // what ENUM_FMT lists, for the camera's sensor
+  v4l2_pix_format format_{};            // always one of formats_, sized by fill_pix_format
   bool unplugged_ = false;
   int fail_dequeues_ = 0;
   bool render_error_reported_ = false;

@@ -17,15 +17,6 @@ namespace camlab::mock {
 
 namespace {
 
-constexpr uint32_t kFormats[] = {V4L2_PIX_FMT_GREY, V4L2_PIX_FMT_Y16, V4L2_PIX_FMT_YUYV};
-const char* const kFormatNames[] = {"8-bit Greyscale", "16-bit Greyscale", "YUYV 4:2:2"};
-
-bool is_format(uint32_t fourcc) {
-  return std::find(std::begin(kFormats), std::end(kFormats), fourcc) != std::end(kFormats);
-}
-
-uint32_t bytes_per_pixel(uint32_t fourcc) { return fourcc == V4L2_PIX_FMT_GREY ? 1 : 2; }
-
 void copy_string(uint8_t* dst, size_t size, const std::string& src) {
   std::memset(dst, 0, size);
   std::memcpy(dst, src.data(), std::min(size - 1, src.size()));
@@ -48,31 +39,39 @@ int VirtualV4l2Device::querycap(Call& call) {
   return 0;
 }
 
+const OfferedFormat* VirtualV4l2Device::find_format(uint32_t fourcc) const {
+  for (const OfferedFormat& f : formats_)
+    if (f.fourcc == fourcc) return &f;
+  return nullptr;
+}
+
 int VirtualV4l2Device::enum_fmt(Call& call) {
   auto* desc = call.arg_as<v4l2_fmtdesc>();
-  if (desc->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || desc->index >= std::size(kFormats))
-    return -EINVAL;
+  if (desc->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || desc->index >= formats_.size()) return -EINVAL;
   const uint32_t index = desc->index;
+  const OfferedFormat& format = formats_[index];
   std::memset(desc, 0, sizeof *desc);
   desc->index = index;
   desc->type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-  desc->pixelformat = kFormats[index];
-  copy_string(desc->description, sizeof desc->description, kFormatNames[index]);
+  desc->pixelformat = format.fourcc;
+  desc->flags = format.compressed() ? V4L2_FMT_FLAG_COMPRESSED : 0u;
+  copy_string(desc->description, sizeof desc->description, format.description);
   return 0;
 }
 
 int VirtualV4l2Device::enum_framesizes(Call& call) {
   auto* size = call.arg_as<v4l2_frmsizeenum>();
-  if (!is_format(size->pixel_format) || size->index > 1) return -EINVAL;
-  const SensorSpec& sensor = renderer_.camera().sensor;
+  const OfferedFormat* format = find_format(size->pixel_format);
+  if (format == nullptr) return -EINVAL;
+  const auto frame = frame_size(*format, renderer_.camera().sensor, size->index);
+  if (!frame) return -EINVAL;
   const uint32_t index = size->index, fourcc = size->pixel_format;
   std::memset(size, 0, sizeof *size);
   size->index = index;
   size->pixel_format = fourcc;
   size->type = V4L2_FRMSIZE_TYPE_DISCRETE;
-  size->discrete.width = static_cast<uint32_t>(sensor.width_px) >> index;
-  size->discrete.height = static_cast<uint32_t>(sensor.height_px) >> index;
-  if (fourcc == V4L2_PIX_FMT_YUYV) size->discrete.width &= ~1u;
+  size->discrete.width = frame->width;
+  size->discrete.height = frame->height;
   return 0;
 }
 
@@ -80,14 +79,13 @@ int VirtualV4l2Device::enum_frameintervals(Call& call) {
   auto* interval = call.arg_as<v4l2_frmivalenum>();
   const CameraSpec& camera = renderer_.camera();
   std::memset(interval->reserved, 0, sizeof interval->reserved);
+  const OfferedFormat* format = find_format(interval->pixel_format);
   bool size_ok = false;
-  for (uint32_t shift = 0; shift < 2; ++shift) {
-    uint32_t w = static_cast<uint32_t>(camera.sensor.width_px) >> shift;
-    if (interval->pixel_format == V4L2_PIX_FMT_YUYV) w &= ~1u;
-    size_ok |= interval->width == w &&
-               interval->height == (static_cast<uint32_t>(camera.sensor.height_px) >> shift);
+  for (uint32_t index = 0; format != nullptr && index < 2; ++index) {
+    const auto frame = frame_size(*format, camera.sensor, index);
+    size_ok |= interval->width == frame->width && interval->height == frame->height;
   }
-  if (!size_ok || interval->index > 1 || !is_format(interval->pixel_format)) return -EINVAL;
+  if (!size_ok || interval->index > 1) return -EINVAL;
   interval->type = V4L2_FRMIVAL_TYPE_DISCRETE;
   // The sensor's frame interval, and twice it (for longer exposures).
   interval->discrete =
@@ -99,29 +97,13 @@ int VirtualV4l2Device::set_format(v4l2_format* format, bool apply) {
   if (format->type != V4L2_BUF_TYPE_VIDEO_CAPTURE) return -EINVAL;
   v4l2_pix_format& pix = format->fmt.pix;
   const SensorSpec& sensor = renderer_.camera().sensor;
-  if (!is_format(pix.pixelformat))
-    pix.pixelformat = sensor.bit_depth > 8 ? V4L2_PIX_FMT_Y16 : V4L2_PIX_FMT_GREY;
+  const OfferedFormat* offered = find_format(pix.pixelformat);
+  if (offered == nullptr) offered = find_format(default_fourcc(sensor));
   // Two sizes: the full sensor, and 2x2 binned. Pick the nearer by area.
-  const uint32_t full_w = sensor.width_px, full_h = sensor.height_px;
+  const double full_area = static_cast<double>(sensor.width_px) * sensor.height_px;
   const double asked = static_cast<double>(pix.width) * pix.height;
-  const bool binned =
-      asked > 0 && std::abs(asked - full_w * full_h / 4.0) < std::abs(asked - full_w * full_h);
-  pix.width = binned ? full_w / 2 : full_w;
-  pix.height = binned ? full_h / 2 : full_h;
-  if (pix.pixelformat == V4L2_PIX_FMT_YUYV) pix.width &= ~1u;  // YUYV pairs pixels
-  pix.field = V4L2_FIELD_NONE;
-  pix.bytesperline = pix.width * bytes_per_pixel(pix.pixelformat);
-  pix.sizeimage = pix.bytesperline * pix.height;
-  pix.colorspace = V4L2_COLORSPACE_RAW;
-  pix.priv = 0;
-  pix.flags = 0;
-  pix.ycbcr_enc = V4L2_YCBCR_ENC_DEFAULT;
-  pix.quantization = V4L2_QUANTIZATION_DEFAULT;
-  pix.xfer_func = V4L2_XFER_FUNC_NONE;
-  if (pix.pixelformat == V4L2_PIX_FMT_YUYV) {
-    pix.colorspace = V4L2_COLORSPACE_SRGB;
-    pix.xfer_func = V4L2_XFER_FUNC_DEFAULT;
-  }
+  const bool binned = asked > 0 && std::abs(asked - full_area / 4.0) < std::abs(asked - full_area);
+  fill_pix_format(*offered, *frame_size(*offered, sensor, binned ? 1 : 0), &pix);
   if (apply) format_ = pix;
   return 0;
 }

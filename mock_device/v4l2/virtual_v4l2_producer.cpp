@@ -11,6 +11,7 @@
 #include "base/log.h"
 #include "mock_device/render/sensor_model.h"
 #include "mock_device/v4l2/virtual_v4l2_device.h"
+#include "mock_device/v4l2/virtual_v4l2_frame_encoder.h"
 #include "optics/optics.h"
 
 namespace camlab::mock {
@@ -50,63 +51,44 @@ RenderSettings VirtualV4l2Device::settings_in_effect() const {
 }
 
 bool VirtualV4l2Device::render_into(int index, uint64_t sequence,
-                                    std::unique_lock<std::mutex>& lock, bool* failed) {
+                                    std::unique_lock<std::mutex>& lock, uint32_t* bytes_used,
+                                    bool* failed) {
   *failed = false;
+  *bytes_used = 0;
   const RenderSettings settings = settings_in_effect();
   const v4l2_pix_format format = format_;
+  const OfferedFormat offered = *find_format(format.pixelformat);
   RenderOptions options;
   options.seed = options_.seed;
   options.frame_number = sequence;
-  const int bit_depth = renderer_.camera().sensor.bit_depth;
   const uint64_t generation = queue_.generation();
-  // Render without the lock: ioctls (controls, status) must not wait on a frame.
+  // Render and encode without the lock: ioctls (controls, status) must not wait on a frame.
   lock.unlock();
-  auto frame = renderer_.render(settings, options_.view, options);
-  cv::Mat dn;
-  if (frame) {
-    frame->image.convertTo(dn, CV_32F);
-    if (dn.cols != static_cast<int>(format.width) || dn.rows != static_cast<int>(format.height))
-      cv::resize(dn, dn, cv::Size(static_cast<int>(format.width), static_cast<int>(format.height)),
-                 0, 0, cv::INTER_AREA);  // 2x2 binning
-  }
+  Result<std::vector<uint8_t>> bytes = make_error("internal", "not rendered");
+  if (auto frame = renderer_.render(settings, options_.view, options); frame)
+    bytes = encode_frame(frame->image, renderer_.camera().sensor,
+                         renderer_.camera().isp.jpeg_quality, offered, format);
+  else
+    bytes = frame.error();
   lock.lock();
   // The stream may have stopped, or the buffers been freed, while the frame rendered.
   uint8_t* out = queue_.filling_memory(index, generation);
   if (out == nullptr) return false;
-  if (!frame) {
+  if (!bytes) {
     // A driver that cannot fill a buffer returns it flagged, never keeps it: the client
     // sees V4L2_BUF_FLAG_ERROR instead of waiting forever.
     if (!render_error_reported_) {
       log_warning(log::Category::kVcam, "cannot render frame %llu: %s",
-                  static_cast<unsigned long long>(sequence), frame.error().message.c_str());
+                  static_cast<unsigned long long>(sequence), bytes.error().message.c_str());
       render_error_reported_ = true;  // a repeating error is logged once
     }
     std::memset(out, 0, format.sizeimage);
     *failed = true;
     return true;
   }
-  for (uint32_t y = 0; y < format.height; ++y) {
-    const float* row = dn.ptr<float>(static_cast<int>(y));
-    uint8_t* line = out + static_cast<size_t>(y) * format.bytesperline;
-    for (uint32_t x = 0; x < format.width; ++x) {
-      const float v = row[x];
-      if (format.pixelformat == V4L2_PIX_FMT_Y16) {
-        // Y16 carries the DN scaled to the full 16 bits (MSB-aligned), little endian.
-        const auto value = static_cast<uint16_t>(std::lround(std::ldexp(v, 16 - bit_depth)));
-        line[2 * x] = static_cast<uint8_t>(value & 0xff);
-        line[2 * x + 1] = static_cast<uint8_t>(value >> 8);
-      } else {
-        const auto y8 =
-            static_cast<uint8_t>(std::clamp(std::lround(std::ldexp(v, 8 - bit_depth)), 0L, 255L));
-        if (format.pixelformat == V4L2_PIX_FMT_GREY) {
-          line[x] = y8;
-        } else {  // YUYV: grey, so U = V = 128
-          line[2 * x] = y8;
-          line[2 * x + 1] = 128;
-        }
-      }
-    }
-  }
+  // sizeimage bytes, or a JPEG's own length (at most sizeimage).
+  std::memcpy(out, bytes->data(), bytes->size());
+  *bytes_used = static_cast<uint32_t>(bytes->size());
   return true;
 }
 
@@ -151,11 +133,14 @@ void VirtualV4l2Device::produce_frames() {
     timespec start{};
     clock_gettime(CLOCK_MONOTONIC, &start);
     bool failed = false;
-    if (!render_into(index, sequence, lock, &failed)) continue;  // stream stopped meanwhile
+    uint32_t bytes_used = 0;
+    if (!render_into(index, sequence, lock, &bytes_used, &failed))
+      continue;  // stream stopped meanwhile
     v4l2_buffer done{};
     done.index = static_cast<uint32_t>(index);
     done.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    done.bytesused = format_.sizeimage;
+    // A flagged buffer reports the whole frame, as before; MJPG its JPEG's length.
+    done.bytesused = failed ? format_.sizeimage : bytes_used;
     done.flags = V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | V4L2_BUF_FLAG_TSTAMP_SRC_SOE |
                  (failed ? V4L2_BUF_FLAG_ERROR : 0u);
     done.field = V4L2_FIELD_NONE;

@@ -99,4 +99,9 @@ Result<std::vector<uint8_t>> encode_jpeg(const cv::Mat& image, int quality) {
   return bytes;
 }
 
+uint64_t jpeg_buffer_bound(int width, int height) {
+  if (width <= 0 || height <= 0) return 0;
+  return tjBufSize(width, height, TJSAMP_422);
+}
+
 }  // namespace camlab::image

@@ -40,4 +40,8 @@ Result<double> jpeg_mean_fast(std::span<const uint8_t> jpeg);
 // cameras send it.
 Result<std::vector<uint8_t>> encode_jpeg(const cv::Mat& image, int quality);
 
+// The most bytes encode_jpeg can produce for a width x height image at any quality
+// (TurboJPEG's worst case, tjBufSize): what a driver reports as an MJPEG frame's sizeimage.
+uint64_t jpeg_buffer_bound(int width, int height);
+
 }  // namespace camlab::image
