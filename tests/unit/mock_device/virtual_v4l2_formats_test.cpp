@@ -105,10 +105,18 @@ TEST_F(Formats, DescriptionsAreTheKernelsAndOnlyJpegIsCompressed) {
     const std::string name = reinterpret_cast<const char*>(d.description);
     EXPECT_EQ((d.flags & V4L2_FMT_FLAG_COMPRESSED) != 0, d.pixelformat == V4L2_PIX_FMT_MJPEG)
         << name;
-    if (d.pixelformat == V4L2_PIX_FMT_SGRBG10P) EXPECT_EQ(name, "10-bit Bayer GRGR/BGBG Packed");
-    if (d.pixelformat == V4L2_PIX_FMT_SGRBG16) EXPECT_EQ(name, "16-bit Bayer GRGR/BGBG");
-    if (d.pixelformat == V4L2_PIX_FMT_NV12) EXPECT_EQ(name, "Y/CbCr 4:2:0");
-    if (d.pixelformat == V4L2_PIX_FMT_MJPEG) EXPECT_EQ(name, "Motion-JPEG");
+    // v4l2-compliance checks each against the kernel's v4l_fill_fmtdesc.
+    const std::pair<uint32_t, const char*> kernel_names[] = {
+        {V4L2_PIX_FMT_SGRBG8, "8-bit Bayer GRGR/BGBG"},
+        {V4L2_PIX_FMT_SGRBG10P, "10-bit Bayer GRGR/BGBG Packed"},
+        {V4L2_PIX_FMT_SGRBG16, "16-bit Bayer GRGR/BGBG"},
+        {V4L2_PIX_FMT_NV12, "Y/CbCr 4:2:0"},
+        {V4L2_PIX_FMT_MJPEG, "Motion-JPEG"}};
+    for (const auto& [fourcc, kernel_name] : kernel_names) {
+      if (d.pixelformat == fourcc) {
+        EXPECT_EQ(name, kernel_name);
+      }
+    }
   }
 }
 
