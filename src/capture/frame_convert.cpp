@@ -160,10 +160,19 @@ Result<ConvertedFrame> convert_frame(const device::Frame& frame, const device::S
       out.layout = FrameLayout::kRgb;
       out.jpeg.assign(frame.data, frame.data + frame.size);
       break;
-    case SamplePacking::kYuyv:
+    case SamplePacking::kYuyv: {
+      // Luma is stored as delivered (nothing rescaled); its range goes in the sidecar. A
+      // YUV format is limited range (black 16, white 235) unless the driver says full.
       out = luma_of_yuyv(frame, format, info);
-      out.black_level_dn = black_level_in(8, sensor_bit_depth, black_level_dn);
+      const int black8 = black_level_in(8, sensor_bit_depth, black_level_dn);
+      if (format.quantization == device::YcbcrQuantization::kFull) {
+        out.black_level_dn = black8;
+      } else {
+        out.black_level_dn = 16 + static_cast<int>(std::lround(black8 * 219.0 / 255.0));
+        out.white_level_dn = 235;
+      }
       break;
+    }
     case SamplePacking::kRgb24:
     case SamplePacking::kBgr24:
     case SamplePacking::kNv12:

@@ -35,6 +35,7 @@ struct ConvertedFrame {
   int bit_depth = 8;
   int black_level_dn = 0;        // in DN of bit_depth bits
   int white_level_dn = 255;      // the largest DN the format can carry: 2^bit_depth - 1
+                                 // (235 for limited-range YUYV luma)
   bool linear = true;            // false for JPEG
   std::string pixel_format;      // what the stored DN are: "GREY", "Y12", "SRGGB10", "RGB3", "MJPG"
   std::string delivered_format;  // the V4L2 fourcc as the camera sent it ("pRAA", "NV12")

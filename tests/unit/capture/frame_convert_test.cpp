@@ -52,6 +52,31 @@ TEST(FrameConvert, GreyAndYuyvGiveEightBitImagesWithScaledBlack) {
   EXPECT_DOUBLE_EQ(*mean, 25.0);
 }
 
+TEST(FrameConvert, YuyvLumaKeepsItsCodesAndStatesTheRangeItWasSentIn) {
+  std::vector<uint8_t> yuyv = {16, 128, 235, 128, 126, 128, 200, 128};  // 2x2
+  device::StreamFormat limited{"YUYV", 2, 2, 4, 8, {}};
+  limited.quantization = device::YcbcrQuantization::kLimited;
+  // A 12-bit sensor with black at 256 DN: 16 DN in the top 8 bits, 16 + 16 x 219/255 in
+  // limited-range luma.
+  auto y = convert_frame(frame_over(yuyv), limited, 12, 256);
+  ASSERT_TRUE(y.ok()) << y.error().message;
+  EXPECT_EQ(y->image.at<uint8_t>(0, 1), 235) << "codes are stored as delivered";
+  EXPECT_EQ(y->black_level_dn, 16 + 14);
+  EXPECT_EQ(y->white_level_dn, 235);
+
+  device::StreamFormat unspecified{"YUYV", 2, 2, 4, 8, {}};  // V4L2's default: limited
+  auto d = convert_frame(frame_over(yuyv), unspecified, 12, 256);
+  ASSERT_TRUE(d.ok());
+  EXPECT_EQ(d->white_level_dn, 235);
+
+  device::StreamFormat full = limited;
+  full.quantization = device::YcbcrQuantization::kFull;
+  auto f = convert_frame(frame_over(yuyv), full, 12, 256);
+  ASSERT_TRUE(f.ok());
+  EXPECT_EQ(f->black_level_dn, 16);
+  EXPECT_EQ(f->white_level_dn, 255);
+}
+
 TEST(FrameConvert, ShortBuffersAndUnknownFormatsAreRefused) {
   std::vector<uint8_t> bytes(5);
   EXPECT_EQ(convert_frame(frame_over(bytes), {"GREY", 3, 2, 3, 6, {}}, 8, 0).error().code,
