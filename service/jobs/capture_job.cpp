@@ -105,6 +105,7 @@ JobOutcome failed(Error error, bool device_failed = false) {
   JobOutcome outcome;
   outcome.state = JobState::kFailed;
   outcome.device_failed = device_failed || is_device_error(error.code);
+  outcome.failure_detail = error.message;
   outcome.error = std::move(error);
   return outcome;
 }
@@ -158,6 +159,7 @@ JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const C
   if (summary->failure) {
     outcome.state = JobState::kFailed;
     outcome.device_failed = is_device_error(summary->failure->code);
+    outcome.failure_detail = summary->failure->message;
     outcome.error =
         make_error(summary->failure->code, summary->failure->message + " (the " +
                                                std::to_string(summary->frames_kept) +

@@ -18,6 +18,10 @@ namespace {
 
 // Frames the writer may hold before the frame loop waits for the disk.
 constexpr size_t kMaxFramesQueuedForDisk = 8;
+// A wait for a frame is cut into slices this long, so that a cancel (a user's, a shutdown,
+// or the camera found unplugged by the daemon's rescan) is seen within one slice even when
+// the camera has stopped delivering.
+constexpr std::chrono::milliseconds kCancelSlice{100};
 // Without usable timestamps, the frames that may have started before a write are those in
 // the driver's buffers; drivers may grant more than asked (a minimum of their own), so
 // count at least this many.
@@ -67,6 +71,9 @@ class Runner {
   void close_windows(uint64_t last_sequence);
   Status write_next_when_secured(uint64_t last_sequence);
   void report_written();
+  // The next frame within options_.frame_timeout; on a cancel meanwhile, an error with
+  // summary_.cancelled set.
+  Result<device::Frame> dequeue_or_cancel();
   void finish(const std::chrono::steady_clock::time_point& started);
 
   device::Camera& camera_;
@@ -202,6 +209,23 @@ Status Runner::process(const device::Frame& frame) {
   return requeued;
 }
 
+Result<device::Frame> Runner::dequeue_or_cancel() {
+  const auto deadline = std::chrono::steady_clock::now() + options_.frame_timeout;
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
+    auto frame = camera_.dequeue(std::clamp(left, std::chrono::milliseconds(1), kCancelSlice));
+    if (frame || frame.error().code != ErrorCode::kTimeout) return frame;
+    if (options_.cancel && options_.cancel->load()) {
+      summary_.cancelled = true;
+      return make_error("cancelled", "cancelled while waiting for a frame");
+    }
+    if (left <= kCancelSlice)
+      return make_error("timeout", camera_.identity().path + ": no frame within " +
+                                       std::to_string(options_.frame_timeout.count()) + " ms");
+  }
+}
+
 void Runner::report_written() {
   for (auto& w : writer_->take_written()) {
     ++written_total_;
@@ -282,7 +306,8 @@ Result<CaptureSummary> Runner::run(const std::filesystem::path& folder) {
                                             " kept: the camera drops or flags too many frames");
       break;
     }
-    auto frame = camera_.dequeue(options_.frame_timeout);
+    auto frame = dequeue_or_cancel();
+    if (!frame && summary_.cancelled) break;
     if (!frame) {
       summary_.failure = frame.error();
       break;
