@@ -256,8 +256,9 @@ void CameraWorker::mark_device_lost(JobOutcome* outcome) const {
           ? make_error("device_lost", "camera " + id() + " was unplugged during the job (" +
                                           reason + "); the " + std::to_string(frames) +
                                           " frames captured before are kept")
-          : make_error("device_lost",
-                       "camera " + id() + " is gone (" + reason + "); the job could not start");
+          : make_error(
+                "device_lost",
+                "camera " + id() + " was unplugged before the job took a frame (" + reason + ")");
   if (outcome->result.is_object()) outcome->result["device_lost_reason"] = reason;
 }
 

@@ -59,6 +59,7 @@ class Probe {
   device::Camera& camera_;
   int max_latency_;
   SettleTracker tracker_;
+  bool deferred_change_ = false;  // written, waiting for the requeue that sends it
   std::optional<ControlKeeper> keeper_;
   device::ControlInfo exposure_;
   device::StreamFormat format_;
@@ -122,6 +123,10 @@ Result<Sample> Probe::next_frame() {
   if (sample.usable) sample.mean = *mean;
   tracker_.on_frame(sample.sequence, frame->meta.timestamp_ns, frame->meta.clock == "monotonic");
   if (Status s = camera_.requeue(*frame); !s) return s.error();
+  if (deferred_change_) {  // its controls went out with this requeue (libcamera)
+    tracker_.on_change(camera_.controls_sent_ns().value_or(monotonic_ns()), 32);
+    deferred_change_ = false;
+  }
   sample.after_gap = last_sequence_ && sample.sequence != *last_sequence_ + 1;
   if (!first_sequence_) first_sequence_ = sample.sequence;
   last_sequence_ = sample.sequence;
@@ -132,6 +137,12 @@ Result<Sample> Probe::next_frame() {
 
 Status Probe::set_exposure(int64_t units) {
   if (auto applied = keeper_->write(camera_, kExposure, units); !applied) return applied.error();
+  // A camera whose controls travel with requests sends them with the next requeue, and
+  // the change counts from then (next_frame registers it).
+  if (camera_.controls_travel_with_requests()) {
+    deferred_change_ = true;
+    return {};
+  }
   // Every buffer may be in the driver: the bound used without timestamps.
   tracker_.on_change(monotonic_ns(), 32);
   return {};
@@ -139,7 +150,7 @@ Status Probe::set_exposure(int64_t units) {
 
 Result<std::pair<double, double>> Probe::plateau(int64_t units) {
   if (Status s = set_exposure(units); !s) return s.error();
-  const int change = tracker_.change_count() - 1;
+  const int change = tracker_.change_count() - (deferred_change_ ? 0 : 1);
   std::vector<double> means;
   while (static_cast<int>(means.size()) < kPlateauFrames) {
     Sample sample;
@@ -157,7 +168,7 @@ Result<std::pair<double, double>> Probe::plateau(int64_t units) {
 
 Result<std::optional<int>> Probe::step(int64_t units, double threshold, bool upwards) {
   if (Status s = set_exposure(units); !s) return s.error();
-  const int change = tracker_.change_count() - 1;
+  const int change = tracker_.change_count() - (deferred_change_ ? 0 : 1);
   bool gap = false;
   for (;;) {
     Sample sample;
