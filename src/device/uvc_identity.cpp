@@ -3,7 +3,6 @@
 #include <stdlib.h>
 #include <sys/stat.h>
 
-#include <cstring>
 #include <fstream>
 #include <memory>
 #include <regex>
@@ -29,13 +28,13 @@ std::optional<std::string> first_line(const std::string& path) {
 
 // libcamera's sysfs::firmwareNodePath: the device-tree path of `device`'s of_node, or its
 // ACPI path; empty when it has neither.
-std::string firmware_node_path(const std::string& device) {
+std::string firmware_node_path(const std::string& device, const std::string& sysfs_root) {
   struct stat st {};
   if (::stat((device + "/of_node").c_str(), &st) == 0) {
     auto of_path = real_path(device + "/of_node");
     if (!of_path) return {};
-    static constexpr const char kPrefix[] = "/sys/firmware/devicetree";
-    if (of_path->rfind(kPrefix, 0) == 0) return of_path->substr(std::strlen(kPrefix));
+    const std::string prefix = sysfs_root + "/firmware/devicetree";
+    if (of_path->rfind(prefix, 0) == 0) return of_path->substr(prefix.size());
     return *of_path;
   }
   return first_line(device + "/firmware_node/path").value_or("");
@@ -44,18 +43,23 @@ std::string firmware_node_path(const std::string& device) {
 }  // namespace
 
 std::optional<std::string> libcamera_uvc_id(const std::string& video_path) {
+  return libcamera_uvc_id(video_path, "/sys");
+}
+
+std::optional<std::string> libcamera_uvc_id(const std::string& video_path,
+                                            const std::string& sysfs_root) {
   const size_t slash = video_path.rfind('/');
   const std::string node = slash == std::string::npos ? video_path : video_path.substr(slash + 1);
   if (node.rfind("video", 0) != 0) return std::nullopt;
   // The USB interface the node belongs to, e.g. /sys/devices/.../usb1/1-3/1-3:1.0.
-  auto path = real_path("/sys/class/video4linux/" + node + "/device");
+  auto path = real_path(sysfs_root + "/class/video4linux/" + node + "/device");
   if (!path) return std::nullopt;
   std::string controller;
   for (std::string search = *path;;) {
     const size_t pos = search.rfind('/');
-    if (pos == std::string::npos || pos <= 1) return std::nullopt;
+    if (pos == std::string::npos || pos <= sysfs_root.size()) return std::nullopt;
     search.resize(pos);
-    controller = firmware_node_path(search);
+    controller = firmware_node_path(search, sysfs_root);
     if (!controller.empty()) break;
   }
   std::string usb_id = path->substr(path->rfind('/') + 1);  // "1-3:1.0"

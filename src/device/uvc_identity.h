@@ -25,6 +25,10 @@ namespace camlab::device {
 // (/dev/videoN), without camlab's "libcamera:" prefix; nullopt when the node is not a USB
 // video interface or sysfs lacks what libcamera reads.
 std::optional<std::string> libcamera_uvc_id(const std::string& video_path);
+// The same with sysfs mounted at `sysfs_root` instead of /sys (for tests on a made tree;
+// a device-tree node's path is then relative to `sysfs_root`/firmware/devicetree).
+std::optional<std::string> libcamera_uvc_id(const std::string& video_path,
+                                            const std::string& sysfs_root);
 
 // Whether a libcamera camera id has the UVC pipeline's shape
 // ("<firmware path>-<ports>:<config>.<interface>-<vendor>:<product>").
