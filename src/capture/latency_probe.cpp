@@ -19,6 +19,7 @@ namespace {
 constexpr const char* kExposure = "exposure_time_absolute";
 constexpr int kBuffers = 4;
 constexpr auto kFrameTimeout = std::chrono::milliseconds(3000);
+constexpr auto kCancelSlice = std::chrono::milliseconds(100);
 // Frames averaged for a plateau, after the longest latency has passed.
 constexpr int kPlateauFrames = 3;
 // Halvings or doublings of the exposure tried to find two levels the signal tells apart.
@@ -39,8 +40,8 @@ struct Sample {
 
 class Probe {
  public:
-  Probe(device::Camera& camera, int max_latency_frames)
-      : camera_(camera), max_latency_(max_latency_frames), tracker_(0, 0) {}
+  Probe(device::Camera& camera, int max_latency_frames, const std::atomic<bool>* cancel)
+      : camera_(camera), max_latency_(max_latency_frames), tracker_(0, 0), cancel_(cancel) {}
 
   Result<LatencyProbeResult> run(int repetitions);
   Status restore();
@@ -60,6 +61,7 @@ class Probe {
   int max_latency_;
   SettleTracker tracker_;
   bool deferred_change_ = false;  // written, waiting for the requeue that sends it
+  const std::atomic<bool>* cancel_;
   std::optional<ControlKeeper> keeper_;
   device::ControlInfo exposure_;
   device::StreamFormat format_;
@@ -114,7 +116,17 @@ Status Probe::start() {
 }
 
 Result<Sample> Probe::next_frame() {
-  auto frame = camera_.dequeue(kFrameTimeout);
+  // In slices, so that a cancel (the camera found unplugged, a user's) is seen while the
+  // camera delivers nothing.
+  Result<device::Frame> frame = make_error("timeout", "no frame");
+  for (auto waited = std::chrono::milliseconds(0);; waited += kCancelSlice) {
+    if (cancel_ && cancel_->load())
+      return make_error("cancelled", "the latency probe was cancelled");
+    frame = camera_.dequeue(std::min(kCancelSlice, kFrameTimeout - waited));
+    if (frame || frame.error().code != ErrorCode::kTimeout ||
+        waited + kCancelSlice >= kFrameTimeout)
+      break;
+  }
   if (!frame) return frame.error();
   Sample sample;
   sample.sequence = frame->meta.sequence;
@@ -289,12 +301,13 @@ Status Probe::restore() {
 }  // namespace
 
 Result<LatencyProbeResult> probe_control_latency(device::Camera& camera, int repetitions,
-                                                 int max_latency_frames) {
+                                                 int max_latency_frames,
+                                                 const std::atomic<bool>* cancel) {
   if (repetitions < 1 || repetitions > 20)
     return make_error("invalid_argument", "repetitions must be 1..20");
   if (max_latency_frames < 0 || max_latency_frames > 32)
     return make_error("invalid_argument", "max_latency_frames must be 0..32");
-  Probe probe(camera, max_latency_frames);
+  Probe probe(camera, max_latency_frames, cancel);
   auto result = probe.run(repetitions);
   Status restored = probe.restore();
   if (!result) return result;
