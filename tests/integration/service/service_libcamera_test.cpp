@@ -82,6 +82,17 @@ TEST_F(ServiceLibcamera, ABracketThroughLibcameraIsProportionalToExposure) {
   const DownloadedFrame first = download_frame(*daemon_, job["id"], 0);
   EXPECT_EQ(first.sidecar["delivered_format"], "GREY");
   EXPECT_EQ(first.sidecar["bit_depth"], 8);
+  // What the pipeline reported with each frame is kept, never made up: libcamera 0.0.3's
+  // UVC pipeline reports only the timestamp; a pipeline that reports the exposure must
+  // report the one the sidecar claims.
+  for (int i = 0; i < 4; ++i) {
+    const json settings = download_frame(*daemon_, job["id"], i).sidecar["settings"];
+    if (!settings.contains("reported") || !settings["reported"].contains("exposure_us")) continue;
+    EXPECT_EQ(settings["in_effect_by"], "frame_report") << settings.dump();
+    EXPECT_NEAR(settings["reported"]["exposure_us"].get<double>(),
+                settings["exposure_us"].get<double>(),
+                0.05 * settings["exposure_us"].get<double>());
+  }
 }
 
 TEST_F(ServiceLibcamera, UnplugAndReplugAreFollowedThroughTheV4l2Node) {
