@@ -132,11 +132,9 @@ int inject_vcam_fault(const FaultArgs& args) {
                 "no virtual cameras here: run this inside `camlab vcam run` or with `camlab vcam "
                 "serve`'s environment");
   static const std::map<std::string, mock::broker::Fault> kFaults = {
-      {"unplug", mock::broker::Fault::kUnplug},
-      {"eio", mock::broker::Fault::kDequeueEio},
-      {"drop", mock::broker::Fault::kDropFrames},
-      {"stall", mock::broker::Fault::kStall},
-      {"resume", mock::broker::Fault::kResume}};
+      {"unplug", mock::broker::Fault::kUnplug},  {"replug", mock::broker::Fault::kReplug},
+      {"eio", mock::broker::Fault::kDequeueEio}, {"drop", mock::broker::Fault::kDropFrames},
+      {"stall", mock::broker::Fault::kStall},    {"resume", mock::broker::Fault::kResume}};
   const int result =
       mock::broker::inject_fault(socket, args.device, kFaults.at(args.fault), args.count);
   if (result < 0)
@@ -268,13 +266,15 @@ void register_vcam_command(CLI::App& app) {
   CLI::App* fault = vcam->add_subcommand(
       "fault",
       "Inject a fault into a virtual camera of the surrounding `camlab vcam run` (or serve), to\n"
-      "test how a program copes: unplug (ENODEV from then on), eio (the next COUNT dequeues\n"
+      "test how a program copes: unplug (ENODEV from then on), replug (an unplugged camera\n"
+      "is plugged in again: new opens work, fds opened before stay dead), eio (the next COUNT "
+      "dequeues\n"
       "fail with EIO), drop (the next COUNT frames are lost: sequence gaps), stall (no frames\n"
       "until resume), resume.\n"
       "Example: camlab vcam run -- sh -c 'my_capture & sleep 2; camlab vcam fault unplug; wait'");
-  fault->add_option("fault", fault_args->fault, "unplug | eio | drop | stall | resume")
+  fault->add_option("fault", fault_args->fault, "unplug | replug | eio | drop | stall | resume")
       ->required()
-      ->check(CLI::IsMember({"unplug", "eio", "drop", "stall", "resume"}));
+      ->check(CLI::IsMember({"unplug", "replug", "eio", "drop", "stall", "resume"}));
   fault->add_option("--device", fault_args->device, "which /dev/videoN (default 0)")
       ->check(CLI::Range(0, 7));
   fault->add_option("--count", fault_args->count, "for eio and drop: how many (default 1)")

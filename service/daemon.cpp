@@ -113,14 +113,17 @@ int run_daemon(const DaemonConfig& config) {
 
   (*cameras)->start();
   compute.start();
-  for (const auto& worker : (*cameras)->workers()) {
+  const auto workers = (*cameras)->workers();
+  for (const auto& worker : workers) {
     const CameraSnapshot s = worker->snapshot();
     log_info(log::Category::kDaemon, "camera %s: %s (%s, %s)%s%s", s.identity.id.c_str(),
              s.identity.name.c_str(), s.identity.path.c_str(), s.transport.c_str(),
              s.available ? "" : " unavailable: ", s.available ? "" : s.unavailable_reason.c_str());
   }
-  if ((*cameras)->workers().empty())
-    log_warning(log::Category::kDaemon, "no cameras (none found, and the virtual camera is off)");
+  if (workers.empty())
+    log_warning(log::Category::kDaemon,
+                "no cameras yet (none found, and the virtual camera is off); cameras plugged in "
+                "later are served");
 
   std::promise<int> stop_signal;
   net::signal_set signals(ioc, SIGINT, SIGTERM);
@@ -132,9 +135,8 @@ int run_daemon(const DaemonConfig& config) {
   const auto bound = (*listener)->local_endpoint();
   log_info(log::Category::kDaemon,
            "listening on http://%s:%u (data %s, %zu camera(s), %d I/O threads%s)",
-           bound.address().to_string().c_str(), bound.port(), data_dir->c_str(),
-           (*cameras)->workers().size(), config.io_threads,
-           config.test_faults ? ", TEST FAULT INJECTION ENABLED" : "");
+           bound.address().to_string().c_str(), bound.port(), data_dir->c_str(), workers.size(),
+           config.io_threads, config.test_faults ? ", TEST FAULT INJECTION ENABLED" : "");
 
   std::vector<std::thread> pool;
   for (int i = 0; i < config.io_threads; ++i) pool.emplace_back([&ioc] { ioc.run(); });

@@ -8,7 +8,8 @@
 int main(int argc, char** argv) {
   camlab::log::set_program_name("camlabd");
   camlab::service::DaemonConfig config;
-  bool no_virtual = false, no_scan = false;
+  bool no_virtual = false, no_scan = false, no_libcamera = false;
+  int rescan_ms = static_cast<int>(config.cameras.rescan_interval.count());
   int read_timeout_s = static_cast<int>(config.limits.read_timeout.count());
   int frame_timeout_ms = static_cast<int>(config.cameras.worker.frame_timeout.count());
 
@@ -40,7 +41,22 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--device", config.cameras.device_paths,
                  "serve only these V4L2 devices (repeatable), instead of every /dev/video*");
-  app.add_flag("--no-scan", no_scan, "do not look for V4L2 devices (only the virtual camera)");
+  app.add_flag("--no-scan", no_scan,
+               "do not look for V4L2 or libcamera cameras (only the virtual camera)");
+  app.add_flag("--no-libcamera", no_libcamera,
+               "do not serve the cameras libcamera enumerates (V4L2 devices only)");
+  app.add_flag("--prefer-libcamera", config.cameras.prefer_libcamera,
+               "serve a camera reachable both as a V4L2 node and through libcamera (a UVC "
+               "webcam) through\n"
+               "libcamera, under its libcamera:ID; without it, through V4L2 under v4l2:BUS_INFO "
+               "(listed once\n"
+               "either way)");
+  app.add_option("--rescan-ms", rescan_ms,
+                 "look for cameras plugged in or out at least this often (besides inotify "
+                 "events on /dev);\n"
+                 "0: never (the cameras found at start are served until camlabd stops)")
+      ->check(CLI::Range(0, 3600000))
+      ->capture_default_str();
   app.add_option("--camera-spec", config.cameras.camera_spec,
                  "camera spec JSON of an in-process virtual camera (docs/virtual-camera.md); "
                  "giving it adds the\n"
@@ -91,6 +107,8 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   config.cameras.scan_devices = !no_scan;
+  config.cameras.libcamera = !no_scan && !no_libcamera;
+  config.cameras.rescan_interval = std::chrono::milliseconds(rescan_ms);
   if (no_virtual)
     config.cameras.virtual_cameras = camlab::service::VirtualCameras::kNever;
   else if (!config.cameras.camera_spec.empty())

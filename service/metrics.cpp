@@ -48,7 +48,7 @@ std::string Metrics::render(const std::map<std::string, int64_t>& jobs_by_state)
   }
   out << "# HELP camlabd_jobs Jobs in the database, by state.\n# TYPE camlabd_jobs gauge\n";
   for (const char* state :
-       {"queued", "running", "succeeded", "failed", "cancelled", "interrupted"}) {
+       {"queued", "running", "succeeded", "failed", "cancelled", "interrupted", "device_lost"}) {
     auto it = jobs_by_state.find(state);
     out << "camlabd_jobs{state=\"" << state << "\"} "
         << (it == jobs_by_state.end() ? 0 : it->second) << "\n";

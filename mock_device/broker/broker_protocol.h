@@ -50,6 +50,7 @@ enum class Fault : int32_t {
   kDropFrames = 3,  // the next `count` frames are dropped (sequence gaps)
   kStall = 4,       // no frames until kResume
   kResume = 5,
+  kReplug = 6,  // an unplugged device is plugged in again (a new device; old fds stay dead)
 };
 
 enum class NodeKind : uint32_t { kVideo = 0, kMedia = 1 };

@@ -263,6 +263,9 @@ int inject(VirtualV4l2Device& device, broker::Fault fault, int count) {
     case broker::Fault::kResume:
       device.stall(false);
       return 0;
+    case broker::Fault::kReplug:
+      device.replug();
+      return 0;
   }
   return -EINVAL;
 }
@@ -383,6 +386,9 @@ void VcamBroker::serve(Connection* connection) {
       if (result == 0 && media &&
           static_cast<broker::Fault>(header.flags) == broker::Fault::kUnplug)
         media->device->unplug();
+      if (result == 0 && media &&
+          static_cast<broker::Fault>(header.flags) == broker::Fault::kReplug)
+        media->device->replug();
       reply_result(socket, result);
     } else if (header.op == Op::kOpen && kind == broker::NodeKind::kMedia && media) {
       // Each open is its own open file description of the node's memfd (one inode per

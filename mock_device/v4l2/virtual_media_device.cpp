@@ -110,11 +110,19 @@ int VirtualMediaDevice::open_file(bool nonblocking) {
 void VirtualMediaDevice::close_file(int file) {
   std::lock_guard lock(mutex_);
   files_.erase(file);
+  dead_files_.erase(file);
 }
 
 void VirtualMediaDevice::unplug() {
   std::lock_guard lock(mutex_);
   unplugged_ = true;
+}
+
+void VirtualMediaDevice::replug() {
+  std::lock_guard lock(mutex_);
+  if (!unplugged_) return;
+  for (const auto& [file, nonblocking] : files_) dead_files_.insert(file);
+  unplugged_ = false;
 }
 
 bool VirtualMediaDevice::is_supported_ioctl(unsigned long request) {
@@ -133,7 +141,7 @@ bool VirtualMediaDevice::is_supported_ioctl(unsigned long request) {
 int VirtualMediaDevice::ioctl(int file, unsigned long request, void* arg) {
   std::lock_guard lock(mutex_);
   // An unregistered media node answers EIO (media_ioctl), not ENODEV.
-  if (unplugged_) return -EIO;
+  if (unplugged_ || dead_files_.contains(file)) return -EIO;
   if (files_.find(file) == files_.end()) return -EBADF;
   if (!is_supported_ioctl(request)) return -ENOTTY;
   if (arg == nullptr) return -EFAULT;

@@ -29,6 +29,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -92,6 +93,8 @@ class VirtualMediaDevice {
 
   // From now on every call fails with ENODEV (the camera was unplugged).
   void unplug();
+  // The camera is plugged in again: new opens work; files opened before stay dead.
+  void replug();
 
   int index() const { return options_.index; }
 
@@ -158,6 +161,7 @@ class VirtualMediaDevice {
   std::map<int, bool> files_;  // open file -> nonblocking
   int next_file_ = 1;
   bool unplugged_ = false;
+  std::set<int> dead_files_;  // opened before an unplug that a replug ended
 };
 
 class VirtualV4l2Device;

@@ -72,6 +72,7 @@ void VirtualV4l2Device::signal_readiness() {
 
 void VirtualV4l2Device::close_file(int file) {
   std::lock_guard lock(mutex_);
+  dead_files_.erase(file);
   queue_.release(file);
   files_.remove(file);
   signal_readiness();
@@ -129,7 +130,7 @@ int VirtualV4l2Device::ioctl(int file, unsigned long request, void* arg) {
 
 int VirtualV4l2Device::ioctl(int file, unsigned long request, void* arg, int dmabuf_fd) {
   std::unique_lock lock(mutex_);
-  if (unplugged_) return -ENODEV;
+  if (unplugged_ || dead_files_.contains(file)) return -ENODEV;
   if (!files_.contains(file)) return -EBADF;
   // Unknown ioctls are ENOTTY before the argument is looked at, as in the kernel.
   const IoctlInfo* info = find_ioctl(request);
@@ -190,6 +191,27 @@ void VirtualV4l2Device::unplug() {
   queue_.stop();
   signal_readiness();
   changed_.notify_all();
+}
+
+void VirtualV4l2Device::replug() {
+  std::lock_guard lock(mutex_);
+  if (!unplugged_) return;
+  for (int file : files_.ids()) {
+    dead_files_.insert(file);
+    files_.remove(file);  // its priority and events went with the old device
+  }
+  // The producer renders with the mutex released and re-checks the queue before it
+  // copies, so the old buffers can go now; their holders' mappings keep the memory.
+  queue_ = VirtualV4l2Queue();
+  controls_ = VirtualV4l2Controls(renderer_.camera().controls,
+                                  renderer_.camera().timing.control_latency_frames);
+  unplugged_ = false;
+  changed_.notify_all();
+}
+
+bool VirtualV4l2Device::unplugged() const {
+  std::lock_guard lock(mutex_);
+  return unplugged_;
 }
 
 void VirtualV4l2Device::fail_next_dequeues(int count) {

@@ -11,8 +11,9 @@
 // on hardware. Controls set
 // while frame n is the next to start show in frame n + control_latency_frames.
 //
-// Faults for tests: unplug (ENODEV from then on, POLLERR), EIO on the next dequeues,
-// dropped frames (sequence gaps), a stall (no frames until cleared).
+// Faults for tests: unplug (ENODEV from then on, POLLERR), replug (the camera is plugged
+// in again: a new device, as the kernel makes one), EIO on the next dequeues, dropped
+// frames (sequence gaps), a stall (no frames until cleared).
 //
 // The parts: VirtualV4l2Files (per open file: priority, events, eventfd),
 // VirtualV4l2Controls, VirtualV4l2Queue (buffers) and VirtualV4l2FrameClock; the device
@@ -29,6 +30,7 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <thread>
 #include <vector>
 
@@ -96,6 +98,12 @@ class VirtualV4l2Device {
 
   // Fault injection.
   void unplug();
+  // Plugs an unplugged camera in again (no-op otherwise). As with a kernel device that is
+  // removed and registered again, files opened before the unplug stay dead (ENODEV,
+  // POLLERR|POLLHUP until closed), and the new device has no buffers, its controls at
+  // their defaults. Mappings of the old buffers stay valid for their holders.
+  void replug();
+  bool unplugged() const;
   void fail_next_dequeues(int count);
   void drop_next_frames(int count);
   void stall(bool stalled);
@@ -194,6 +202,7 @@ class VirtualV4l2Device {
   std::vector<OfferedFormat> formats_;  // what ENUM_FMT lists, for the camera's sensor
   v4l2_pix_format format_{};            // always one of formats_, sized by fill_pix_format
   bool unplugged_ = false;
+  std::set<int> dead_files_;  // opened before an unplug that a replug ended: ENODEV
   int fail_dequeues_ = 0;
   bool render_error_reported_ = false;
   std::thread producer_;

@@ -26,6 +26,12 @@ int VirtualV4l2Files::add(bool nonblocking) {
 
 void VirtualV4l2Files::remove(int file) { files_.erase(file); }
 
+std::vector<int> VirtualV4l2Files::ids() const {
+  std::vector<int> out;
+  for (const auto& [id, file] : files_) out.push_back(id);
+  return out;
+}
+
 bool VirtualV4l2Files::nonblocking(int file) const {
   auto it = files_.find(file);
   return it != files_.end() && it->second.nonblocking;

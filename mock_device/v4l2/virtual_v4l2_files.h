@@ -12,6 +12,7 @@
 #include <deque>
 #include <functional>
 #include <map>
+#include <vector>
 
 namespace camlab::mock {
 
@@ -21,6 +22,8 @@ class VirtualV4l2Files {
   int add(bool nonblocking);
   void remove(int file);
   bool contains(int file) const { return files_.count(file) != 0; }
+  // Every open file's id, in order.
+  std::vector<int> ids() const;
   bool nonblocking(int file) const;
 
   // The device's priority: the highest of any open file's (v4l2_prio_max).

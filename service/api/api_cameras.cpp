@@ -15,10 +15,10 @@ namespace {
 
 std::string clip(const std::string& s) { return s.size() > 100 ? s.substr(0, 100) + "..." : s; }
 
-// The worker of camera `id` (matched against the registry), or a 404 reply.
-CameraWorker* find_camera(const ServiceContext& context, const std::string& id,
-                          const Reply& reply) {
-  if (CameraWorker* worker = context.cameras->find(id)) return worker;
+// The worker of camera `id` (a retired one while the camera is gone), or a 404 reply.
+std::shared_ptr<CameraWorker> find_camera(const ServiceContext& context, const std::string& id,
+                                          const Reply& reply) {
+  if (auto worker = context.cameras->find(id)) return worker;
   std::string known;
   for (const auto& w : context.cameras->workers()) known += (known.empty() ? "" : ", ") + w->id();
   reply(error_response("not_found", "no camera '" + clip(id) +
@@ -39,6 +39,9 @@ nlohmann::json summary_json(const ServiceContext& context, const CameraSnapshot&
   json["transport"] = s.transport;
   json["available"] = s.available;
   if (!s.available) json["unavailable_reason"] = s.unavailable_reason;
+  json["present"] = !s.gone;
+  if (s.gone) json["gone_since_ms"] = s.gone_since_ms;
+  if (!s.also_reachable_as.empty()) json["also_reachable_as"] = s.also_reachable_as;
   json["running_job"] = s.running_job ? nlohmann::json(s.running_job) : nlohmann::json(nullptr);
   json["queued_jobs"] = s.queued_jobs;
   json["control_latency"] = latency_json(context, s.identity.id);
@@ -84,7 +87,7 @@ Result<int64_t> check_control(const device::ControlInfo& c, const nlohmann::json
 
 void put_controls(const ServiceContext& context, const ApiRequest& request,
                   const PathParams& params, Reply reply) {
-  CameraWorker* worker = find_camera(context, params.at("id"), reply);
+  auto worker = find_camera(context, params.at("id"), reply);
   if (!worker) return;
   auto body = parse_json_object(request.body);
   if (!body) return reply(error_response(body.error()));
@@ -134,11 +137,11 @@ void put_controls(const ServiceContext& context, const ApiRequest& request,
 }
 
 // Stores a job and queues it on the camera; 202 with the job and its Location.
-void queue_job(const ServiceContext& context, CameraWorker* worker, const std::string& kind,
-               const nlohmann::json& request, int frames_total, const Reply& reply) {
-  if (!worker->can_accept_job())
-    return reply(error_response(
-        "too_many_jobs", "camera " + worker->id() + " has too many jobs queued; retry later"));
+void queue_job(const ServiceContext& context, const std::shared_ptr<CameraWorker>& worker,
+               const std::string& kind, const nlohmann::json& request, int frames_total,
+               const Reply& reply) {
+  if (Status accepted = worker->can_accept_job(); !accepted)
+    return reply(error_response(accepted.error()));
   auto job = context.store->create(kind, worker->id(), request,
                                    kind == "capture" ? "captures/job-" : "", frames_total);
   if (!job) return reply(error_response(job.error()));
@@ -153,14 +156,14 @@ void queue_job(const ServiceContext& context, CameraWorker* worker, const std::s
 
 void post_capture(const ServiceContext& context, const ApiRequest& request,
                   const PathParams& params, Reply reply) {
-  CameraWorker* worker = find_camera(context, params.at("id"), reply);
+  auto worker = find_camera(context, params.at("id"), reply);
   if (!worker) return;
   auto body = parse_json_object(request.body);
   if (!body) return reply(error_response(body.error()));
   const CameraSnapshot snapshot = worker->snapshot();
   if (!snapshot.available) {
     // Have the worker try to open it again (it may be back), for the next request.
-    (void)worker->post_task([](device::Camera*, const Error*) {});
+    if (!snapshot.gone) (void)worker->post_task([](device::Camera*, const Error*) {});
     return reply(error_response("no_device", "camera " + worker->id() + " is not available: " +
                                                  snapshot.unavailable_reason));
   }
@@ -185,7 +188,7 @@ void add_camera_routes(Router& router, const ServiceContext& context) {
   router.add({"GET", "/v1/cameras/{id}",
               "One camera: formats, sizes, frame rates, controls with ranges and units",
               [context](const ApiRequest&, const PathParams& params, Reply reply) {
-                CameraWorker* worker = find_camera(context, params.at("id"), reply);
+                auto worker = find_camera(context, params.at("id"), reply);
                 if (!worker) return;
                 const CameraSnapshot s = worker->snapshot();
                 nlohmann::json json = s.description;
@@ -207,7 +210,7 @@ void add_camera_routes(Router& router, const ServiceContext& context) {
               "Queue a control-latency probe (stepping exposure, watching the mean signal): 202 "
               "with the job",
               [context](const ApiRequest&, const PathParams& params, Reply reply) {
-                CameraWorker* worker = find_camera(context, params.at("id"), reply);
+                auto worker = find_camera(context, params.at("id"), reply);
                 if (!worker) return;
                 queue_job(context, worker, "latency_probe", nlohmann::json::object(), 0, reply);
               }});

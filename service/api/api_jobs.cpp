@@ -170,7 +170,7 @@ void cancel_job(const ServiceContext& context, const PathParams& params, Reply r
     job = **now;
   }
   if (job->state == JobState::kRunning) {
-    CameraWorker* worker = job->camera_id.empty() ? nullptr : context.cameras->find(job->camera_id);
+    auto worker = job->camera_id.empty() ? nullptr : context.cameras->find(job->camera_id);
     if (worker && worker->cancel_running(job->id)) {
       nlohmann::json json = to_json(*job);
       json["cancel_requested"] = true;

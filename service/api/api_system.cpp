@@ -10,10 +10,10 @@ void add_system_routes(Router& router, const ServiceContext& context) {
   router.add({"GET", "/v1/health", "Liveness: 200 while the daemon serves (no token needed)",
               [context](const ApiRequest&, const PathParams&, Reply reply) {
                 int available = 0;
-                for (const auto& worker : context.cameras->workers())
-                  available += worker->snapshot().available;
+                const auto workers = context.cameras->workers();
+                for (const auto& worker : workers) available += worker->snapshot().available;
                 reply(json_response(200, {{"status", "ok"},
-                                          {"cameras", context.cameras->workers().size()},
+                                          {"cameras", workers.size()},
                                           {"cameras_available", available}}));
               },
               /*is_public=*/true});

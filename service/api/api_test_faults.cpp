@@ -2,8 +2,9 @@
 // for tests. Registered only with --test-faults (off by default); marked "x-test-only"
 // in the OpenAPI document.
 //
-// Body (every field optional): {"unplug": true, "fail_next_dequeues": 3,
-// "drop_next_frames": 5, "stall": true | false}.
+// Body (every field optional): {"unplug": true, "replug": true, "fail_next_dequeues": 3,
+// "drop_next_frames": 5, "stall": true | false}. A replug is announced to the camera set
+// at once, as the kernel's hot-plug event would be (CameraSet::notify_hotplug).
 #include "service/api/service_context.h"
 #include "service/jobs/camera_set.h"
 
@@ -36,16 +37,17 @@ void add_test_routes(Router& router, const ServiceContext& context) {
         auto body = parse_json_object(request.body);
         if (!body) return reply(error_response(body.error()));
         for (const auto& [key, value] : body->items())
-          if (key != "unplug" && key != "fail_next_dequeues" && key != "drop_next_frames" &&
-              key != "stall")
-            return reply(error_response(
-                "invalid_request", "unknown fault '" + key.substr(0, 40) +
-                                       "' (unplug, fail_next_dequeues, drop_next_frames, stall)"));
+          if (key != "unplug" && key != "replug" && key != "fail_next_dequeues" &&
+              key != "drop_next_frames" && key != "stall")
+            return reply(
+                error_response("invalid_request", "unknown fault '" + key.substr(0, 40) +
+                                                      "' (unplug, replug, fail_next_dequeues, "
+                                                      "drop_next_frames, stall)"));
         auto fail = bounded_count(*body, "fail_next_dequeues");
         if (!fail) return reply(error_response(fail.error()));
         auto drop = bounded_count(*body, "drop_next_frames");
         if (!drop) return reply(error_response(drop.error()));
-        for (const char* flag : {"unplug", "stall"})
+        for (const char* flag : {"unplug", "replug", "stall"})
           if (body->contains(flag) && !(*body)[flag].is_boolean())
             return reply(
                 error_response("invalid_request", std::string(flag) + " must be true or false"));
@@ -53,6 +55,10 @@ void add_test_routes(Router& router, const ServiceContext& context) {
         if (*drop > 0) device->drop_next_frames(*drop);
         if (body->contains("stall")) device->stall((*body)["stall"].get<bool>());
         if (body->value("unplug", false)) device->unplug();
+        if (body->value("replug", false)) {
+          device->replug();
+          context.cameras->notify_hotplug();
+        }
         reply(json_response(200, {{"camera_id", params.at("id")}, {"injected", *body}}));
       }};
   route.test_only = true;

@@ -17,6 +17,7 @@ CameraWorker::CameraWorker(device::DeviceEntry entry, OpenCamera open, CameraWor
       metrics_(metrics) {
   snapshot_.identity = entry_.identity;
   snapshot_.transport = entry_.transport;
+  snapshot_.also_reachable_as = entry_.also_reachable_as;
   snapshot_.traits = options_.traits;
   snapshot_.unavailable_reason = "not opened yet";
   snapshot_.description = device::to_json(entry_.identity);
@@ -43,7 +44,40 @@ void CameraWorker::request_stop() {
 
 void CameraWorker::stop() {
   request_stop();
+  join();
+}
+
+void CameraWorker::join() {
   if (thread_.joinable()) thread_.join();
+}
+
+void CameraWorker::retire(const std::string& reason) {
+  {
+    std::lock_guard lock(mutex_);
+    if (lost_) return;
+    lost_reason_ = reason;
+    lost_ = true;
+    stopping_ = true;
+    cancel_ = true;
+    snapshot_.gone = true;
+    snapshot_.gone_since_ms = std::chrono::duration_cast<std::chrono::milliseconds>(
+                                  std::chrono::system_clock::now().time_since_epoch())
+                                  .count();
+    snapshot_.available = false;
+    snapshot_.unavailable_reason = reason;
+  }
+  wake_.notify_all();
+}
+
+bool CameraWorker::retired() const { return lost_.load(); }
+
+void CameraWorker::reopen_if_unavailable() {
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_ || snapshot_.available || !started_snapshot_ || !tasks_.empty()) return;
+    tasks_.push_back([](device::Camera*, const Error*) {});  // the worker opens it first
+  }
+  wake_.notify_all();
 }
 
 CameraSnapshot CameraWorker::snapshot() const {
@@ -57,6 +91,7 @@ CameraSnapshot CameraWorker::snapshot() const {
 Status CameraWorker::post_task(Task task) {
   {
     std::lock_guard lock(mutex_);
+    if (lost_) return make_error("no_device", "camera " + id() + " is gone (" + lost_reason_ + ")");
     if (stopping_) return make_error("shutting_down", "camlabd is shutting down");
     tasks_.push_back(std::move(task));
   }
@@ -64,14 +99,23 @@ Status CameraWorker::post_task(Task task) {
   return {};
 }
 
-bool CameraWorker::can_accept_job() const {
+Status CameraWorker::can_accept_job() const {
   std::lock_guard lock(mutex_);
-  return !stopping_ && static_cast<int>(jobs_.size()) < options_.max_queued_jobs;
+  if (lost_)
+    return make_error("no_device", "camera " + id() + " is gone (" + lost_reason_ +
+                                       "); it is served again when it is plugged in");
+  if (stopping_) return make_error("shutting_down", "camlabd is shutting down");
+  if (static_cast<int>(jobs_.size()) >= options_.max_queued_jobs)
+    return make_error("too_many_jobs", "camera " + id() + " has too many jobs queued; retry later");
+  return {};
 }
 
 Status CameraWorker::enqueue_job(int64_t job_id) {
   {
     std::lock_guard lock(mutex_);
+    if (lost_)
+      return make_error("no_device", "camera " + id() + " is gone (" + lost_reason_ +
+                                         "); it is served again when it is plugged in");
     if (stopping_) return make_error("shutting_down", "camlabd is shutting down");
     if (static_cast<int>(jobs_.size()) >= options_.max_queued_jobs)
       return make_error("too_many_jobs", "camera " + id() + " already has " +
@@ -167,16 +211,55 @@ void CameraWorker::run() {
     tasks.swap(tasks_);
     jobs.swap(jobs_);
   }
-  const Error stopping = make_error("shutting_down", "camlabd is shutting down");
+  const Error stopping = lost_ ? make_error("no_device", "camera " + id() + " is gone")
+                               : make_error("shutting_down", "camlabd is shutting down");
   for (auto& task : tasks) task(nullptr, &stopping);
-  for (int64_t id : jobs) {
-    if (auto done = store_.finish(
-            id, JobState::kInterrupted,
-            make_error("interrupted", "camlabd stopped before the job started"), nullptr);
-        done && *done)
-      metrics_.count_job_finished("capture", "interrupted");
-  }
+  for (int64_t id : jobs) end_unstarted(id);
   camera_.reset();  // stops streaming and closes the device on its own thread
+  finished_ = true;
+}
+
+void CameraWorker::end_unstarted(int64_t job_id) {
+  std::string reason;
+  {
+    std::lock_guard lock(mutex_);
+    reason = lost_reason_;
+  }
+  auto record = store_.get(job_id);
+  const std::string kind = record && record->has_value() ? (*record)->kind : "capture";
+  const JobState state = lost_ ? JobState::kDeviceLost : JobState::kInterrupted;
+  const Error why = lost_ ? make_error("device_lost", "camera " + id() +
+                                                          " was unplugged before "
+                                                          "the job started (" +
+                                                          reason + ")")
+                          : make_error("interrupted", "camlabd stopped before the job started");
+  if (auto done = store_.finish(job_id, state, why, nullptr); done && *done)
+    metrics_.count_job_finished(kind, job_state_name(state));
+}
+
+void CameraWorker::mark_device_lost(JobOutcome* outcome) const {
+  std::string reason;
+  {
+    std::lock_guard lock(mutex_);
+    reason = lost_reason_;
+  }
+  if (reason.empty()) reason = outcome->failure_detail;
+  if (reason.empty() && outcome->error) reason = outcome->error->message;
+  if (reason.empty()) reason = "the camera is gone";
+  int frames = 0;
+  if (outcome->result.is_object() && outcome->result.contains("frames_kept"))
+    frames = outcome->result["frames_kept"].get<int>();
+  outcome->state = JobState::kDeviceLost;
+  outcome->device_failed = true;
+  outcome->error =
+      outcome->result.is_object()
+          ? make_error("device_lost", "camera " + id() + " was unplugged during the job (" +
+                                          reason + "); the " + std::to_string(frames) +
+                                          " frames captured before are kept")
+          : make_error(
+                "device_lost",
+                "camera " + id() + " was unplugged before the job took a frame (" + reason + ")");
+  if (outcome->result.is_object()) outcome->result["device_lost_reason"] = reason;
 }
 
 void CameraWorker::run_job(int64_t id) {
@@ -189,8 +272,8 @@ void CameraWorker::run_job(int64_t id) {
   const JobRecord& job = **record;
   auto started = store_.start(id);
   if (!started || !*started) return;  // cancelled while queued
-  cancel_ = false;
   running_job_ = id;
+  cancel_ = lost_.load();  // a retirement since the job left the queue still cancels it
   log_info(log::Category::kJobs, "job %lld (%s) started on camera %s", static_cast<long long>(id),
            job.kind.c_str(), this->id().c_str());
 
@@ -198,6 +281,7 @@ void CameraWorker::run_job(int64_t id) {
   auto camera = ensure_open();
   if (!camera) {
     outcome.state = JobState::kFailed;
+    outcome.failure_detail = camera.error().message;
     outcome.error = camera.error().with_context("camera " + this->id() + " is not available: ");
   } else {
     CaptureJobEnv env{
@@ -211,7 +295,12 @@ void CameraWorker::run_job(int64_t id) {
                                           : execute_capture(**camera, job, env);
   }
   running_job_ = 0;
-  if (outcome.device_failed) {
+  const bool gone = lost_.load() || (outcome.error && outcome.error->code == ErrorCode::kNoDevice &&
+                                     outcome.state != JobState::kSucceeded);
+  if (gone && outcome.state != JobState::kSucceeded) mark_device_lost(&outcome);
+  if (outcome.device_failed && lost_.load()) {
+    camera_.reset();  // retired: no reopen; the set serves it again when it is back
+  } else if (outcome.device_failed) {
     log_warning(log::Category::kCameras, "camera %s failed during job %lld: %s", this->id().c_str(),
                 static_cast<long long>(id),
                 outcome.error ? outcome.error->message.c_str() : "device error");

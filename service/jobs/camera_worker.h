@@ -6,11 +6,20 @@
 // (identity, formats, controls with ranges, availability, the running job), refreshed
 // by the worker after opening the camera, after each job and after each control change.
 //
-// A device error during a job (unplugged, I/O error, timeout) fails that job; the worker
-// then drops the camera and reopens it before the next job, so one fault never poisons
-// the next capture. stop() cancels the running job (it ends interrupted), turns queued
+// A device error during a job (I/O error, timeout) fails that job; the worker then drops
+// the camera and reopens it before the next job, so one fault never poisons the next
+// capture. A camera that is gone (ENODEV: "no_device") ends the job device_lost instead,
+// with its frames kept. stop() cancels the running job (it ends interrupted), turns queued
 // jobs into interrupted and joins the thread.
 //
+// Hot-plug (service/jobs/camera_set.h): when the camera set's rescan no longer finds the
+// camera it retires the worker: retire() cancels the running job, which ends device_lost
+// with the reason (frames kept), ends the queued jobs device_lost, and lets the thread
+// finish on its own; the set joins it once finished() (join()). A retired worker stays
+// listed as gone until a fresh worker for the same id replaces it.
+//
+// Owned by the camera set through shared_ptr; HTTP handlers hold a copy for the length of
+// a request, so a worker retired meanwhile stays valid (it refuses new work).
 // Thread-safe (every public member); the camera itself is touched only on the worker.
 #pragma once
 
@@ -39,6 +48,7 @@ namespace camlab::service {
 
 class JobStore;
 class Metrics;
+struct JobOutcome;
 
 struct CameraSnapshot {
   device::CameraIdentity identity;
@@ -51,6 +61,9 @@ struct CameraSnapshot {
   capture::CameraTraits traits;  // what raw values mean (bit depth, f-numbers), when known
   int64_t running_job = 0;       // 0 when idle
   int queued_jobs = 0;
+  std::string also_reachable_as;  // the same camera's id under the other backend
+  bool gone = false;              // retired: the camera was unplugged (no longer found)
+  int64_t gone_since_ms = 0;      // Unix time of the retirement
 };
 
 struct CameraWorkerOptions {
@@ -84,14 +97,28 @@ class CameraWorker {
   void request_stop();
   void stop();
 
+  // The camera is gone (see the header comment): `reason` is stored with every job it
+  // ends. Does not wait for the thread. Idempotent.
+  void retire(const std::string& reason);
+  bool retired() const;
+  // The thread has returned (after retire() or stop()); join() then does not block.
+  bool finished() const { return finished_.load(); }
+  void join();
+
   const std::string& id() const { return entry_.identity.id; }
+  const device::DeviceEntry& entry() const { return entry_; }
   CameraSnapshot snapshot() const;
 
   // Queues a task ahead of queued jobs; "shutting_down" once stopping.
   Status post_task(Task task);
-  // Queues job `id` (already stored as queued); "too_many_jobs" or "shutting_down".
+  // The camera set found the device present: if the camera is unavailable (it failed to
+  // open, or a job lost it), try opening it again, unless a try is already queued.
+  void reopen_if_unavailable();
+  // Queues job `id` (already stored as queued); "too_many_jobs", "shutting_down", or
+  // "no_device" once retired.
   Status enqueue_job(int64_t id);
-  bool can_accept_job() const;
+  // Whether enqueue_job would take a job now; the error it would give otherwise.
+  Status can_accept_job() const;
   // Requests cancellation of job `id` if it is the one running; false otherwise.
   bool cancel_running(int64_t id);
 
@@ -102,6 +129,10 @@ class CameraWorker {
   Result<device::Camera*> ensure_open();
   void drop_camera(const Error& why);
   void refresh_snapshot();
+  // Ends queued job `id` without running it (shutdown or retirement).
+  void end_unstarted(int64_t id);
+  // Turns a job's outcome into device_lost, with the reason and the frames kept.
+  void mark_device_lost(JobOutcome* outcome) const;
 
   const device::DeviceEntry entry_;
   const OpenCamera open_;
@@ -122,6 +153,9 @@ class CameraWorker {
   std::atomic<int64_t> running_job_{0};
   std::atomic<bool> cancel_{false};
   std::atomic<bool> shutting_down_{false};
+  std::atomic<bool> lost_{false};  // retired: the running job ends device_lost
+  std::string lost_reason_;        // under mutex_
+  std::atomic<bool> finished_{false};
   std::thread thread_;
 };
 

@@ -23,7 +23,7 @@ struct LatencyChoice {
 Result<LatencyChoice> measure_latency(device::Camera& camera, const CaptureJobEnv& env,
                                       int* frames_consumed) {
   const std::string& id = camera.identity().id;
-  auto probe = capture::probe_control_latency(camera);
+  auto probe = capture::probe_control_latency(camera, 3, 8, env.cancel);
   LatencyChoice choice;
   if (probe) {
     *frames_consumed += probe->frames_consumed;
@@ -44,7 +44,7 @@ Result<LatencyChoice> measure_latency(device::Camera& camera, const CaptureJobEn
         choice.source = "spec";
       }
     }
-  } else if (is_device_error(probe.error().code)) {
+  } else if (is_device_error(probe.error().code) || probe.error().code == ErrorCode::kCancelled) {
     return probe.error();
   } else if (env.spec_latency_frames) {
     choice.frames = *env.spec_latency_frames;
@@ -105,7 +105,21 @@ JobOutcome failed(Error error, bool device_failed = false) {
   JobOutcome outcome;
   outcome.state = JobState::kFailed;
   outcome.device_failed = device_failed || is_device_error(error.code);
+  outcome.failure_detail = error.message;
   outcome.error = std::move(error);
+  return outcome;
+}
+
+// A cancel before any frame was taken (during the latency probe): cancelled by the user,
+// or interrupted by shutdown (the worker makes it device_lost when the camera is gone).
+JobOutcome stopped_early(const CaptureJobEnv& env) {
+  const bool shutdown = env.shutting_down && env.shutting_down->load();
+  JobOutcome outcome;
+  outcome.state = shutdown ? JobState::kInterrupted : JobState::kCancelled;
+  outcome.error = shutdown
+                      ? make_error("interrupted", "camlabd stopped during the latency probe")
+                      : make_error("cancelled", "cancelled by request during the latency probe");
+  outcome.failure_detail = "cancelled during the latency probe";
   return outcome;
 }
 
@@ -128,6 +142,7 @@ JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const C
 
   int probe_frames = 0;
   auto latency = latency_for(camera, env, &probe_frames);
+  if (!latency && latency.error().code == ErrorCode::kCancelled) return stopped_early(env);
   if (!latency) return failed(latency.error(), true);
 
   capture::CaptureOptions options;
@@ -158,6 +173,7 @@ JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const C
   if (summary->failure) {
     outcome.state = JobState::kFailed;
     outcome.device_failed = is_device_error(summary->failure->code);
+    outcome.failure_detail = summary->failure->message;
     outcome.error =
         make_error(summary->failure->code, summary->failure->message + " (the " +
                                                std::to_string(summary->frames_kept) +
@@ -178,6 +194,7 @@ JobOutcome execute_latency_probe(device::Camera& camera, const JobRecord&,
                                  const CaptureJobEnv& env) {
   int frames = 0;
   auto latency = measure_latency(camera, env, &frames);
+  if (!latency && latency.error().code == ErrorCode::kCancelled) return stopped_early(env);
   if (!latency) return failed(latency.error());
   JobOutcome outcome;
   outcome.state = JobState::kSucceeded;

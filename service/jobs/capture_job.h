@@ -31,6 +31,7 @@ struct JobOutcome {
   std::optional<Error> error;
   nlohmann::json result;
   bool device_failed = false;  // the camera errored: the worker reopens it before the next job
+  std::string failure_detail;  // the device's own words for a failure, without the summary
 };
 
 struct CaptureJobEnv {

@@ -17,7 +17,7 @@ CREATE TABLE IF NOT EXISTS jobs (
   kind             TEXT NOT NULL,
   camera_id        TEXT NOT NULL DEFAULT '',
   state            TEXT NOT NULL CHECK (state IN ('queued', 'running', 'succeeded', 'failed',
-                                                  'cancelled', 'interrupted')),
+                                                  'cancelled', 'interrupted', 'device_lost')),
   request          TEXT NOT NULL,
   folder           TEXT NOT NULL DEFAULT '',
   created_ms       INTEGER NOT NULL,
@@ -38,6 +38,18 @@ CREATE TABLE IF NOT EXISTS devices (
   measured_ms    INTEGER NOT NULL,
   details        TEXT NOT NULL
 );
+)sql";
+
+// Version 1 -> 2: SQLite cannot change a CHECK constraint in place, so the jobs table is
+// copied into one made by kSchema (which runs next, in the same transaction). The index
+// goes with the old table and kSchema makes it again.
+const char* kMigrateFrom1 = R"sql(
+ALTER TABLE jobs RENAME TO jobs_v1;
+DROP INDEX IF EXISTS jobs_by_state;
+)sql";
+const char* kMigrateFrom1Copy = R"sql(
+INSERT INTO jobs SELECT * FROM jobs_v1;
+DROP TABLE jobs_v1;
 )sql";
 
 const char* kJobColumns =
@@ -109,6 +121,7 @@ const char* job_state_name(JobState state) {
     case JobState::kFailed: return "failed";
     case JobState::kCancelled: return "cancelled";
     case JobState::kInterrupted: return "interrupted";
+    case JobState::kDeviceLost: return "device_lost";
   }
   // clang-format on
   return "failed";
@@ -116,7 +129,7 @@ const char* job_state_name(JobState state) {
 
 std::optional<JobState> parse_job_state(const std::string& name) {
   for (JobState s : {JobState::kQueued, JobState::kRunning, JobState::kSucceeded, JobState::kFailed,
-                     JobState::kCancelled, JobState::kInterrupted})
+                     JobState::kCancelled, JobState::kInterrupted, JobState::kDeviceLost})
     if (name == job_state_name(s)) return s;
   return std::nullopt;
 }
@@ -174,10 +187,21 @@ Result<std::unique_ptr<JobStore>> JobStore::open(const std::filesystem::path& pa
   // The schema and its version in one transaction; a failure before COMMIT rolls back
   // (explicitly, or when the connection closes).
   if (auto s = db.execute_script("BEGIN IMMEDIATE"); !s) return in_database(s.error(), "begin");
+  const bool migrate = version == 1;
+  if (migrate)
+    if (auto s = db.execute_script(kMigrateFrom1); !s) {
+      (void)db.execute_script("ROLLBACK");
+      return in_database(s.error(), "migrate the schema from version 1");
+    }
   if (auto s = db.execute_script(kSchema); !s) {
     (void)db.execute_script("ROLLBACK");
     return in_database(s.error(), "create the schema");
   }
+  if (migrate)
+    if (auto s = db.execute_script(kMigrateFrom1Copy); !s) {
+      (void)db.execute_script("ROLLBACK");
+      return in_database(s.error(), "copy the jobs of schema version 1");
+    }
   if (auto s = db.execute_script("PRAGMA user_version=" + std::to_string(kSchemaVersion)); !s)
     return in_database(s.error(), "set the schema version");
   if (auto s = db.execute_script("COMMIT"); !s) return in_database(s.error(), "commit");

@@ -2,8 +2,9 @@
 // device's measured control latency, in SQLite (WAL mode, cached prepared statements
 // through sqlite_statement.h, schema version in PRAGMA user_version).
 //
-// States: queued -> running -> succeeded | failed | cancelled | interrupted; a queued job
-// may also go straight to cancelled or interrupted. Transitions are conditional UPDATEs
+// States: queued -> running -> succeeded | failed | cancelled | interrupted | device_lost;
+// a queued job may also go straight to cancelled, interrupted or device_lost (its camera
+// was unplugged: see service/jobs/camera_worker.h). Transitions are conditional UPDATEs
 // (a job already finished is never overwritten), so a cancel racing a finish is safe.
 // After a crash (kill -9), the next start turns queued and running jobs into interrupted:
 // their folders stay as written (each frame file was renamed into place atomically).
@@ -31,9 +32,19 @@
 
 namespace camlab::service {
 
-inline constexpr int kSchemaVersion = 1;
+// 1: the first schema. 2: jobs.state may be 'device_lost' (a version-1 database is
+// migrated when opened).
+inline constexpr int kSchemaVersion = 2;
 
-enum class JobState { kQueued, kRunning, kSucceeded, kFailed, kCancelled, kInterrupted };
+enum class JobState {
+  kQueued,
+  kRunning,
+  kSucceeded,
+  kFailed,
+  kCancelled,
+  kInterrupted,
+  kDeviceLost
+};
 const char* job_state_name(JobState state);
 std::optional<JobState> parse_job_state(const std::string& name);
 bool is_finished(JobState state);

@@ -49,6 +49,7 @@ enum class ErrorCode : uint8_t {
   kShuttingDown,
   // Cameras.
   kNoDevice,
+  kDeviceLost,
   kPermission,
   kNotStreaming,
   kTimeout,
@@ -150,6 +151,9 @@ inline constexpr std::array kErrorCodes = {
                   "camlabd is stopping and takes no new work."},
     ErrorCodeInfo{ErrorCode::kNoDevice, "no_device", 503,
                   "The camera is not there: never found, or unplugged."},
+    ErrorCodeInfo{ErrorCode::kDeviceLost, "device_lost", 503,
+                  "The camera vanished (unplugged) while the job ran or waited for it; the "
+                  "frames taken are kept and the job's error says why."},
     ErrorCodeInfo{ErrorCode::kPermission, "permission", 503,
                   "camlab may not open the device (add its user to the video group)."},
     ErrorCodeInfo{ErrorCode::kNotStreaming, "not_streaming", 409,

@@ -8,6 +8,7 @@
 
 #include "capture/control_keeper.h"
 #include "capture/frame_convert.h"
+#include "capture/frame_report.h"
 #include "capture/frame_writer.h"
 #include "capture/settings_json.h"
 #include "capture/settle_tracker.h"
@@ -18,6 +19,10 @@ namespace {
 
 // Frames the writer may hold before the frame loop waits for the disk.
 constexpr size_t kMaxFramesQueuedForDisk = 8;
+// A wait for a frame is cut into slices this long, so that a cancel (a user's, a shutdown,
+// or the camera found unplugged by the daemon's rescan) is seen within one slice even when
+// the camera has stopped delivering.
+constexpr std::chrono::milliseconds kCancelSlice{100};
 // Without usable timestamps, the frames that may have started before a write are those in
 // the driver's buffers; drivers may grant more than asked (a minimum of their own), so
 // count at least this many.
@@ -33,6 +38,18 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+// The latency range the settle rule uses. A camera whose controls travel with requests
+// (libcamera) has them written by its pipeline thread a moment after they were queued,
+// and its probed latency may be off by that moment: one frame either way is allowed.
+std::pair<int, int> latency_range(const device::Camera& camera, const CaptureOptions& options) {
+  const int max_frames = options.control_latency_frames;
+  const int min_frames = options.control_latency_min_frames < 0
+                             ? options.control_latency_frames
+                             : options.control_latency_min_frames;
+  if (!camera.controls_travel_with_requests()) return {max_frames, min_frames};
+  return {max_frames + 1, std::max(0, min_frames - 1)};
+}
+
 class Runner {
  public:
   Runner(device::Camera& camera, const CapturePlan& plan, const CaptureOptions& options,
@@ -41,9 +58,7 @@ class Runner {
         plan_(plan),
         options_(options),
         observer_(observer),
-        tracker_(options.control_latency_frames, options.control_latency_min_frames < 0
-                                                     ? options.control_latency_frames
-                                                     : options.control_latency_min_frames) {}
+        tracker_(latency_range(camera, options).first, latency_range(camera, options).second) {}
 
   Result<CaptureSummary> run(const std::filesystem::path& folder);
 
@@ -59,14 +74,25 @@ class Runner {
     Want want;
     int kept = 0;
     nlohmann::json settings;
+    std::map<std::string, double> expected_report;  // what its frames should report
   };
 
   Status start_stream();
   Status write_change(const Want& want, bool with_fixed, int buffers_in_driver);
+  // For a camera whose controls travel with requests: the change written before this
+  // requeue counts from when its request went out.
+  void register_deferred_change();
   Status process(const device::Frame& frame);
+  // The change a frame carries by its own report (see capture/frame_report.h): the
+  // latest open change written before the frame started whose settings it reports; -1
+  // when it reports none of them (settling); nullopt when the report does not say.
+  std::optional<int> change_by_report(const device::Frame& frame) const;
   void close_windows(uint64_t last_sequence);
   Status write_next_when_secured(uint64_t last_sequence);
   void report_written();
+  // The next frame within options_.frame_timeout; on a cancel meanwhile, an error with
+  // summary_.cancelled set.
+  Result<device::Frame> dequeue_or_cancel();
   void finish(const std::chrono::steady_clock::time_point& started);
 
   device::Camera& camera_;
@@ -85,6 +111,10 @@ class Runner {
   int written_total_ = 0;
   std::optional<uint64_t> last_sequence_;
   int not_kept_since_last_ = 0;  // discarded + dropped since the last kept frame
+  bool streaming_ = false;
+  std::optional<int> deferred_buffers_;  // a change waiting for its request (libcamera)
+  // The controls the plan varies, when a frame's metadata can report every one of them.
+  std::set<std::string> reported_controls_;
   CaptureSummary summary_;
 };
 
@@ -96,13 +126,36 @@ Status Runner::write_change(const Want& want, bool with_fixed, int buffers_in_dr
   for (const auto& [name, value] : step.controls)
     if (auto applied = keeper_->write(camera_, name, value); !applied) return applied.error();
   // After the read-back: a frame that started during the write counts as before it.
-  tracker_.on_change(monotonic_ns(), buffers_in_driver);
+  if (camera_.controls_travel_with_requests() && streaming_)
+    deferred_buffers_ = buffers_in_driver;  // registered when the next request goes out
+  else
+    tracker_.on_change(monotonic_ns(), buffers_in_driver);
   Change change;
   change.want = want;
   change.settings = settings_json(keeper_->values(), plan_.traits);
+  change.expected_report = expected_report(keeper_->values(), reported_controls_);
   if (!step.requested.empty()) change.settings["requested"] = step.requested;
   changes_.push_back(std::move(change));
   return {};
+}
+
+std::optional<int> Runner::change_by_report(const device::Frame& frame) const {
+  if (reported_controls_.empty() || changes_.empty()) return std::nullopt;
+  if (!reports_all(frame.meta, changes_.back().expected_report)) return std::nullopt;
+  for (size_t i = changes_.size(); i-- > oldest_open_;) {
+    const auto first = tracker_.first_frame_after(static_cast<int>(i));
+    if (!first || *first > frame.meta.sequence) continue;  // written after it started
+    const Change& c = changes_[i];
+    if (c.kept < c.want.count && report_matches(frame.meta, c.expected_report))
+      return static_cast<int>(i);
+  }
+  return -1;
+}
+
+void Runner::register_deferred_change() {
+  if (!deferred_buffers_) return;
+  tracker_.on_change(camera_.controls_sent_ns().value_or(monotonic_ns()), *deferred_buffers_);
+  deferred_buffers_.reset();
 }
 
 void Runner::close_windows(uint64_t last_sequence) {
@@ -142,8 +195,11 @@ Status Runner::process(const device::Frame& frame) {
     not_kept_since_last_ += dropped;
   }
   last_sequence_ = sequence;
-  const int index =
-      tracker_.on_frame(sequence, frame.meta.timestamp_ns, frame.meta.clock == "monotonic");
+  int index = tracker_.on_frame(sequence, frame.meta.timestamp_ns, frame.meta.clock == "monotonic");
+  // The frame's own report of its settings, where the camera gives one, overrules the
+  // latency rule: it is what the sensor used.
+  const std::optional<int> reported = change_by_report(frame);
+  if (reported) index = *reported;
   // An index, not a pointer: writing the next change below grows changes_.
   bool keep =
       index >= 0 && !frame.meta.error && check_frame(frame, format_).ok() &&
@@ -168,11 +224,13 @@ Status Runner::process(const device::Frame& frame) {
         convert_frame(frame, format_, plan_.traits.sensor_bit_depth, plan_.traits.black_level_dn);
     if (!c) {  // cannot happen after check_frame; never write a wrong frame
       (void)camera_.requeue(frame);
+      register_deferred_change();
       return c.error();
     }
     converted = std::move(*c);
   }
   Status requeued = camera_.requeue(frame);
+  register_deferred_change();
   if (keep) {
     const Change& change = changes_[static_cast<size_t>(index)];
     const CaptureStep& step = plan_.steps[static_cast<size_t>(change.want.step)];
@@ -190,6 +248,10 @@ Status Runner::process(const device::Frame& frame) {
     sidecar.linear = converted->linear;
     sidecar.frames_discarded = not_kept_since_last_;
     sidecar.settings = change.settings;
+    if (nlohmann::json report = report_json(frame.meta); !report.empty()) {
+      sidecar.settings["reported"] = std::move(report);
+      sidecar.settings["in_effect_by"] = reported ? "frame_report" : "control_latency";
+    }
     sidecar.labels = step.labels;
     sidecar.labels["repeat"] = repeat;
     not_kept_since_last_ = 0;
@@ -200,6 +262,23 @@ Status Runner::process(const device::Frame& frame) {
   }
   if (!written) return written;
   return requeued;
+}
+
+Result<device::Frame> Runner::dequeue_or_cancel() {
+  const auto deadline = std::chrono::steady_clock::now() + options_.frame_timeout;
+  for (;;) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        deadline - std::chrono::steady_clock::now());
+    auto frame = camera_.dequeue(std::clamp(left, std::chrono::milliseconds(1), kCancelSlice));
+    if (frame || frame.error().code != ErrorCode::kTimeout) return frame;
+    if (options_.cancel && options_.cancel->load()) {
+      summary_.cancelled = true;
+      return make_error("cancelled", "cancelled while waiting for a frame");
+    }
+    if (left <= kCancelSlice)
+      return make_error("timeout", camera_.identity().path + ": no frame within " +
+                                       std::to_string(options_.frame_timeout.count()) + " ms");
+  }
 }
 
 void Runner::report_written() {
@@ -229,7 +308,9 @@ Status Runner::start_stream() {
   // Step 0 goes out before the stream starts: every frame is after it.
   if (Status s = write_change(to_write_.front(), true, 0); !s) return s;
   to_write_.pop_front();
-  return camera_.start(options_.buffer_count);
+  Status started = camera_.start(options_.buffer_count);
+  streaming_ = started.ok();
+  return started;
 }
 
 Result<CaptureSummary> Runner::run(const std::filesystem::path& folder) {
@@ -245,6 +326,18 @@ Result<CaptureSummary> Runner::run(const std::filesystem::path& folder) {
   for (const auto& [name, value] : plan_.fixed_controls) to_change.insert(name);
   for (const auto& step : plan_.steps)
     for (const auto& [name, value] : step.controls) to_change.insert(name);
+  // Frames can be kept by their own report when every control the steps vary is one a
+  // frame's metadata can report (whether this camera reports it shows frame by frame).
+  std::set<std::string> varied;
+  const auto& first = plan_.steps.front().controls;
+  for (const auto& step : plan_.steps) {
+    for (const auto& [name, value] : step.controls)
+      if (auto it = first.find(name); it == first.end() || it->second != value) varied.insert(name);
+    for (const auto& [name, value] : first)
+      if (!step.controls.contains(name)) varied.insert(name);
+  }
+  if (!varied.empty() && std::all_of(varied.begin(), varied.end(), is_reported_control))
+    reported_controls_ = varied;
   auto keeper = ControlKeeper::snapshot(camera_, to_change);
   if (!keeper) return keeper.error();
   keeper_ = std::move(*keeper);
@@ -282,7 +375,8 @@ Result<CaptureSummary> Runner::run(const std::filesystem::path& folder) {
                                             " kept: the camera drops or flags too many frames");
       break;
     }
-    auto frame = camera_.dequeue(options_.frame_timeout);
+    auto frame = dequeue_or_cancel();
+    if (!frame && summary_.cancelled) break;
     if (!frame) {
       summary_.failure = frame.error();
       break;

@@ -19,6 +19,7 @@ namespace {
 constexpr const char* kExposure = "exposure_time_absolute";
 constexpr int kBuffers = 4;
 constexpr auto kFrameTimeout = std::chrono::milliseconds(3000);
+constexpr auto kCancelSlice = std::chrono::milliseconds(100);
 // Frames averaged for a plateau, after the longest latency has passed.
 constexpr int kPlateauFrames = 3;
 // Halvings or doublings of the exposure tried to find two levels the signal tells apart.
@@ -39,8 +40,8 @@ struct Sample {
 
 class Probe {
  public:
-  Probe(device::Camera& camera, int max_latency_frames)
-      : camera_(camera), max_latency_(max_latency_frames), tracker_(0, 0) {}
+  Probe(device::Camera& camera, int max_latency_frames, const std::atomic<bool>* cancel)
+      : camera_(camera), max_latency_(max_latency_frames), tracker_(0, 0), cancel_(cancel) {}
 
   Result<LatencyProbeResult> run(int repetitions);
   Status restore();
@@ -59,6 +60,8 @@ class Probe {
   device::Camera& camera_;
   int max_latency_;
   SettleTracker tracker_;
+  bool deferred_change_ = false;  // written, waiting for the requeue that sends it
+  const std::atomic<bool>* cancel_;
   std::optional<ControlKeeper> keeper_;
   device::ControlInfo exposure_;
   device::StreamFormat format_;
@@ -113,7 +116,17 @@ Status Probe::start() {
 }
 
 Result<Sample> Probe::next_frame() {
-  auto frame = camera_.dequeue(kFrameTimeout);
+  // In slices, so that a cancel (the camera found unplugged, a user's) is seen while the
+  // camera delivers nothing.
+  Result<device::Frame> frame = make_error("timeout", "no frame");
+  for (auto waited = std::chrono::milliseconds(0);; waited += kCancelSlice) {
+    if (cancel_ && cancel_->load())
+      return make_error("cancelled", "the latency probe was cancelled");
+    frame = camera_.dequeue(std::min(kCancelSlice, kFrameTimeout - waited));
+    if (frame || frame.error().code != ErrorCode::kTimeout ||
+        waited + kCancelSlice >= kFrameTimeout)
+      break;
+  }
   if (!frame) return frame.error();
   Sample sample;
   sample.sequence = frame->meta.sequence;
@@ -122,6 +135,10 @@ Result<Sample> Probe::next_frame() {
   if (sample.usable) sample.mean = *mean;
   tracker_.on_frame(sample.sequence, frame->meta.timestamp_ns, frame->meta.clock == "monotonic");
   if (Status s = camera_.requeue(*frame); !s) return s.error();
+  if (deferred_change_) {  // its controls went out with this requeue (libcamera)
+    tracker_.on_change(camera_.controls_sent_ns().value_or(monotonic_ns()), 32);
+    deferred_change_ = false;
+  }
   sample.after_gap = last_sequence_ && sample.sequence != *last_sequence_ + 1;
   if (!first_sequence_) first_sequence_ = sample.sequence;
   last_sequence_ = sample.sequence;
@@ -132,6 +149,12 @@ Result<Sample> Probe::next_frame() {
 
 Status Probe::set_exposure(int64_t units) {
   if (auto applied = keeper_->write(camera_, kExposure, units); !applied) return applied.error();
+  // A camera whose controls travel with requests sends them with the next requeue, and
+  // the change counts from then (next_frame registers it).
+  if (camera_.controls_travel_with_requests()) {
+    deferred_change_ = true;
+    return {};
+  }
   // Every buffer may be in the driver: the bound used without timestamps.
   tracker_.on_change(monotonic_ns(), 32);
   return {};
@@ -139,7 +162,7 @@ Status Probe::set_exposure(int64_t units) {
 
 Result<std::pair<double, double>> Probe::plateau(int64_t units) {
   if (Status s = set_exposure(units); !s) return s.error();
-  const int change = tracker_.change_count() - 1;
+  const int change = tracker_.change_count() - (deferred_change_ ? 0 : 1);
   std::vector<double> means;
   while (static_cast<int>(means.size()) < kPlateauFrames) {
     Sample sample;
@@ -157,7 +180,7 @@ Result<std::pair<double, double>> Probe::plateau(int64_t units) {
 
 Result<std::optional<int>> Probe::step(int64_t units, double threshold, bool upwards) {
   if (Status s = set_exposure(units); !s) return s.error();
-  const int change = tracker_.change_count() - 1;
+  const int change = tracker_.change_count() - (deferred_change_ ? 0 : 1);
   bool gap = false;
   for (;;) {
     Sample sample;
@@ -278,12 +301,13 @@ Status Probe::restore() {
 }  // namespace
 
 Result<LatencyProbeResult> probe_control_latency(device::Camera& camera, int repetitions,
-                                                 int max_latency_frames) {
+                                                 int max_latency_frames,
+                                                 const std::atomic<bool>* cancel) {
   if (repetitions < 1 || repetitions > 20)
     return make_error("invalid_argument", "repetitions must be 1..20");
   if (max_latency_frames < 0 || max_latency_frames > 32)
     return make_error("invalid_argument", "max_latency_frames must be 0..32");
-  Probe probe(camera, max_latency_frames);
+  Probe probe(camera, max_latency_frames, cancel);
   auto result = probe.run(repetitions);
   Status restored = probe.restore();
   if (!result) return result;

@@ -14,6 +14,7 @@
 // auto-exposure mode that writing a manual exposure switched off.
 #pragma once
 
+#include <atomic>
 #include <vector>
 
 #include "base/result.h"
@@ -32,8 +33,11 @@ struct LatencyProbeResult {
 };
 
 // Errors: "unsupported" (no exposure control), "inconclusive" (the signal does not
-// change with exposure, e.g. a dark scene, or the repetitions disagree), device errors.
+// change with exposure, e.g. a dark scene, or the repetitions disagree), "cancelled" when
+// `cancel` (checked every 100 ms while waiting for a frame, and between frames) is set,
+// device errors.
 Result<LatencyProbeResult> probe_control_latency(device::Camera& camera, int repetitions = 3,
-                                                 int max_latency_frames = 8);
+                                                 int max_latency_frames = 8,
+                                                 const std::atomic<bool>* cancel = nullptr);
 
 }  // namespace camlab::capture

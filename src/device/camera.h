@@ -91,6 +91,7 @@ struct FrameMetadata {
   std::optional<int64_t> exposure_us;
   std::optional<double> analogue_gain;  // libcamera's AnalogueGain (1.0 = unity)
   std::optional<double> lens_position;  // libcamera's LensPosition, dioptres
+  std::optional<int64_t> focus_fom;     // libcamera's FocusFoM: the pipeline's sharpness figure
 };
 
 // A filled buffer, borrowed until requeue(): data points into the driver's mapping.
@@ -120,6 +121,14 @@ class Camera {
   virtual Status stop() = 0;
   virtual Result<Frame> dequeue(std::chrono::milliseconds timeout) = 0;
   virtual Status requeue(const Frame& frame) = 0;
+
+  // When a control set with set_control() reaches the device. V4L2 applies it during the
+  // call (the default: nullopt). libcamera applies controls per request: a value goes out
+  // with the next request queued (start() or requeue()), and this is the CLOCK_MONOTONIC
+  // time in ns at which the last controls set went out that way; nullopt while some wait
+  // for a request. The settle rule counts from this time for such cameras.
+  virtual bool controls_travel_with_requests() const { return false; }
+  virtual std::optional<int64_t> controls_sent_ns() const { return std::nullopt; }
 };
 
 }  // namespace camlab::device

@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <map>
+#include <set>
+
+#include "device/uvc_identity.h"
 
 #include "device/v4l2/v4l2_camera.h"
 #ifdef CAMLAB_HAVE_LIBCAMERA
@@ -45,7 +49,7 @@ void DeviceRegistry::add_v4l2(std::shared_ptr<V4l2Io> io, const std::string& tra
     int duplicates = 0;
     for (const auto& e : entries_) duplicates += e.identity.id.rfind(identity.id, 0) == 0;
     if (duplicates > 0) identity.id += ":" + std::to_string(duplicates);
-    entries_.push_back({identity, transport});
+    entries_.push_back({identity, transport, "", ""});
     ios_.push_back(io);
   }
 }
@@ -58,19 +62,83 @@ bool DeviceRegistry::libcamera_supported() {
 #endif
 }
 
-Status DeviceRegistry::add_libcamera() {
+Result<std::vector<CameraIdentity>> DeviceRegistry::list_libcamera() {
 #ifdef CAMLAB_HAVE_LIBCAMERA
-  auto cameras = list_libcamera_cameras();
-  if (!cameras) return cameras.error();
-  for (auto& identity : *cameras) {
-    entries_.push_back({std::move(identity), "libcamera"});
-    ios_.push_back(nullptr);
-  }
-  return {};
+  return list_libcamera_cameras();
 #else
   return make_error("unsupported",
                     "camlab was built without libcamera (CAMLAB_WITH_LIBCAMERA=OFF)");
 #endif
+}
+
+void DeviceRegistry::add_libcamera(std::vector<CameraIdentity> cameras) {
+  for (auto& identity : cameras) {
+    entries_.push_back({std::move(identity), "libcamera", "", ""});
+    ios_.push_back(nullptr);
+  }
+}
+
+Status DeviceRegistry::add_libcamera() {
+  auto cameras = list_libcamera();
+  if (!cameras) return cameras.error();
+  add_libcamera(std::move(*cameras));
+  return {};
+}
+
+void DeviceRegistry::merge_twins(bool prefer_libcamera, const std::shared_ptr<V4l2Io>& io) {
+  // Kernel nodes only: in-process virtual cameras are not seen by libcamera.
+  std::map<std::string, size_t> v4l2_by_key;
+  std::set<std::string> served_paths;
+  for (size_t i = 0; i < entries_.size(); ++i) {
+    if (entries_[i].identity.backend != "v4l2" || entries_[i].transport != "kernel") continue;
+    served_paths.insert(entries_[i].identity.path);
+    if (auto key = libcamera_uvc_id(entries_[i].identity.path)) v4l2_by_key.emplace(*key, i);
+  }
+  // Nodes present but not served (outside --device) still witness their camera.
+  std::map<std::string, std::string> present;  // key -> node
+  for (const auto& [key, i] : v4l2_by_key) present.emplace(key, entries_[i].identity.path);
+  bool need_witness = false;
+  for (const auto& e : entries_)
+    need_witness = need_witness ||
+                   (e.identity.backend == "libcamera" && is_libcamera_uvc_id(e.identity.path) &&
+                    !present.contains(e.identity.path));
+  if (need_witness && io)
+    for (const std::string& path : list_video_device_paths()) {
+      if (served_paths.contains(path)) continue;
+      if (!V4l2Camera::open(io, path)) continue;  // gone (ENODEV), or not a capture node
+      if (auto key = libcamera_uvc_id(path)) present.emplace(*key, path);
+    }
+
+  std::vector<bool> drop(entries_.size(), false);
+  for (size_t j = 0; j < entries_.size(); ++j) {
+    DeviceEntry& lc = entries_[j];
+    if (lc.identity.backend != "libcamera") continue;
+    const std::string& key = lc.identity.path;  // the libcamera id
+    if (auto twin = v4l2_by_key.find(key); twin != v4l2_by_key.end()) {
+      DeviceEntry& node = entries_[twin->second];
+      lc.v4l2_node = node.identity.path;
+      if (prefer_libcamera) {
+        drop[twin->second] = true;
+        lc.also_reachable_as = node.identity.id;
+      } else {
+        drop[j] = true;
+        node.also_reachable_as = lc.identity.id;
+      }
+    } else if (auto witness = present.find(key); witness != present.end()) {
+      lc.v4l2_node = witness->second;
+    } else if (is_libcamera_uvc_id(key)) {
+      drop[j] = true;  // its node is gone: unplugged
+    }
+  }
+  std::vector<DeviceEntry> entries;
+  std::vector<std::shared_ptr<V4l2Io>> ios;
+  for (size_t i = 0; i < entries_.size(); ++i) {
+    if (drop[i]) continue;
+    entries.push_back(std::move(entries_[i]));
+    ios.push_back(std::move(ios_[i]));
+  }
+  entries_ = std::move(entries);
+  ios_ = std::move(ios);
 }
 
 Result<std::unique_ptr<Camera>> DeviceRegistry::open(const std::string& id) const {

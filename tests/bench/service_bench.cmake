@@ -6,3 +6,13 @@ target_include_directories(service_bench PRIVATE ${PROJECT_SOURCE_DIR}/tests/int
 target_link_libraries(service_bench PRIVATE nlohmann_json::nlohmann_json Threads::Threads)
 target_compile_definitions(service_bench PRIVATE CAMLABD_PATH="$<TARGET_FILE:camlabd>")
 add_dependencies(service_bench camlabd)
+
+# hotplug_bench: unplug -> device_lost and replug -> available times, in-process and under
+# `camlab vcam run` (V4L2 and libcamera), and a libcamera bracket's linearity. Prints only.
+add_executable(hotplug_bench ${CMAKE_CURRENT_SOURCE_DIR}/hotplug_bench.cpp)
+target_include_directories(hotplug_bench PRIVATE ${PROJECT_SOURCE_DIR}/tests/integration/service)
+target_link_libraries(hotplug_bench PRIVATE nlohmann_json::nlohmann_json opencv_core
+                                            opencv_imgproc opencv_imgcodecs GTest::gtest)
+target_compile_definitions(hotplug_bench PRIVATE CAMLABD_PATH="$<TARGET_FILE:camlabd>"
+                                                 CAMLAB_CLI_PATH="$<TARGET_FILE:camlab_cli>")
+add_dependencies(hotplug_bench camlabd camlab_cli camlab_vcam_preload)

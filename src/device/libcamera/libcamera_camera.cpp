@@ -12,6 +12,7 @@
 #include <libcamera/request.h>
 #include <libcamera/stream.h>
 #include <sys/mman.h>
+#include <time.h>
 
 #include <algorithm>
 #include <condition_variable>
@@ -20,8 +21,12 @@
 #include <deque>
 #include <map>
 #include <mutex>
+#include <optional>
 
+#include "device/device_registry.h"
 #include "device/libcamera/libcamera_controls.h"
+#include "device/uvc_identity.h"
+#include "device/v4l2/v4l2_camera.h"
 
 namespace camlab::device {
 
@@ -65,6 +70,32 @@ CameraIdentity identity_of(const libcamera::Camera& camera) {
   return identity;
 }
 
+// What an abandoned camera leaves (LibcameraCamera::abandon): never destroyed, since
+// destroying it would touch the pipeline of a device that is gone.
+struct Abandoned {
+  std::shared_ptr<libcamera::Camera> camera;
+  std::unique_ptr<libcamera::CameraConfiguration> config;
+  std::unique_ptr<libcamera::FrameBufferAllocator> allocator;
+  std::vector<std::unique_ptr<libcamera::Request>> requests;
+};
+void keep_abandoned(std::shared_ptr<Abandoned> abandoned) {
+  static std::mutex mutex;
+  static auto* kept = new std::vector<std::shared_ptr<Abandoned>>();  // leaked on purpose
+  std::lock_guard lock(mutex);
+  kept->push_back(std::move(abandoned));
+}
+
+// Whether the V4L2 node of a UVC camera (by libcamera id) is gone: none of /dev/video*
+// with that id opens. False for cameras of other pipelines (no node to ask).
+bool uvc_node_gone(const std::string& libcamera_id) {
+  if (!is_libcamera_uvc_id(libcamera_id)) return false;
+  for (const std::string& path : list_video_device_paths()) {
+    if (libcamera_uvc_id(path) != libcamera_id) continue;
+    if (V4l2Camera::open(system_v4l2_io(), path)) return false;
+  }
+  return true;
+}
+
 class LibcameraCamera final : public Camera {
  public:
   LibcameraCamera(std::shared_ptr<libcamera::CameraManager> manager,
@@ -76,7 +107,7 @@ class LibcameraCamera final : public Camera {
 
   ~LibcameraCamera() override {
     (void)stop();
-    camera_->release();
+    if (!abandoned_) camera_->release();
   }
 
   const CameraIdentity& identity() const override { return identity_; }
@@ -193,6 +224,10 @@ class LibcameraCamera final : public Camera {
 
   Status stop() override {
     if (!allocator_) return {};
+    if (streaming_ && uvc_node_gone(camera_->id())) {
+      abandon();
+      return make_error("no_device", identity_.name + ": the camera is gone (unplugged)");
+    }
     if (streaming_) camera_->stop();  // completes every queued request, cancelled
     streaming_ = false;
     camera_->requestCompleted.disconnect(this);
@@ -262,6 +297,28 @@ class LibcameraCamera final : public Camera {
     size_t offset;        // of plane 0 within the mapping
   };
 
+  // A camera unplugged while streaming: libcamera 0.0.3 without udev never learns it is
+  // disconnected, and stopping it then fails the pipeline's assertion that every request
+  // came back (the device cannot return them), which aborts the process. Its libcamera
+  // objects (camera, buffers, requests) are kept, untouched, until the process ends; the
+  // mappings are ours and go.
+  void abandon() {
+    camera_->requestCompleted.disconnect(this);
+    {
+      std::lock_guard lock(mutex_);
+      completed_.clear();
+    }
+    mappings_.clear();
+    auto kept = std::make_shared<Abandoned>();
+    kept->camera = camera_;
+    kept->config = std::move(config_);
+    kept->allocator = std::move(allocator_);
+    kept->requests = std::move(requests_);
+    keep_abandoned(std::move(kept));
+    streaming_ = false;
+    abandoned_ = true;
+  }
+
   const ControlBinding* binding(const std::string& name) const {
     for (const ControlBinding& b : bindings_)
       if (b.info.name == name) return &b;
@@ -275,11 +332,26 @@ class LibcameraCamera final : public Camera {
                       identity_.name + " has no control '" + name + "' (it has: " + known + ")");
   }
 
+  bool controls_travel_with_requests() const override { return true; }
+  std::optional<int64_t> controls_sent_ns() const override {
+    if (!pending_.empty()) return std::nullopt;
+    return sent_ns_;
+  }
+
   // Queues a request with the controls set since the last one.
   int queue(libcamera::Request* request) {
+    const bool carries = !pending_.empty();
     for (const auto& [id, value] : pending_) request->controls().set(id, value);
     pending_.clear();
-    return camera_->queueRequest(request);
+    const int result = camera_->queueRequest(request);
+    if (carries) {
+      // libcamera hands the request to its pipeline thread, which writes the controls
+      // to the device a little later: the caller allows a frame for that.
+      timespec now{};
+      clock_gettime(CLOCK_MONOTONIC, &now);
+      sent_ns_ = static_cast<int64_t>(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
+    }
+    return result;
   }
 
   Status fail_start(const std::string& what, int error) {
@@ -316,12 +388,14 @@ class LibcameraCamera final : public Camera {
   std::vector<ControlBinding> bindings_;
   std::map<unsigned int, libcamera::ControlValue> pending_;  // for the next request queued
   std::map<std::string, int64_t> current_;                   // last asked, by camlab name
+  std::optional<int64_t> sent_ns_;  // CLOCK_MONOTONIC when controls last went with a request
   libcamera::ControlList last_metadata_;
   std::unique_ptr<libcamera::CameraConfiguration> config_;
   std::unique_ptr<libcamera::FrameBufferAllocator> allocator_;
   std::vector<std::unique_ptr<libcamera::Request>> requests_;  // cookie = index
   std::vector<Mapping> mappings_;                              // parallel to requests_
   bool streaming_ = false;
+  bool abandoned_ = false;  // see abandon()
   bool have_sequence_ = false;
   uint64_t last_sequence_ = 0;
 

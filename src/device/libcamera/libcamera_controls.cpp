@@ -160,6 +160,7 @@ void fill_settings(const libcamera::ControlList& metadata, FrameMetadata* meta) 
     meta->exposure_us = *exposure;
   if (auto gain = metadata.get(libcamera::controls::AnalogueGain)) meta->analogue_gain = *gain;
   if (auto lens = metadata.get(libcamera::controls::LensPosition)) meta->lens_position = *lens;
+  if (auto fom = metadata.get(libcamera::controls::FocusFoM)) meta->focus_fom = *fom;
 }
 
 std::string fourcc_of(const libcamera::PixelFormat& format) {

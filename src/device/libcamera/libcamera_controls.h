@@ -42,7 +42,7 @@ Result<libcamera::ControlValue> to_control_value(const ControlBinding& binding, 
 int64_t from_control_value(const ControlBinding& binding, const libcamera::ControlValue& value);
 
 // The settings a completed request reports (exposure_us, analogue_gain,
-// lens_position), copied into `meta`; those the request lacks stay empty.
+// lens_position) and its FocusFoM, copied into `meta`; those the request lacks stay empty.
 void fill_settings(const libcamera::ControlList& metadata, FrameMetadata* meta);
 
 // camlab's fourcc strings (V4L2's, as the V4L2 backend reports them) for libcamera's

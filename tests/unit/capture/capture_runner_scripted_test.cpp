@@ -197,5 +197,45 @@ TEST(ScriptedCapture, CancelStopsBetweenFramesAndRestores) {
   EXPECT_EQ(*camera.get_control("exposure_time_absolute"), 10);
 }
 
+// A camera that reports each frame's exposure: frames are kept by their own report, so a
+// latency given wrong (1 frame for a sensor's 3) still keeps only frames whose pixels are
+// the exposure they claim (run_bracket checks each against the truth in its pixels).
+TEST(ScriptedReport, FramesAreKeptByTheirReportWhenTheLatencyGivenIsWrong) {
+  testing::ScriptedCamera camera(3, 1);
+  camera.report_exposure = true;
+  CaptureOptions options;
+  options.control_latency_frames = 1;
+  Outcome out = run_bracket(camera, options);
+  EXPECT_TRUE(out.complete);
+  EXPECT_EQ(out.summary.frames_kept, 9);
+  for (const auto& sidecar : out.sidecars) {
+    EXPECT_EQ(sidecar.settings["in_effect_by"], "frame_report");
+    EXPECT_EQ(sidecar.settings["reported"]["exposure_us"], sidecar.settings["exposure_us"]);
+  }
+}
+
+// The same camera without reports and the same wrong latency: the latency rule keeps
+// frames too early (what the report rule above prevents), which the truth shows.
+TEST(ScriptedReport, WithoutReportsAWrongLatencyKeepsWrongFrames) {
+  testing::ScriptedCamera camera(3, 1);
+  CaptureOptions options;
+  options.control_latency_frames = 1;
+  json request = {{"kind", "bracket"}, {"exposures_us", {1000, 2000, 3000, 4000}}};
+  auto plan = plan_capture(request, *camera.controls(), *camera.formats());
+  ASSERT_TRUE(plan.ok());
+  testing::ScratchDir dir("scripted_no_report");
+  auto summary = run_capture(camera, *plan, dir / "capture", options, nullptr);
+  ASSERT_TRUE(summary.ok());
+  auto folder = image::CaptureFolder::open(dir / "capture");
+  ASSERT_TRUE(folder.ok());
+  int wrong = 0;
+  for (int i = 0; i < static_cast<int>(folder->frames().size()); ++i) {
+    double min = 0, max = 0;
+    cv::minMaxLoc(*folder->load_image(i), &min, &max);
+    wrong += min != folder->load_sidecar(i)->settings["exposure_time_absolute"].get<double>();
+  }
+  EXPECT_GT(wrong, 0);
+}
+
 }  // namespace
 }  // namespace camlab::capture

@@ -4,7 +4,9 @@
 // frame n is the next to start is in effect from frame n + latency, SOE timestamps are
 // CLOCK_MONOTONIC, and chosen sequence numbers can be dropped or flagged. Each frame is a
 // small GREY image whose every pixel is the exposure_time_absolute in effect (mod 256),
-// so a test reads the truth from the pixels.
+// so a test reads the truth from the pixels. With `report_exposure` each frame's metadata
+// also reports the exposure in effect (exposure_us), as libcamera pipelines that report
+// ExposureTime do.
 #pragma once
 
 #include <time.h>
@@ -41,6 +43,7 @@ class ScriptedCamera final : public device::Camera {
   std::set<uint64_t> drop_sequences;   // started but never delivered
   std::set<uint64_t> error_sequences;  // delivered with V4L2_BUF_FLAG_ERROR
   std::string clock = "monotonic";
+  bool report_exposure = false;
   int fail_set_after = -1;  // set_control calls that succeed before "no_device"
   std::function<void(uint64_t sequence)> on_dequeue;  // called with each frame delivered
   int set_calls = 0;
@@ -97,6 +100,7 @@ class ScriptedCamera final : public device::Camera {
       frame.meta.timestamp_ns = s.timestamp_ns;
       frame.meta.clock = clock;
       frame.meta.error = error_sequences.count(s.sequence) > 0;
+      if (report_exposure) frame.meta.exposure_us = s.exposure * 100;
       buffer_.assign(static_cast<size_t>(format_.width) * format_.height,
                      static_cast<uint8_t>(s.exposure & 0xff));
       frame.data = buffer_.data();

@@ -242,6 +242,53 @@ TEST_F(JobStoreTest, ANewerSchemaIsRefused) {
   EXPECT_EQ(opened.error().code, ErrorCode::kUnsupported);
 }
 
+TEST_F(JobStoreTest, AVersion1DatabaseIsMigratedKeepingItsJobs) {
+  store_.reset();
+  fs::remove(database());
+  {
+    // The version-1 schema as it shipped: its CHECK has no 'device_lost'.
+    auto db = sqlite::Connection::open(database());
+    ASSERT_TRUE(db.ok());
+    ASSERT_TRUE(db->execute_script(R"sql(
+      CREATE TABLE jobs (
+        id INTEGER PRIMARY KEY AUTOINCREMENT, kind TEXT NOT NULL,
+        camera_id TEXT NOT NULL DEFAULT '',
+        state TEXT NOT NULL CHECK (state IN ('queued', 'running', 'succeeded', 'failed',
+                                             'cancelled', 'interrupted')),
+        request TEXT NOT NULL, folder TEXT NOT NULL DEFAULT '', created_ms INTEGER NOT NULL,
+        started_ms INTEGER NOT NULL DEFAULT 0, finished_ms INTEGER NOT NULL DEFAULT 0,
+        frames_done INTEGER NOT NULL DEFAULT 0, frames_total INTEGER NOT NULL DEFAULT 0,
+        frames_discarded INTEGER NOT NULL DEFAULT 0, error_code TEXT NOT NULL DEFAULT '',
+        error_message TEXT NOT NULL DEFAULT '', result TEXT);
+      CREATE INDEX jobs_by_state ON jobs (state);
+      CREATE TABLE devices (camera_id TEXT PRIMARY KEY, latency_frames INTEGER NOT NULL,
+        latency_source TEXT NOT NULL, measured_ms INTEGER NOT NULL, details TEXT NOT NULL);
+      INSERT INTO jobs (kind, camera_id, state, request, folder, created_ms, frames_done)
+        VALUES ('capture', 'v4l2:old', 'succeeded', '{"kind":"single"}', 'captures/job-000001',
+                1700000000000, 4);
+      INSERT INTO jobs (kind, camera_id, state, request, created_ms)
+        VALUES ('capture', 'v4l2:old', 'running', '{}', 1700000000001);
+      PRAGMA user_version=1;)sql"));
+    // The old schema refuses the new state: the migration is what makes it storable.
+    EXPECT_FALSE(db->execute_script("UPDATE jobs SET state = 'device_lost' WHERE id = 2").ok());
+  }
+  reopen();
+  ASSERT_TRUE(store_);
+  const JobRecord old = **store_->get(1);
+  EXPECT_EQ(old.state, JobState::kSucceeded);
+  EXPECT_EQ(old.folder, "captures/job-000001");
+  EXPECT_EQ(old.frames_done, 4);
+  EXPECT_EQ(old.request, nlohmann::json({{"kind", "single"}}));
+  EXPECT_TRUE(*store_->finish(2, JobState::kDeviceLost,
+                              make_error("device_lost", "camera unplugged"), nullptr));
+  EXPECT_EQ((*store_->get(2))->state, JobState::kDeviceLost);
+  // New jobs continue the old ids.
+  EXPECT_EQ(store_->create("capture", "v4l2:old", {{"n", 1}}, "", 1)->id, 3);
+  auto listed = store_->list(JobState::kDeviceLost, 10, 0);
+  ASSERT_TRUE(listed.ok());
+  EXPECT_EQ(listed->size(), 1u);
+}
+
 TEST_F(JobStoreTest, AFileThatIsNoDatabaseIsAnErrorValue) {
   const fs::path junk = folder_.path() / "junk.sqlite";
   {
