@@ -12,7 +12,7 @@
 namespace camlab::calib {
 
 void refine_corners_subpix(const cv::Mat& image, int cols, int rows,
-                           std::vector<cv::Point2f>* corners) {
+                           std::vector<cv::Point2f>* corners, double max_move_px) {
   if (corners->size() != static_cast<size_t>(cols) * rows || corners->empty()) return;
   // A gradient-orthogonality refinement over a window as large as the squares allow. The
   // window must stay inside one square's neighbourhood, so it follows the smallest corner
@@ -37,7 +37,7 @@ void refine_corners_subpix(const cv::Mat& image, int cols, int rows,
   // the detector's own position: a corner moves by a fraction of a pixel, not by pixels.
   for (size_t k = 0; k < refined.size(); ++k)
     if (std::isfinite(refined[k].x) && std::isfinite(refined[k].y) &&
-        cv::norm(refined[k] - found[k]) < 1.5)
+        cv::norm(refined[k] - found[k]) < max_move_px)
       (*corners)[k] = refined[k];
 }
 
