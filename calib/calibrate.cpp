@@ -16,6 +16,7 @@
 #include "calib/corners/chessboard_detector.h"
 #include "calib/corners/corners_vnl.h"
 #include "calib/lens_model.h"
+#include "calib/library_stderr.h"
 #include "calib/model_io.h"
 #include "calib/model_selection.h"
 #include "calib/plots.h"
@@ -248,6 +249,9 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
     pitch_um = format.width_mm * 1000.0 / data.imager_width_px;
   }
 
+  // From here on mrcal runs: what it prints goes to the log (library_stderr.h). Not
+  // during detection, whose progress a caller may print on stderr.
+  const LibraryStderrCapture quiet_mrcal;
   SolveOptions solve_options;
   solve_options.focal_guess_px = options.focal_guess_px;
   solve_options.board_warp = options.board_warp;

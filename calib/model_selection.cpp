@@ -11,6 +11,7 @@
 
 #include "base/log.h"
 #include "calib/lens_model.h"
+#include "calib/library_stderr.h"
 #include "calib/uncertainty.h"
 
 namespace camlab::calib {
@@ -276,6 +277,8 @@ void cross_check_with_spline(const CalibrationData& data, const SolveOptions& op
 
 Result<ModelSelection> select_model(const CalibrationData& data, const SolveOptions& options,
                                     const std::vector<std::string>& candidates, int folds) {
+  // One capture for the whole selection: mrcal's lines are logged once it is done.
+  const LibraryStderrCapture quiet_mrcal;
   std::vector<int> views;
   for (int v = 0; v < static_cast<int>(data.views.size()); ++v)
     if (data.views[v].present_count() >= 8) views.push_back(v);

@@ -7,6 +7,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "base/format.h"
+#include "calib/library_stderr.h"
 #include "optics/optics.h"
 
 namespace camlab::calib {
@@ -19,6 +20,7 @@ constexpr double kDeg = 180.0 / M_PI;
 
 CalibrationReport make_report(const CalibrationData& data, const Solution& s,
                               double pixel_pitch_um) {
+  const LibraryStderrCapture quiet_mrcal;  // the uncertainty calls into mrcal
   CalibrationReport r;
   r.solution = s;
   r.views_total = static_cast<int>(data.views.size());

@@ -282,7 +282,7 @@ class GridBuilder {
     for (int j = 0; j < wh; ++j)
       for (int i = 0; i < ww; ++i) (*grid)[j * ww + i] = cand_[lattice.get(wi + i, wj + j)].p;
     // Rows and columns bend smoothly under perspective and distortion: a step that
-    // changes by more than a fifth of its length from one corner to the next is a
+    // changes by more than two fifths of its length from one corner to the next is a
     // junction taken from elsewhere.
     for (int j = 0; j < wh; ++j)
       for (int i = 0; i < ww; ++i) {
