@@ -258,12 +258,14 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
   Solution solution;
   std::vector<ModelEvidence> evidence;
   std::string cross_validation;
+  SplineCheck spline_check;
   if (options.model == "auto") {
     ModelSelection sel;
     CAMLAB_ASSIGN(sel, select_model(data, solve_options, default_candidate_models()));
     solution = std::move(sel.chosen);
     evidence = std::move(sel.evidence);
     cross_validation = sel.cross_validation;
+    spline_check = sel.spline_check;
   } else {
     CAMLAB_ASSIGN(solve_options.lensmodel, model_name(options, data, solve_options));
     CAMLAB_ASSIGN(solution, solve(data, solve_options));
@@ -271,6 +273,7 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
   run.report = make_report(data, solution, pitch_um);
   run.report.evidence = std::move(evidence);
   run.report.cross_validation = cross_validation;
+  run.report.spline_check = spline_check;
   run.report_json = to_json(run.report);
   run.report_json["images"] = run.images;
   if (run.images > 0) {
