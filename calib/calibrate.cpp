@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -214,6 +215,7 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
 
   CalibrationRun run;
   CalibrationData& data = run.data;
+  const auto t0 = std::chrono::steady_clock::now();
   data.board = options.board;
   if (!options.corners_vnl.empty()) {
     if (options.imager_width_px == 0)
@@ -249,6 +251,8 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
     pitch_um = format.width_mm * 1000.0 / data.imager_width_px;
   }
 
+  const double read_and_detect_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   // From here on mrcal runs: what it prints goes to the log (library_stderr.h). Not
   // during detection, whose progress a caller may print on stderr.
   const LibraryStderrCapture quiet_mrcal;
@@ -276,6 +280,12 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
   run.report.spline_check = spline_check;
   run.report_json = to_json(run.report);
   run.report_json["images"] = run.images;
+  // Wall time of the two parts: reading and detection (or reading corners.vnl), and the
+  // solve with model selection and the report.
+  run.report_json["time_s"] = {
+      {"detect", read_and_detect_s},
+      {"solve", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() -
+                    read_and_detect_s}};
   if (run.images > 0) {
     // Boards found per detector: under "auto", the "mrgingham" count on a square board is
     // the images the saddle detector missed.

@@ -121,6 +121,7 @@ Result<std::vector<CornerResidual>> heldout_residuals(const CalibrationData& dat
   for (int f = 0; f < folds; ++f) {
     CalibrationData train = data;
     SolveOptions fold_options = options;
+    fold_options.seed = nullptr;              // a fold has other data than the seed was made from
     fold_options.compute_covariance = false;  // only the held-out error is used
     train.views.clear();
     std::vector<int> test, train_views;
@@ -168,6 +169,7 @@ Result<std::vector<CornerResidual>> heldout_residuals_by_corners(const Calibrati
         }
       }
     SolveOptions fold_options = options;
+    fold_options.seed = nullptr;  // a fold has other data than the seed was made from
     fold_options.compute_covariance = false;
     std::vector<int> all_views(data.views.size());
     std::iota(all_views.begin(), all_views.end(), 0);
@@ -340,12 +342,17 @@ Result<ModelSelection> select_model(const CalibrationData& data, const SolveOpti
     Solution solution;
     std::vector<CornerResidual> heldout;
   };
+  // One seed for every candidate: it depends on the data only (seed.h).
+  SolveOptions shared = options;
+  if (!shared.seed)
+    if (auto seed = seed_focal(data, options.focal_guess_px))
+      shared.seed = std::make_shared<const FocalSeed>(*seed);
   auto evaluate = [&](const std::string& name) {
     Candidate c;
     ModelEvidence& e = c.evidence;
     e.lensmodel = name;
     if (auto n = lensmodel_param_count(name); n.ok()) e.params = *n;
-    SolveOptions o = options;
+    SolveOptions o = shared;
     o.lensmodel = name;
     auto s = solve(data, o);
     if (!s) {

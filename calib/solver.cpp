@@ -521,7 +521,8 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
           static_cast<size_t>(mrcal_lensmodel_num_params(&target)))
     return solve_warm(data, options, t0);
 
-  auto seed = seed_focal(data, options.focal_guess_px);
+  const std::optional<FocalSeed> seed = options.seed ? std::optional<FocalSeed>(*options.seed)
+                                                     : seed_focal(data, options.focal_guess_px);
   log_debug(log::Category::kCalib, "seed %.3f s",
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   if (!seed)
