@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -389,7 +390,14 @@ Result<ModelSelection> select_model(const CalibrationData& data, const SolveOpti
         if (stop || next >= n) return;
         k = next++;
       }
-      Candidate c = evaluate(candidates[k]);
+      Candidate c;
+      try {
+        c = evaluate(candidates[k]);
+      } catch (const std::exception& e) {  // e.g. bad_alloc: this candidate fails, not all
+        c = Candidate{};
+        c.evidence.lensmodel = candidates[k];
+        c.evidence.error = std::string("internal error: ") + e.what();
+      }
       std::lock_guard<std::mutex> lock(mutex);
       results[k] = std::move(c);
       changed.notify_all();
