@@ -224,7 +224,7 @@ double weighted_mean_square_px2(const CalibrationData& data, const Solution& s) 
 // pattern score (residual_pattern.h: the imager-cell z plus the neighbour z) exceeds
 // kPatternScore. On tests/calib_eval the two spline-shaped truths scored 3.4 and 15.2 and
 // the 24 other auto cases at most 1.2 (a 100-view OPENCV8 truth where OPENCV12 is chosen);
-// the rendered example views (OPENCV8 lens, 35-37 views) scored -3.6 to -3.8. Noise alone
+// the rendered example views (OPENCV8 lens, 35-37 views) scored -3.3 to -3.8. Noise alone
 // scores about -2 +- 1.5 (pose fits make neighbouring residuals anti-correlated).
 void cross_check_with_spline(const CalibrationData& data, const SolveOptions& options,
                              bool by_views, ModelSelection* out) {
