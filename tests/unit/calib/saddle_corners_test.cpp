@@ -102,7 +102,7 @@ Fit fit(const ChessboardCorners& found, const std::vector<cv::Point2d>& truth, i
   return best;
 }
 
-TEST(SaddleCorners, FindsATiltedOblongBoardToAHundredthOfAPixel) {
+TEST(SaddleCorners, FindsATiltedOblongBoardWithinFiveHundredthsOfAPixel) {
   const int cols = 9, rows = 6;
   const Drawn d = draw_board(
       cols, rows, homography(48, 8, 0.03, -0.02, {400, 300}, {(cols + 2) / 2.0, (rows + 2) / 2.0}),
