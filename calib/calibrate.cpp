@@ -3,7 +3,11 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <functional>
+#include <memory>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <utility>
 
@@ -13,6 +17,7 @@
 #include "calib/corners/chessboard_detector.h"
 #include "calib/corners/corners_vnl.h"
 #include "calib/lens_model.h"
+#include "calib/library_stderr.h"
 #include "calib/model_io.h"
 #include "calib/model_selection.h"
 #include "calib/plots.h"
@@ -26,9 +31,14 @@ namespace {
 
 namespace fs = std::filesystem;
 
-using NamedImage = std::pair<std::string, cv::Mat>;
+// An image to search for the board: its name, and how to read it. Images are read on the
+// detection threads: decoding a 16-bit PNG costs about as much as finding its corners.
+struct ImageSource {
+  std::string name;
+  std::function<Result<cv::Mat>()> load;
+};
 
-Result<std::vector<NamedImage>> load_images_dir(const fs::path& dir) {
+Result<std::vector<ImageSource>> images_dir_sources(const fs::path& dir) {
   std::vector<fs::path> files;
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
@@ -42,68 +52,76 @@ Result<std::vector<NamedImage>> load_images_dir(const fs::path& dir) {
   std::sort(files.begin(), files.end());
   if (files.empty())
     return make_error("io_error", "no images (png, jpg, tif, pgm, bmp) in '" + dir.string() + "'");
-  std::vector<NamedImage> out;
-  for (const auto& f : files) {
-    cv::Mat m;
-    try {
-      m = cv::imread(f.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
-    } catch (const cv::Exception& e) {
-      return make_error("io_error", "cannot read image '" + f.string() + "': " + e.what());
-    }
-    if (m.empty()) return make_error("io_error", "cannot read image '" + f.string() + "'");
-    out.emplace_back(f.filename().string(), m);
-  }
+  std::vector<ImageSource> out;
+  for (const auto& f : files)
+    out.push_back({f.filename().string(), [f]() -> Result<cv::Mat> {
+                     cv::Mat m;
+                     try {
+                       m = cv::imread(f.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+                     } catch (const cv::Exception& e) {
+                       return make_error("io_error",
+                                         "cannot read image '" + f.string() + "': " + e.what());
+                     }
+                     if (m.empty())
+                       return make_error("io_error", "cannot read image '" + f.string() + "'");
+                     return m;
+                   }});
   return out;
 }
 
-Result<std::vector<NamedImage>> load_job(const fs::path& dir) {
-  image::CaptureFolder folder;
-  CAMLAB_ASSIGN(folder, image::CaptureFolder::open(dir));
-  std::vector<NamedImage> out;
-  for (size_t i = 0; i < folder.frames().size(); ++i) {
-    // Corners are geometry: colour frames are searched in their luminance.
-    cv::Mat stored, m;
-    image::FrameSidecar sidecar;
-    CAMLAB_ASSIGN(sidecar, folder.load_sidecar(static_cast<int>(i)));
-    CAMLAB_ASSIGN(stored, folder.load_stored_image(static_cast<int>(i)));
-    CAMLAB_ASSIGN(m, image::luminance_view(stored, sidecar));
-    out.emplace_back(folder.frames()[i].image_file, m);
-  }
+Result<std::vector<ImageSource>> job_sources(const fs::path& dir) {
+  image::CaptureFolder opened;
+  CAMLAB_ASSIGN(opened, image::CaptureFolder::open(dir));
+  // Shared by the loaders; reading frames from it is const.
+  auto folder = std::make_shared<const image::CaptureFolder>(std::move(opened));
+  std::vector<ImageSource> out;
+  for (size_t i = 0; i < folder->frames().size(); ++i)
+    out.push_back({folder->frames()[i].image_file, [folder, i]() -> Result<cv::Mat> {
+                     // Corners are geometry: colour frames are searched in their luminance.
+                     cv::Mat stored;
+                     image::FrameSidecar sidecar;
+                     CAMLAB_ASSIGN(sidecar, folder->load_sidecar(static_cast<int>(i)));
+                     CAMLAB_ASSIGN(stored, folder->load_stored_image(static_cast<int>(i)));
+                     return image::luminance_view(stored, sidecar);
+                   }});
   if (out.empty())
     return make_error("io_error", "the capture folder '" + dir.string() + "' holds no frames");
   return out;
 }
 
-// Detects the board in each image on `threads` threads (images are independent) with
-// options.detector; views keep the images' order and record which detector found them.
-Status detect(const std::vector<NamedImage>& images, const CalibrateOptions& options,
+// Reads each image and detects the board in it on up to options.detect_threads threads
+// (images are independent) with options.detector; views keep the images' order and
+// record which detector found them. The first unreadable image (in order) is the error,
+// and so is the first whose size differs from the first image's.
+Status detect(const std::vector<ImageSource>& images, const CalibrateOptions& options,
               CalibrationData* data) {
   // Before any image is searched: a wrong choice is the caller's to fix, not a lost view.
   if (Status s = check_chessboard_detector(options.detector, data->board.cols, data->board.rows);
       !s)
     return s;
-  for (const auto& [name, image] : images) {
-    if (data->imager_width_px == 0) {
-      data->imager_width_px = image.cols;
-      data->imager_height_px = image.rows;
-    } else if (image.cols != data->imager_width_px || image.rows != data->imager_height_px) {
-      return make_error("imager_mismatch", "image '" + name + "' is " + std::to_string(image.cols) +
-                                               "x" + std::to_string(image.rows) +
-                                               "; the first image was " +
-                                               std::to_string(data->imager_width_px) + "x" +
-                                               std::to_string(data->imager_height_px));
-    }
-  }
-  std::vector<std::optional<ChessboardCorners>> found(images.size());
+  struct Outcome {
+    std::optional<Error> load_error;
+    cv::Size size;
+    std::optional<ChessboardCorners> corners;
+  };
+  std::vector<Outcome> outcomes(images.size());
   std::atomic<size_t> next{0}, done{0};
   std::atomic<int> boards{0};
+  std::atomic<bool> failed{false};
   std::mutex progress_mutex;
   auto worker = [&] {
-    for (size_t i; (i = next++) < images.size();) {
-      auto corners =
-          find_chessboard(images[i].second, data->board.cols, data->board.rows, options.detector);
+    for (size_t i; !failed && (i = next++) < images.size();) {
+      Outcome& o = outcomes[i];
+      auto image = images[i].load();
+      if (!image) {
+        o.load_error = image.error();
+        failed = true;
+        break;
+      }
+      o.size = image->size();
+      auto corners = find_chessboard(*image, data->board.cols, data->board.rows, options.detector);
       if (corners) {
-        found[i] = std::move(*corners);
+        o.corners = std::move(*corners);
         ++boards;
       }
       const size_t n = ++done;
@@ -120,11 +138,26 @@ Status detect(const std::vector<NamedImage>& images, const CalibrateOptions& opt
   for (unsigned t = 1; t < threads && t < images.size(); ++t) pool.emplace_back(worker);
   worker();
   for (auto& t : pool) t.join();
+  for (const auto& o : outcomes)
+    if (o.load_error) return *o.load_error;
   for (size_t i = 0; i < images.size(); ++i) {
-    if (!found[i]) continue;
+    const cv::Size size = outcomes[i].size;
+    if (data->imager_width_px == 0) {
+      data->imager_width_px = size.width;
+      data->imager_height_px = size.height;
+    } else if (size.width != data->imager_width_px || size.height != data->imager_height_px) {
+      return make_error("imager_mismatch",
+                        "image '" + images[i].name + "' is " + std::to_string(size.width) + "x" +
+                            std::to_string(size.height) + "; the first image was " +
+                            std::to_string(data->imager_width_px) + "x" +
+                            std::to_string(data->imager_height_px));
+    }
+  }
+  for (size_t i = 0; i < images.size(); ++i) {
+    if (!outcomes[i].corners) continue;
     BoardView v;
-    v.name = images[i].first;
-    const ChessboardCorners& c = *found[i];
+    v.name = images[i].name;
+    const ChessboardCorners& c = *outcomes[i].corners;
     v.detector = c.detector;
     for (size_t k = 0; k < c.corners_px.size(); ++k)
       v.corners.push_back({c.corners_px[k].x, c.corners_px[k].y, c.weights[k], true});
@@ -182,6 +215,7 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
 
   CalibrationRun run;
   CalibrationData& data = run.data;
+  const auto t0 = std::chrono::steady_clock::now();
   data.board = options.board;
   if (!options.corners_vnl.empty()) {
     if (options.imager_width_px == 0)
@@ -189,9 +223,9 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
                         "corners.vnl needs the imager size (it does not record it)");
     CAMLAB_ASSIGN(data.views, read_corners_vnl(options.corners_vnl.string(), data.board));
   } else {
-    std::vector<NamedImage> images;
-    CAMLAB_ASSIGN(images, options.images_dir.empty() ? load_job(options.job_dir)
-                                                     : load_images_dir(options.images_dir));
+    std::vector<ImageSource> images;
+    CAMLAB_ASSIGN(images, options.images_dir.empty() ? job_sources(options.job_dir)
+                                                     : images_dir_sources(options.images_dir));
     run.images = static_cast<int>(images.size());
     if (Status s = detect(images, options, &data); !s) return s.error();
     if (data.views.empty())
@@ -217,18 +251,25 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
     pitch_um = format.width_mm * 1000.0 / data.imager_width_px;
   }
 
+  const double read_and_detect_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  // From here on mrcal runs: what it prints goes to the log (library_stderr.h). Not
+  // during detection, whose progress a caller may print on stderr.
+  const LibraryStderrCapture quiet_mrcal;
   SolveOptions solve_options;
   solve_options.focal_guess_px = options.focal_guess_px;
   solve_options.board_warp = options.board_warp;
   Solution solution;
   std::vector<ModelEvidence> evidence;
   std::string cross_validation;
+  SplineCheck spline_check;
   if (options.model == "auto") {
     ModelSelection sel;
     CAMLAB_ASSIGN(sel, select_model(data, solve_options, default_candidate_models()));
     solution = std::move(sel.chosen);
     evidence = std::move(sel.evidence);
     cross_validation = sel.cross_validation;
+    spline_check = sel.spline_check;
   } else {
     CAMLAB_ASSIGN(solve_options.lensmodel, model_name(options, data, solve_options));
     CAMLAB_ASSIGN(solution, solve(data, solve_options));
@@ -236,12 +277,19 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
   run.report = make_report(data, solution, pitch_um);
   run.report.evidence = std::move(evidence);
   run.report.cross_validation = cross_validation;
+  run.report.spline_check = spline_check;
   run.report_json = to_json(run.report);
   run.report_json["images"] = run.images;
+  // Wall time of the two parts: reading and detection (or reading corners.vnl), and the
+  // solve with model selection and the report.
+  run.report_json["time_s"] = {
+      {"detect", read_and_detect_s},
+      {"solve", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() -
+                    read_and_detect_s}};
   if (run.images > 0) {
-    // Boards found per detector: under "auto", the "opencv" count on a square board is
-    // the images mrgingham missed.
-    nlohmann::json views_by_detector = {{"mrgingham", 0}, {"opencv", 0}};
+    // Boards found per detector: under "auto", the "mrgingham" count on a square board is
+    // the images the saddle detector missed.
+    nlohmann::json views_by_detector = {{"saddle", 0}, {"mrgingham", 0}, {"opencv", 0}};
     for (const auto& v : data.views)
       views_by_detector[v.detector] = views_by_detector.value(v.detector, 0) + 1;
     run.report_json["detector"] = {{"requested", options.detector}, {"views", views_by_detector}};

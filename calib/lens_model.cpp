@@ -153,6 +153,31 @@ Result<FieldOfView> field_of_view(const LensModel& model) {
   return fov;
 }
 
+Result<FieldOfViewParts> field_of_view_parts(const LensModel& model) {
+  const double w = model.width_px, h = model.height_px;
+  const double xm = (w - 1) / 2, ym = (h - 1) / 2;
+  const std::vector<double> q = {-0.5, ym,   w - 0.5, ym,      xm,      -0.5, xm,   h - 0.5,
+                                 -0.5, -0.5, w - 0.5, h - 0.5, w - 0.5, -0.5, -0.5, h - 0.5};
+  std::vector<char> valid;
+  std::vector<double> v;
+  CAMLAB_ASSIGN(v, unproject_each(model, q, &valid));
+  // A point counts when its direction projects back onto it: a model that folds over
+  // returns directions that land elsewhere.
+  for (int i = 0; i < 8; ++i) {
+    if (!valid[i]) continue;
+    auto back = project(model, {v[3 * i], v[3 * i + 1], v[3 * i + 2]});
+    valid[i] = back.ok() && std::fabs((*back)[0] - q[2 * i]) <= 0.01 &&
+               std::fabs((*back)[1] - q[2 * i + 1]) <= 0.01;
+  }
+  constexpr double kDeg = 180.0 / M_PI;
+  FieldOfViewParts fov;
+  if (valid[0] && valid[1]) fov.horizontal_deg = angle_between(&v[0], &v[3]) * kDeg;
+  if (valid[2] && valid[3]) fov.vertical_deg = angle_between(&v[6], &v[9]) * kDeg;
+  if (valid[4] && valid[5] && valid[6] && valid[7])
+    fov.diagonal_deg = 0.5 * (angle_between(&v[12], &v[15]) + angle_between(&v[18], &v[21])) * kDeg;
+  return fov;
+}
+
 namespace {
 
 // Rotates unit vectors v (3 per point) by the rotation vector r (Rodrigues).

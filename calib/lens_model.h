@@ -7,6 +7,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -41,6 +42,18 @@ struct FieldOfView {
 // Error "unproject_failed" when the model cannot unproject the edges (a polynomial model
 // fitted far beyond its data may fold over).
 Result<FieldOfView> field_of_view(const LensModel& model);
+
+// Each FOV on its own, where field_of_view() needs all eight edge points: the horizontal
+// one needs only the left and right edge midpoints to unproject and project back (within
+// 0.01 px), the vertical one the top and bottom midpoints, the diagonal one the four
+// corners. A polynomial model fitted to boards that never reached the image corners may
+// fold over there while its horizontal and vertical FOV are well defined.
+struct FieldOfViewParts {
+  std::optional<double> horizontal_deg, vertical_deg, diagonal_deg;
+  bool any() const { return horizontal_deg || vertical_deg || diagonal_deg; }
+  bool all() const { return horizontal_deg && vertical_deg && diagonal_deg; }
+};
+Result<FieldOfViewParts> field_of_view_parts(const LensModel& model);
 
 // Projects camera-frame points p (3 per point) to pixels q (2 per point).
 Result<std::vector<double>> project(const LensModel& model, const std::vector<double>& p_cam);

@@ -28,13 +28,18 @@ struct ModelSelection {
   Solution chosen;
   std::vector<ModelEvidence> evidence;  // in the order tried
   std::string cross_validation;         // "views" or "corners"
+  SplineCheck spline_check;             // whether the spline cross-check ran, and why
 };
 
 // PINHOLE, OPENCV4, OPENCV5, OPENCV8, OPENCV12.
+//
+// Candidates are fitted and cross-validated on up to `threads` threads (0: the hardware's,
+// at most 4), in order, each from its own seed: the choice is the same for any thread count.
 std::vector<std::string> default_candidate_models();
 
 // `options.lensmodel` is ignored; `folds` >= 2 (fewer when there are few views).
 Result<ModelSelection> select_model(const CalibrationData& data, const SolveOptions& options,
-                                    const std::vector<std::string>& candidates, int folds = 3);
+                                    const std::vector<std::string>& candidates, int folds = 3,
+                                    int threads = 0);
 
 }  // namespace camlab::calib

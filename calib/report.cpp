@@ -7,6 +7,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "base/format.h"
+#include "calib/library_stderr.h"
 #include "optics/optics.h"
 
 namespace camlab::calib {
@@ -19,6 +20,7 @@ constexpr double kDeg = 180.0 / M_PI;
 
 CalibrationReport make_report(const CalibrationData& data, const Solution& s,
                               double pixel_pitch_um) {
+  const LibraryStderrCapture quiet_mrcal;  // the uncertainty calls into mrcal
   CalibrationReport r;
   r.solution = s;
   r.views_total = static_cast<int>(data.views.size());
@@ -31,7 +33,7 @@ CalibrationReport make_report(const CalibrationData& data, const Solution& s,
   }
   r.rms_weighted_px = std::sqrt(sum_w2 / std::max(1, s.inliers));
   r.outlier_share = total > 0 ? double(s.outliers) / total : 0.0;
-  auto fov = field_of_view(s.model);
+  auto fov = field_of_view_parts(s.model);
   if (fov) r.fov = *fov;
 
   if (pixel_pitch_um > 0) {
@@ -174,10 +176,27 @@ CalibrationReport make_report(const CalibrationData& data, const Solution& s,
                "the imager): check --board (inner corners), the spacing and the corners; "
                "an anamorphic lens is the one exception"});
   }
-  if (!r.fov)
-    r.warnings.push_back({"fov_undefined", fov.error().message +
-                                               "; capture boards near the image edges or use a "
-                                               "simpler model"});
+  if (!r.fov.all()) {
+    // Name what is missing: a model that folds over only in the image corners still has
+    // a horizontal and a vertical FOV, and they are reported.
+    std::vector<std::string> missing;
+    if (!r.fov.horizontal_deg) missing.push_back("horizontal");
+    if (!r.fov.vertical_deg) missing.push_back("vertical");
+    if (!r.fov.diagonal_deg) missing.push_back("diagonal");
+    std::string which;
+    for (size_t i = 0; i < missing.size(); ++i)
+      which += (i == 0 ? "" : (i + 1 == missing.size() ? " and " : ", ")) + missing[i];
+    const bool corners_only = missing.size() == 1 && missing[0] == "diagonal";
+    r.warnings.push_back(
+        {"fov_undefined", "the " + which + " FOV " + (missing.size() > 1 ? "are" : "is") +
+                              " undefined: the fitted model does not invert at the image " +
+                              (corners_only ? "corners" : "edges") +
+                              (fov ? "" : " (" + fov.error().message + ")") +
+                              " (it extrapolates beyond the boards)" +
+                              (corners_only ? "; the horizontal and vertical FOV are given" : "") +
+                              "; capture boards near the image " +
+                              (corners_only ? "corners" : "edges") + " or use a simpler model"});
+  }
   return r;
 }
 
@@ -196,10 +215,13 @@ nlohmann::json to_json(const CalibrationReport& r) {
   j["fy_px"] = s.model.intrinsics[1];
   j["cx_px"] = s.model.intrinsics[2];
   j["cy_px"] = s.model.intrinsics[3];
-  if (r.fov)
-    j["fov_deg"] = {{"horizontal", r.fov->horizontal_deg},
-                    {"vertical", r.fov->vertical_deg},
-                    {"diagonal", r.fov->diagonal_deg}};
+  auto or_null = [](const std::optional<double>& v) {
+    return v ? nlohmann::json(*v) : nlohmann::json();
+  };
+  if (r.fov.any())
+    j["fov_deg"] = {{"horizontal", or_null(r.fov.horizontal_deg)},
+                    {"vertical", or_null(r.fov.vertical_deg)},
+                    {"diagonal", or_null(r.fov.diagonal_deg)}};
   else
     j["fov_deg"] = nullptr;
   if (r.pixel_pitch_um > 0) {
@@ -237,6 +259,10 @@ nlohmann::json to_json(const CalibrationReport& r) {
   }
   j["model_selection"] = ev;
   if (!r.cross_validation.empty()) j["cross_validation"] = r.cross_validation;
+  if (r.spline_check.considered)
+    j["spline_cross_check"] = {{"ran", r.spline_check.ran},
+                               {"residual_pattern_score", r.spline_check.residual_pattern_score},
+                               {"reason", r.spline_check.reason}};
   if (r.uncertainty) {
     nlohmann::json pts = nlohmann::json::array();
     auto opt = [](const std::optional<double>& v) {
@@ -289,16 +315,19 @@ std::string to_text(const CalibrationReport& r) {
       t += buf;
     }
   }
+  if (r.spline_check.considered) t += "  spline cross-check " + r.spline_check.reason + "\n";
   t += "lensmodel: " + s.model.lensmodel + "\n";
   std::snprintf(buf, sizeof buf, "fx %.3f px  fy %.3f px  cx %.3f px  cy %.3f px\n",
                 s.model.intrinsics[0], s.model.intrinsics[1], s.model.intrinsics[2],
                 s.model.intrinsics[3]);
   t += buf;
-  if (r.fov) {
-    std::snprintf(buf, sizeof buf,
-                  "FOV (unprojected image edges): %.3f x %.3f deg, diagonal %.3f deg\n",
-                  r.fov->horizontal_deg, r.fov->vertical_deg, r.fov->diagonal_deg);
-    t += buf;
+  if (r.fov.any()) {
+    auto deg = [](const std::optional<double>& v) {
+      return v ? format_printf("%.3f", *v) : std::string("undefined");
+    };
+    t += "FOV (unprojected image edges): " + deg(r.fov.horizontal_deg) + " x " +
+         deg(r.fov.vertical_deg) + " deg, diagonal " + deg(r.fov.diagonal_deg) +
+         (r.fov.diagonal_deg ? " deg" : "") + "\n";
   }
   if (r.pixel_pitch_um > 0) {
     std::snprintf(buf, sizeof buf,

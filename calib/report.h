@@ -13,7 +13,8 @@
 //   many_outliers     more than 5% of the corners were rejected
 //   high_residuals    inlier RMS above 1 px, each corner weighted by its detection level:
 //                     the model cannot describe the lens or the corners are poor
-//   fov_undefined     the model does not invert at the image edges
+//   fov_undefined     the model does not invert at some image edges: the message names the
+//                     FOV (horizontal, vertical, diagonal) that is missing
 //   implausible_intrinsics  fx/fy outside 0.8-1.25 or the principal point off the imager
 //
 // Reentrant.
@@ -50,9 +51,18 @@ struct ModelEvidence {
   std::string note;  // a check that is not a cross-validated candidate (the spline cross-check)
 };
 
+// The spline cross-check of `--model auto` (model_selection.cpp): whether it ran, the
+// residual-pattern statistic that decides it (residual_pattern.h), and why, in words.
+struct SplineCheck {
+  bool considered = false;  // false: not a model selection, or held out by corners
+  bool ran = false;
+  double residual_pattern_score = 0;  // cells z + neighbour z (residual_pattern.h)
+  std::string reason;
+};
+
 struct CalibrationReport {
   Solution solution;
-  std::optional<FieldOfView> fov;
+  FieldOfViewParts fov;       // each FOV where the model inverts at its edge points
   double pixel_pitch_um = 0;  // 0: unknown
   double focal_mm = 0, focal_35mm_equiv_mm = 0, crop_factor = 0;
   int views_total = 0;
@@ -67,6 +77,7 @@ struct CalibrationReport {
   std::string uncertainty_error;
   std::vector<ModelEvidence> evidence;
   std::string cross_validation;  // how held-out errors were found: "views", "corners" or ""
+  SplineCheck spline_check;
   std::vector<Warning> warnings;
 };
 

@@ -10,6 +10,7 @@
 
 #include "base/format.h"
 #include "base/log.h"
+#include "calib/library_stderr.h"
 #include "calib/mrcal_api.h"
 #include "calib/mrcal_problem.h"
 #include "calib/seed.h"
@@ -504,6 +505,7 @@ double trimmed_rms_px(const std::vector<CornerResidual>& residuals, double keep)
 
 Result<Solution> solve(const CalibrationData& data, const SolveOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
+  const LibraryStderrCapture quiet_mrcal;  // mrcal's chatter into the log (library_stderr.h)
   const BoardSpec& board = data.board;
   if (board.cols < 2 || board.rows < 2 || !(board.spacing_m > 0))
     return make_error("invalid_argument",
@@ -519,7 +521,8 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
           static_cast<size_t>(mrcal_lensmodel_num_params(&target)))
     return solve_warm(data, options, t0);
 
-  auto seed = seed_focal(data, options.focal_guess_px);
+  const std::optional<FocalSeed> seed = options.seed ? std::optional<FocalSeed>(*options.seed)
+                                                     : seed_focal(data, options.focal_guess_px);
   log_debug(log::Category::kCalib, "seed %.3f s",
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   if (!seed)
@@ -578,6 +581,7 @@ Result<Solution> fit_poses(const CalibrationData& data, const LensModel& model,
                            const std::array<double, 2>& calobject_warp,
                            const std::vector<int>& views_in) {
   const auto t0 = std::chrono::steady_clock::now();
+  const LibraryStderrCapture quiet_mrcal;
   std::vector<int> views;
   std::vector<std::array<double, 6>> poses;
   for (int v : views_in) {

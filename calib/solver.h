@@ -25,6 +25,7 @@
 #include "base/result.h"
 #include "calib/calibration_data.h"
 #include "calib/lens_model.h"
+#include "calib/seed.h"
 
 namespace camlab::calib {
 
@@ -54,6 +55,9 @@ struct SolveOptions {
   bool compute_covariance = true;
   // Used when warm_start->model.lensmodel == lensmodel; null: seed and stage as above.
   std::shared_ptr<const WarmStart> warm_start;
+  // The seed of these data (seed_focal(data, focal_guess_px), seed.h) when the caller
+  // already has it: model selection seeds once for all its candidates. Null: computed.
+  std::shared_ptr<const FocalSeed> seed;
 };
 
 struct StateCovariance;  // uncertainty.h

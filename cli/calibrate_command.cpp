@@ -77,9 +77,11 @@ void run_calibrate(const CalibrateArgs& a) {
   if (!a.quiet && run->images > 0) {
     const nlohmann::json by = run->report_json.value("detector", nlohmann::json::object())
                                   .value("views", nlohmann::json::object());
-    std::fprintf(
-        stderr, "camlab calibrate: found the board in %zu of %d images (mrgingham %d, opencv %d)\n",
-        run->data.views.size(), run->images, by.value("mrgingham", 0), by.value("opencv", 0));
+    std::fprintf(stderr,
+                 "camlab calibrate: found the board in %zu of %d images (saddle %d, mrgingham %d, "
+                 "opencv %d)\n",
+                 run->data.views.size(), run->images, by.value("saddle", 0),
+                 by.value("mrgingham", 0), by.value("opencv", 0));
   }
   auto report = calib::write_calibration_outputs(&*run, o);
   if (!report) errors.fail(report.error());
@@ -103,10 +105,12 @@ void register_calibrate_command(CLI::App& app) {
   cmd->add_option("--model", args->model, "auto (default) or a mrcal LENSMODEL_... name");
   cmd->add_option(
       "--detector", args->detector,
-      "Chessboard corner detector for --images/--job: auto (default), opencv or mrgingham. "
-      "auto uses mrgingham (mrcal's detector) on a square board and OpenCV's "
-      "findChessboardCornersSB + cornerSubPix on an image where mrgingham finds no board; "
-      "non-square boards always use OpenCV (mrgingham 1.22 finds N x N boards only)");
+      "Chessboard corner detector for --images/--job: auto (default), saddle, opencv or "
+      "mrgingham. saddle: saddle points at reduced resolution, a grid grown from them, "
+      "cornerSubPix at full resolution (any board, a few ms an image); auto: saddle, then "
+      "mrgingham (mrcal's detector, N x N boards only) on a square board's image where "
+      "saddle finds none; opencv: findChessboardCornersSB + cornerSubPix (any board, "
+      "0.7-0.9 s an image)");
   cmd->add_option("--imager", args->imager, "Imager size WxH (px); default: from the images");
   auto pixel = cmd->add_option("--pixel-um", args->pixel_um, "Pixel pitch in micrometres");
   cmd->add_option("--sensor", args->sensor, "Sensor format (full-frame, aps-c, 1/2.3in, ...)")

@@ -12,7 +12,8 @@
 namespace camlab::calib {
 
 void refine_corners_subpix(const cv::Mat& image, int cols, int rows,
-                           std::vector<cv::Point2f>* corners) {
+                           std::vector<cv::Point2f>* corners, double max_move_px,
+                           double window_share) {
   if (corners->size() != static_cast<size_t>(cols) * rows || corners->empty()) return;
   // A gradient-orthogonality refinement over a window as large as the squares allow. The
   // window must stay inside one square's neighbourhood, so it follows the smallest corner
@@ -27,7 +28,7 @@ void refine_corners_subpix(const cv::Mat& image, int cols, int rows,
       if (j + 1 < rows)
         min_spacing_px = std::min<double>(min_spacing_px, cv::norm(found[(j + 1) * cols + i] - p));
     }
-  const int half_window = std::clamp(static_cast<int>(0.45 * min_spacing_px), 2, 7);
+  const int half_window = std::clamp(static_cast<int>(window_share * min_spacing_px), 2, 7);
   cv::Mat gray;
   image.convertTo(gray, CV_32F);
   std::vector<cv::Point2f> refined = found;
@@ -37,7 +38,7 @@ void refine_corners_subpix(const cv::Mat& image, int cols, int rows,
   // the detector's own position: a corner moves by a fraction of a pixel, not by pixels.
   for (size_t k = 0; k < refined.size(); ++k)
     if (std::isfinite(refined[k].x) && std::isfinite(refined[k].y) &&
-        cv::norm(refined[k] - found[k]) < 1.5)
+        cv::norm(refined[k] - found[k]) < max_move_px)
       (*corners)[k] = refined[k];
 }
 

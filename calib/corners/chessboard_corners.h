@@ -37,9 +37,11 @@ Result<ChessboardCorners> find_chessboard_corners(const cv::Mat& image, int cols
 
 // Refines a detected cols x rows board's corners in place with cv::cornerSubPix (single-
 // channel 8- or 16-bit image), over a window that follows the view's smallest corner
-// spacing; a corner the refinement moves by 1.5 px or more keeps its position. Both
-// detectors use it.
+// spacing (its half-width `window_share` x that spacing, 2-7 px); a corner the refinement
+// moves by `max_move_px` or more keeps its position.
+// Every detector uses it.
 void refine_corners_subpix(const cv::Mat& image, int cols, int rows,
-                           std::vector<cv::Point2f>* corners);
+                           std::vector<cv::Point2f>* corners, double max_move_px = 1.5,
+                           double window_share = 0.45);
 
 }  // namespace camlab::calib

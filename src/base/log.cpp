@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
@@ -23,9 +24,11 @@ constexpr std::array<std::string_view, 5> kLevelNames = {"debug", "info", "warni
 // Lines longer than this are cut (a log line is for a person to read).
 constexpr size_t kMaxMessageBytes = 4096;
 
+std::atomic<int> g_output_fd{STDERR_FILENO};
+
 void write_stderr(const std::string& line) {
   // One write(2): atomic for lines under PIPE_BUF, so threads never interleave.
-  [[maybe_unused]] ssize_t n = ::write(STDERR_FILENO, line.data(), line.size());
+  [[maybe_unused]] ssize_t n = ::write(g_output_fd.load(), line.data(), line.size());
 }
 
 bool parse_level(std::string_view text, Level* level) {
@@ -124,6 +127,8 @@ std::string_view name_of(Category category) {
 std::string_view name_of(Level level) { return kLevelNames[static_cast<size_t>(level)]; }
 
 void set_program_name(std::string_view name) { program_name() = std::string(name); }
+
+void set_output_fd(int fd) { g_output_fd.store(fd >= 0 ? fd : STDERR_FILENO); }
 
 bool enabled(Category category, Level level) {
   return level != Level::kOff && level >= thresholds().of(category);

@@ -45,6 +45,12 @@ Thresholds parse_thresholds(std::string_view spec, std::string* bad);
 // Call before any thread logs.
 void set_program_name(std::string_view name);
 
+// The file descriptor lines are written to: STDERR_FILENO unless set. Code that captures
+// fd 2 for a while (a library's chatter: calib/library_stderr.h) points the log at a
+// duplicate of the real stderr meanwhile, so camlab's own lines still reach the user; it
+// must keep that descriptor open for as long as any thread may still be writing.
+void set_output_fd(int fd);
+
 // Whether a line of `category` at `level` would be written: guard costly messages with it.
 bool enabled(Category category, Level level);
 

@@ -8,3 +8,7 @@ add_executable(calib_bench_uncertainty ${CMAKE_CURRENT_LIST_DIR}/calib_bench_unc
 target_link_libraries(calib_bench_uncertainty PRIVATE camlab_calib nlohmann_json::nlohmann_json opencv_calib3d)
 target_include_directories(calib_bench_uncertainty PRIVATE ${PROJECT_SOURCE_DIR}/tests/unit/calib)
 target_compile_definitions(calib_bench_uncertainty PRIVATE CAMLAB_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+
+# Corner detection against the virtual camera's truth, and calibrate()'s detect/solve split.
+add_executable(calib_detect_bench ${CMAKE_CURRENT_LIST_DIR}/calib_detect_bench.cpp)
+target_link_libraries(calib_detect_bench PRIVATE camlab_calib nlohmann_json::nlohmann_json)

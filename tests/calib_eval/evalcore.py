@@ -96,6 +96,33 @@ def field_of_view_deg(model, W, H):
             0.5 * (angle_deg(v[4], v[5]) + angle_deg(v[6], v[7])))
 
 
+def field_of_view_parts_deg(model, W, H):
+    """(horizontal, vertical, diagonal) FOV in degrees, each on its own: None for one whose
+    edge points do not unproject and project back within 0.01 px (a model that folds over
+    only in the image corners keeps its horizontal and vertical FOV), as camlab's report
+    gives them."""
+    xm, ym = (W - 1) / 2, (H - 1) / 2
+    q = np.array([[-0.5, ym], [W - 0.5, ym], [xm, -0.5], [xm, H - 0.5],
+                  [-0.5, -0.5], [W - 0.5, H - 0.5], [W - 0.5, -0.5], [-0.5, H - 0.5]])
+    ok = []
+    v = []
+    for p in q:
+        try:
+            d = mrcal.unproject(p, *model)
+            back = mrcal.project(d, *model)
+            good = bool(np.all(np.isfinite(d)) and np.all(np.isfinite(back)) and
+                        np.max(np.abs(back - p)) <= 0.01)
+        except Exception:
+            d, good = None, False
+        ok.append(good)
+        v.append(d)
+    h = angle_deg(v[0], v[1]) if ok[0] and ok[1] else None
+    vert = angle_deg(v[2], v[3]) if ok[2] and ok[3] else None
+    diag = (0.5 * (angle_deg(v[4], v[5]) + angle_deg(v[6], v[7]))
+            if all(ok[4:8]) else None)
+    return (h, vert, diag)
+
+
 # ---- Truth lenses -------------------------------------------------------------------
 
 def radial_monotonic(model, W, H, margin=1.15):

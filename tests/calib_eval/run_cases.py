@@ -101,8 +101,8 @@ def judge(case, case_dir, p, out_model, report_path):
     row["err"], row["err_max"], row["rot_deg"] = res[:3]
     err_at = res[3] if at else []
     fov_t = ec.field_of_view_deg(truth, W, H)
-    fov_f = ec.field_of_view_deg(fit, W, H)
-    if fov_f is not None:
+    fov_f = ec.field_of_view_parts_deg(fit, W, H)
+    if fov_f[0] is not None:
         row["hfov_err"] = abs(fov_f[0] - fov_t[0])
     if fit[0] == truth[0] and "SPLINED" not in fit[0]:
         row["fx_err"] = abs(fit[1][0] / truth[1][0] - 1)
@@ -120,14 +120,19 @@ def judge(case, case_dir, p, out_model, report_path):
 
     problems, notes = [], []
     # The report must describe the model it wrote.
-    rep_fov = rep.get("fov_deg")
-    if rep_fov is not None and fov_f is not None:
-        d = max(abs(rep_fov["horizontal"] - fov_f[0]), abs(rep_fov["vertical"] - fov_f[1]))
-        if d > FOV_REPORT_TOL_DEG:
-            problems.append("report FOV differs from the written model's by %.3f deg" % d)
-    elif (rep_fov is None) != (fov_f is None):
-        problems.append("report FOV %s but mrcal finds the model's FOV %s" %
-                        ("missing" if rep_fov is None else "given", "defined" if fov_f else "undefined"))
+    # Each FOV on its own: the report gives those the model inverts at (a model folding
+    # over only in the image corners keeps its horizontal and vertical FOV).
+    rep_fov = rep.get("fov_deg") or {}
+    for key, mine in zip(("horizontal", "vertical", "diagonal"), fov_f):
+        given = rep_fov.get(key)
+        if given is not None and mine is not None:
+            if abs(given - mine) > FOV_REPORT_TOL_DEG:
+                problems.append("report %s FOV differs from the written model's by %.3f deg" %
+                                (key, abs(given - mine)))
+        elif (given is None) != (mine is None):
+            problems.append("report %s FOV %s but mrcal finds it %s" %
+                            (key, "missing" if given is None else "given",
+                             "defined" if mine is not None else "undefined"))
     missing = [c for c in exp["warn_required"] if c not in warnings]
     if missing:
         problems.append("missing required warning %s (%s)" % (",".join(missing), data_summary(case)))
@@ -139,7 +144,7 @@ def judge(case, case_dir, p, out_model, report_path):
     outside = []
     if tol["err_px"] is not None and not (row["err"] <= tol["err_px"]):
         outside.append("err %.3g > %.3g px" % (row["err"], tol["err_px"]))
-    if fov_f is None:
+    if fov_f[0] is None:
         if "fov_undefined" not in warnings:
             outside.append("FOV undefined")
     elif tol["hfov_deg"] is not None and not (row["hfov_err"] <= tol["hfov_deg"]):

@@ -66,5 +66,40 @@ TEST(CalibReport, ImplausibleIntrinsicsAreWarnedNotPassedOff) {
   EXPECT_TRUE(has_warning(make_report(data, off_centre, 0), "implausible_intrinsics"));
 }
 
+// A model that folds over only in the image corners (lens_model_test.cpp) still has a
+// horizontal and a vertical FOV: the report gives them, the diagonal as null, and the
+// warning says it is the diagonal that is missing.
+TEST(CalibReport, FovWhereDefinedAndTheWarningNamesTheMissingOne) {
+  const LensModel truth = testing::wide_opencv8_truth();
+  testing::ViewSetSpec spec;
+  spec.views = 8;
+  const CalibrationData data = testing::make_views(truth, kBoard, spec);
+  SolveOptions options;
+  options.lensmodel = "LENSMODEL_OPENCV4";
+  options.compute_covariance = false;
+  auto s = solve(data, options);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  Solution folding = *s;
+  folding.model.intrinsics = {800, 800, 639.5, 399.5, 0, -0.143, 0, 0};
+  const CalibrationReport r = make_report(data, folding, 0);
+  ASSERT_TRUE(r.fov.horizontal_deg && r.fov.vertical_deg);
+  EXPECT_FALSE(r.fov.diagonal_deg);
+  const auto j = to_json(r);
+  EXPECT_TRUE(j["fov_deg"]["horizontal"].is_number());
+  EXPECT_TRUE(j["fov_deg"]["vertical"].is_number());
+  EXPECT_TRUE(j["fov_deg"]["diagonal"].is_null());
+  ASSERT_TRUE(has_warning(r, "fov_undefined"));
+  for (const auto& w : r.warnings)
+    if (w.code == "fov_undefined") {
+      EXPECT_NE(w.message.find("diagonal FOV is undefined"), std::string::npos) << w.message;
+      EXPECT_EQ(w.message.find("horizontal FOV is"), std::string::npos) << w.message;
+    }
+  EXPECT_NE(to_text(r).find("diagonal undefined"), std::string::npos) << to_text(r);
+  // With the full model: no warning, all three.
+  const CalibrationReport whole = make_report(data, *s, 0);
+  EXPECT_TRUE(whole.fov.all());
+  EXPECT_FALSE(has_warning(whole, "fov_undefined"));
+}
+
 }  // namespace
 }  // namespace camlab::calib

@@ -1,8 +1,10 @@
 // `camlab calibrate` end to end from corners.vnl: the files it writes load in mrcal and
 // OpenCV and hold the truth's lens; bad input ends with "camlab calibrate: ..." and code 2.
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -100,6 +102,44 @@ TEST_F(CalibrateCli, AutoPrintsTheEvidenceTable) {
   EXPECT_EQ(j["lensmodel"], "LENSMODEL_OPENCV4");
 }
 
+// mrcal's C library prints each outlier-rejection round on stderr ("Threw out some outliers
+// ... going again"); camlab routes those lines into its log at debug level, so the user's
+// stderr holds camlab's own lines only, and CAMLAB_LOG=calib=debug shows mrcal's.
+TEST_F(CalibrateCli, StderrHoldsCamlabsOwnOutputOnlyAndMrcalsLinesGoToTheDebugLog) {
+  testing::ViewSetSpec spec;
+  spec.views = 20;
+  spec.noise_px = 0.2;
+  spec.outlier_share = 0.03;  // rejected in several rounds: mrcal prints each
+  const auto data =
+      testing::make_views(testing::wide_opencv8_truth(), BoardSpec{10, 8, 0.04}, spec);
+  {
+    std::ofstream out(path("corners.vnl"));
+    out << to_corners_vnl(data.views);
+  }
+  const std::string args = "calibrate --corners " + path("corners.vnl") +
+                           " --imager 1280x800 --board 10x8 --spacing-m 0.04"
+                           " --model LENSMODEL_OPENCV8 --out " +
+                           path("cam.cameramodel");
+  auto run = camlab::testing::run_cli(args);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::istringstream lines(run.err);
+  for (std::string line; std::getline(lines, line);)
+    EXPECT_EQ(line.rfind("camlab ", 0), 0u) << "not camlab's: " << line;
+  EXPECT_EQ(run.err.find("mrcal.c"), std::string::npos) << run.err;
+
+  ASSERT_EQ(setenv("CAMLAB_LOG", "calib=debug", 1), 0);
+  run = camlab::testing::run_cli(args);
+  unsetenv("CAMLAB_LOG");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("debug calib: mrcal: mrcal.c("), std::string::npos)
+      << "mrcal's lines were dropped, not logged:\n"
+      << run.err.substr(0, 2000);
+  EXPECT_NE(run.err.find("Threw out some outliers"), std::string::npos);
+  std::istringstream debug_lines(run.err);
+  for (std::string line; std::getline(debug_lines, line);)
+    EXPECT_EQ(line.rfind("camlab ", 0), 0u) << "not camlab's: " << line;
+}
+
 TEST_F(CalibrateCli, BadInputFailsWithCode2AndAMessage) {
   auto run = camlab::testing::run_cli(
       "calibrate --corners /nonexistent.vnl --imager 640x480 --board 9x6 "
@@ -174,6 +214,7 @@ TEST_F(CalibrateCli, ImagesFolderThroughOpencvCorners) {
   const auto run =
       camlab::testing::run_cli("calibrate --images " + path("images") +
                                " --board 7x5 --spacing-m 0.03 --model LENSMODEL_PINHOLE"
+                               " --detector opencv"
                                " --quiet --json --out " +
                                path("cam.cameramodel"));
   ASSERT_EQ(run.exit_code, 0) << run.err;

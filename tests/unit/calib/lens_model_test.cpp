@@ -31,6 +31,44 @@ TEST(LensModel, StereographicFovMatchesTheClosedForm) {
   EXPECT_NEAR(fov->horizontal_deg, 4 * std::atan(640.0 / 1000) * 180 / M_PI, 1e-7);
 }
 
+// OPENCV4 with k2 only: r_d = r (1 + k2 r^4) in normalised coordinates. With k2 = -0.143
+// the projection folds at r* = (1 / (5 |k2|))^(1/4) = 1.087, where r_d peaks at 0.8 r* =
+// 0.87: the edge midpoints (r_d 0.8 and 0.5) invert, the image corners (r_d 0.943) do
+// not. The expected FOV solve r + k2 r^5 = r_d by bisection below the fold, here, not
+// through camlab's unprojection.
+TEST(LensModel, FovPartsWhereTheModelFoldsOnlyInTheImageCorners) {
+  const double f = 800, k2 = -0.143;
+  const LensModel m{"LENSMODEL_OPENCV4", {f, f, 639.5, 399.5, 0, k2, 0, 0}, 1280, 800};
+  auto full = field_of_view(m);
+  EXPECT_FALSE(full.ok()) << "the model should not invert at the image corners";
+  auto parts = field_of_view_parts(m);
+  ASSERT_TRUE(parts.ok()) << parts.error().message;
+  auto undistort = [&](double rd) {
+    double lo = 0, hi = std::pow(1 / (5 * std::fabs(k2)), 0.25);
+    for (int i = 0; i < 200; ++i) {
+      const double mid = 0.5 * (lo + hi);
+      (mid + k2 * std::pow(mid, 5) < rd ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+  };
+  constexpr double kDeg = 180 / M_PI;
+  ASSERT_TRUE(parts->horizontal_deg && parts->vertical_deg);
+  EXPECT_FALSE(parts->diagonal_deg);
+  EXPECT_FALSE(parts->all());
+  EXPECT_TRUE(parts->any());
+  EXPECT_NEAR(*parts->horizontal_deg, 2 * std::atan(undistort(640.0 / f)) * kDeg, 1e-6);
+  EXPECT_NEAR(*parts->vertical_deg, 2 * std::atan(undistort(400.0 / f)) * kDeg, 1e-6);
+
+  // A model that inverts everywhere has all three, equal to field_of_view()'s.
+  const LensModel pinhole{"LENSMODEL_PINHOLE", {f, f, 639.5, 399.5}, 1280, 800};
+  auto p = field_of_view_parts(pinhole);
+  auto q = field_of_view(pinhole);
+  ASSERT_TRUE(p.ok() && q.ok() && p->all());
+  EXPECT_DOUBLE_EQ(*p->horizontal_deg, q->horizontal_deg);
+  EXPECT_DOUBLE_EQ(*p->vertical_deg, q->vertical_deg);
+  EXPECT_DOUBLE_EQ(*p->diagonal_deg, q->diagonal_deg);
+}
+
 TEST(LensModel, ProjectionDifferenceSeesAFocalChange) {
   const LensModel a{"LENSMODEL_PINHOLE", {800, 800, 639.5, 399.5}, 1280, 800};
   LensModel b = a;

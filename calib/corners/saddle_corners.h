@@ -1,0 +1,42 @@
+// Chessboard corner detection for boards of any shape at a few milliseconds per image:
+// the fast detector behind `--detector auto` (docs/calibration.md, "Corner detectors").
+//
+//   1. coarse pass  at reduced resolution (an image pyramid, half resolution first): the
+//                   inner corners of a chessboard are saddle points of the blurred image,
+//                   where the Hessian's determinant is strongly negative; its local
+//                   maxima of -det(H) are the candidates;
+//   2. grid         from the strongest candidates, a lattice is grown: each next corner is
+//                   predicted from its grid neighbours (a straight step, or a
+//                   parallelogram across a row) and taken when a candidate lies within a
+//                   third of a spacing of the prediction and shows an X-junction (four
+//                   alternating sectors on a circle around it); the board is the lattice
+//                   when it is exactly cols x rows (or rows x cols) and complete;
+//   3. refinement   cornerSubPix at the coarse level, then at full resolution
+//                   (refine_corners_subpix, calib/corners/chessboard_corners.h).
+//
+// A level that finds no board hands over to the next finer one, down to full resolution
+// (small, far boards). Whole boards only: a board cut by the image's edge is not found.
+//
+// Corner order: mrcal's row-major order (corner (i, j) at board point (i, j) x spacing),
+// labelled so the grid is never mirrored (the i axis turned onto the j axis by +90 deg in
+// the image, as for a board seen from the front) and, among the labellings the board's
+// shape allows (a half turn; quarter turns on a square board), the one whose i axis runs
+// nearest the image's +x. Every corner is refined at full resolution: weight 1.
+//
+// Reentrant.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include "base/result.h"
+#include "calib/corners/chessboard_corners.h"
+
+namespace camlab::calib {
+
+// Finds a cols x rows inner-corner chessboard in a single-channel 8- or 16-bit image.
+// detector is "saddle". Errors: "bad_image" for empty, multi-channel or other-depth input;
+// "invalid_argument" for fewer than 2 x 2 corners; "board_not_found" when no complete
+// board is found at any pyramid level.
+Result<ChessboardCorners> find_chessboard_corners_saddle(const cv::Mat& image, int cols, int rows);
+
+}  // namespace camlab::calib
