@@ -1,0 +1,212 @@
+// What writing a frame to a capture folder costs, and whether the cost stays flat as the
+// capture grows (docs/BENCHMARKS.md, "Frame writes"):
+//   1. PNG encoding: time and size per 640x480 frame for each encoder and level;
+//   2. a 1,000-frame capture through CaptureFolderWriter::add_frame, timing every call
+//      (encoding, files, journal and the syncs that fall in it): median, p99 and max over
+//      all frames, over frames 0-99 and over frames 900-999, and the bytes written.
+//
+//   frame_write_bench [--frames N] [--repeats R] [--dir DIR] [--skip-levels]
+//
+// Frames are drawn here from the physics, independent of the renderer: a slanted edge
+// (reflectance 0.2 / 0.8) under a cos^4 falloff, Poisson shot noise on the electrons,
+// Gaussian read noise of 3 e-, a 10-bit ADC over a 12,000 e- full well and a black level
+// of 32 DN, stored in 16 bits as camlabd stores a 10-bit sensor. Each of 16 frames has
+// its own noise, so no two consecutive frames are identical. DIR (default: the temporary
+// directory) must be on the disk to measure; the folder is removed afterwards.
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <functional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "image/capture_folder.h"
+
+namespace {
+
+using namespace camlab;
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+// The q-quantile (0..1) of `values` (nearest rank).
+double quantile(std::vector<double> values, double q) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  const size_t rank = static_cast<size_t>(std::ceil(q * static_cast<double>(values.size())));
+  return values[std::clamp<size_t>(rank, 1, values.size()) - 1];
+}
+
+// A 640x480 frame of a 10-bit sensor, DN in 16 bits (see the header comment).
+cv::Mat sensor_frame(int width, int height, uint32_t seed) {
+  constexpr double kFullWellE = 12000, kReadNoiseE = 3, kBlackDn = 32, kMaxDn = 1023;
+  constexpr double kDnPerE = (kMaxDn - kBlackDn) / kFullWellE;
+  const double tan_angle = std::tan(5.0 * M_PI / 180.0);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> read_noise(0.0, kReadNoiseE);
+  cv::Mat frame(height, width, CV_16UC1);
+  for (int y = 0; y < height; ++y) {
+    auto* row = frame.ptr<uint16_t>(y);
+    for (int x = 0; x < width; ++x) {
+      const double reflectance = (x - width / 2) > (y - height / 2) * tan_angle ? 0.8 : 0.2;
+      const double r2 = (std::pow(x - width / 2, 2) + std::pow(y - height / 2, 2)) /
+                        (std::pow(width, 2) + std::pow(height, 2));
+      const double falloff = std::pow(1.0 / (1.0 + 2.0 * r2), 2);  // cos^4 at a 55 deg field
+      const double mean_e = 0.85 * kFullWellE * reflectance * falloff;
+      std::poisson_distribution<int> shot(mean_e);
+      const double electrons = shot(rng) + read_noise(rng);
+      row[x] = static_cast<uint16_t>(
+          std::clamp(std::lround(kBlackDn + electrons * kDnPerE), 0L, static_cast<long>(kMaxDn)));
+    }
+  }
+  return frame;
+}
+
+image::FrameSidecar sidecar_for(int index) {
+  image::FrameSidecar s;
+  s.sequence = static_cast<uint64_t>(index) + 3;
+  s.timestamp_ns = 1'000'000'000 + static_cast<int64_t>(index) * 33'333'333;
+  s.pixel_format = "Y10";
+  s.delivered_format = "Y16 ";
+  s.bit_depth = 10;
+  s.black_level_dn = 32;
+  s.settings = {{"exposure_time_absolute", 100}, {"exposure_us", 10000.0}, {"gain", 1.0}};
+  s.labels = {{"step_index", 0}, {"repeat", index}};
+  return s;
+}
+
+double median_ms(int repeats, const std::function<void()>& work) {
+  std::vector<double> ms;
+  for (int i = 0; i < repeats; ++i) {
+    const auto start = Clock::now();
+    work();
+    ms.push_back(ms_since(start));
+  }
+  return quantile(ms, 0.5);
+}
+
+void encoder_table(const std::vector<cv::Mat>& frames, int repeats) {
+  const double raw_bytes = static_cast<double>(frames[0].total() * frames[0].elemSize());
+  std::printf("\nPNG encoding of a 640x480 16-bit frame (10-bit DN, noise on), median of %d\n",
+              repeats);
+  std::printf("| encoder | level | ms/frame | bytes | %% of raw |\n|---|---|---|---|---|\n");
+  for (int level = 0; level <= 9; ++level) {
+    std::vector<uchar> png;
+    size_t k = 0;
+    const double ms = median_ms(repeats, [&] {
+      cv::imencode(".png", frames[k++ % frames.size()], png, {cv::IMWRITE_PNG_COMPRESSION, level});
+    });
+    std::printf("| OpenCV imencode (libpng, zlib) | %d | %.2f | %zu | %.1f |\n", level, ms,
+                png.size(), 100.0 * png.size() / raw_bytes);
+  }
+}
+
+struct Series {
+  std::vector<double> ms;  // per add_frame call
+  double finish_ms = 0, wall_s = 0;
+  uintmax_t bytes = 0;           // every file in the folder at the end
+  uintmax_t manifest_bytes = 0;  // manifest.json at the end
+};
+
+Series write_series(const fs::path& dir, const std::vector<cv::Mat>& frames, int count) {
+  Series series;
+  fs::remove_all(dir);
+  const auto started = Clock::now();
+  auto writer = image::CaptureFolderWriter::create(dir, "single", {{"camera", "bench"}},
+                                                   {{"kind", "single"}, {"repeats", count}});
+  if (!writer) {
+    std::fprintf(stderr, "cannot create %s: %s\n", dir.c_str(), writer.error().message.c_str());
+    return series;
+  }
+  for (int i = 0; i < count; ++i) {
+    const auto start = Clock::now();
+    auto entry = writer->add_frame(frames[static_cast<size_t>(i) % frames.size()], sidecar_for(i));
+    series.ms.push_back(ms_since(start));
+    if (!entry) {
+      std::fprintf(stderr, "frame %d: %s\n", i, entry.error().message.c_str());
+      return series;
+    }
+  }
+  const auto finishing = Clock::now();
+  if (Status s = writer->finish(); !s)
+    std::fprintf(stderr, "finish: %s\n", s.error().message.c_str());
+  series.finish_ms = ms_since(finishing);
+  series.wall_s = ms_since(started) / 1000.0;
+  for (const auto& entry : fs::directory_iterator(dir))
+    if (entry.is_regular_file()) series.bytes += entry.file_size();
+  std::error_code ec;
+  series.manifest_bytes = fs::file_size(dir / "manifest.json", ec);
+  return series;
+}
+
+void print_series(const Series& s, int count) {
+  auto row = [&](const char* what, size_t from, size_t to) {
+    to = std::min(to, s.ms.size());
+    if (from >= to) return;
+    std::vector<double> part(s.ms.begin() + static_cast<long>(from),
+                             s.ms.begin() + static_cast<long>(to));
+    double sum = 0;
+    for (double v : part) sum += v;
+    std::printf("| %s | %zu | %.2f | %.2f | %.2f | %.2f |\n", what, part.size(),
+                quantile(part, 0.5), quantile(part, 0.99),
+                part.empty() ? 0 : *std::max_element(part.begin(), part.end()),
+                sum / static_cast<double>(part.size()));
+  };
+  std::printf(
+      "\n%d frames through CaptureFolderWriter::add_frame (wall %.2f s, finish %.2f ms, "
+      "%.1f MB on disk, %.0f bytes/frame, manifest.json %ju bytes)\n",
+      count, s.wall_s, s.finish_ms, s.bytes / 1e6,
+      static_cast<double>(s.bytes) / std::max(count, 1), s.manifest_bytes);
+  std::printf(
+      "| frames | n | median ms | p99 ms | max ms | mean ms |\n|---|---|---|---|---|---|\n");
+  row("all", 0, s.ms.size());
+  row("0-99", 0, 100);
+  if (count >= 1000) row("900-999", 900, 1000);
+  if (count != 1000 && count > 100) row("last 100", s.ms.size() - 100, s.ms.size());
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int frames = 1000, repeats = 15;
+  bool levels = true;
+  fs::path dir = fs::temp_directory_path();
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--frames" && i + 1 < argc) {
+      frames = std::clamp(std::atoi(argv[++i]), 1, 100000);
+    } else if (arg == "--repeats" && i + 1 < argc) {
+      repeats = std::clamp(std::atoi(argv[++i]), 1, 1000);
+    } else if (arg == "--dir" && i + 1 < argc) {
+      dir = argv[++i];
+    } else if (arg == "--skip-levels") {
+      levels = false;
+    } else {
+      std::fprintf(stderr,
+                   "usage: frame_write_bench [--frames N] [--repeats R] [--dir DIR] "
+                   "[--skip-levels]\n");
+      return 2;
+    }
+  }
+  std::vector<cv::Mat> images;
+  for (uint32_t seed = 1; seed <= 16; ++seed) images.push_back(sensor_frame(640, 480, seed));
+  if (levels) encoder_table(images, repeats);
+  const fs::path folder = dir / ("camlab_frame_write_bench_" + std::to_string(::getpid()));
+  const Series series = write_series(folder, images, frames);
+  print_series(series, frames);
+  fs::remove_all(folder);
+  return series.ms.size() == static_cast<size_t>(frames) ? 0 : 1;
+}
