@@ -31,6 +31,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "image/capture_folder.h"
+#include "image/png_encoder.h"
 
 namespace {
 
@@ -111,6 +112,25 @@ void encoder_table(const std::vector<cv::Mat>& frames, int repeats) {
     });
     std::printf("| OpenCV imencode (libpng, zlib) | %d | %.2f | %zu | %.1f |\n", level, ms,
                 png.size(), 100.0 * png.size() / raw_bytes);
+  }
+  const std::pair<image::PngFilter, const char*> filters[] = {
+      {image::PngFilter::kNone, "none"},
+      {image::PngFilter::kSub, "sub"},
+      {image::PngFilter::kUp, "up"},
+      {image::PngFilter::kAverage, "average"},
+      {image::PngFilter::kPaeth, "paeth"}};
+  for (const auto& [filter, name] : filters) {
+    for (int level : {0, 1, 2, 3, 4, 6, 9, 12}) {
+      if (filter != image::PngFilter::kSub && level > 1) continue;  // sub wins at level 1
+      image::PngEncoder encoder({level, filter});
+      size_t bytes = 0, k = 0;
+      const double ms = median_ms(repeats, [&] {
+        auto png = encoder.encode(frames[k++ % frames.size()]);
+        bytes = png ? png->size() : 0;
+      });
+      std::printf("| camlab PngEncoder (libdeflate), filter %s | %d | %.2f | %zu | %.1f |\n", name,
+                  level, ms, bytes, 100.0 * bytes / raw_bytes);
+    }
   }
 }
 
