@@ -7,6 +7,7 @@
 #include <set>
 
 #include "capture/control_keeper.h"
+#include "capture/drop_attribution.h"
 #include "capture/frame_convert.h"
 #include "capture/frame_writer.h"
 #include "capture/settings_json.h"
@@ -16,8 +17,6 @@ namespace camlab::capture {
 
 namespace {
 
-// Frames the writer may hold before the frame loop waits for the disk.
-constexpr size_t kMaxFramesQueuedForDisk = 8;
 // Without usable timestamps, the frames that may have started before a write are those in
 // the driver's buffers; drivers may grant more than asked (a minimum of their own), so
 // count at least this many.
@@ -43,7 +42,8 @@ class Runner {
         observer_(observer),
         tracker_(options.control_latency_frames, options.control_latency_min_frames < 0
                                                      ? options.control_latency_frames
-                                                     : options.control_latency_min_frames) {}
+                                                     : options.control_latency_min_frames),
+        drops_(options.buffer_count) {}
 
   Result<CaptureSummary> run(const std::filesystem::path& folder);
 
@@ -67,6 +67,7 @@ class Runner {
   void close_windows(uint64_t last_sequence);
   Status write_next_when_secured(uint64_t last_sequence);
   void report_written();
+  std::string unstable_stream_message(int consumed) const;
   void finish(const std::chrono::steady_clock::time_point& started);
 
   device::Camera& camera_;
@@ -74,6 +75,7 @@ class Runner {
   const CaptureOptions& options_;
   CaptureObserver* observer_;
   SettleTracker tracker_;
+  DropAttribution drops_;
   std::optional<ControlKeeper> keeper_;
   std::optional<FrameWriter> writer_;
   device::StreamFormat format_;
@@ -83,7 +85,6 @@ class Runner {
   size_t oldest_open_ = 0;
   int kept_total_ = 0;
   int written_total_ = 0;
-  std::optional<uint64_t> last_sequence_;
   int not_kept_since_last_ = 0;  // discarded + dropped since the last kept frame
   CaptureSummary summary_;
 };
@@ -135,21 +136,31 @@ Status Runner::write_next_when_secured(uint64_t last_sequence) {
 
 Status Runner::process(const device::Frame& frame) {
   const uint64_t sequence = frame.meta.sequence;
-  if (last_sequence_ && sequence > *last_sequence_ + 1) {
-    const int dropped =
-        static_cast<int>(std::min<uint64_t>(sequence - *last_sequence_ - 1, 1u << 20));
-    summary_.frames_dropped += dropped;
-    not_kept_since_last_ += dropped;
-  }
-  last_sequence_ = sequence;
-  const int index =
-      tracker_.on_frame(sequence, frame.meta.timestamp_ns, frame.meta.clock == "monotonic");
+  const bool monotonic = frame.meta.clock == "monotonic";
+  const double interval_s = format_.interval.seconds();
+  const DropAttribution::Skipped skipped =
+      drops_.on_frame(sequence, frame.meta.timestamp_ns, monotonic, frame.buffer_index,
+                      interval_s > 0 ? static_cast<int64_t>(interval_s * 1e9) : 0);
+  summary_.frames_dropped_by_device += skipped.by_device;
+  summary_.frames_dropped_by_camlab += skipped.by_camlab;
+  summary_.frames_dropped += skipped.by_device + skipped.by_camlab;
+  not_kept_since_last_ += skipped.by_device + skipped.by_camlab;
+  const int index = tracker_.on_frame(sequence, frame.meta.timestamp_ns, monotonic);
   // An index, not a pointer: writing the next change below grows changes_.
   bool keep =
       index >= 0 && !frame.meta.error && check_frame(frame, format_).ok() &&
       changes_[static_cast<size_t>(index)].kept < changes_[static_cast<size_t>(index)].want.count;
+  // A frame the writer has no room for is not kept (the step is taken again): waiting for
+  // the disk here would leave the driver without buffers and lose frames anyway, later.
+  const bool refused = keep && !writer_->has_room();
   int repeat = 0;
-  if (keep) {
+  if (refused) {
+    keep = false;
+    ++summary_.frames_refused_by_writer;
+    ++summary_.frames_dropped_by_camlab;
+    ++summary_.frames_dropped;
+    ++not_kept_since_last_;
+  } else if (keep) {
     Change& change = changes_[static_cast<size_t>(index)];
     repeat = change.want.first_repeat + change.kept++;
     ++kept_total_;
@@ -168,11 +179,13 @@ Status Runner::process(const device::Frame& frame) {
         convert_frame(frame, format_, plan_.traits.sensor_bit_depth, plan_.traits.black_level_dn);
     if (!c) {  // cannot happen after check_frame; never write a wrong frame
       (void)camera_.requeue(frame);
+      drops_.on_requeue(monotonic_ns());
       return c.error();
     }
     converted = std::move(*c);
   }
   Status requeued = camera_.requeue(frame);
+  drops_.on_requeue(monotonic_ns());
   if (keep) {
     const Change& change = changes_[static_cast<size_t>(index)];
     const CaptureStep& step = plan_.steps[static_cast<size_t>(change.want.step)];
@@ -200,6 +213,24 @@ Status Runner::process(const device::Frame& frame) {
   }
   if (!written) return written;
   return requeued;
+}
+
+std::string Runner::unstable_stream_message(int consumed) const {
+  const CaptureSummary& s = summary_;
+  std::string text =
+      std::to_string(consumed) + " frames consumed for " + std::to_string(kept_total_) + " kept: ";
+  if (s.frames_dropped_by_camlab > s.frames_dropped_by_device) {
+    text += "camlab could not keep up with the camera (" +
+            std::to_string(s.frames_dropped_by_camlab) + " frames lost";
+    if (s.frames_refused_by_writer > 0)
+      text += ", " + std::to_string(s.frames_refused_by_writer) +
+              " of them because the disk was slower than the camera";
+    return text + "; the camera dropped " + std::to_string(s.frames_dropped_by_device) + ")";
+  }
+  return text + "the camera drops or flags too many frames (" +
+         std::to_string(s.frames_dropped_by_device) + " dropped by the camera, " +
+         std::to_string(s.frames_discarded) + " discarded, " +
+         std::to_string(s.frames_dropped_by_camlab) + " lost by camlab)";
 }
 
 void Runner::report_written() {
@@ -249,10 +280,10 @@ Result<CaptureSummary> Runner::run(const std::filesystem::path& folder) {
   if (!keeper) return keeper.error();
   keeper_ = std::move(*keeper);
 
-  auto created =
-      image::CaptureFolderWriter::create(folder, plan_.kind, options_.source, plan_.request);
+  auto created = image::CaptureFolderWriter::create(folder, plan_.kind, options_.source,
+                                                    plan_.request, options_.commit_policy);
   if (!created) return created.error();
-  writer_.emplace(std::move(*created), kMaxFramesQueuedForDisk);
+  writer_.emplace(std::move(*created), options_.writer_limits);
 
   for (int i = 0; i < static_cast<int>(plan_.steps.size()); ++i)
     to_write_.push_back({i, 0, plan_.repeats});
@@ -276,10 +307,7 @@ Result<CaptureSummary> Runner::run(const std::filesystem::path& folder) {
     }
     const int consumed = kept_total_ + summary_.frames_discarded + summary_.frames_dropped;
     if (consumed > budget) {
-      summary_.failure =
-          make_error("unstable_stream", std::to_string(consumed) + " frames consumed for " +
-                                            std::to_string(kept_total_) +
-                                            " kept: the camera drops or flags too many frames");
+      summary_.failure = make_error("unstable_stream", unstable_stream_message(consumed));
       break;
     }
     auto frame = camera_.dequeue(options_.frame_timeout);
@@ -309,6 +337,7 @@ void Runner::finish(const std::chrono::steady_clock::time_point& started) {
     summary_.failure = closed.error();
   report_written();
   summary_.frames_kept = written_total_;
+  summary_.writer = writer_->stats();
   summary_.frames_consumed = kept_total_ + summary_.frames_discarded + summary_.frames_dropped;
   summary_.wall_seconds = seconds_since(started);
 }
