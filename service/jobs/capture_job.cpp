@@ -118,6 +118,10 @@ void add_frame_loss(const capture::CaptureSummary& summary, nlohmann::json* resu
         std::to_string(summary.frames_refused_by_writer) +
         " because the disk was slower than the camera, the rest while camlabd held every "
         "buffer); the steps they cost were taken again");
+  if (summary.frames_dropped_by_device > 0)
+    warnings.push_back("the camera dropped " + std::to_string(summary.frames_dropped_by_device) +
+                       " frames (it did not deliver every frame at its frame interval); the "
+                       "steps they cost were taken again");
   if (!warnings.empty()) (*result)["warnings"] = std::move(warnings);
 }
 

@@ -67,7 +67,7 @@ class Runner {
   void close_windows(uint64_t last_sequence);
   Status write_next_when_secured(uint64_t last_sequence);
   void report_written();
-  std::string unstable_stream_message(int consumed) const;
+  std::string unstable_stream_message(int delivered) const;
   void finish(const std::chrono::steady_clock::time_point& started);
 
   device::Camera& camera_;
@@ -215,22 +215,19 @@ Status Runner::process(const device::Frame& frame) {
   return requeued;
 }
 
-std::string Runner::unstable_stream_message(int consumed) const {
+std::string Runner::unstable_stream_message(int delivered) const {
   const CaptureSummary& s = summary_;
-  std::string text =
-      std::to_string(consumed) + " frames consumed for " + std::to_string(kept_total_) + " kept: ";
-  if (s.frames_dropped_by_camlab > s.frames_dropped_by_device) {
-    text += "camlab could not keep up with the camera (" +
-            std::to_string(s.frames_dropped_by_camlab) + " frames lost";
-    if (s.frames_refused_by_writer > 0)
-      text += ", " + std::to_string(s.frames_refused_by_writer) +
-              " of them because the disk was slower than the camera";
-    return text + "; the camera dropped " + std::to_string(s.frames_dropped_by_device) + ")";
-  }
-  return text + "the camera drops or flags too many frames (" +
-         std::to_string(s.frames_dropped_by_device) + " dropped by the camera, " +
-         std::to_string(s.frames_discarded) + " discarded, " +
-         std::to_string(s.frames_dropped_by_camlab) + " lost by camlab)";
+  std::string text = std::to_string(delivered) + " frames delivered for " +
+                     std::to_string(kept_total_) + " kept: ";
+  const std::string counts =
+      " (" + std::to_string(s.frames_discarded) + " discarded, " +
+      std::to_string(s.frames_refused_by_writer) + " refused by a full frame writer; besides, " +
+      std::to_string(s.frames_dropped_by_device) + " dropped by the camera and " +
+      std::to_string(s.frames_dropped_by_camlab - s.frames_refused_by_writer) +
+      " lost while camlab held every buffer)";
+  if (s.frames_refused_by_writer > s.frames_discarded)
+    return text + "camlab could not keep up with the camera: the disk was slower" + counts;
+  return text + "the camera flags or sends too many unusable frames" + counts;
 }
 
 void Runner::report_written() {
@@ -294,7 +291,10 @@ Result<CaptureSummary> Runner::run(const std::filesystem::path& folder) {
     return s.error();
   }
 
-  // Dropped or flagged frames are taken again, but not forever.
+  // Frames lost or unusable are taken again, but not forever. The budget counts frames
+  // delivered and not kept (flagged, unusable, settling, refused by the writer): frames
+  // the camera skipped cost time, not work, and a camera slower than its frame interval
+  // still finishes (the frame timeout ends a run when frames stop coming).
   const int budget =
       2 * (plan_.total_frames() + (static_cast<int>(plan_.steps.size()) + 1) *
                                       (tracker_.latency_max_frames() +
@@ -305,9 +305,10 @@ Result<CaptureSummary> Runner::run(const std::filesystem::path& folder) {
       summary_.cancelled = true;
       break;
     }
-    const int consumed = kept_total_ + summary_.frames_discarded + summary_.frames_dropped;
-    if (consumed > budget) {
-      summary_.failure = make_error("unstable_stream", unstable_stream_message(consumed));
+    const int delivered =
+        kept_total_ + summary_.frames_discarded + summary_.frames_refused_by_writer;
+    if (delivered > budget) {
+      summary_.failure = make_error("unstable_stream", unstable_stream_message(delivered));
       break;
     }
     auto frame = camera_.dequeue(options_.frame_timeout);
