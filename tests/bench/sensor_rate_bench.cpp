@@ -45,8 +45,8 @@ json camera_160_noisy() {
 
 struct Row {
   std::string camera, capture, state;
-  int n = 0, latency = 0, kept = 0, consumed = 0, dropped_device = 0, dropped_camlabd = 0,
-      refused = 0, retaken = 0, queue = 0, commits = 0;
+  int n = 0, latency = 0, kept = 0, consumed = 0, dropped = 0, dropped_device = 0,
+      dropped_camlabd = 0, refused = 0, retaken = 0, queue = 0, commits = 0;
   double wall_s = 0, interval_s = 0;
 };
 
@@ -67,11 +67,14 @@ Row run_capture(const Daemon& daemon, const std::string& camera_path, const std:
   row.latency = r.value("control_latency_frames", 0);
   row.kept = r.value("frames_kept", 0);
   row.consumed = r.value("frames_consumed", 0);
-  row.dropped_device = r.value("frames_dropped_by_device", 0);
-  row.dropped_camlabd = r.value("frames_dropped_by_camlabd", 0);
-  row.refused = r.value("frames_refused_by_writer", 0);
+  row.dropped = r.value("frames_dropped", 0);
+  // -1: a camlabd that does not tell them apart.
+  row.dropped_device = r.value("frames_dropped_by_device", -1);
+  row.dropped_camlabd = r.value("frames_dropped_by_camlabd", -1);
+  row.refused = r.value("frames_refused_by_writer", -1);
   row.retaken = r.value("steps_retaken", 0);
   row.wall_s = r.value("wall_seconds", 0.0);
+  row.queue = row.commits = -1;
   if (r.contains("writer")) {
     row.queue = r["writer"].value("most_frames_queued", 0);
     row.commits = r["writer"].value("commits", 0);
@@ -79,14 +82,17 @@ Row run_capture(const Daemon& daemon, const std::string& camera_path, const std:
   return row;
 }
 
+std::string count(int n) { return n < 0 ? "-" : std::to_string(n); }
+
 void print(const Row& r) {
   const double clock_s = (r.n + r.latency) * r.interval_s;
   std::printf(
-      "| %s | %s | %s | %d | %d | %d | %d | %d | %d | %d (%d writer) | %d | %.2f | %.2f | %.1f | "
-      "%d | %d |\n",
+      "| %s | %s | %s | %d | %d | %d | %d | %d | %d | %s | %s (%s writer) | %d | %.2f | %.2f | "
+      "%.1f | %s | %s |\n",
       r.camera.c_str(), r.capture.c_str(), r.state.c_str(), r.n, r.latency, r.kept, r.consumed,
-      r.n + r.latency + 1, r.dropped_device, r.dropped_camlabd, r.refused, r.retaken, r.wall_s,
-      clock_s, r.wall_s > 0 ? r.kept / r.wall_s : 0.0, r.queue, r.commits);
+      r.n + r.latency + 1, r.dropped, count(r.dropped_device).c_str(),
+      count(r.dropped_camlabd).c_str(), count(r.refused).c_str(), r.retaken, r.wall_s, clock_s,
+      r.wall_s > 0 ? r.kept / r.wall_s : 0.0, count(r.queue).c_str(), count(r.commits).c_str());
   std::fflush(stdout);
 }
 
@@ -122,10 +128,10 @@ int main(int argc, char** argv) {
 
   std::printf("camlabd: %d-frame captures at 30 frames/s (frame interval 33.3 ms)\n\n", frames);
   std::printf(
-      "| camera | capture | state | N | latency | kept | consumed | N + latency + 1 | dropped "
-      "by the device | dropped by camlabd | steps retaken | wall s | (N + latency) x interval s "
-      "| kept frames/s | writer's deepest queue | commits |\n"
-      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "| camera | capture | state | N | latency | kept | consumed | N + latency + 1 | dropped | "
+      "dropped by the device | dropped by camlabd | steps retaken | wall s | (N + latency) x "
+      "interval s | kept frames/s | writer's deepest queue | commits |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   int index = 0;
   for (const Camera& camera : cameras) {
     const fs::path home = dir / ("camera" + std::to_string(index++));
