@@ -3,7 +3,11 @@
 //   1. PNG encoding: time and size per 640x480 frame for each encoder and level;
 //   2. a 1,000-frame capture through CaptureFolderWriter::add_frame, timing every call
 //      (encoding, files, journal and the syncs that fall in it): median, p99 and max over
-//      all frames, over frames 0-99 and over frames 900-999, and the bytes written.
+//      all frames, over frames 0-99 and over frames 900-999, and the bytes written;
+//   3. the same frames through capture::FrameWriter (the capture path: its own thread,
+//      commits every 16 frames or 250 ms), pushed as fast as its queue takes them at
+//      30 frames/s: the time from push to listed in the journal (durable), and the deepest
+//      queue.
 //
 //   frame_write_bench [--frames N] [--repeats R] [--dir DIR] [--skip-levels]
 //
@@ -25,11 +29,13 @@
 #include <functional>
 #include <random>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "capture/frame_writer.h"
 #include "image/capture_folder.h"
 #include "image/png_encoder.h"
 
@@ -198,6 +204,58 @@ void print_series(const Series& s, int count) {
   if (count != 1000 && count > 100) row("last 100", s.ms.size() - 100, s.ms.size());
 }
 
+// Pushes `count` frames at `fps` (0: as fast as the queue takes them) and measures, for
+// each, the time from push to listed.
+void frame_writer_series(const fs::path& dir, const std::vector<cv::Mat>& frames, int count,
+                         double fps) {
+  fs::remove_all(dir);
+  auto folder = image::CaptureFolderWriter::create(dir, "single", {{"camera", "bench"}}, {});
+  if (!folder) {
+    std::fprintf(stderr, "cannot create %s: %s\n", dir.c_str(), folder.error().message.c_str());
+    return;
+  }
+  capture::FrameWriter writer(std::move(*folder), {});
+  std::vector<Clock::time_point> pushed(static_cast<size_t>(count));
+  std::vector<double> latency_ms;
+  const auto start = Clock::now();
+  auto collect = [&] {
+    for (const auto& w : writer.take_written())
+      latency_ms.push_back(
+          std::chrono::duration<double, std::milli>(Clock::now() - pushed[w.entry.index]).count());
+  };
+  for (int i = 0; i < count;) {
+    if (fps > 0) std::this_thread::sleep_until(start + std::chrono::duration<double>(i / fps));
+    if (!writer.has_room()) {
+      collect();
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+      continue;
+    }
+    pushed[static_cast<size_t>(i)] = Clock::now();
+    if (Status s =
+            writer.push(frames[static_cast<size_t>(i) % frames.size()].clone(), sidecar_for(i));
+        !s) {
+      std::fprintf(stderr, "push %d: %s\n", i, s.error().message.c_str());
+      return;
+    }
+    ++i;
+    collect();
+  }
+  while (static_cast<int>(latency_ms.size()) < count - 16 && ms_since(start) < 600'000) {
+    collect();
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  if (Status s = writer.close(true); !s)
+    std::fprintf(stderr, "close: %s\n", s.error().message.c_str());
+  collect();
+  const double wall_s = ms_since(start) / 1000;
+  const auto stats = writer.stats();
+  std::printf("| %s | %d | %.2f | %.1f | %.1f | %.1f | %zu | %d |\n",
+              fps > 0 ? "30 frames/s" : "as fast as it takes them", count, wall_s, count / wall_s,
+              quantile(latency_ms, 0.5), quantile(latency_ms, 0.99), stats.most_frames_held,
+              stats.commits);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -228,5 +286,14 @@ int main(int argc, char** argv) {
   const Series series = write_series(folder, images, frames);
   print_series(series, frames);
   fs::remove_all(folder);
+  std::printf(
+      "\n%d frames through capture::FrameWriter (its own thread; listed = synced and in "
+      "the journal)\n",
+      frames);
+  std::printf(
+      "| pushed | frames | wall s | frames/s | push to listed, median ms | p99 ms | "
+      "deepest queue | commits |\n|---|---|---|---|---|---|---|---|\n");
+  frame_writer_series(folder, images, frames, 0);
+  frame_writer_series(folder, images, frames, 30);
   return series.ms.size() == static_cast<size_t>(frames) ? 0 : 1;
 }
