@@ -92,9 +92,10 @@ void run_render(const RenderArgs& args) {
         {"frames_per_second", summary->frames / std::max(summary->seconds, 1e-9)}};
     std::cout << out.dump(2) << "\n";
   } else {
-    std::printf("wrote %d frame%s to %s in %.2f s (manifest.json, frame_*.png + .json)\n",
-                summary->frames, summary->frames == 1 ? "" : "s", summary->out_dir.c_str(),
-                summary->seconds);
+    std::printf(
+        "wrote %d frame%s to %s in %.2f s (manifest.json, frames.jsonl, frame_*.png + .json)\n",
+        summary->frames, summary->frames == 1 ? "" : "s", summary->out_dir.c_str(),
+        summary->seconds);
   }
 }
 

@@ -8,6 +8,8 @@ packages=(
   clang-format           # scripts/check-format.sh (Debian 12: version 14, the one .clang-format is checked with)
   libopencv-dev          # image I/O, chessboard detection, filtering
   libturbojpeg0-dev      # MJPEG frames: decode (3x OpenCV's imdecode) and the virtual camera's encoder
+  libdeflate-dev         # PNG frames: the capture writer's deflate, 5-7x zlib's time at the same size (docs/BENCHMARKS.md)
+  zlib1g-dev             # the PNG encoder's test inflates its output with zlib, an independent decoder
   libmrcal-dev mrcal python3-mrcal   # lens models (C API) and mrcal's own tools for interop tests
   libmrgingham-dev       # mrcal's chessboard detector (square boards), calib/corners/mrgingham_corners.h
   libboost-dev           # Beast / Asio (header-only parts)

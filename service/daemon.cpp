@@ -18,6 +18,7 @@
 #include "service/api/service_context.h"
 #include "service/http/listener.h"
 #include "service/jobs/compute_jobs.h"
+#include "service/jobs/job_recovery.h"
 #include "service/metrics.h"
 #include "service/store/job_store.h"
 
@@ -81,6 +82,11 @@ int run_daemon(const DaemonConfig& config) {
     log_error(log::Category::kDaemon, "%s", store.error().message.c_str());
     return 1;
   }
+  // The folders are the truth: the jobs the last run left unfinished get their folders
+  // recovered and their frame counts from them, then are marked interrupted.
+  if (auto recovered = recover_unfinished_jobs(**store, *data_dir); !recovered)
+    log_warning(log::Category::kDaemon, "recovering unfinished jobs: %s",
+                recovered.error().message.c_str());
   auto interrupted = (*store)->interrupt_unfinished(
       "camlabd stopped while this job was queued or running (crash or kill); the frames written "
       "are kept");

@@ -101,6 +101,30 @@ class ProgressObserver final : public capture::CaptureObserver {
   const CaptureJobEnv& env_;
 };
 
+// Frames lost by the camera and by camlabd, apart, and a warning when camlabd could not
+// keep up (docs/capture-api.md, "Frames lost, and whose they were").
+void add_frame_loss(const capture::CaptureSummary& summary, nlohmann::json* result) {
+  (*result)["frames_dropped_by_device"] = summary.frames_dropped_by_device;
+  (*result)["frames_dropped_by_camlabd"] = summary.frames_dropped_by_camlab;
+  (*result)["frames_refused_by_writer"] = summary.frames_refused_by_writer;
+  (*result)["writer"] = {{"most_frames_queued", summary.writer.most_frames_held},
+                         {"most_bytes_queued", summary.writer.most_bytes_held},
+                         {"commits", summary.writer.commits}};
+  nlohmann::json warnings = nlohmann::json::array();
+  if (summary.frames_dropped_by_camlab > 0)
+    warnings.push_back(
+        "camlabd could not keep up with the camera: " +
+        std::to_string(summary.frames_dropped_by_camlab) + " frames lost (" +
+        std::to_string(summary.frames_refused_by_writer) +
+        " because the disk was slower than the camera, the rest while camlabd held every "
+        "buffer); the steps they cost were taken again");
+  if (summary.frames_dropped_by_device > 0)
+    warnings.push_back("the camera dropped " + std::to_string(summary.frames_dropped_by_device) +
+                       " frames (it did not deliver every frame at its frame interval); the "
+                       "steps they cost were taken again");
+  if (!warnings.empty()) (*result)["warnings"] = std::move(warnings);
+}
+
 JobOutcome failed(Error error, bool device_failed = false) {
   JobOutcome outcome;
   outcome.state = JobState::kFailed;
@@ -165,6 +189,7 @@ JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const C
       {"frames_consumed_by_probe", probe_frames},  {"frames_total", plan->total_frames()},
       {"wall_seconds", summary->wall_seconds},     {"control_latency_frames", latency->frames},
       {"control_latency_source", latency->source}, {"folder", job.folder}};
+  add_frame_loss(*summary, &outcome.result);
   if (summary->restore_error)
     outcome.result["restore_error"] = {{"code", summary->restore_error->code},
                                        {"message", summary->restore_error->message}};

@@ -6,8 +6,9 @@
 // a queued job may also go straight to cancelled, interrupted or device_lost (its camera
 // was unplugged: see service/jobs/camera_worker.h). Transitions are conditional UPDATEs
 // (a job already finished is never overwritten), so a cancel racing a finish is safe.
-// After a crash (kill -9), the next start turns queued and running jobs into interrupted:
-// their folders stay as written (each frame file was renamed into place atomically).
+// After a crash (kill -9), the next start first recovers the unfinished jobs' folders and
+// sets their frame counts from them (service/jobs/job_recovery.h), then turns queued and
+// running jobs into interrupted.
 //
 // Thread-safe: one connection behind a mutex; every statement is short (no capture work
 // is done under it, and each is reset after use so no read stays open), so status

@@ -6,6 +6,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -62,6 +63,30 @@ Status write_file_atomically(const std::filesystem::path& path,
 Status write_file_atomically(const std::filesystem::path& path, std::string_view text) {
   return write_file_atomically(
       path, std::span(reinterpret_cast<const unsigned char*>(text.data()), text.size()));
+}
+
+bool is_atomic_write_temporary(const std::string& name) {
+  // "." + target + "." + the six characters mkstemp chose (letters and digits).
+  constexpr size_t kSuffix = 6;
+  if (name.size() < 1 + 1 + 1 + kSuffix || name[0] != '.') return false;
+  const size_t dot = name.size() - kSuffix - 1;
+  if (name[dot] != '.') return false;
+  for (size_t i = dot + 1; i < name.size(); ++i)
+    if (!std::isalnum(static_cast<unsigned char>(name[i]))) return false;
+  return true;
+}
+
+Result<std::vector<std::string>> remove_atomic_write_temporaries(const std::filesystem::path& dir) {
+  std::vector<std::string> removed;
+  std::error_code ec;
+  for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (!is_atomic_write_temporary(name) || !it->is_regular_file(ec)) continue;
+    if (::unlink(it->path().c_str()) != 0) return io_error(it->path(), "cannot remove", errno);
+    removed.push_back(name);
+  }
+  if (ec) return make_error("io_error", "cannot list " + dir.string() + ": " + ec.message());
+  return removed;
 }
 
 Result<std::string> read_text_file(const std::filesystem::path& path) {

@@ -160,7 +160,8 @@ inline constexpr std::array kErrorCodes = {
                   "The camera is not streaming; start it first."},
     ErrorCodeInfo{ErrorCode::kTimeout, "timeout", 504, "No frame arrived within the timeout."},
     ErrorCodeInfo{ErrorCode::kUnstableStream, "unstable_stream", 503,
-                  "The camera dropped or spoiled too many frames for a frame-accurate capture."},
+                  "Too many frames came unusable (flagged, spoiled) or could not be kept (a full "
+                  "frame writer) for a frame-accurate capture; the message says whose."},
     ErrorCodeInfo{ErrorCode::kInconclusive, "inconclusive", 422,
                   "A probe could not decide (e.g. the control-latency probe saw no change)."},
     ErrorCodeInfo{ErrorCode::kIoError, "io_error", 500,
@@ -169,7 +170,8 @@ inline constexpr std::array kErrorCodes = {
     ErrorCodeInfo{ErrorCode::kNotACapture, "not_a_capture", 422,
                   "The folder is not a capture folder (it has no manifest.json)."},
     ErrorCodeInfo{ErrorCode::kBadManifest, "bad_manifest", 422,
-                  "A capture folder's manifest.json is malformed."},
+                  "A capture folder's manifest.json is malformed, or its frames journal is "
+                  "missing or lists fewer frames than a complete manifest says."},
     ErrorCodeInfo{ErrorCode::kBadSidecar, "bad_sidecar", 422,
                   "A frame's JSON sidecar is malformed."},
     ErrorCodeInfo{ErrorCode::kUnsupportedVersion, "unsupported_version", 422,

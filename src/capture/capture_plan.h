@@ -42,8 +42,10 @@ namespace camlab::capture {
 
 // Bounds on what one request may ask (docs/architecture.md: everything from outside is bounded).
 inline constexpr int kMaxStepsPerPlan = 1000;
-inline constexpr int kMaxRepeats = 100;
 inline constexpr int kMaxFramesPerPlan = 5000;
+// A single capture of one setting may take as many frames as any plan (long series for
+// temporal noise or flicker); frames per request bound it either way.
+inline constexpr int kMaxRepeats = kMaxFramesPerPlan;
 inline constexpr int kMaxFixedControls = 32;
 
 // What a camera's raw values mean physically, when known: the virtual camera's come from

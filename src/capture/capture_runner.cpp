@@ -7,6 +7,7 @@
 #include <set>
 
 #include "capture/control_keeper.h"
+#include "capture/drop_attribution.h"
 #include "capture/frame_convert.h"
 #include "capture/frame_report.h"
 #include "capture/frame_writer.h"
@@ -17,8 +18,6 @@ namespace camlab::capture {
 
 namespace {
 
-// Frames the writer may hold before the frame loop waits for the disk.
-constexpr size_t kMaxFramesQueuedForDisk = 8;
 // A wait for a frame is cut into slices this long, so that a cancel (a user's, a shutdown,
 // or the camera found unplugged by the daemon's rescan) is seen within one slice even when
 // the camera has stopped delivering.
@@ -58,7 +57,8 @@ class Runner {
         plan_(plan),
         options_(options),
         observer_(observer),
-        tracker_(latency_range(camera, options).first, latency_range(camera, options).second) {}
+        tracker_(latency_range(camera, options).first, latency_range(camera, options).second),
+        drops_(options.buffer_count) {}
 
   Result<CaptureSummary> run(const std::filesystem::path& folder);
 
@@ -93,6 +93,7 @@ class Runner {
   // The next frame within options_.frame_timeout; on a cancel meanwhile, an error with
   // summary_.cancelled set.
   Result<device::Frame> dequeue_or_cancel();
+  std::string unstable_stream_message(int delivered) const;
   void finish(const std::chrono::steady_clock::time_point& started);
 
   device::Camera& camera_;
@@ -100,6 +101,7 @@ class Runner {
   const CaptureOptions& options_;
   CaptureObserver* observer_;
   SettleTracker tracker_;
+  DropAttribution drops_;
   std::optional<ControlKeeper> keeper_;
   std::optional<FrameWriter> writer_;
   device::StreamFormat format_;
@@ -109,7 +111,6 @@ class Runner {
   size_t oldest_open_ = 0;
   int kept_total_ = 0;
   int written_total_ = 0;
-  std::optional<uint64_t> last_sequence_;
   int not_kept_since_last_ = 0;  // discarded + dropped since the last kept frame
   bool streaming_ = false;
   std::optional<int> deferred_buffers_;  // a change waiting for its request (libcamera)
@@ -188,14 +189,16 @@ Status Runner::write_next_when_secured(uint64_t last_sequence) {
 
 Status Runner::process(const device::Frame& frame) {
   const uint64_t sequence = frame.meta.sequence;
-  if (last_sequence_ && sequence > *last_sequence_ + 1) {
-    const int dropped =
-        static_cast<int>(std::min<uint64_t>(sequence - *last_sequence_ - 1, 1u << 20));
-    summary_.frames_dropped += dropped;
-    not_kept_since_last_ += dropped;
-  }
-  last_sequence_ = sequence;
-  int index = tracker_.on_frame(sequence, frame.meta.timestamp_ns, frame.meta.clock == "monotonic");
+  const bool monotonic = frame.meta.clock == "monotonic";
+  const double interval_s = format_.interval.seconds();
+  const DropAttribution::Skipped skipped =
+      drops_.on_frame(sequence, frame.meta.timestamp_ns, monotonic, frame.buffer_index,
+                      interval_s > 0 ? static_cast<int64_t>(interval_s * 1e9) : 0);
+  summary_.frames_dropped_by_device += skipped.by_device;
+  summary_.frames_dropped_by_camlab += skipped.by_camlab;
+  summary_.frames_dropped += skipped.by_device + skipped.by_camlab;
+  not_kept_since_last_ += skipped.by_device + skipped.by_camlab;
+  int index = tracker_.on_frame(sequence, frame.meta.timestamp_ns, monotonic);
   // The frame's own report of its settings, where the camera gives one, overrules the
   // latency rule: it is what the sensor used.
   const std::optional<int> reported = change_by_report(frame);
@@ -204,8 +207,17 @@ Status Runner::process(const device::Frame& frame) {
   bool keep =
       index >= 0 && !frame.meta.error && check_frame(frame, format_).ok() &&
       changes_[static_cast<size_t>(index)].kept < changes_[static_cast<size_t>(index)].want.count;
+  // A frame the writer has no room for is not kept (the step is taken again): waiting for
+  // the disk here would leave the driver without buffers and lose frames anyway, later.
+  const bool refused = keep && !writer_->has_room();
   int repeat = 0;
-  if (keep) {
+  if (refused) {
+    keep = false;
+    ++summary_.frames_refused_by_writer;
+    ++summary_.frames_dropped_by_camlab;
+    ++summary_.frames_dropped;
+    ++not_kept_since_last_;
+  } else if (keep) {
     Change& change = changes_[static_cast<size_t>(index)];
     repeat = change.want.first_repeat + change.kept++;
     ++kept_total_;
@@ -224,12 +236,14 @@ Status Runner::process(const device::Frame& frame) {
         convert_frame(frame, format_, plan_.traits.sensor_bit_depth, plan_.traits.black_level_dn);
     if (!c) {  // cannot happen after check_frame; never write a wrong frame
       (void)camera_.requeue(frame);
+      drops_.on_requeue(monotonic_ns());
       register_deferred_change();
       return c.error();
     }
     converted = std::move(*c);
   }
   Status requeued = camera_.requeue(frame);
+  drops_.on_requeue(monotonic_ns());
   register_deferred_change();
   if (keep) {
     const Change& change = changes_[static_cast<size_t>(index)];
@@ -279,6 +293,21 @@ Result<device::Frame> Runner::dequeue_or_cancel() {
       return make_error("timeout", camera_.identity().path + ": no frame within " +
                                        std::to_string(options_.frame_timeout.count()) + " ms");
   }
+}
+
+std::string Runner::unstable_stream_message(int delivered) const {
+  const CaptureSummary& s = summary_;
+  std::string text = std::to_string(delivered) + " frames delivered for " +
+                     std::to_string(kept_total_) + " kept: ";
+  const std::string counts =
+      " (" + std::to_string(s.frames_discarded) + " discarded, " +
+      std::to_string(s.frames_refused_by_writer) + " refused by a full frame writer; besides, " +
+      std::to_string(s.frames_dropped_by_device) + " dropped by the camera and " +
+      std::to_string(s.frames_dropped_by_camlab - s.frames_refused_by_writer) +
+      " lost while camlab held every buffer)";
+  if (s.frames_refused_by_writer > s.frames_discarded)
+    return text + "camlab could not keep up with the camera: the disk was slower" + counts;
+  return text + "the camera flags or sends too many unusable frames" + counts;
 }
 
 void Runner::report_written() {
@@ -342,10 +371,10 @@ Result<CaptureSummary> Runner::run(const std::filesystem::path& folder) {
   if (!keeper) return keeper.error();
   keeper_ = std::move(*keeper);
 
-  auto created =
-      image::CaptureFolderWriter::create(folder, plan_.kind, options_.source, plan_.request);
+  auto created = image::CaptureFolderWriter::create(folder, plan_.kind, options_.source,
+                                                    plan_.request, options_.commit_policy);
   if (!created) return created.error();
-  writer_.emplace(std::move(*created), kMaxFramesQueuedForDisk);
+  writer_.emplace(std::move(*created), options_.writer_limits);
 
   for (int i = 0; i < static_cast<int>(plan_.steps.size()); ++i)
     to_write_.push_back({i, 0, plan_.repeats});
@@ -356,7 +385,10 @@ Result<CaptureSummary> Runner::run(const std::filesystem::path& folder) {
     return s.error();
   }
 
-  // Dropped or flagged frames are taken again, but not forever.
+  // Frames lost or unusable are taken again, but not forever. The budget counts frames
+  // delivered and not kept (flagged, unusable, settling, refused by the writer): frames
+  // the camera skipped cost time, not work, and a camera slower than its frame interval
+  // still finishes (the frame timeout ends a run when frames stop coming).
   const int budget =
       2 * (plan_.total_frames() + (static_cast<int>(plan_.steps.size()) + 1) *
                                       (tracker_.latency_max_frames() +
@@ -367,12 +399,10 @@ Result<CaptureSummary> Runner::run(const std::filesystem::path& folder) {
       summary_.cancelled = true;
       break;
     }
-    const int consumed = kept_total_ + summary_.frames_discarded + summary_.frames_dropped;
-    if (consumed > budget) {
-      summary_.failure =
-          make_error("unstable_stream", std::to_string(consumed) + " frames consumed for " +
-                                            std::to_string(kept_total_) +
-                                            " kept: the camera drops or flags too many frames");
+    const int delivered =
+        kept_total_ + summary_.frames_discarded + summary_.frames_refused_by_writer;
+    if (delivered > budget) {
+      summary_.failure = make_error("unstable_stream", unstable_stream_message(delivered));
       break;
     }
     auto frame = dequeue_or_cancel();
@@ -403,6 +433,7 @@ void Runner::finish(const std::chrono::steady_clock::time_point& started) {
     summary_.failure = closed.error();
   report_written();
   summary_.frames_kept = written_total_;
+  summary_.writer = writer_->stats();
   summary_.frames_consumed = kept_total_ + summary_.frames_discarded + summary_.frames_dropped;
   summary_.wall_seconds = seconds_since(started);
 }

@@ -21,6 +21,12 @@
 // camera and most sensor drivers give); with a non-monotonic clock the runner falls back
 // to a bound from the number of buffers (slower, still safe).
 //
+// Frames are lost two ways, reported apart: the device skips sequence numbers (a sensor
+// that cannot keep up, a dropped frame on the bus), or camlab falls behind: the driver
+// skips frames while camlab holds all its buffers (capture/drop_attribution.h has the
+// rule), or the frame writer's queue is full (a disk slower than the camera) and a frame
+// that would have been kept is not. Either way the step is taken again.
+//
 // Controls the plan changed (and the auto modes a manual value switches off) are restored
 // afterwards, on success, failure and cancel. A camera that fails mid-plan (unplugged,
 // I/O error, timeout) ends the run with that error, and the frames already written stay
@@ -39,6 +45,7 @@
 
 #include "base/result.h"
 #include "capture/capture_plan.h"
+#include "capture/frame_writer.h"
 #include "device/camera.h"
 #include "image/capture_folder.h"
 
@@ -53,7 +60,8 @@ struct CaptureProgress {
 class CaptureObserver {
  public:
   virtual ~CaptureObserver() = default;
-  // After each frame is written (image + sidecar on disk).
+  // After each frame is listed in the folder's journal (image and sidecar synced to disk):
+  // in batches, as the frame writer commits them (capture/frame_writer.h).
   virtual void on_frame(const image::CaptureFrameEntry& entry, const image::FrameSidecar& sidecar,
                         const CaptureProgress& progress) = 0;
 };
@@ -66,20 +74,27 @@ struct CaptureOptions {
   std::chrono::milliseconds frame_timeout{2000};
   const std::atomic<bool>* cancel = nullptr;         // checked between frames; may be null
   nlohmann::json source = nlohmann::json::object();  // camera description for the manifest
+  FrameWriter::Limits writer_limits;                 // frames waiting for the disk, in memory
+  image::CommitPolicy commit_policy;                 // how often frames are synced and listed
 };
 
 struct CaptureSummary {
   int frames_kept = 0;
   int frames_discarded = 0;  // dequeued but not kept (settling, surplus, flagged by the driver)
-  int frames_dropped = 0;    // sequence numbers the device skipped
-  int frames_consumed = 0;   // kept + discarded + dropped by the device
-  int frames_minimum = 0;    // what a perfect run takes: total frames + latency
-  int steps_retaken = 0;     // steps written again because frames were lost
+  int frames_dropped = 0;    // lost: by the device + by camlab
+  int frames_dropped_by_device = 0;  // sequence numbers skipped while the driver had a buffer
+  int frames_dropped_by_camlab = 0;  // skipped while camlab held every buffer, or not kept
+                                     // because the frame writer had no room
+  int frames_refused_by_writer = 0;  // of those, the frames the writer had no room for
+  int frames_consumed = 0;           // kept + discarded + dropped
+  int frames_minimum = 0;            // what a perfect run takes: total frames + latency
+  int steps_retaken = 0;             // steps written again because frames were lost
   double wall_seconds = 0;
   bool cancelled = false;
   std::optional<Error> failure;        // set when the camera failed mid-plan (frames kept stay)
   std::optional<Error> restore_error;  // a control could not be put back (frames are fine)
   std::filesystem::path folder;
+  FrameWriter::Stats writer;  // how deep the writer's queue got, and its commits
 };
 
 // Creates `folder` (must not exist, or be empty) and runs `plan`. Returns an error only

@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "base/atomic_file.h"
+#include "image/frame_journal.h"
 #include "image/jpeg_codec.h"
 
 namespace camlab::image {
@@ -18,27 +19,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-std::string utc_now_iso8601() {
-  std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm utc{};
-  gmtime_r(&now, &utc);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
-  return text;
-}
-
-std::string frame_stem(int index) {
-  char stem[32];
-  std::snprintf(stem, sizeof stem, "frame_%06d", index);
-  return stem;
-}
-
-// A name from a manifest must stay inside the folder: no separators, no "..".
-bool is_plain_file_name(const std::string& name) {
-  return !name.empty() && name.find('/') == std::string::npos && name != "." && name != ".." &&
-         name.find('\0') == std::string::npos;
-}
-
 std::optional<FrameLayout> layout_named(const std::string& name) {
   for (FrameLayout layout : {FrameLayout::kMono, FrameLayout::kMosaic, FrameLayout::kRgb})
     if (name_of(layout) == name) return layout;
@@ -46,6 +26,11 @@ std::optional<FrameLayout> layout_named(const std::string& name) {
 }
 
 }  // namespace
+
+bool is_plain_file_name(const std::string& name) {
+  return !name.empty() && name.find('/') == std::string::npos && name != "." && name != ".." &&
+         name.find('\0') == std::string::npos;
+}
 
 std::string_view name_of(FrameLayout layout) {
   switch (layout) {
@@ -146,106 +131,6 @@ Result<FrameSidecar> frame_sidecar_from_json(const nlohmann::json& json) {
   return sidecar;
 }
 
-Result<CaptureFolderWriter> CaptureFolderWriter::create(const fs::path& dir,
-                                                        const std::string& kind,
-                                                        const nlohmann::json& source,
-                                                        const nlohmann::json& parameters) {
-  std::error_code ec;
-  if (fs::exists(dir, ec) && !fs::is_empty(dir, ec))
-    return make_error("exists", "output folder " + dir.string() +
-                                    " already exists and is not empty; choose another, or "
-                                    "remove it first (nothing was overwritten)");
-  fs::create_directories(dir, ec);
-  if (ec)
-    return make_error("io_error", "cannot create folder " + dir.string() + ": " + ec.message());
-
-  CaptureFolderWriter writer;
-  writer.dir_ = dir;
-  writer.manifest_ = {
-      {"format", kCaptureFormatName},
-      {"version", kCaptureFormatVersion},
-      {"kind", kind},
-      {"created_utc", utc_now_iso8601()},
-      {"source", source},
-      {"parameters", parameters},
-  };
-  if (Status status = writer.write_manifest(false); !status) return status.error();
-  return writer;
-}
-
-Result<CaptureFrameEntry> CaptureFolderWriter::add_frame(const cv::Mat& image,
-                                                         const FrameSidecar& sidecar) {
-  const int expected_depth = sidecar.bit_depth <= 8 ? CV_8U : CV_16U;
-  const int expected_channels = sidecar.layout == FrameLayout::kRgb ? 3 : 1;
-  if (image.empty() || image.channels() != expected_channels || image.depth() != expected_depth)
-    return make_error("bad_frame",
-                      "a " + std::string(name_of(sidecar.layout)) + " frame must be a " +
-                          std::to_string(expected_channels) + "-channel " +
-                          std::string(expected_depth == CV_8U ? "8" : "16") +
-                          "-bit image for bit depth " + std::to_string(sidecar.bit_depth));
-  std::vector<unsigned char> png;
-  // Level 1: frames are written on the capture path; bigger levels cost 3-5x the time
-  // for a few percent of size on noisy sensor data.
-  if (!cv::imencode(".png", image, png, {cv::IMWRITE_PNG_COMPRESSION, 1}))
-    return make_error("io_error", "PNG encoding failed for frame " + frame_stem(frame_count()));
-  return write_frame(png, ".png", sidecar, image.cols, image.rows);
-}
-
-Result<CaptureFrameEntry> CaptureFolderWriter::add_jpeg_frame(std::span<const uint8_t> jpeg,
-                                                              const FrameSidecar& sidecar) {
-  if (sidecar.layout != FrameLayout::kRgb || sidecar.linear)
-    return make_error("invalid_argument",
-                      "a JPEG frame's sidecar must say layout rgb, linear false");
-  auto header = read_jpeg_header(jpeg);
-  if (!header) return make_error("bad_frame", header.error().message);
-  return write_frame(jpeg, ".jpg", sidecar, header->width, header->height);
-}
-
-Result<CaptureFrameEntry> CaptureFolderWriter::write_frame(std::span<const uint8_t> encoded,
-                                                           const char* extension,
-                                                           const FrameSidecar& sidecar, int width,
-                                                           int height) {
-  CaptureFrameEntry entry;
-  entry.index = frame_count();
-  const std::string stem = frame_stem(entry.index);
-  entry.image_file = stem + extension;
-  entry.sidecar_file = stem + ".json";
-  if (Status s = write_file_atomically(dir_ / entry.image_file, encoded); !s) return s.error();
-
-  nlohmann::json sidecar_json = to_json(sidecar);
-  sidecar_json["index"] = entry.index;
-  sidecar_json["image"] = entry.image_file;
-  sidecar_json["width"] = width;
-  sidecar_json["height"] = height;
-  if (Status s = write_file_atomically(dir_ / entry.sidecar_file, sidecar_json.dump(2) + "\n"); !s)
-    return s.error();
-
-  frames_.push_back(entry);
-  if (Status s = write_manifest(false); !s) return s.error();
-  return entry;
-}
-
-Status CaptureFolderWriter::add_file(const std::string& name, std::string_view text) {
-  if (!is_plain_file_name(name) || name == "manifest.json")
-    return make_error("invalid_argument", "file name '" + name + "' is not allowed");
-  if (Status s = write_file_atomically(dir_ / name, text); !s) return s;
-  extra_files_.push_back(name);
-  return write_manifest(false);
-}
-
-Status CaptureFolderWriter::finish() { return write_manifest(true); }
-
-Status CaptureFolderWriter::write_manifest(bool complete) {
-  nlohmann::json frames = nlohmann::json::array();
-  for (const auto& f : frames_)
-    frames.push_back({{"index", f.index}, {"image", f.image_file}, {"sidecar", f.sidecar_file}});
-  manifest_["frame_count"] = frames_.size();
-  manifest_["frames"] = std::move(frames);
-  manifest_["files"] = extra_files_;
-  manifest_["complete"] = complete;
-  return write_file_atomically(dir_ / "manifest.json", manifest_.dump(2) + "\n");
-}
-
 Result<CaptureFolder> CaptureFolder::open(const fs::path& dir) {
   auto text = read_text_file(dir / "manifest.json");
   if (!text)
@@ -253,25 +138,48 @@ Result<CaptureFolder> CaptureFolder::open(const fs::path& dir) {
                       dir.string() + " is not a capture folder (" + text.error().message + ")");
   CaptureFolder folder;
   folder.dir_ = dir;
+  const std::string manifest_path = (dir / "manifest.json").string();
   try {
     folder.manifest_ = nlohmann::json::parse(*text);
     if (folder.manifest_.value("format", "") != kCaptureFormatName)
-      return make_error("not_a_capture", (dir / "manifest.json").string() +
-                                             " does not say format \"camlab-capture\"");
+      return make_error("not_a_capture", manifest_path + " does not say format \"camlab-capture\"");
     const int version = folder.manifest_.value("version", 0);
     if (version < 1 || version > kCaptureFormatVersion)
       return make_error("unsupported_version", "capture format version " + std::to_string(version) +
                                                    " is not supported (this camlab reads 1.." +
                                                    std::to_string(kCaptureFormatVersion) + ")");
-    for (const auto& f : folder.manifest_.at("frames")) {
-      CaptureFrameEntry entry{f.at("index").get<int>(), f.at("image").get<std::string>(),
-                              f.at("sidecar").get<std::string>()};
-      if (!is_plain_file_name(entry.image_file) || !is_plain_file_name(entry.sidecar_file))
-        return make_error("bad_manifest", "manifest names a frame file outside the folder");
-      folder.frames_.push_back(entry);
+    if (version <= 2) {
+      for (const auto& f : folder.manifest_.at("frames")) {
+        CaptureFrameEntry entry{f.at("index").get<int>(), f.at("image").get<std::string>(),
+                                f.at("sidecar").get<std::string>()};
+        if (!is_plain_file_name(entry.image_file) || !is_plain_file_name(entry.sidecar_file))
+          return make_error("bad_manifest", "manifest names a frame file outside the folder");
+        folder.frames_.push_back(entry);
+      }
+      return folder;
     }
   } catch (const nlohmann::json::exception& e) {
-    return make_error("bad_manifest", (dir / "manifest.json").string() + ": " + e.what());
+    return make_error("bad_manifest", manifest_path + ": " + e.what());
+  }
+  // Version 3: the frames are the journal's complete lines.
+  auto journal_text = read_text_file(dir / kFrameJournalName);
+  if (!journal_text)
+    return make_error("bad_manifest", (dir / kFrameJournalName).string() +
+                                          " is missing: a version 3 folder lists its frames "
+                                          "there (" +
+                                          journal_text.error().message + ")");
+  JournalContents journal = parse_frame_journal(*journal_text);
+  for (auto& entry : journal.entries) folder.frames_.push_back(std::move(entry.frame));
+  folder.journal_problem_ = std::move(journal.problem);
+  if (folder.complete()) {
+    const nlohmann::json count = folder.manifest_.value("frame_count", nlohmann::json());
+    if (!journal.problem.empty() || !count.is_number_integer() ||
+        count.get<int64_t>() != static_cast<int64_t>(folder.frames_.size()))
+      return make_error("bad_manifest",
+                        manifest_path + " says the capture is complete with frame_count " +
+                            count.dump() + ", but " + kFrameJournalName + " lists " +
+                            std::to_string(folder.frames_.size()) + " frames" +
+                            (journal.problem.empty() ? "" : " (" + journal.problem + ")"));
   }
   return folder;
 }

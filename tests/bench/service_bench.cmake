@@ -16,3 +16,11 @@ target_link_libraries(hotplug_bench PRIVATE nlohmann_json::nlohmann_json opencv_
 target_compile_definitions(hotplug_bench PRIVATE CAMLABD_PATH="$<TARGET_FILE:camlabd>"
                                                  CAMLAB_CLI_PATH="$<TARGET_FILE:camlab_cli>")
 add_dependencies(hotplug_bench camlabd camlab_cli camlab_vcam_preload)
+# sensor_rate_bench: 300-frame single captures and brackets through camlabd at 30 frames/s:
+# frames kept, consumed against N + latency, dropped by the device and by camlabd.
+add_executable(sensor_rate_bench ${CMAKE_CURRENT_SOURCE_DIR}/sensor_rate_bench.cpp)
+target_include_directories(sensor_rate_bench PRIVATE ${PROJECT_SOURCE_DIR}/tests/integration/service)
+target_link_libraries(sensor_rate_bench PRIVATE nlohmann_json::nlohmann_json Threads::Threads)
+target_compile_definitions(sensor_rate_bench PRIVATE CAMLABD_PATH="$<TARGET_FILE:camlabd>"
+                                                     CAMLAB_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+add_dependencies(sensor_rate_bench camlabd)

@@ -78,6 +78,7 @@ TEST_F(CaptureFolderTest, EightBitFramesAreEightBitPngs) {
   ASSERT_TRUE(writer->add_frame(frame, sidecar(8, 0)).ok());
   // A 16-bit image for an 8-bit sidecar is a caller bug caught as an error, not a crash.
   EXPECT_FALSE(writer->add_frame(cv::Mat(10, 10, CV_16UC1), sidecar(8, 1)).ok());
+  ASSERT_TRUE(writer->commit().ok()) << "a refused frame does not stop the writer";
   auto folder = CaptureFolder::open(dir);
   ASSERT_TRUE(folder.ok());
   EXPECT_EQ(folder->load_image(0)->type(), CV_8UC1);
@@ -180,7 +181,7 @@ TEST_F(CaptureFolderTest, MosaicRgbAndJpegFramesRoundTripWithTheirKeys) {
 
   auto folder = CaptureFolder::open(dir);
   ASSERT_TRUE(folder.ok()) << folder.error().message;
-  EXPECT_EQ(folder->manifest()["version"], 2);
+  EXPECT_EQ(folder->manifest()["version"], 3);
   EXPECT_EQ(folder->frames()[2].image_file, "frame_000002.jpg");
   // The JPEG is on disk byte for byte as delivered.
   std::ifstream in(dir / "frame_000002.jpg", std::ios::binary);
