@@ -7,13 +7,16 @@
 namespace camlab::mock {
 
 v4l2_fract frame_interval_fraction(double interval_us) {
+  // Specs (and UVC descriptors) give intervals in whole microseconds, so 1/30 s comes as
+  // 33333 us: an interval within half a microsecond of a whole rate's, or of an NTSC
+  // rate's, is that rate.
   const double fps = 1e6 / interval_us;
-  // Within 1e-5 of a whole rate (33333.3 us is 30.0000 fps) or of one over 1.001.
-  if (std::fabs(fps - std::round(fps)) < 1e-5 * fps && std::round(fps) >= 1)
-    return {1, static_cast<uint32_t>(std::round(fps))};
-  const double ntsc = fps * 1.001;
-  if (std::fabs(ntsc - std::round(ntsc)) < 1e-5 * ntsc && std::round(ntsc) >= 1)
-    return {1001, static_cast<uint32_t>(std::round(ntsc)) * 1000};
+  const double whole = std::round(fps);
+  if (whole >= 1 && std::fabs(interval_us - 1e6 / whole) <= 0.5)
+    return {1, static_cast<uint32_t>(whole)};
+  const double ntsc = std::round(fps * 1.001);
+  if (ntsc >= 1 && std::fabs(interval_us - 1.001e6 / ntsc) <= 0.5)
+    return {1001, static_cast<uint32_t>(ntsc) * 1000};
   const auto us = static_cast<uint32_t>(std::max(1L, std::lround(interval_us)));
   const uint32_t divisor = std::gcd(us, 1000000u);
   return {us / divisor, 1000000u / divisor};

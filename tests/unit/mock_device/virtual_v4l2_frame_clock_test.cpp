@@ -28,6 +28,9 @@ TEST(VirtualV4l2FrameClock, TimePerFrameIsTheSensorsIntervalOrTwiceIt) {
 
 TEST(VirtualV4l2FrameClock, IntervalsAreTheFractionsDriversReport) {
   EXPECT_TRUE(same(frame_interval_fraction(33333.3), {1, 30}));
+  EXPECT_TRUE(same(frame_interval_fraction(33333), {1, 30})) << "whole microseconds, as specs give";
+  EXPECT_TRUE(same(frame_interval_fraction(16667), {1, 60}));
+  EXPECT_TRUE(same(frame_interval_fraction(33367), {1001, 30000})) << "29.97 fps in whole us";
   EXPECT_TRUE(same(frame_interval_fraction(16666.7), {1, 60}));
   EXPECT_TRUE(same(frame_interval_fraction(40000), {1, 25}));
   EXPECT_TRUE(same(frame_interval_fraction(1e6), {1, 1}));
