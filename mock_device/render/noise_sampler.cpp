@@ -1,0 +1,208 @@
+#include "mock_device/render/noise_sampler.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+
+namespace camlab::mock::noise {
+
+namespace {
+
+// The unnormalised normal density; the ziggurat only needs ratios of it.
+double density(double x) { return std::exp(-0.5 * x * x); }
+
+// The ziggurat: kLayers regions of equal area v under the density on x >= 0. Layer 0 is
+// the rectangle [0, r] x [0, f(r)] plus the tail beyond r, drawn as one rectangle of
+// width v / f(r); layer j >= 1 is [0, e(j-1)] x [f(e(j-1)), f(e(j))] with e(0) = r, each
+// edge solved from the one below so the areas are equal, and e(kLayers - 1) = 0 (the
+// peak). A uniform abscissa in a layer inside its inner edge is under the density and
+// accepted at once; the rest (the wedges, the tail) are tested exactly.
+constexpr int kLayers = 128;
+
+struct Ziggurat {
+  double r = 0;
+  std::array<double, kLayers> outer{};        // the layer's width
+  std::array<double, kLayers> inner_ratio{};  // its inner edge over its width
+  std::array<double, kLayers> f_outer{};      // the density at its width (its bottom)
+  std::array<double, kLayers> f_inner{};      // the density at its inner edge (its top)
+};
+
+double area_of_layers(double r) {
+  return r * density(r) + std::sqrt(std::numbers::pi / 2) * std::erfc(r / std::numbers::sqrt2);
+}
+
+// How far the stack of layers built from `r` misses the peak: the top layer's area minus
+// v, over its width; +1 when the layers reach the peak before the last one.
+double closure(double r) {
+  const double v = area_of_layers(r);
+  double e = r;
+  for (int j = 1; j < kLayers - 1; ++j) {
+    const double y = density(e) + v / e;
+    if (y >= 1) return 1;
+    e = std::sqrt(-2 * std::log(y));
+  }
+  return density(e) + v / e - 1;
+}
+
+Ziggurat build_ziggurat() {
+  // closure() falls through 0 once as r grows (r = 3.4426 for 128 layers): bisect it to
+  // double precision rather than trust a printed constant.
+  double lo = 3.0, hi = 4.0;
+  for (int i = 0; i < 200 && lo < hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    if (mid == lo || mid == hi) break;
+    (closure(mid) > 0 ? lo : hi) = mid;
+  }
+  Ziggurat z;
+  z.r = hi;
+  const double v = area_of_layers(z.r);
+  std::array<double, kLayers> edge{};  // e(0) = r ... e(kLayers - 1) = 0
+  edge[0] = z.r;
+  for (int j = 1; j < kLayers - 1; ++j)
+    edge[j] = std::sqrt(-2 * std::log(density(edge[j - 1]) + v / edge[j - 1]));
+  edge[kLayers - 1] = 0;
+  z.outer[0] = v / density(z.r);
+  z.inner_ratio[0] = z.r / z.outer[0];
+  z.f_outer[0] = z.f_inner[0] = density(z.r);
+  for (int j = 1; j < kLayers; ++j) {
+    z.outer[j] = edge[j - 1];
+    z.inner_ratio[j] = edge[j] / edge[j - 1];
+    z.f_outer[j] = density(edge[j - 1]);
+    z.f_inner[j] = density(edge[j]);
+  }
+  return z;
+}
+
+const Ziggurat& ziggurat() {
+  static const Ziggurat z = build_ziggurat();
+  return z;
+}
+
+constexpr int kLogFactorialTable = 64;
+
+const std::array<double, kLogFactorialTable>& log_factorial_table() {
+  static const std::array<double, kLogFactorialTable> table = [] {
+    std::array<double, kLogFactorialTable> t{};
+    for (int k = 1; k < kLogFactorialTable; ++k) t[k] = t[k - 1] + std::log(static_cast<double>(k));
+    return t;
+  }();
+  return table;
+}
+
+// Inversion walks the CDF from 0; means below 10 pass any uniform within a few dozen
+// steps. The bound only stops a uniform that rounding left above the CDF's last value.
+constexpr int kInversionSteps = 200;
+
+const std::array<double, kInversionSteps + 1>& reciprocals() {
+  static const std::array<double, kInversionSteps + 1> table = [] {
+    std::array<double, kInversionSteps + 1> t{};
+    for (int k = 1; k <= kInversionSteps; ++k) t[k] = 1.0 / k;
+    return t;
+  }();
+  return table;
+}
+
+int64_t poisson_by_inversion(double mean, uint64_t key, uint64_t first) {
+  const auto& inverse = reciprocals();
+  const double u = uniform(key, first);
+  double p = std::exp(-mean);
+  double cdf = p;
+  int k = 0;
+  while (u > cdf && k < kInversionSteps) {
+    ++k;
+    p *= mean * inverse[k];
+    cdf += p;
+  }
+  return k;
+}
+
+// PTRS (W. Hormann, "The transformed rejection method for generating Poisson random
+// variables", Insurance: Mathematics and Economics 12, 1993): a hat from a transformed
+// uniform, a squeeze that accepts most draws without a logarithm, and the exact test
+// against log f(k) for the rest.
+int64_t poisson_by_ptrs(double mean, uint64_t key, uint64_t first) {
+  const double sqrt_mean = std::sqrt(mean);
+  const double b = 0.931 + 2.53 * sqrt_mean;
+  const double a = -0.059 + 0.02483 * b;
+  const double v_r = 0.9277 - 3.6224 / (b - 2);
+  double log_mean = 0, log_inv_alpha = 0;  // only the exact test needs them
+  bool logs_ready = false;
+  const uint64_t last = first + kPoissonDraws - 2;  // the fallback's two
+  for (uint64_t c = first; c < last; c += 2) {
+    const double u = uniform(key, c) - 0.5;
+    const double v = uniform(key, c + 1);
+    const double us = 0.5 - std::fabs(u);
+    const double k = std::floor((2 * a / us + b) * u + mean + 0.43);
+    if (us >= 0.07 && v <= v_r) return static_cast<int64_t>(k);  // the squeeze
+    if (k < 0 || (us < 0.013 && v > us)) continue;
+    if (!logs_ready) {
+      log_mean = std::log(mean);
+      log_inv_alpha = std::log(1.1239 + 1.1328 / (b - 3.4));
+      logs_ready = true;
+    }
+    if (std::log(v) + log_inv_alpha - std::log(a / (us * us) + b) <=
+        -mean + k * log_mean - log_factorial(static_cast<int64_t>(k)))
+      return static_cast<int64_t>(k);
+  }
+  // Every attempt rejected: the normal approximation with continuity correction.
+  const double z = std::sqrt(-2.0 * std::log(uniform(key, last))) *
+                   std::cos(2.0 * std::numbers::pi * uniform(key, last + 1));
+  return std::max<int64_t>(0, static_cast<int64_t>(std::floor(mean + sqrt_mean * z + 0.5)));
+}
+
+}  // namespace
+
+double standard_normal(uint64_t key, uint64_t index) {
+  const Ziggurat& z = ziggurat();
+  const uint64_t first = index * kNormalDraws;
+  const uint64_t last = first + kNormalDraws - 2;  // the fallback's two
+  uint64_t c = first;
+  while (c < last) {
+    // One hash: 7 bits choose the layer, 1 the sign, the top 53 the abscissa.
+    const uint64_t bits = hash(key, c++);
+    const int layer = static_cast<int>(bits & (kLayers - 1));
+    const double sign = (bits & kLayers) ? -1.0 : 1.0;
+    const double u = static_cast<double>(bits >> 11) * 0x1.0p-53;  // [0, 1)
+    const double x = u * z.outer[layer];
+    if (u < z.inner_ratio[layer]) return sign * x;
+    if (layer == 0) {
+      // Beyond r: the tail, by Marsaglia's (1964) exponential rejection, repeated until
+      // accepted (starting over with a new layer would thin the tail).
+      while (c + 1 < last) {
+        const double t = -std::log(uniform(key, c)) / z.r;
+        const double s = -std::log(uniform(key, c + 1));
+        c += 2;
+        if (2 * s > t * t) return sign * (z.r + t);
+      }
+      break;
+    }
+    if (c >= last) break;
+    // A wedge: under the density with the probability its height there gives.
+    const double y = z.f_outer[layer] + uniform(key, c++) * (z.f_inner[layer] - z.f_outer[layer]);
+    if (y < density(x)) return sign * x;
+  }
+  // Box-Muller on the last two counters: exact, and independent of the attempts.
+  return std::sqrt(-2.0 * std::log(uniform(key, last))) *
+         std::cos(2.0 * std::numbers::pi * uniform(key, last + 1));
+}
+
+int64_t poisson(double mean, uint64_t key, uint64_t index) {
+  if (!(mean > 0)) return 0;
+  const uint64_t first = index * kPoissonDraws;
+  return mean < kPoissonInversionMaxMean ? poisson_by_inversion(mean, key, first)
+                                         : poisson_by_ptrs(mean, key, first);
+}
+
+double log_factorial(int64_t k) {
+  if (k < kLogFactorialTable)
+    return log_factorial_table()[static_cast<size_t>(std::max<int64_t>(k, 0))];
+  // Stirling's series for log Gamma(x), x = k + 1 >= 65; the next term, 1/(1188 x^9), is
+  // below 1e-19.
+  const double x = static_cast<double>(k) + 1.0;
+  const double x2 = x * x;
+  return (x - 0.5) * std::log(x) - x + 0.5 * std::log(2 * std::numbers::pi) +
+         (1.0 / 12 - (1.0 / 360 - (1.0 / 1260 - 1.0 / (1680 * x2)) / x2) / x2) / x;
+}
+
+}  // namespace camlab::mock::noise
