@@ -117,6 +117,14 @@ int64_t poisson_by_inversion(double mean, uint64_t key, uint64_t first) {
   return k;
 }
 
+// floor() without the library call (x86-64's baseline has no rounding instruction).
+// Beyond +-2^62 (a hat abscissa for a vanishing us, always rejected) it saturates.
+double floor_of(double x) {
+  if (!(x > -0x1p62 && x < 0x1p62)) return x < 0 ? -0x1p62 : 0x1p62;
+  const double t = static_cast<double>(static_cast<int64_t>(x));
+  return t > x ? t - 1 : t;
+}
+
 // PTRS (W. Hormann, "The transformed rejection method for generating Poisson random
 // variables", Insurance: Mathematics and Economics 12, 1993): a hat from a transformed
 // uniform, a squeeze that accepts most draws without a logarithm, and the exact test
@@ -126,22 +134,19 @@ int64_t poisson_by_ptrs(double mean, uint64_t key, uint64_t first) {
   const double b = 0.931 + 2.53 * sqrt_mean;
   const double a = -0.059 + 0.02483 * b;
   const double v_r = 0.9277 - 3.6224 / (b - 2);
-  double log_mean = 0, log_inv_alpha = 0;  // only the exact test needs them
-  bool logs_ready = false;
+  const double inv_alpha = 1.1239 + 1.1328 / (b - 3.4);
+  double log_mean = 0;                              // only the exact test needs it
   const uint64_t last = first + kPoissonDraws - 2;  // the fallback's two
   for (uint64_t c = first; c < last; c += 2) {
     const double u = uniform(key, c) - 0.5;
     const double v = uniform(key, c + 1);
     const double us = 0.5 - std::fabs(u);
-    const double k = std::floor((2 * a / us + b) * u + mean + 0.43);
+    const double k = floor_of((2 * a / us + b) * u + mean + 0.43);
     if (us >= 0.07 && v <= v_r) return static_cast<int64_t>(k);  // the squeeze
     if (k < 0 || (us < 0.013 && v > us)) continue;
-    if (!logs_ready) {
-      log_mean = std::log(mean);
-      log_inv_alpha = std::log(1.1239 + 1.1328 / (b - 3.4));
-      logs_ready = true;
-    }
-    if (std::log(v) + log_inv_alpha - std::log(a / (us * us) + b) <=
+    if (log_mean == 0) log_mean = std::log(mean);  // mean >= 10: never 0 once computed
+    // log(v) + log(1 / alpha) - log(a / us^2 + b), as one logarithm.
+    if (std::log(v * inv_alpha / (a / (us * us) + b)) <=
         -mean + k * log_mean - log_factorial(static_cast<int64_t>(k)))
       return static_cast<int64_t>(k);
   }
