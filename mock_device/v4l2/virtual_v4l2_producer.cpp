@@ -1,6 +1,7 @@
 // VirtualV4l2Device: the producer thread. At each tick of the frame clock it applies the
 // control values whose latency has passed, and renders the frame into the oldest queued
-// buffer (a tick without one is a lost frame, as on hardware).
+// buffer (a tick without one is a lost frame, as on hardware). The first frame after
+// STREAMON is started at once; the ticks follow it.
 #include <time.h>
 
 #include <algorithm>
@@ -100,24 +101,19 @@ void VirtualV4l2Device::produce_frames() {
       changed_.wait(lock);
       continue;
     }
-    if (!clock_.running()) {
-      // The scene integral for the settings in effect is the slow part of a first frame;
-      // computing it before the clock starts keeps it from costing the first ticks.
-      const RenderSettings settings = settings_in_effect();
-      RenderOptions options;
-      options.seed = options_.seed;
-      lock.unlock();
-      (void)renderer_.render(settings, options_.view, options);
-      lock.lock();
-      clock_.start();
-      continue;  // re-check the stream state after the unlocked render
-    }
     if (!clock_.realtime() && !queue_.has_queued() && !clock_.dropping()) {
       // As fast as rendered, but a frame is only started when a buffer waits for it.
       changed_.wait(lock);
       continue;
     }
-    if (clock_.realtime()) {
+    // STREAMON: the first frame starts at once, not at a tick, so that with the scene
+    // integral already computed it is done within one frame interval (a client with a
+    // one-second timeout must not time out on a camera that has rendered before).
+    const bool first_frame = !clock_.running();
+    if (first_frame) {
+      clock_.start();
+      if (clock_.realtime()) clock_.advance();  // the first tick is this frame's
+    } else if (clock_.realtime()) {
       if (changed_.wait_until(lock, clock_.next_tick(), [&] {
             return stop_producer_ || !queue_.streaming() || clock_.stalled();
           }))
@@ -136,6 +132,12 @@ void VirtualV4l2Device::produce_frames() {
     uint32_t bytes_used = 0;
     if (!render_into(index, sequence, lock, &bytes_used, &failed))
       continue;  // stream stopped meanwhile
+    // A first frame that took longer than an interval (it integrated the scene) starts
+    // the clock's ticks from its end: the stream starts late, as a sensor's does, rather
+    // than with a gap of lost sequence numbers.
+    if (first_frame && clock_.realtime() &&
+        VirtualV4l2FrameClock::Clock::now() > clock_.next_tick())
+      clock_.start();
     v4l2_buffer done{};
     done.index = static_cast<uint32_t>(index);
     done.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
