@@ -103,57 +103,12 @@ const std::array<double, kInversionSteps + 1>& reciprocals() {
   return table;
 }
 
-int64_t poisson_by_inversion(double mean, uint64_t key, uint64_t first) {
-  const auto& inverse = reciprocals();
-  const double u = uniform(key, first);
-  double p = std::exp(-mean);
-  double cdf = p;
-  int k = 0;
-  while (u > cdf && k < kInversionSteps) {
-    ++k;
-    p *= mean * inverse[k];
-    cdf += p;
-  }
-  return k;
-}
-
 // floor() without the library call (x86-64's baseline has no rounding instruction).
 // Beyond +-2^62 (a hat abscissa for a vanishing us, always rejected) it saturates.
 double floor_of(double x) {
   if (!(x > -0x1p62 && x < 0x1p62)) return x < 0 ? -0x1p62 : 0x1p62;
   const double t = static_cast<double>(static_cast<int64_t>(x));
   return t > x ? t - 1 : t;
-}
-
-// PTRS (W. Hormann, "The transformed rejection method for generating Poisson random
-// variables", Insurance: Mathematics and Economics 12, 1993): a hat from a transformed
-// uniform, a squeeze that accepts most draws without a logarithm, and the exact test
-// against log f(k) for the rest.
-int64_t poisson_by_ptrs(double mean, uint64_t key, uint64_t first) {
-  const double sqrt_mean = std::sqrt(mean);
-  const double b = 0.931 + 2.53 * sqrt_mean;
-  const double a = -0.059 + 0.02483 * b;
-  const double v_r = 0.9277 - 3.6224 / (b - 2);
-  const double inv_alpha = 1.1239 + 1.1328 / (b - 3.4);
-  double log_mean = 0;                              // only the exact test needs it
-  const uint64_t last = first + kPoissonDraws - 2;  // the fallback's two
-  for (uint64_t c = first; c < last; c += 2) {
-    const double u = uniform(key, c) - 0.5;
-    const double v = uniform(key, c + 1);
-    const double us = 0.5 - std::fabs(u);
-    const double k = floor_of((2 * a / us + b) * u + mean + 0.43);
-    if (us >= 0.07 && v <= v_r) return static_cast<int64_t>(k);  // the squeeze
-    if (k < 0 || (us < 0.013 && v > us)) continue;
-    if (log_mean == 0) log_mean = std::log(mean);  // mean >= 10: never 0 once computed
-    // log(v) + log(1 / alpha) - log(a / us^2 + b), as one logarithm.
-    if (std::log(v * inv_alpha / (a / (us * us) + b)) <=
-        -mean + k * log_mean - log_factorial(static_cast<int64_t>(k)))
-      return static_cast<int64_t>(k);
-  }
-  // Every attempt rejected: the normal approximation with continuity correction.
-  const double z = std::sqrt(-2.0 * std::log(uniform(key, last))) *
-                   std::cos(2.0 * std::numbers::pi * uniform(key, last + 1));
-  return std::max<int64_t>(0, static_cast<int64_t>(std::floor(mean + sqrt_mean * z + 0.5)));
 }
 
 }  // namespace
@@ -192,11 +147,67 @@ double standard_normal(uint64_t key, uint64_t index) {
          std::cos(2.0 * std::numbers::pi * uniform(key, last + 1));
 }
 
-int64_t poisson(double mean, uint64_t key, uint64_t index) {
-  if (!(mean > 0)) return 0;
+PoissonLaw::PoissonLaw(double mean) : mean_(mean > 0 ? mean : 0) {
+  ptrs_ = mean_ >= kPoissonInversionMaxMean;
+  if (!ptrs_) {
+    exp_minus_mean_ = std::exp(-mean_);
+    return;
+  }
+  // PTRS (W. Hormann, "The transformed rejection method for generating Poisson random
+  // variables", Insurance: Mathematics and Economics 12, 1993).
+  sqrt_mean_ = std::sqrt(mean_);
+  b_ = 0.931 + 2.53 * sqrt_mean_;
+  a_ = -0.059 + 0.02483 * b_;
+  v_r_ = 0.9277 - 3.6224 / (b_ - 2);
+  inv_alpha_ = 1.1239 + 1.1328 / (b_ - 3.4);
+  log_mean_ = std::log(mean_);
+}
+
+int64_t PoissonLaw::draw(uint64_t key, uint64_t index) const {
+  if (mean_ == 0) return 0;
   const uint64_t first = index * kPoissonDraws;
-  return mean < kPoissonInversionMaxMean ? poisson_by_inversion(mean, key, first)
-                                         : poisson_by_ptrs(mean, key, first);
+  return ptrs_ ? by_ptrs(key, first) : by_inversion(key, first);
+}
+
+// Inversion: walk the CDF from 0 until it passes one uniform.
+int64_t PoissonLaw::by_inversion(uint64_t key, uint64_t first) const {
+  const auto& inverse = reciprocals();
+  const double u = uniform(key, first);
+  double p = exp_minus_mean_;
+  double cdf = p;
+  int k = 0;
+  while (u > cdf && k < kInversionSteps) {
+    ++k;
+    p *= mean_ * inverse[k];
+    cdf += p;
+  }
+  return k;
+}
+
+// PTRS: a hat from a transformed uniform, a squeeze that accepts most draws without a
+// logarithm, and the exact test against log f(k) for the rest.
+int64_t PoissonLaw::by_ptrs(uint64_t key, uint64_t first) const {
+  const uint64_t last = first + kPoissonDraws - 2;  // the fallback's two
+  for (uint64_t c = first; c < last; c += 2) {
+    const double u = uniform(key, c) - 0.5;
+    const double v = uniform(key, c + 1);
+    const double us = 0.5 - std::fabs(u);
+    const double k = floor_of((2 * a_ / us + b_) * u + mean_ + 0.43);
+    if (us >= 0.07 && v <= v_r_) return static_cast<int64_t>(k);  // the squeeze
+    if (k < 0 || (us < 0.013 && v > us)) continue;
+    // log(v) + log(1 / alpha) - log(a / us^2 + b), as one logarithm.
+    if (std::log(v * inv_alpha_ / (a_ / (us * us) + b_)) <=
+        -mean_ + k * log_mean_ - log_factorial(static_cast<int64_t>(k)))
+      return static_cast<int64_t>(k);
+  }
+  // Every attempt rejected: the normal approximation with continuity correction.
+  const double z = std::sqrt(-2.0 * std::log(uniform(key, last))) *
+                   std::cos(2.0 * std::numbers::pi * uniform(key, last + 1));
+  return std::max<int64_t>(0, static_cast<int64_t>(std::floor(mean_ + sqrt_mean_ * z + 0.5)));
+}
+
+int64_t poisson(double mean, uint64_t key, uint64_t index) {
+  return PoissonLaw(mean).draw(key, index);
 }
 
 double log_factorial(int64_t k) {

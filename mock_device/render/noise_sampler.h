@@ -54,8 +54,28 @@ inline double uniform(uint64_t key, uint64_t counter) {
 // onwards).
 double standard_normal(uint64_t key, uint64_t index);
 
-// Poisson deviate of mean `mean` (>= 0, finite; a negative or NaN mean gives 0), number
-// `index` of stream `key` (counters index x kPoissonDraws onwards).
+// The Poisson law of one mean (>= 0, finite; a negative or NaN mean is 0), with what its
+// sampler needs computed once: the uniform parts of a frame (a chessboard's squares)
+// give many pixels the same mean, and the sensor model keeps the law while it lasts.
+class PoissonLaw {
+ public:
+  explicit PoissonLaw(double mean = 0);
+  double mean() const { return mean_; }
+  // Deviate number `index` of stream `key` (counters index x kPoissonDraws onwards).
+  int64_t draw(uint64_t key, uint64_t index) const;
+
+ private:
+  int64_t by_inversion(uint64_t key, uint64_t first) const;
+  int64_t by_ptrs(uint64_t key, uint64_t first) const;
+
+  double mean_ = 0;
+  bool ptrs_ = false;
+  double exp_minus_mean_ = 1;  // inversion: P(0)
+  // PTRS: the hat's parameters (Hormann's a, b, v_r, 1/alpha) and log(mean).
+  double sqrt_mean_ = 0, a_ = 0, b_ = 0, v_r_ = 0, inv_alpha_ = 0, log_mean_ = 0;
+};
+
+// PoissonLaw(mean).draw(key, index).
 int64_t poisson(double mean, uint64_t key, uint64_t index);
 
 // log(k!) for k >= 0: a table below 64, Stirling's series above (error below 1e-15).

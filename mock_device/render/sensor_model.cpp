@@ -38,16 +38,21 @@ cv::Mat expose(const cv::Mat& mean_reflectance, const CameraSpec& camera,
   cv::Mat out(mean_reflectance.size(), s.bit_depth <= 8 ? CV_8UC1 : CV_16UC1);
 
   auto expose_rows = [&](int first_row, int row_step) {
+    noise::PoissonLaw law;  // kept while neighbouring pixels see the same mean
     for (int y = first_row; y < mean_reflectance.rows; y += row_step) {
       const float* in = mean_reflectance.ptr<float>(y);
       const uint64_t row_start = static_cast<uint64_t>(y) * mean_reflectance.cols;
       for (int x = 0; x < mean_reflectance.cols; ++x) {
         const uint64_t pixel = row_start + static_cast<uint64_t>(x);
         double electrons = std::max(0.0, static_cast<double>(in[x])) * electrons_per_reflectance;
-        if (shot && electrons > 0)
-          electrons = electrons >= certain_full_e
-                          ? s.full_well_e
-                          : static_cast<double>(noise::poisson(electrons, shot_key, pixel));
+        if (shot && electrons > 0) {
+          if (electrons >= certain_full_e) {
+            electrons = s.full_well_e;
+          } else {
+            if (electrons != law.mean()) law = noise::PoissonLaw(electrons);
+            electrons = static_cast<double>(law.draw(shot_key, pixel));
+          }
+        }
         electrons = std::min(electrons, s.full_well_e);  // the well saturates before the ADC
         if (read) electrons += s.read_noise_e * noise::standard_normal(read_key, pixel);
         // Rounded half up and clipped to the ADC's range (a cast, not std::round: the
