@@ -1,7 +1,8 @@
 // VirtualV4l2Device: the producer thread. At each tick of the frame clock it applies the
 // control values whose latency has passed, and renders the frame into the oldest queued
 // buffer (a tick without one is a lost frame, as on hardware). The first frame after
-// STREAMON is started at once; the ticks follow it.
+// STREAMON is started at once (rendered ahead when a previous stream ended with the same
+// settings); the ticks follow it.
 #include <time.h>
 
 #include <algorithm>
@@ -51,6 +52,33 @@ RenderSettings VirtualV4l2Device::settings_in_effect() const {
   return s;
 }
 
+namespace {
+
+bool same_settings(const RenderSettings& a, const RenderSettings& b) {
+  return a.exposure_us == b.exposure_us && a.gain == b.gain && a.f_number == b.f_number &&
+         a.focus_position == b.focus_position;
+}
+
+}  // namespace
+
+void VirtualV4l2Device::prepare_first_frame(std::unique_lock<std::mutex>& lock) {
+  prepare_pending_ = false;
+  const RenderSettings settings = settings_in_effect();
+  // The stream's own frame 0 serves when its settings are still those in effect.
+  if (prepared_.valid && same_settings(prepared_.settings, settings)) return;
+  RenderOptions options;
+  options.seed = options_.seed;
+  options.frame_number = 0;
+  lock.unlock();
+  auto frame = renderer_.render(settings, options_.view, options);
+  lock.lock();
+  prepared_.valid = frame.ok();
+  if (frame) {
+    prepared_.settings = settings;
+    prepared_.image = std::move(frame->image);
+  }
+}
+
 bool VirtualV4l2Device::render_into(int index, uint64_t sequence,
                                     std::unique_lock<std::mutex>& lock, uint32_t* bytes_used,
                                     bool* failed) {
@@ -63,10 +91,21 @@ bool VirtualV4l2Device::render_into(int index, uint64_t sequence,
   options.seed = options_.seed;
   options.frame_number = sequence;
   const uint64_t generation = queue_.generation();
+  const bool ready =
+      sequence == 0 && prepared_.valid && same_settings(prepared_.settings, settings);
   // Render and encode without the lock: ioctls (controls, status) must not wait on a frame.
   lock.unlock();
+  Result<RenderedFrame> frame = make_error("internal", "not rendered");
+  if (ready) {
+    RenderedFrame kept;
+    kept.image = prepared_.image;
+    frame = std::move(kept);
+  } else {
+    frame = renderer_.render(settings, options_.view, options);
+    if (sequence == 0 && frame) prepared_ = {true, settings, frame->image};  // for next time
+  }
   Result<std::vector<uint8_t>> bytes = make_error("internal", "not rendered");
-  if (auto frame = renderer_.render(settings, options_.view, options); frame)
+  if (frame)
     bytes = encode_frame(frame->image, renderer_.camera().sensor,
                          renderer_.camera().isp.jpeg_quality, offered, format);
   else
@@ -97,7 +136,15 @@ void VirtualV4l2Device::produce_frames() {
   std::unique_lock lock(mutex_);
   while (!stop_producer_) {
     if (!queue_.streaming() || clock_.stalled() || unplugged_) {
+      // A stream ended: while none runs, have the next one's first frame ready (its own
+      // frame 0 if the settings are unchanged, else one rendered now: the scene integral
+      // is cached by then, so it costs one frame's noise).
+      if (clock_.running() && !queue_.streaming()) prepare_pending_ = true;
       clock_.stop();
+      if (prepare_pending_ && !queue_.streaming() && !unplugged_) {
+        prepare_first_frame(lock);
+        continue;  // re-check the stream state after the unlocked render
+      }
       changed_.wait(lock);
       continue;
     }
