@@ -3,11 +3,8 @@
 // maps as V4L2_MAP_QUANTIZATION_DEFAULT says, to limited range for Y'CbCr unless the
 // colorspace is JPEG), the luma left and right of the edge is within 1 DN of the
 // renderer's noise-free frame, and the chroma is neutral (the camera is monochrome).
-//
-// PENDING the YUYV range fix (the colour and pixel-format work on the virtual device):
-// the device writes full-range luma and declares the default quantization, which means
-// limited range, so both tests fail, by about 13 DN on each side of the edge, until the
-// luma and the declaration agree. ctest label: yuyv_range.
+// A device whose luma is not in the range it declares is off by about 13 DN on both
+// sides (full-range luma read as limited).
 #include <gtest/gtest.h>
 #include <linux/videodev2.h>
 
