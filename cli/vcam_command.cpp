@@ -64,7 +64,8 @@ std::string find_preload_library() {
 }
 
 // The devices of a run and everything that points to them: a temporary folder with the
-// broker's socket and the fake sysfs, removed when the session ends (after the broker).
+// broker's socket, the fake sysfs and the fake udev database, removed when the session
+// ends (after the broker).
 struct VcamSession {
   struct Folder {
     fs::path path;
@@ -107,6 +108,12 @@ std::unique_ptr<VcamSession> start_session(const VcamArgs& args, const CommandEr
   fs::create_directories(sysfs);
   if (!mock::write_sysfs_tree(sysfs.string(), camera_names))
     errors.fail("io_error", "cannot write the fake sysfs in " + sysfs.string());
+  // What udev's rules would have recorded about the video nodes (GStreamer's device
+  // monitor lists only nodes udev calls V4L2).
+  const fs::path udev = work / "udev";
+  fs::create_directories(udev);
+  if (!mock::write_udev_database(udev.string(), camera_names))
+    errors.fail("io_error", "cannot write the fake udev database in " + udev.string());
 
   const char* existing_preload = std::getenv("LD_PRELOAD");
   session->environment = {
@@ -114,6 +121,7 @@ std::unique_ptr<VcamSession> start_session(const VcamArgs& args, const CommandEr
       {"CAMLAB_VCAM_BROKER", session->broker->socket_path()},
       {"CAMLAB_VCAM_COUNT", std::to_string(args.count)},
       {"CAMLAB_VCAM_SYSFS", sysfs.string()},
+      {"CAMLAB_VCAM_UDEV", udev.string()},
   };
   return session;
 }

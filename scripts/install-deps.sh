@@ -18,6 +18,10 @@ packages=(
   v4l-utils              # v4l2-ctl and v4l2-compliance: unmodified clients of the virtual camera
   ffmpeg                 # and ffmpeg's v4l2 input, reading the colour camera's Bayer and MJPEG frames
   gstreamer1.0-tools gstreamer1.0-plugins-good   # gst-launch-1.0 and v4l2src (video/x-bayer, image/jpeg caps)
+  # More unmodified V4L2 clients of the virtual camera (tests/integration/vcam_clients_test,
+  # vcam_yuyv_range_test): each finds the camera its own way and captures from it.
+  ustreamer motion fswebcam uvccapture
+  gstreamer1.0-plugins-base-apps   # gst-device-monitor-1.0
   libcamera-dev libcamera-tools   # the libcamera backend (0.0.3), and cam to test it against the virtual camera
   wrk curl               # camlabd: status-request load benchmark (tests/bench/service_bench), README's curl session
 )

@@ -6,11 +6,13 @@
 #pragma once
 
 #include <dirent.h>
+#include <glob.h>
 #include <poll.h>
 #include <signal.h>
 #include <stdio.h>
 #include <sys/select.h>
 #include <sys/stat.h>
+#include <sys/statfs.h>
 #include <sys/types.h>
 
 #include "base/unique_fd.h"
@@ -39,12 +41,30 @@ struct RealLibc {
   int (*lstat)(const char*, struct stat*);
   int (*fstatat)(int, const char*, struct stat*, int);
   int (*statx)(int, const char*, int, unsigned, struct statx*);
+  int (*statfs)(const char*, struct statfs*);
+  int (*fstatfs)(int, struct statfs*);
   int (*access)(const char*, int);
   int (*faccessat)(int, const char*, int, int);
   char* (*realpath)(const char*, char*);
   FILE* (*fopen)(const char*, const char*);
   DIR* (*opendir)(const char*);
+  DIR* (*fdopendir)(int);
+  dirent* (*readdir)(DIR*);
+  int (*readdir_r)(DIR*, dirent*, dirent**);
+  int (*closedir)(DIR*);
+  void (*rewinddir)(DIR*);
+  void (*seekdir)(DIR*, long);
+  int (*scandir)(const char*, dirent***, int (*)(const dirent*),
+                 int (*)(const dirent**, const dirent**));
+  int (*scandirat)(int, const char*, dirent***, int (*)(const dirent*),
+                   int (*)(const dirent**, const dirent**));
+  int (*glob)(const char*, int, int (*)(const char*, int), glob_t*);
+  int (*glob64)(const char*, int, int (*)(const char*, int), glob64_t*);
   ssize_t (*readlink)(const char*, char*, size_t);
+  ssize_t (*getxattr)(const char*, const char*, void*, size_t);
+  ssize_t (*lgetxattr)(const char*, const char*, void*, size_t);
+  ssize_t (*listxattr)(const char*, char*, size_t);
+  ssize_t (*llistxattr)(const char*, char*, size_t);
   ssize_t (*readlinkat)(int, const char*, char*, size_t);
   long (*syscall)(long, ...);
 };

@@ -6,10 +6,10 @@
 // V4L2 client uses on a device: open/openat (and their 64 and fortified forms), close,
 // dup/dup2/dup3/fcntl(F_DUPFD), ioctl, mmap/munmap, read/write, poll/ppoll/select/
 // pselect (and _chk forms), the stat family and glibc's old __xstat forms (a character
-// device, 81:N or 236:N), access, realpath, fopen/opendir/readlink (a fake sysfs), and
-// syscall() for the same calls, because libv4l2 and libcamera make some of them through
-// syscall() directly. ioctl requests are read as 32 bits, as the kernel reads them.
-// It also hides udev's monitor from libcamera (udev_monitor_new_from_netlink), so that
+// device, 81:N or 236:N), access, realpath, fopen/readlink/getxattr/listxattr (a fake
+// sysfs; relative *at() paths too), and syscall() for the same calls, because libv4l2 and libcamera
+// make some of them through syscall() directly. ioctl requests are read as 32 bits, as the kernel
+// reads them. It also hides udev's monitor from libcamera (udev_monitor_new_from_netlink), so that
 // libcamera enumerates through the fake sysfs.
 //
 // The devices live in the broker (the `camlab vcam run` process, CAMLAB_VCAM_BROKER);
@@ -17,8 +17,12 @@
 // the same devices. Everything that is not a virtual node or a fake sysfs path goes
 // straight to the next definition (real_libc.h).
 //
+// The directory entry points (listings that show the cameras) are in
+// directory_entry_points.cpp.
+//
 // Configuration (environment, set by `camlab vcam run`): CAMLAB_VCAM_BROKER (socket),
-// CAMLAB_VCAM_COUNT (devices), CAMLAB_VCAM_SYSFS (the fake sysfs tree).
+// CAMLAB_VCAM_COUNT (devices), CAMLAB_VCAM_SYSFS (the fake sysfs tree), CAMLAB_VCAM_UDEV
+// (the fake udev database).
 #include <fcntl.h>
 #include <linux/videodev2.h>
 #include <poll.h>
@@ -31,6 +35,7 @@
 #include <sys/sysmacros.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <climits>
 #include <cstdlib>
@@ -97,6 +102,15 @@ auto on_real_path(const char* path, Call call) {
   const char* redirected = camlab::mock::preload::redirect_sysfs_path(path, &storage);
   return call(redirected ? redirected : path);
 }
+// The same for the *at() calls, whose relative path may step from a real folder into a
+// fake tree (libudev walks /sys one name at a time). A redirected path is absolute, so
+// `dirfd` no longer matters for it.
+template <class Call>
+auto on_real_path_at(int dirfd, const char* path, Call call) {
+  std::string storage;
+  const char* redirected = camlab::mock::preload::redirect_sysfs_path_at(dirfd, path, &storage);
+  return call(redirected ? redirected : path);
+}
 
 template <class Call>
 int stat_path(const char* path, struct stat* st, Call call) {
@@ -107,12 +121,30 @@ int stat_path(const char* path, struct stat* st, Call call) {
   return on_real_path(path, call);
 }
 
+// A /proc link (an fd's or the working folder's) that resolves inside the fake sysfs is
+// reported under /sys, as realpath is: libudev takes a device's path from the fd it
+// walked to (/proc/self/fd/N) and refuses one outside /sys. `n` is readlink's result,
+// the new length is returned.
+ssize_t proc_link_under_sys(const char* path, char* buffer, ssize_t n) {
+  if (n <= 0 || !path || std::strncmp(path, "/proc/", 6) != 0) return n;
+  char resolved[PATH_MAX];
+  const size_t length = std::min(static_cast<size_t>(n), sizeof resolved - 1);
+  std::memcpy(resolved, buffer, length);
+  resolved[length] = '\0';
+  camlab::mock::preload::unredirect_sysfs_path(resolved);
+  const size_t shorter = std::strlen(resolved);
+  if (shorter == length) return n;
+  std::memcpy(buffer, resolved, shorter);  // never longer: no terminator, as readlink
+  return static_cast<ssize_t>(shorter);
+}
+
 int open_path(const char* path, int flags, mode_t mode, int dirfd, bool at) {
   if (Node node; virtual_node(path, &node))
     return BrokerClient::get().open(node.kind, node.index, flags);
-  return on_real_path(path, [&](const char* p) {
-    return at ? real().openat(dirfd, p, flags, mode) : real().open(p, flags, mode);
-  });
+  if (at)
+    return on_real_path_at(dirfd, path,
+                           [&](const char* p) { return real().openat(dirfd, p, flags, mode); });
+  return on_real_path(path, [&](const char* p) { return real().open(p, flags, mode); });
 }
 
 int ioctl_fd(int fd, unsigned long request, void* arg) {
@@ -243,16 +275,34 @@ FILE* fopen(const char* path, const char* mode) {
 }
 FILE* fopen64(const char* path, const char* mode) { return fopen(path, mode); }
 
-DIR* opendir(const char* path) {
-  return on_real_path(path, [&](const char* p) { return real().opendir(p); });
-}
-
 ssize_t readlink(const char* path, char* buffer, size_t size) {
-  return on_real_path(path, [&](const char* p) { return real().readlink(p, buffer, size); });
+  const ssize_t n =
+      on_real_path(path, [&](const char* p) { return real().readlink(p, buffer, size); });
+  return proc_link_under_sys(path, buffer, n);
 }
 ssize_t readlinkat(int dirfd, const char* path, char* buffer, size_t size) {
-  return on_real_path(path,
-                      [&](const char* p) { return real().readlinkat(dirfd, p, buffer, size); });
+  const ssize_t n = on_real_path_at(
+      dirfd, path, [&](const char* p) { return real().readlinkat(dirfd, p, buffer, size); });
+  return proc_link_under_sys(path, buffer, n);
+}
+
+// Extended attributes (ls -l asks for the SELinux label): the fake trees' files have the
+// attributes of the real files they are, the virtual nodes none.
+ssize_t getxattr(const char* path, const char* name, void* value, size_t size) {
+  if (Node node; virtual_node(path, &node)) return (errno = ENODATA), -1;
+  return on_real_path(path, [&](const char* p) { return real().getxattr(p, name, value, size); });
+}
+ssize_t lgetxattr(const char* path, const char* name, void* value, size_t size) {
+  if (Node node; virtual_node(path, &node)) return (errno = ENODATA), -1;
+  return on_real_path(path, [&](const char* p) { return real().lgetxattr(p, name, value, size); });
+}
+ssize_t listxattr(const char* path, char* list, size_t size) {
+  if (Node node; virtual_node(path, &node)) return 0;
+  return on_real_path(path, [&](const char* p) { return real().listxattr(p, list, size); });
+}
+ssize_t llistxattr(const char* path, char* list, size_t size) {
+  if (Node node; virtual_node(path, &node)) return 0;
+  return on_real_path(path, [&](const char* p) { return real().llistxattr(p, list, size); });
 }
 
 char* realpath(const char* path, char* resolved) {
@@ -382,7 +432,12 @@ int lstat64(const char* path, struct stat64* st) {
 int fstatat(int dirfd, const char* path, struct stat* st, int flags) {
   // fstatat(fd, "", st, AT_EMPTY_PATH) is fstat(fd).
   if (path[0] == '\0' && (flags & AT_EMPTY_PATH)) return fstat(dirfd, st);
-  return stat_path(path, st, [&](const char* p) { return real().fstatat(dirfd, p, st, flags); });
+  if (Node node; virtual_node(path, &node)) {
+    fill_node_stat(node, st);
+    return 0;
+  }
+  return on_real_path_at(dirfd, path,
+                         [&](const char* p) { return real().fstatat(dirfd, p, st, flags); });
 }
 int fstatat64(int dirfd, const char* path, struct stat64* st, int flags) {
   return fstatat(dirfd, path, reinterpret_cast<struct stat*>(st), flags);
@@ -419,8 +474,8 @@ int statx(int dirfd, const char* path, int flags, unsigned mask, struct statx* o
     out->stx_rdev_minor = static_cast<uint32_t>(node.index);
     return 0;
   }
-  return on_real_path(path,
-                      [&](const char* p) { return real().statx(dirfd, p, flags, mask, out); });
+  return on_real_path_at(dirfd, path,
+                         [&](const char* p) { return real().statx(dirfd, p, flags, mask, out); });
 }
 
 int access(const char* path, int mode) {
@@ -429,7 +484,8 @@ int access(const char* path, int mode) {
 }
 int faccessat(int dirfd, const char* path, int mode, int flags) {
   if (Node node; virtual_node(path, &node)) return 0;
-  return on_real_path(path, [&](const char* p) { return real().faccessat(dirfd, p, mode, flags); });
+  return on_real_path_at(dirfd, path,
+                         [&](const char* p) { return real().faccessat(dirfd, p, mode, flags); });
 }
 
 // libv4l2 and libcamera call some system calls through syscall() directly. Those on a

@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <random>
 #include <thread>
 #include <vector>
 
+#include "mock_device/render/noise_sampler.h"
 #include "mock_device/render/sampling.h"
 
 namespace camlab::mock {
@@ -29,31 +29,36 @@ cv::Mat expose(const cv::Mat& mean_reflectance, const CameraSpec& camera,
   const double dn_per_e = s.conversion_gain_dn_per_e * gain;
   const bool shot = noise && s.shot_noise;
   const bool read = noise && s.read_noise_e > 0;
+  // Shot and read noise draw from their own keys; a pixel's counters are its index in
+  // the frame (noise_sampler.h), so the frame does not depend on how rows are split.
+  const uint64_t shot_key = mix_seed(seed, 1), read_key = mix_seed(seed, 2);
+  // A mean this far above the full well fills it whatever the draw (the Poisson tail
+  // below it is under 1e-20): no draw needed, and no overflow for absurd exposures.
+  const double certain_full_e = s.full_well_e + 10 * std::sqrt(s.full_well_e) + 100;
   cv::Mat out(mean_reflectance.size(), s.bit_depth <= 8 ? CV_8UC1 : CV_16UC1);
 
-  // Rows are independent (one random stream each), so they split over threads freely.
   auto expose_rows = [&](int first_row, int row_step) {
+    noise::PoissonLaw law;  // kept while neighbouring pixels see the same mean
     for (int y = first_row; y < mean_reflectance.rows; y += row_step) {
-      SplitMix64 rng(mix_seed(seed, static_cast<uint64_t>(y) + 1));
-      std::normal_distribution<double> read_noise(0.0, s.read_noise_e);
       const float* in = mean_reflectance.ptr<float>(y);
+      const uint64_t row_start = static_cast<uint64_t>(y) * mean_reflectance.cols;
       for (int x = 0; x < mean_reflectance.cols; ++x) {
+        const uint64_t pixel = row_start + static_cast<uint64_t>(x);
         double electrons = std::max(0.0, static_cast<double>(in[x])) * electrons_per_reflectance;
         if (shot && electrons > 0) {
-          // Above ~1e4 electrons the Gaussian limit of the Poisson law is exact to far
-          // below one DN and much faster.
-          if (electrons < 1e4) {
-            std::poisson_distribution<long> poisson(electrons);
-            electrons = static_cast<double>(poisson(rng));
+          if (electrons >= certain_full_e) {
+            electrons = s.full_well_e;
           } else {
-            std::normal_distribution<double> gauss(electrons, std::sqrt(electrons));
-            electrons = std::max(0.0, gauss(rng));
+            if (electrons != law.mean()) law = noise::PoissonLaw(electrons);
+            electrons = static_cast<double>(law.draw(shot_key, pixel));
           }
         }
         electrons = std::min(electrons, s.full_well_e);  // the well saturates before the ADC
-        if (read) electrons += read_noise(rng);
-        const double dn = std::clamp(std::round(s.black_level_dn + electrons * dn_per_e), 0.0,
-                                     static_cast<double>(max_dn));
+        if (read) electrons += s.read_noise_e * noise::standard_normal(read_key, pixel);
+        // Rounded half up and clipped to the ADC's range (a cast, not std::round: the
+        // library call cost a sixth of the frame).
+        const double level = s.black_level_dn + electrons * dn_per_e;
+        const int dn = level <= 0 ? 0 : level >= max_dn ? max_dn : static_cast<int>(level + 0.5);
         if (out.depth() == CV_8U)
           out.ptr<uint8_t>(y)[x] = static_cast<uint8_t>(dn);
         else

@@ -25,7 +25,8 @@ double electrons_per_unit_reflectance(const CameraSpec& camera, double illuminan
 
 // Converts a CV_32F image of mean reflectance to DN (CV_8U for 8-bit sensors, else
 // CV_16U). `gain` is linear. With noise off the expected signal is rounded. The result
-// does not depend on `threads` (each row has its own random stream).
+// does not depend on `threads`: each pixel's draws are a hash of the seed and its index
+// (noise_sampler.h).
 cv::Mat expose(const cv::Mat& mean_reflectance, const CameraSpec& camera,
                double electrons_per_reflectance, double gain, bool noise, uint64_t seed,
                int threads);

@@ -1,5 +1,7 @@
 #include "mock_device/v4l2/fake_sysfs.h"
 
+#include <cctype>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -37,6 +39,37 @@ std::string usb_interface_path(const std::string& root, int index) {
   return root + "/" + std::string(kHostControllerRelative) + "/usb1/" + port + "/" + port + ":1.0";
 }
 
+bool write_udev_database(const std::string& root, const std::vector<std::string>& camera_names) {
+  bool ok = true;
+  for (size_t i = 0; i < camera_names.size() && ok; ++i) {
+    const std::string number = std::to_string(i);
+    const std::string port = std::to_string(i + 1);
+    // udev's names: characters other than letters, digits and #+-.:=@_ become
+    // underscores (ID_MODEL), and a path id of the port.
+    std::string model = camera_names[i];
+    for (char& c : model)
+      if (!std::isalnum(static_cast<unsigned char>(c)) && !std::strchr("#+-.:=@_", c)) c = '_';
+    const std::string serial = "camlab-vcam-" + number;
+    ok = write_file(fs::path(root) / "data" / ("c" + std::to_string(kVideoMajor) + ":" + number),
+                    "I:1\n"
+                    "E:ID_V4L_VERSION=2\n"
+                    "E:ID_V4L_PRODUCT=" +
+                        camera_names[i] +
+                        "\n"
+                        "E:ID_V4L_CAPABILITIES=:capture:\n"
+                        "E:ID_BUS=usb\n"
+                        "E:ID_VENDOR=camlab\n"
+                        "E:ID_VENDOR_ID=" +
+                        kUsbVendorId + "\nE:ID_MODEL=" + model +
+                        "\nE:ID_MODEL_ID=" + kUsbProductId + "\nE:ID_SERIAL=camlab_" + model + "_" +
+                        serial + "\nE:ID_SERIAL_SHORT=" + serial +
+                        "\nE:ID_TYPE=video\nE:ID_USB_DRIVER=uvcvideo\n"
+                        "E:ID_PATH=platform-camlab_vcam_hcd.0-usb-0:" +
+                        port + ":1.0\n");
+  }
+  return ok;
+}
+
 bool write_sysfs_tree(const std::string& root, int count) {
   std::vector<std::string> names;
   for (int n = 0; n < count; ++n) names.push_back("camlab virtual camera " + std::to_string(n));
@@ -46,7 +79,11 @@ bool write_sysfs_tree(const std::string& root, int count) {
 bool write_sysfs_tree(const std::string& root_text, const std::vector<std::string>& camera_names) {
   const fs::path root(root_text);
   const fs::path hcd = root / kHostControllerRelative;
+  // udev reads a device's subsystem from its `subsystem` link (the last name only): the
+  // bus folders outside the fake tree are not needed.
   bool ok =
+      relative_symlink(root / "bus/platform", hcd / "subsystem") &&
+      relative_symlink(root / "bus/usb", hcd / "usb1/subsystem") &&
       write_file(hcd / "firmware_node/path", std::string(kControllerFirmwarePath) + "\n") &&
       write_file(hcd / "uevent", "DRIVER=camlab_vcam_hcd\nMODALIAS=platform:camlab_vcam_hcd\n") &&
       write_file(hcd / "usb1/uevent",
@@ -79,7 +116,9 @@ bool write_sysfs_tree(const std::string& root_text, const std::vector<std::strin
                         "TYPE=239/2/1\nBUSNUM=001\nDEVNUM=" +
                         devnum3 + "\n");
     // The video-control interface that uvcvideo binds, parent of both nodes.
-    ok = ok && write_file(interface / "bInterfaceClass", "0e\n") &&
+    ok = ok && relative_symlink(root / "bus/usb", usb_device / "subsystem") &&
+         relative_symlink(root / "bus/usb", interface / "subsystem") &&
+         write_file(interface / "bInterfaceClass", "0e\n") &&
          write_file(interface / "bInterfaceSubClass", "01\n") &&
          write_file(interface / "bInterfaceNumber", "00\n") &&
          write_file(interface / "interface", name + "\n") &&
@@ -94,7 +133,8 @@ bool write_sysfs_tree(const std::string& root_text, const std::vector<std::strin
          write_file(video / "uevent", "MAJOR=" + std::to_string(kVideoMajor) + "\nMINOR=" + number +
                                           "\nDEVNAME=video" + number + "\n") &&
          write_file(video / "dev", video_dev + "\n") && write_file(video / "name", name + "\n") &&
-         write_file(video / "index", "0\n") && relative_symlink(interface, video / "device");
+         write_file(video / "index", "0\n") && relative_symlink(interface, video / "device") &&
+         relative_symlink(root / "class/video4linux", video / "subsystem");
 
     const fs::path media = interface / ("media" + number);
     const std::string media_dev = std::to_string(kMediaMajor) + ":" + number;
@@ -102,7 +142,8 @@ bool write_sysfs_tree(const std::string& root_text, const std::vector<std::strin
          write_file(media / "uevent", "MAJOR=" + std::to_string(kMediaMajor) + "\nMINOR=" + number +
                                           "\nDEVNAME=media" + number + "\n") &&
          write_file(media / "dev", media_dev + "\n") && write_file(media / "model", name + "\n") &&
-         relative_symlink(interface, media / "device");
+         relative_symlink(interface, media / "device") &&
+         relative_symlink(root / "bus/media", media / "subsystem");
 
     ok = ok && relative_symlink(video, root / "dev/char" / video_dev) &&
          relative_symlink(media, root / "dev/char" / media_dev) &&

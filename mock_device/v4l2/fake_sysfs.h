@@ -15,7 +15,15 @@
 //   ROOT/class/video4linux/videoN -> the videoN folder  (enumerators)
 //   ROOT/class/media/mediaN       -> the mediaN folder
 //   ROOT/bus/media/devices/mediaN -> the mediaN folder  (libcamera's DeviceEnumeratorSysfs)
-// ROOT stands for /sys; the links are relative, so realpath() stays inside ROOT.
+// ROOT stands for /sys; the links are relative, so realpath() stays inside ROOT. Each
+// device folder has its `subsystem` link (video4linux, media, usb, platform), from which
+// udev names a device's subsystem; the links to /sys/bus/usb and /sys/bus/platform point
+// outside the fake tree's folders and are only read, never followed.
+//
+// Beside it, a udev database (write_udev_database), as udev's rules leave it for a UVC
+// camera: UDEV/data/c81:N with v4l_id's ID_V4L_VERSION, ID_V4L_PRODUCT and
+// ID_V4L_CAPABILITIES, and usb_id's vendor, model and serial. GStreamer's device monitor
+// lists only video nodes whose ID_V4L_VERSION is 2. UDEV stands for /run/udev.
 //
 // A transport (the preload library) must redirect exactly the paths is_fake_sysfs_path()
 // accepts into ROOT, and report /dev/videoN and /dev/mediaN as character devices with
@@ -42,6 +50,10 @@ inline constexpr const char* kUsbProductId = "0102";
 inline constexpr const char* kControllerFirmwarePath = "\\_SB_.CAMLAB";
 // The host controller's folder under /sys.
 inline constexpr const char* kHostControllerPath = "/sys/devices/platform/camlab_vcam_hcd.0";
+
+// Writes the udev database entries of the cameras' video nodes under `root` (which must
+// exist): root/data/c81:N. Returns false when a file cannot be written.
+bool write_udev_database(const std::string& root, const std::vector<std::string>& camera_names);
 
 // Writes the tree for `count` devices under `root` (which must exist), the cameras named
 // "camlab virtual camera N". Returns false when a file cannot be written.
@@ -94,6 +106,21 @@ inline bool is_fake_sysfs_path(std::string_view path, int count) {
   return is_under(path, "/sys/class/video4linux") || is_under(path, "/sys/class/media") ||
          is_under(path, "/sys/bus/media") || is_under(path, kHostControllerPath) ||
          is_char_node(path, kVideoMajor, count) || is_char_node(path, kMediaMajor, count);
+}
+
+// Whether a /run/udev path is a fake database entry of `count` cameras:
+// /run/udev/data/c81:N for N < count.
+inline bool is_fake_udev_path(std::string_view path, int count) {
+  constexpr std::string_view base = "/run/udev/data/c81:";
+  if (!sysfs_detail::starts_with(path, base)) return false;
+  path.remove_prefix(base.size());
+  if (path.empty() || path.size() > 6) return false;
+  int minor = 0;
+  for (char c : path) {
+    if (c < '0' || c > '9') return false;
+    minor = minor * 10 + (c - '0');
+  }
+  return minor < count;
 }
 
 // The sysfs path of camera N's USB interface folder, under `root` ("/sys" for the path

@@ -190,6 +190,8 @@ class VirtualV4l2Device {
   bool render_into(int index, uint64_t sequence, std::unique_lock<std::mutex>& lock,
                    uint32_t* bytes_used, bool* failed);
   RenderSettings settings_in_effect() const;
+  // Renders frame 0 for the settings in effect while no stream runs (unlocking meanwhile).
+  void prepare_first_frame(std::unique_lock<std::mutex>& lock);
 
   Renderer renderer_;
   VirtualDeviceOptions options_;
@@ -205,6 +207,18 @@ class VirtualV4l2Device {
   std::set<int> dead_files_;  // opened before an unplug that a replug ended: ENODEV
   int fail_dequeues_ = 0;
   bool render_error_reported_ = false;
+  // Frame 0 of the last stream (or rendered ahead once a stream has ended, if the settings
+  // changed during it): the next STREAMON's first frame if its settings are still those
+  // in effect. Frame 0's noise is the same whenever it is drawn (noise is a function of
+  // the seed and frame number), so it is the very frame a render at STREAMON would give,
+  // minus the wait. Producer thread only.
+  struct PreparedFrame {
+    bool valid = false;
+    RenderSettings settings;
+    cv::Mat image;  // raw DN, as Renderer::render gives
+  };
+  PreparedFrame prepared_;
+  bool prepare_pending_ = false;
   std::thread producer_;
   bool stop_producer_ = false;
 };

@@ -6,17 +6,31 @@
 
 namespace camlab::mock {
 
-v4l2_fract frame_interval_fraction(double interval_us) {
+namespace {
+
+// The fraction for one interval. Specs (and UVC descriptors) give intervals in whole
+// microseconds, so 1/30 s comes as 33333 us: an interval within half a microsecond of a
+// whole rate's, or of an NTSC rate's, is that rate.
+v4l2_fract one_interval_fraction(double interval_us) {
   const double fps = 1e6 / interval_us;
-  // Within 1e-5 of a whole rate (33333.3 us is 30.0000 fps) or of one over 1.001.
-  if (std::fabs(fps - std::round(fps)) < 1e-5 * fps && std::round(fps) >= 1)
-    return {1, static_cast<uint32_t>(std::round(fps))};
-  const double ntsc = fps * 1.001;
-  if (std::fabs(ntsc - std::round(ntsc)) < 1e-5 * ntsc && std::round(ntsc) >= 1)
-    return {1001, static_cast<uint32_t>(std::round(ntsc)) * 1000};
+  const double whole = std::round(fps);
+  if (whole >= 1 && std::fabs(interval_us - 1e6 / whole) <= 0.5)
+    return {1, static_cast<uint32_t>(whole)};
+  const double ntsc = std::round(fps * 1.001);
+  if (ntsc >= 1 && std::fabs(interval_us - 1.001e6 / ntsc) <= 0.5)
+    return {1001, static_cast<uint32_t>(ntsc) * 1000};
   const auto us = static_cast<uint32_t>(std::max(1L, std::lround(interval_us)));
-  const uint32_t divisor = std::gcd(us, 1000000u);
-  return {us / divisor, 1000000u / divisor};
+  return {us, 1000000u};
+}
+
+}  // namespace
+
+v4l2_fract frame_interval_fraction(double interval_us, uint32_t multiple) {
+  const v4l2_fract one = one_interval_fraction(interval_us);
+  const uint64_t numerator = static_cast<uint64_t>(one.numerator) * std::max(1u, multiple);
+  const uint64_t divisor = std::gcd(numerator, static_cast<uint64_t>(one.denominator));
+  return {static_cast<uint32_t>(numerator / divisor),
+          static_cast<uint32_t>(one.denominator / divisor)};
 }
 
 VirtualV4l2FrameClock::VirtualV4l2FrameClock(double sensor_frame_interval_us, bool realtime)
@@ -29,7 +43,7 @@ void VirtualV4l2FrameClock::set_time_per_frame(v4l2_fract asked) {
   const double asked_s =
       asked.denominator ? static_cast<double>(asked.numerator) / asked.denominator : base_s;
   const uint32_t multiple = asked_s > 1.5 * base_s ? 2 : 1;
-  time_per_frame_ = frame_interval_fraction(sensor_frame_interval_us_ * multiple);
+  time_per_frame_ = frame_interval_fraction(sensor_frame_interval_us_, multiple);
 }
 
 std::chrono::microseconds VirtualV4l2FrameClock::interval() const {

@@ -17,11 +17,12 @@
 
 namespace camlab::mock {
 
-// A frame interval as kernel drivers report it: 1/30 for 33333.3 us, not 33333/1000000
-// (ustreamer refuses a numerator other than 1; GStreamer shows 1000000/33333 fps). Whole
-// frame rates give 1/fps, NTSC rates 1001/(1000 fps); anything else the microseconds over
-// 10^6, reduced.
-v4l2_fract frame_interval_fraction(double interval_us);
+// A frame interval as kernel drivers report it: 1/30 for 33333 or 33333.3 us, not
+// 33333/1000000 (ustreamer refuses a numerator other than 1; GStreamer shows 1000000/33333
+// fps). Within half a microsecond of a whole frame rate gives 1/fps, of an NTSC rate
+// 1001/(1000 fps); anything else the microseconds over 10^6, reduced. `multiple` times
+// the interval is that fraction's multiple (twice 33333 us is 1/15, not 33333/500000).
+v4l2_fract frame_interval_fraction(double interval_us, uint32_t multiple = 1);
 
 class VirtualV4l2FrameClock {
  public:

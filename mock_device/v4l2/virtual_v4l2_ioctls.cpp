@@ -89,7 +89,7 @@ int VirtualV4l2Device::enum_frameintervals(Call& call) {
   interval->type = V4L2_FRMIVAL_TYPE_DISCRETE;
   // The sensor's frame interval, and twice it (for longer exposures).
   interval->discrete =
-      frame_interval_fraction(camera.timing.frame_interval_us * (1 << interval->index));
+      frame_interval_fraction(camera.timing.frame_interval_us, 1u << interval->index);
   return 0;
 }
 

@@ -1,6 +1,8 @@
 // VirtualV4l2Device: the producer thread. At each tick of the frame clock it applies the
 // control values whose latency has passed, and renders the frame into the oldest queued
-// buffer (a tick without one is a lost frame, as on hardware).
+// buffer (a tick without one is a lost frame, as on hardware). The first frame after
+// STREAMON is started at once (rendered ahead when a previous stream ended with the same
+// settings); the ticks follow it.
 #include <time.h>
 
 #include <algorithm>
@@ -50,6 +52,33 @@ RenderSettings VirtualV4l2Device::settings_in_effect() const {
   return s;
 }
 
+namespace {
+
+bool same_settings(const RenderSettings& a, const RenderSettings& b) {
+  return a.exposure_us == b.exposure_us && a.gain == b.gain && a.f_number == b.f_number &&
+         a.focus_position == b.focus_position;
+}
+
+}  // namespace
+
+void VirtualV4l2Device::prepare_first_frame(std::unique_lock<std::mutex>& lock) {
+  prepare_pending_ = false;
+  const RenderSettings settings = settings_in_effect();
+  // The stream's own frame 0 serves when its settings are still those in effect.
+  if (prepared_.valid && same_settings(prepared_.settings, settings)) return;
+  RenderOptions options;
+  options.seed = options_.seed;
+  options.frame_number = 0;
+  lock.unlock();
+  auto frame = renderer_.render(settings, options_.view, options);
+  lock.lock();
+  prepared_.valid = frame.ok();
+  if (frame) {
+    prepared_.settings = settings;
+    prepared_.image = std::move(frame->image);
+  }
+}
+
 bool VirtualV4l2Device::render_into(int index, uint64_t sequence,
                                     std::unique_lock<std::mutex>& lock, uint32_t* bytes_used,
                                     bool* failed) {
@@ -62,10 +91,21 @@ bool VirtualV4l2Device::render_into(int index, uint64_t sequence,
   options.seed = options_.seed;
   options.frame_number = sequence;
   const uint64_t generation = queue_.generation();
+  const bool ready =
+      sequence == 0 && prepared_.valid && same_settings(prepared_.settings, settings);
   // Render and encode without the lock: ioctls (controls, status) must not wait on a frame.
   lock.unlock();
+  Result<RenderedFrame> frame = make_error("internal", "not rendered");
+  if (ready) {
+    RenderedFrame kept;
+    kept.image = prepared_.image;
+    frame = std::move(kept);
+  } else {
+    frame = renderer_.render(settings, options_.view, options);
+    if (sequence == 0 && frame) prepared_ = {true, settings, frame->image};  // for next time
+  }
   Result<std::vector<uint8_t>> bytes = make_error("internal", "not rendered");
-  if (auto frame = renderer_.render(settings, options_.view, options); frame)
+  if (frame)
     bytes = encode_frame(frame->image, renderer_.camera().sensor,
                          renderer_.camera().isp.jpeg_quality, offered, format);
   else
@@ -96,28 +136,31 @@ void VirtualV4l2Device::produce_frames() {
   std::unique_lock lock(mutex_);
   while (!stop_producer_) {
     if (!queue_.streaming() || clock_.stalled() || unplugged_) {
+      // A stream ended: while none runs, have the next one's first frame ready (its own
+      // frame 0 if the settings are unchanged, else one rendered now: the scene integral
+      // is cached by then, so it costs one frame's noise).
+      if (clock_.running() && !queue_.streaming()) prepare_pending_ = true;
       clock_.stop();
+      if (prepare_pending_ && !queue_.streaming() && !unplugged_) {
+        prepare_first_frame(lock);
+        continue;  // re-check the stream state after the unlocked render
+      }
       changed_.wait(lock);
       continue;
-    }
-    if (!clock_.running()) {
-      // The scene integral for the settings in effect is the slow part of a first frame;
-      // computing it before the clock starts keeps it from costing the first ticks.
-      const RenderSettings settings = settings_in_effect();
-      RenderOptions options;
-      options.seed = options_.seed;
-      lock.unlock();
-      (void)renderer_.render(settings, options_.view, options);
-      lock.lock();
-      clock_.start();
-      continue;  // re-check the stream state after the unlocked render
     }
     if (!clock_.realtime() && !queue_.has_queued() && !clock_.dropping()) {
       // As fast as rendered, but a frame is only started when a buffer waits for it.
       changed_.wait(lock);
       continue;
     }
-    if (clock_.realtime()) {
+    // STREAMON: the first frame starts at once, not at a tick, so that with the scene
+    // integral already computed it is done within one frame interval (a client with a
+    // one-second timeout must not time out on a camera that has rendered before).
+    const bool first_frame = !clock_.running();
+    if (first_frame) {
+      clock_.start();
+      if (clock_.realtime()) clock_.advance();  // the first tick is this frame's
+    } else if (clock_.realtime()) {
       if (changed_.wait_until(lock, clock_.next_tick(), [&] {
             return stop_producer_ || !queue_.streaming() || clock_.stalled();
           }))
@@ -136,6 +179,12 @@ void VirtualV4l2Device::produce_frames() {
     uint32_t bytes_used = 0;
     if (!render_into(index, sequence, lock, &bytes_used, &failed))
       continue;  // stream stopped meanwhile
+    // A first frame that took longer than an interval (it integrated the scene) starts
+    // the clock's ticks from its end: the stream starts late, as a sensor's does, rather
+    // than with a gap of lost sequence numbers.
+    if (first_frame && clock_.realtime() &&
+        VirtualV4l2FrameClock::Clock::now() > clock_.next_tick())
+      clock_.start();
     v4l2_buffer done{};
     done.index = static_cast<uint32_t>(index);
     done.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;

@@ -2,13 +2,19 @@
 //
 //   render_bench [--quick]
 //
-// Table 1: frames per second of the example scenes at 640x480 and 1280x800 (median of
-//          repeated renders, noise on, automatic sampling).
-// Table 2: for a slanted edge defocused to D px, per aperture sample count: time per
+// Table 1: time per frame of the example scenes at 640x480 and 1280x800 (noise on,
+//          automatic sampling): the first frame, which integrates the scene, and the
+//          median of the next ones, which reuse the integral (a V4L2 stream's frames).
+// Table 2: the sensor model alone (expose(): noise, gain, black level, rounding) per
+//          frame, on a ramp from 0 to the full well, with the noise off, with the noise
+//          samplers it had before (std::poisson_distribution per pixel) and with the
+//          current ones, in the same run.
+// Table 3: the noise deviates one at a time, ns per draw.
+// Table 4: for a slanted edge defocused to D px, per aperture sample count: time per
 //          frame, RMS error of the edge pixels against a 1024-sample reference render of
 //          the same frame (in % of the edge contrast), and the blur diameter measured by
 //          the exact pillbox fit against the thin-lens CoC.
-// No noise in table 2, so the error is the sampling's alone.
+// No noise in table 4, so the error is the sampling's alone.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -21,8 +27,11 @@
 #include <opencv2/core.hpp>
 
 #include "analysis/edge/edge_spread.h"
+#include "mock_device/render/noise_sampler.h"
 #include "mock_device/render/renderer.h"
+#include "mock_device/render/sensor_model.h"
 #include "optics/optics.h"
+#include "render_bench_previous_noise.h"
 
 namespace {
 
@@ -53,11 +62,13 @@ Renderer load(const char* camera, const char* scene) {
 }
 
 void speed_table(int repeats) {
-  std::printf("Render speed (noise on, automatic sampling, %d threads, median of %d)\n",
-              std::max(1u, std::thread::hardware_concurrency()), repeats);
   std::printf(
-      "| camera | scene | samples/px | max CoC px | ms/frame | frames/s "
-      "|\n|---|---|---|---|---|---|\n");
+      "Render speed (noise on, automatic sampling, %d threads): the first frame integrates the "
+      "scene, the next %d reuse it (median)\n",
+      std::max(1u, std::thread::hardware_concurrency()), repeats);
+  std::printf(
+      "| camera | scene | samples/px | max CoC px | first frame ms | next frames ms | next "
+      "frames/s |\n|---|---|---|---|---|---|---|\n");
   struct Case {
     const char* camera;
     const char* scene;
@@ -67,8 +78,8 @@ void speed_table(int repeats) {
                  Case{"camera_wide_1280x800.json", "scene_chessboard_calibration.json"}}) {
     Renderer renderer = load(c.camera, c.scene);
     std::vector<double> seconds;
-    RenderStats stats;
-    for (int i = 0; i < repeats; ++i) {
+    RenderStats first;
+    for (int i = 0; i <= repeats; ++i) {
       RenderOptions options;
       options.frame_number = i;
       auto frame = renderer.render(renderer.default_settings(), 0, options);
@@ -76,13 +87,65 @@ void speed_table(int repeats) {
         std::fprintf(stderr, "%s\n", frame.error().message.c_str());
         std::exit(1);
       }
-      seconds.push_back(frame->stats.seconds);
-      stats = frame->stats;
+      if (i == 0)
+        first = frame->stats;
+      else
+        seconds.push_back(frame->stats.seconds);
     }
     const double s = median(seconds);
-    std::printf("| %dx%d | %s | %d | %.2f | %.1f | %.2f |\n", renderer.camera().sensor.width_px,
-                renderer.camera().sensor.height_px, c.scene, stats.pixel_samples, stats.max_coc_px,
-                s * 1e3, 1.0 / s);
+    std::printf("| %dx%d | %s | %d | %.2f | %.1f | %.1f | %.1f |\n",
+                renderer.camera().sensor.width_px, renderer.camera().sensor.height_px, c.scene,
+                first.pixel_samples, first.max_coc_px, first.seconds * 1e3, s * 1e3, 1.0 / s);
+  }
+}
+
+// expose() on a horizontal ramp of reflectance whose electrons run from 0 to the full
+// well: every regime of the shot-noise sampler (under 1 e- to thousands) in one frame.
+void noise_table(int repeats) {
+  std::printf(
+      "\nSensor model per frame (expose(): a ramp from 0 e- to the full well, median of %d), "
+      "previous samplers against the current ones\n",
+      repeats);
+  std::printf(
+      "| sensor | threads | noise off ms | previous noise ms | current noise ms | speed-up "
+      "|\n|---|---|---|---|---|---|\n");
+  const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  for (const char* name : {"camera_640x480.json", "camera_wide_1280x800.json"}) {
+    auto camera = load_camera_spec(kExamples / name);
+    if (!camera) {
+      std::fprintf(stderr, "%s\n", camera.error().message.c_str());
+      std::exit(1);
+    }
+    const int w = camera->sensor.width_px, h = camera->sensor.height_px;
+    cv::Mat ramp(h, w, CV_32F);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) ramp.at<float>(y, x) = static_cast<float>(x) / (w - 1);
+    const double e_per_reflectance = camera->sensor.full_well_e;
+    for (int threads : {1, hardware}) {
+      auto time_ms = [&](auto&& expose_once) {
+        std::vector<double> ms;
+        for (int i = 0; i < repeats; ++i) {
+          const auto start = std::chrono::steady_clock::now();
+          cv::Mat out = expose_once(static_cast<uint64_t>(i));
+          ms.push_back(
+              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                  .count());
+          if (out.empty()) std::exit(1);
+        }
+        return median(ms);
+      };
+      const double off = time_ms([&](uint64_t seed) {
+        return expose(ramp, *camera, e_per_reflectance, 1.0, false, seed, threads);
+      });
+      const double before = time_ms([&](uint64_t seed) {
+        return bench::previous::expose(ramp, *camera, e_per_reflectance, 1.0, true, seed, threads);
+      });
+      const double now = time_ms([&](uint64_t seed) {
+        return expose(ramp, *camera, e_per_reflectance, 1.0, true, seed, threads);
+      });
+      std::printf("| %dx%d | %d | %.1f | %.1f | %.1f | %.1fx |\n", w, h, threads, off, before, now,
+                  before / now);
+    }
   }
 }
 
@@ -151,10 +214,12 @@ void aperture_table(const std::vector<double>& diameters_px, const std::vector<i
                                         e["end"][0].get<double>() - e["start"][0].get<double>())};
     for (int count : samples) {
       options.aperture_samples = count;
-      options.seed = 1;
       std::vector<double> seconds;
       Result<RenderedFrame> frame = make_error("internal", "not run yet");
-      for (int i = 0; i < 3; ++i) {
+      // Seeds 3, 2, 1: each a fresh scene integral (the renderer reuses one per seed, and
+      // a reused integral would time only the sensor model); the error is seed 1's.
+      for (int i = 3; i >= 1; --i) {
+        options.seed = static_cast<uint64_t>(i);
         frame = renderer.render(settings, 0, options);
         seconds.push_back(frame->stats.seconds);
       }
@@ -176,9 +241,46 @@ void aperture_table(const std::vector<double>& diameters_px, const std::vector<i
 
 }  // namespace
 
+// One deviate at a time: the Poisson law rebuilt for every draw (a pixel whose mean
+// differs from its neighbour's) and kept (a uniform patch), and the normal; best of 15
+// runs of 200000 draws, so other work on the machine counts least.
+void draw_table() {
+  std::printf("\nNoise deviates: ns per draw (best of 15 runs of 200000)\n");
+  std::printf("| deviate | mean e- | ns per draw, law rebuilt | ns per draw, law kept |\n");
+  std::printf("|---|---|---|---|\n");
+  auto best_ns = [](auto&& draw) {
+    double best = 1e9;
+    for (int run = 0; run < 15; ++run) {
+      constexpr int kDraws = 200000;
+      double sum = 0;
+      const auto start = std::chrono::steady_clock::now();
+      for (int i = 0; i < kDraws; ++i) sum += draw(static_cast<uint64_t>(run * kDraws + i));
+      const double ns =
+          std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - start)
+              .count() /
+          kDraws;
+      if (sum == -1) std::printf(" ");  // keeps the draws from being optimised away
+      best = std::min(best, ns);
+    }
+    return best;
+  };
+  constexpr uint64_t kKey = 0x5EED;
+  for (double mean : {0.5, 5.0, 30.0, 1000.0, 6000.0}) {
+    const noise::PoissonLaw law(mean);
+    const double rebuilt =
+        best_ns([&](uint64_t i) { return static_cast<double>(noise::poisson(mean, kKey, i)); });
+    const double kept = best_ns([&](uint64_t i) { return static_cast<double>(law.draw(kKey, i)); });
+    std::printf("| Poisson | %g | %.1f | %.1f |\n", mean, rebuilt, kept);
+  }
+  std::printf("| normal | - | %.1f | - |\n",
+              best_ns([&](uint64_t i) { return noise::standard_normal(kKey, i); }));
+}
+
 int main(int argc, char** argv) {
   const bool quick = argc > 1 && std::strcmp(argv[1], "--quick") == 0;
-  speed_table(quick ? 1 : 5);
+  speed_table(quick ? 2 : 5);
+  noise_table(quick ? 3 : 9);
+  draw_table();
   if (quick)
     aperture_table({10.0}, {4, 16, 64});
   else

@@ -1,9 +1,13 @@
 // A V4L2 client that reaches the virtual device through every libc entry point the
 // preload library interposes, including syscall() (as libv4l2 and libcamera do), the dup
-// family, read, ppoll/pselect/select and the stat family. Run under `camlab vcam run`;
+// family, read, ppoll/pselect/select, the stat family, and the directory listings that
+// show the cameras (readdir, scandir, glob, libudev's walk into /sys). Run under `camlab vcam run`;
 // prints one line per failed check and exits with the number of failures.
+#include <dirent.h>
 #include <dlfcn.h>
 #include <fcntl.h>
+#include <glob.h>
+#include <linux/magic.h>
 #include <linux/media.h>
 #include <linux/videodev2.h>
 #include <poll.h>
@@ -11,8 +15,10 @@
 #include <sys/mman.h>
 #include <sys/select.h>
 #include <sys/stat.h>
+#include <sys/statfs.h>
 #include <sys/syscall.h>
 #include <sys/sysmacros.h>
+#include <sys/xattr.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -20,6 +26,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <set>
 #include <string>
 
 namespace {
@@ -98,9 +105,116 @@ void check_media_node() {
   check(close(fd) == 0, "close /dev/media0");
 }
 
+bool names_in(DIR* dir, std::set<std::string>* names) {
+  if (!dir) return false;
+  while (dirent* e = readdir(dir)) names->insert(e->d_name);
+  return true;
+}
+
+// Listings show the virtual nodes and the fake sysfs's folders, through every way of
+// listing a folder; and libudev's walk into /sys, one name at a time, lands in the fake
+// tree and reports sysfs paths and a sysfs filesystem there.
+void check_listings() {
+  std::set<std::string> dev;
+  DIR* dir = opendir("/dev");
+  check(names_in(dir, &dev) && dev.count("video0") && dev.count("media0") && !dev.count("video1"),
+        "readdir of /dev lists video0 and media0, and no more cameras");
+  check(dev.count("null") == 1, "readdir of /dev still lists the real nodes");
+  rewinddir(dir);
+  std::set<std::string> again;
+  check(names_in(dir, &again) && again == dev, "rewinddir lists the same again");
+  closedir(dir);
+
+  dir = opendir("/dev/");
+  bool typed = false;
+  while (dirent64* e = readdir64(dir))
+    if (std::strcmp(e->d_name, "video0") == 0) typed = e->d_type == DT_CHR;
+  closedir(dir);
+  check(typed, "readdir64 of /dev/ gives video0 as a character device");
+
+  dir = opendir("/sys/class");
+  std::set<std::string> classes;
+  check(names_in(dir, &classes) && classes.count("video4linux") && classes.count("media"),
+        "readdir of /sys/class lists video4linux and media");
+  closedir(dir);
+
+  const int dev_fd = open("/dev", O_RDONLY | O_DIRECTORY);
+  dir = fdopendir(dev_fd);
+  bool found = false;
+  dirent entry{};
+  // readdir_r is deprecated, and still called by programs built long ago.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+  for (dirent* e = nullptr; readdir_r(dir, &entry, &e) == 0 && e;)
+    found |= std::strcmp(e->d_name, "video0") == 0;
+#pragma GCC diagnostic pop
+  closedir(dir);
+  check(found, "fdopendir and readdir_r of /dev list video0");
+
+  dirent** list = nullptr;
+  const int n = scandir(
+      "/dev", &list,
+      [](const dirent* e) { return std::strncmp(e->d_name, "video", 5) == 0 ? 1 : 0; }, alphasort);
+  check(n == 1 && std::strcmp(list[0]->d_name, "video0") == 0, "scandir of /dev with a filter");
+  for (int i = 0; i < n; ++i) std::free(list[i]);
+  std::free(list);
+  const int v4l_count = scandirat(AT_FDCWD, "/sys/class/video4linux", &list, nullptr, alphasort);
+  bool video0 = false;
+  for (int i = 0; i < v4l_count; ++i) {
+    video0 |= std::strcmp(list[i]->d_name, "video0") == 0;
+    std::free(list[i]);
+  }
+  std::free(list);
+  check(video0, "scandirat of the fake /sys/class/video4linux");
+
+  glob_t found_nodes{};
+  check(glob("/dev/video*", 0, nullptr, &found_nodes) == 0 && found_nodes.gl_pathc == 1 &&
+            std::strcmp(found_nodes.gl_pathv[0], "/dev/video0") == 0,
+        "glob /dev/video*");
+  globfree(&found_nodes);
+
+  // libudev's chase: "/" then "sys", "class", "video4linux", each relative to the last.
+  const int root = open("/", O_PATH | O_DIRECTORY);
+  const int sys = openat(root, "sys", O_PATH | O_NOFOLLOW);
+  const int sys_class = openat(sys, "class", O_PATH | O_NOFOLLOW);
+  const int v4l = openat(sys_class, "video4linux", O_PATH | O_NOFOLLOW);
+  check(v4l >= 0, "openat(/sys/class fd, \"video4linux\") steps into the fake tree");
+  char link[PATH_MAX] = {};
+  const std::string self = "/proc/self/fd/" + std::to_string(v4l);
+  const ssize_t length = readlink(self.c_str(), link, sizeof link - 1);
+  check(length > 0 && std::string(link, static_cast<size_t>(length)) == "/sys/class/video4linux",
+        "/proc/self/fd of a fake sysfs folder reads under /sys");
+  struct statfs fs {};
+  check(fstatfs(v4l, &fs) == 0 && fs.f_type == SYSFS_MAGIC, "fstatfs in the fake sysfs is sysfs");
+  check(statfs("/sys/class/video4linux", &fs) == 0 && fs.f_type == SYSFS_MAGIC, "statfs too");
+  struct stat st {};
+  check(fstatat(sys_class, "video4linux", &st, 0) == 0 && S_ISDIR(st.st_mode),
+        "fstatat relative to /sys/class");
+  for (int fd : {v4l, sys_class, sys, root}) close(fd);
+  char subsystem[PATH_MAX] = {};
+  const ssize_t sub_length =
+      readlink("/sys/class/video4linux/video0/subsystem", subsystem, sizeof subsystem - 1);
+  check(sub_length > 0 && std::strstr(subsystem, "video4linux") != nullptr,
+        "the video node's subsystem link");
+  errno = 0;
+  char label[64];
+  check(lgetxattr("/dev/video0", "security.selinux", label, sizeof label) == -1 && errno == ENODATA,
+        "a virtual node has no extended attributes");
+
+  // The udev database entry GStreamer's device monitor reads.
+  std::FILE* db = std::fopen("/run/udev/data/c81:0", "r");
+  char line[256];
+  bool v4l2 = false;
+  while (db && std::fgets(line, sizeof line, db))
+    v4l2 |= std::strcmp(line, "E:ID_V4L_VERSION=2\n") == 0;
+  if (db) std::fclose(db);
+  check(v4l2, "the udev database says the node is V4L2");
+}
+
 }  // namespace
 
 int main() {
+  check_listings();
   check_media_node();
   // syscall() directly, as libv4l2 and libcamera call it.
   const int fd = static_cast<int>(syscall(SYS_openat, AT_FDCWD, "/dev/video0", O_RDWR));

@@ -19,6 +19,9 @@ TEST(VirtualV4l2FrameClock, TimePerFrameIsTheSensorsIntervalOrTwiceIt) {
   EXPECT_EQ(clock.interval(), std::chrono::microseconds(33333));
   clock.set_time_per_frame({1, 15});  // 66.7 ms
   EXPECT_TRUE(same(clock.time_per_frame(), {1, 15}));
+  VirtualV4l2FrameClock whole_us(33333, true);  // as specs give it
+  whole_us.set_time_per_frame({1, 15});
+  EXPECT_TRUE(same(whole_us.time_per_frame(), {1, 15}));
   clock.set_time_per_frame({1, 25});  // 40 ms: nearer the sensor's
   EXPECT_TRUE(same(clock.time_per_frame(), {1, 30}));
   clock.set_time_per_frame({1, 15});
@@ -28,12 +31,20 @@ TEST(VirtualV4l2FrameClock, TimePerFrameIsTheSensorsIntervalOrTwiceIt) {
 
 TEST(VirtualV4l2FrameClock, IntervalsAreTheFractionsDriversReport) {
   EXPECT_TRUE(same(frame_interval_fraction(33333.3), {1, 30}));
+  EXPECT_TRUE(same(frame_interval_fraction(33333), {1, 30})) << "whole microseconds, as specs give";
+  EXPECT_TRUE(same(frame_interval_fraction(16667), {1, 60}));
+  EXPECT_TRUE(same(frame_interval_fraction(33367), {1001, 30000})) << "29.97 fps in whole us";
   EXPECT_TRUE(same(frame_interval_fraction(16666.7), {1, 60}));
   EXPECT_TRUE(same(frame_interval_fraction(40000), {1, 25}));
   EXPECT_TRUE(same(frame_interval_fraction(1e6), {1, 1}));
   EXPECT_TRUE(same(frame_interval_fraction(33366.7), {1001, 30000})) << "29.97 fps";
   EXPECT_TRUE(same(frame_interval_fraction(12345), {2469, 200000})) << "no whole rate: reduced";
   EXPECT_TRUE(same(frame_interval_fraction(2e6), {2, 1})) << "half a frame per second";
+  // Multiples of an interval are multiples of its fraction, not of its rounded microseconds.
+  EXPECT_TRUE(same(frame_interval_fraction(33333, 2), {1, 15}));
+  EXPECT_TRUE(same(frame_interval_fraction(16667, 2), {1, 30}));
+  EXPECT_TRUE(same(frame_interval_fraction(33367, 2), {1001, 15000}));
+  EXPECT_TRUE(same(frame_interval_fraction(12345, 2), {2469, 100000}));
 }
 
 TEST(VirtualV4l2FrameClock, SequenceNumbersCountFromStreamon) {
