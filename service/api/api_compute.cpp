@@ -115,12 +115,12 @@ void post_calibration(const ServiceContext& context, const ApiRequest& request, 
     return reply(error_response("invalid_request",
                                 "\"model\" must be \"auto\" or a mrcal LENSMODEL_... name"));
   const nlohmann::json& detector = body->value("detector", nlohmann::json("auto"));
-  if (!detector.is_string() ||
-      !(detector == "auto" || detector == "opencv" || detector == "mrgingham"))
-    return reply(
-        error_response("invalid_request",
-                       "\"detector\" must be \"auto\" (mrgingham on square boards, else OpenCV), "
-                       "\"opencv\" or \"mrgingham\""));
+  if (!detector.is_string() || !(detector == "auto" || detector == "saddle" ||
+                                 detector == "opencv" || detector == "mrgingham"))
+    return reply(error_response(
+        "invalid_request",
+        "\"detector\" must be \"auto\" (camlab's saddle-point detector, with mrgingham on "
+        "square boards where it misses), \"saddle\", \"opencv\" or \"mrgingham\""));
   if (detector == "mrgingham" && cols != rows)
     return reply(error_response(
         "unsupported", "the mrgingham detector finds square boards only (N x N inner corners)"));

@@ -137,9 +137,10 @@ json schemas() {
            {{"type", "string"}, {"description", "auto (default) or a mrcal LENSMODEL_... name"}}},
           {"detector",
            {{"type", "string"},
-            {"enum", {"auto", "opencv", "mrgingham"}},
+            {"enum", {"auto", "saddle", "opencv", "mrgingham"}},
             {"description",
-             "auto (default): mrgingham on square boards, OpenCV elsewhere and where it misses"}}},
+             "auto (default): camlab's saddle-point detector, with mrgingham on square boards "
+             "where it misses"}}},
           {"pixel_um", {{"type", "number"}}}}}}},
       {"AnalysisRequest",
        {{"type", "object"},
