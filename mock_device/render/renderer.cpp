@@ -162,20 +162,35 @@ void Renderer::remember_reflectance(const IntegrationKey& key, const cv::Mat& re
   reflectance_cache_.emplace_back(key, reflectance);
 }
 
-Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
-                                       const RenderOptions& options) {
+struct Renderer::FramePlan {
+  RenderSettings settings;
+  int view = 0;
+  double lens_to_sensor_mm = 0;
+  double focus_mm = 0;
+  std::vector<TargetSurface> surfaces;  // the targets at this view
+  IntegratorSetup setup;                // without `surfaces`: set where it is used
+  IntegrationKey key{};
+  std::array<ChannelTruthInputs, 3> channels{};
+  RenderStats stats;
+};
+
+Result<Renderer::FramePlan> Renderer::plan_frame(const RenderSettings& settings, int view,
+                                                 const RenderOptions& options) {
   if (Status ok = validate(settings); !ok) return ok.error();
   if (view < 0 || view >= scene_.view_count)
     return make_error("out_of_range", "view " + std::to_string(view) + " is not in 0.." +
                                           std::to_string(scene_.view_count - 1));
-  const auto start = std::chrono::steady_clock::now();
+  FramePlan plan;
+  plan.settings = settings;
+  plan.view = view;
   const LensSpec& lens = camera_.lens;
-  const double lens_to_sensor_mm =
+  plan.lens_to_sensor_mm =
       lens.focal_mm + settings.focus_position * lens.focus.extension_mm_per_step;
-  auto focus_mm = optics::focus_distance_mm(lens.focal_mm, lens_to_sensor_mm);
+  auto focus_mm = optics::focus_distance_mm(lens.focal_mm, plan.lens_to_sensor_mm);
   if (!focus_mm) return focus_mm.error();
+  plan.focus_mm = *focus_mm;
 
-  std::vector<TargetSurface> surfaces;
+  std::vector<TargetSurface>& surfaces = plan.surfaces;
   surfaces.reserve(scene_.targets.size());
   for (size_t i = 0; i < scene_.targets.size(); ++i)
     surfaces.emplace_back(scene_.targets[i], scene_.pose(scene_.targets[i], view), textures_[i]);
@@ -189,17 +204,15 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
     return 0;
   };
 
-  RenderStats stats;
-  IntegratorSetup setup;
+  RenderStats& stats = plan.stats;
+  IntegratorSetup& setup = plan.setup;
   setup.rays = &rays_for(settings.focus_position);
-  setup.surfaces = &surfaces;
   setup.aperture_radius_m = lens.focal_mm / settings.f_number / 2 * 1e-3;
   setup.pixel_grid =
       options.pixel_samples > 0
           ? std::max(1, static_cast<int>(std::lround(std::sqrt(options.pixel_samples))))
           : 4;
   const SensorSpec& sensor = camera_.sensor;
-  std::array<ChannelTruthInputs, 3> channels{};
   std::array<int, 3> lens_grids = {0, 0, 0};
   if (!sensor.is_colour()) {
     for (const auto& surface : surfaces)
@@ -217,7 +230,7 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
     // Each pixel sees its own colour, through its channel's own focus.
     setup.cfa = sensor.cfa;
     for (int c = 0; c < 3; ++c) {
-      auto optics = channel_optics(camera_, c, settings.f_number, lens_to_sensor_mm);
+      auto optics = channel_optics(camera_, c, settings.f_number, plan.lens_to_sensor_mm);
       if (!optics) return optics.error();
       double max_coc_px = 0;
       for (const auto& surface : surfaces)
@@ -233,34 +246,65 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
       stats.aperture_samples = std::max(stats.aperture_samples, samples);
       stats.pixel_samples = std::max(stats.pixel_samples,
                                      samples > 0 ? samples : setup.pixel_grid * setup.pixel_grid);
-      channels[static_cast<size_t>(c)].optics = *optics;
-      channels[static_cast<size_t>(c)].quantum_efficiency =
-          sensor.quantum_efficiency_rgb[static_cast<size_t>(c)];
-      channels[static_cast<size_t>(c)].aperture_samples = samples;
+      ChannelTruthInputs& truth = plan.channels[static_cast<size_t>(c)];
+      truth.optics = *optics;
+      truth.quantum_efficiency = sensor.quantum_efficiency_rgb[static_cast<size_t>(c)];
+      truth.aperture_samples = samples;
     }
   }
   // The scene integral depends on the seed but not on the frame: repeated frames of one
   // setting differ by sensor noise only, as a static scene's frames do (a frame-varying
   // sampling pattern would add rendering noise to photon-transfer measurements).
+  stats.mean_samples_per_pixel = stats.pixel_samples;
   setup.seed = mix_seed(options.seed, 1);
   setup.threads =
       options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+  plan.key = IntegrationKey{view,       settings.focus_position, settings.f_number,
+                            lens_grids, setup.pixel_grid,        setup.seed};
+  return plan;
+}
 
-  const IntegrationKey key{view,       settings.focus_position, settings.f_number,
-                           lens_grids, setup.pixel_grid,        setup.seed};
-  cv::Mat reflectance = cached_reflectance(key);
+cv::Mat Renderer::scene_integral(const FramePlan& plan, RenderStats* stats) {
+  cv::Mat reflectance = cached_reflectance(plan.key);
+  stats->cached = !reflectance.empty();
   if (reflectance.empty()) {
+    IntegratorSetup setup = plan.setup;
+    setup.surfaces = &plan.surfaces;
     reflectance = integrate(setup);
-    remember_reflectance(key, reflectance);
-    stats.cached = false;
-  } else {
-    stats.cached = true;
+    remember_reflectance(plan.key, reflectance);
   }
+  return reflectance;
+}
 
-  const double electrons_per_reflectance = electrons_per_unit_reflectance(
-      camera_, scene_.illuminance_lux, settings.exposure_us, settings.f_number, lens_to_sensor_mm);
+Result<SceneIntegral> Renderer::integrate_scene(const RenderSettings& settings, int view,
+                                                const RenderOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  auto plan = plan_frame(settings, view, options);
+  if (!plan) return plan.error();
+  SceneIntegral out;
+  out.stats = plan->stats;
+  out.reflectance = scene_integral(*plan, &out.stats);
+  out.stats.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
+                                       const RenderOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  auto planned = plan_frame(settings, view, options);
+  if (!planned) return planned.error();
+  const FramePlan& plan = *planned;
+  RenderStats stats = plan.stats;
+  cv::Mat reflectance = scene_integral(plan, &stats);
+
+  const SensorSpec& sensor = camera_.sensor;
+  const double electrons_per_reflectance =
+      electrons_per_unit_reflectance(camera_, scene_.illuminance_lux, settings.exposure_us,
+                                     settings.f_number, plan.lens_to_sensor_mm);
   // A colour pixel collects its channel's QE where the sensor model counts the grey QE:
   // its reflectance is scaled by the ratio.
+  std::array<ChannelTruthInputs, 3> channels = plan.channels;
   std::array<double, 3> qe_ratio = {1, 1, 1};
   for (int c = 0; c < 3 && sensor.is_colour(); ++c) {
     qe_ratio[static_cast<size_t>(c)] =
@@ -271,17 +315,17 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
   RenderedFrame frame;
   frame.image = expose(scaled_by_channel(reflectance, sensor, qe_ratio), camera_,
                        electrons_per_reflectance, settings.gain, options.noise,
-                       mix_seed(options.seed, options.frame_number * 2 + 2), setup.threads);
+                       mix_seed(options.seed, options.frame_number * 2 + 2), plan.setup.threads);
 
   TruthInputs truth;
   truth.camera = &camera_;
   truth.scene = &scene_;
-  truth.surfaces = &surfaces;
+  truth.surfaces = &plan.surfaces;
   truth.view = view;
-  truth.intrinsics = intrinsics_at(camera_, lens_to_sensor_mm);
+  truth.intrinsics = intrinsics_at(camera_, plan.lens_to_sensor_mm);
   truth.f_number = settings.f_number;
-  truth.focus_distance_mm = *focus_mm;
-  truth.lens_to_sensor_mm = lens_to_sensor_mm;
+  truth.focus_distance_mm = plan.focus_mm;
+  truth.lens_to_sensor_mm = plan.lens_to_sensor_mm;
   truth.electrons_per_unit_reflectance = electrons_per_reflectance;
   truth.gain = settings.gain;
   truth.channels = channels;
@@ -302,8 +346,8 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
       {"gain_control", settings.gain * c.gain_unity},
       {"f_number", settings.f_number},
       {"focus_position", settings.focus_position},
-      {"focus_distance_m", *focus_mm * 1e-3},
-      {"lens_to_sensor_mm", lens_to_sensor_mm},
+      {"focus_distance_m", plan.focus_mm * 1e-3},
+      {"lens_to_sensor_mm", plan.lens_to_sensor_mm},
   };
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   frame.stats = stats;

@@ -58,11 +58,19 @@ struct RenderOptions {
 };
 
 struct RenderStats {
-  int aperture_samples = 0;  // 0 = pinhole (lens not sampled)
-  int pixel_samples = 0;     // samples per pixel in total
-  double max_coc_px = 0;     // largest predicted CoC over the visible targets
+  int aperture_samples = 0;           // 0 = pinhole (lens not sampled)
+  int pixel_samples = 0;              // samples per pixel in total
+  double mean_samples_per_pixel = 0;  // rays traced per pixel, averaged over the frame
+  double max_coc_px = 0;              // largest predicted CoC over the visible targets
   double seconds = 0;
   bool cached = false;  // the scene integral was reused from an earlier frame
+};
+
+// The scene integral of one frame: mean reflectance per pixel, each pixel in its own
+// channel, before the sensor (QE, noise, quantisation).
+struct SceneIntegral {
+  cv::Mat reflectance;  // CV_32F, height x width of the sensor
+  RenderStats stats;
 };
 
 struct RenderedFrame {
@@ -95,6 +103,11 @@ class Renderer {
   Result<RenderedFrame> render(const RenderSettings& settings, int view,
                                const RenderOptions& options);
 
+  // The scene integral alone, as render() computes (and caches) it: what the sensor model
+  // turns into DN. For measuring the renderer's speed and error without the sensor.
+  Result<SceneIntegral> integrate_scene(const RenderSettings& settings, int view,
+                                        const RenderOptions& options);
+
   // The settings the camera's control defaults give.
   RenderSettings default_settings() const;
 
@@ -106,6 +119,11 @@ class Renderer {
 
  private:
   Renderer() = default;
+  struct FramePlan;  // renderer.cpp: everything a frame's integral and truth need
+  Result<FramePlan> plan_frame(const RenderSettings& settings, int view,
+                               const RenderOptions& options);
+  // The integral for `plan`, from the cache or computed (and remembered).
+  cv::Mat scene_integral(const FramePlan& plan, RenderStats* stats);
   // The scene integral (mean reflectance per pixel, each in its own channel) for `setup`,
   // with the lens's baseline blur.
   cv::Mat integrate(const IntegratorSetup& setup) const;
