@@ -48,6 +48,7 @@ Result<ChiefRayTable> ChiefRayTable::create(const std::string& lensmodel_name,
     table.xn_[k] = ok ? static_cast<float>(p.x / p.z) : 0.f;
     table.yn_[k] = ok ? static_cast<float>(p.y / p.z) : 0.f;
   }
+  table.compute_block_bounds();
   return table;
 }
 
@@ -74,7 +75,32 @@ ChiefRayTable ChiefRayTable::rescaled(double ratio) const {
                                       b * ((1 - a) * yn_[k01] + a * yn_[k11]));
     }
   }
+  out.compute_block_bounds();
   return out;
+}
+
+void ChiefRayTable::compute_block_bounds() {
+  const int stride = width_ + 1;
+  blocks_x_ = (width_ + kBlockPx - 1) / kBlockPx;
+  const int blocks_y = (height_ + kBlockPx - 1) / kBlockPx;
+  blocks_.assign(static_cast<size_t>(blocks_x_) * blocks_y, BlockBounds{});
+  for (int by = 0; by < blocks_y; ++by)
+    for (int bx = 0; bx < blocks_x_; ++bx) {
+      const int i0 = bx * kBlockPx, i1 = std::min(i0 + kBlockPx, width_);
+      const int j0 = by * kBlockPx, j1 = std::min(j0 + kBlockPx, height_);
+      BlockBounds b{xn_[j0 * stride + i0], xn_[j0 * stride + i0], yn_[j0 * stride + i0],
+                    yn_[j0 * stride + i0], true};
+      for (int j = j0; j <= j1; ++j)
+        for (int i = i0; i <= i1; ++i) {
+          const size_t k = static_cast<size_t>(j) * stride + i;
+          b.valid = b.valid && valid_[k];
+          b.x_min = std::min(b.x_min, xn_[k]);
+          b.x_max = std::max(b.x_max, xn_[k]);
+          b.y_min = std::min(b.y_min, yn_[k]);
+          b.y_max = std::max(b.y_max, yn_[k]);
+        }
+      blocks_[static_cast<size_t>(by) * blocks_x_ + bx] = b;
+    }
 }
 
 double ChiefRayTable::invalid_fraction() const {

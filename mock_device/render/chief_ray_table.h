@@ -44,7 +44,21 @@ class ChiefRayTable {
   // Share of corners that could not be unprojected (outside the model's domain).
   double invalid_fraction() const;
 
+  // The box of the chief rays over all pixel corners of each kBlockPx x kBlockPx block of
+  // pixels (block (bx, by) holds pixels [8 bx, 8 bx + 8) x [8 by, 8 by + 8), clipped to
+  // the imager), and whether all of them are valid: the renderer classifies blocks by it.
+  static constexpr int kBlockPx = 8;
+  struct BlockBounds {
+    float x_min, x_max, y_min, y_max;
+    bool valid;
+  };
+  const BlockBounds& block_bounds(int bx, int by) const {
+    return blocks_[static_cast<size_t>(by) * blocks_x_ + bx];
+  }
+
  private:
+  void compute_block_bounds();
+
   int width_ = 0;
   int height_ = 0;
   double cx_ = 0;
@@ -52,6 +66,8 @@ class ChiefRayTable {
   std::vector<float> xn_;
   std::vector<float> yn_;
   std::vector<unsigned char> valid_;
+  int blocks_x_ = 0;
+  std::vector<BlockBounds> blocks_;
 };
 
 }  // namespace camlab::mock

@@ -18,17 +18,6 @@ namespace camlab::mock {
 
 namespace {
 
-// Below this predicted CoC the aperture is not sampled: a disk a tenth of a pixel wide
-// changes a pixel-integrated edge by less than the rendering's own sampling noise.
-constexpr double kNegligibleCocPx = 0.1;
-
-// Lens grid k (k x k stratified samples) for a predicted CoC: the bigger the disk, the
-// more strata are needed for its edge to be resolved; docs/BENCHMARKS.md has the
-// error-against-samples table this rule was chosen from.
-int lens_grid_for_coc(double coc_px) {
-  return std::clamp(static_cast<int>(std::lround(4 + coc_px / 2.5)), 4, 16);
-}
-
 // The reflectance image with each pixel scaled by its channel's `ratio` (a shared,
 // unchanged image when every ratio is 1, as for a monochrome sensor).
 cv::Mat scaled_by_channel(const cv::Mat& reflectance, const SensorSpec& sensor,
@@ -120,46 +109,71 @@ const ChiefRayTable& Renderer::rays_for(int focus_position) {
   return *rays_by_focus_.emplace(focus_position, std::move(table)).first->second;
 }
 
-cv::Mat Renderer::integrate(const IntegratorSetup& setup) const {
+namespace {
+
+void add_path_counts(const IntegratorStats& in, IntegratorStats* total) {
+  total->flat_pixels += in.flat_pixels;
+  total->edge_pixels += in.edge_pixels;
+  total->edge_sampled_pixels += in.edge_sampled_pixels;
+  total->sampled_pixels += in.sampled_pixels;
+  total->smooth_pixels += in.smooth_pixels;
+  total->evaluations += in.evaluations;
+}
+
+}  // namespace
+
+cv::Mat Renderer::integrate(const IntegratorSetup& setup, RenderStats* stats) const {
   const double sigma_px = camera_.lens.baseline_blur_sigma_px;
+  IntegratorStats counts;
+  cv::Mat result;
   if (sigma_px <= 0 || setup.cfa.empty()) {
-    cv::Mat reflectance = integrate_reflectance(setup);
+    result = integrate_reflectance(setup, &counts);
     if (sigma_px > 0)
-      cv::GaussianBlur(reflectance, reflectance, cv::Size(), sigma_px, sigma_px,
-                       cv::BORDER_REFLECT);
-    return reflectance;
+      cv::GaussianBlur(result, result, cv::Size(), sigma_px, sigma_px, cv::BORDER_REFLECT);
+  } else {
+    // The baseline blur spreads each colour over its neighbours, which a mosaic does not
+    // hold: integrate R, G and B at every pixel (three times the cost), blur each plane
+    // and keep each pixel's own colour.
+    std::array<cv::Mat, 3> planes;
+    for (int c = 0; c < 3; ++c) {
+      IntegratorSetup one = setup;
+      one.cfa.clear();
+      one.channel = c;
+      IntegratorStats plane_counts;
+      planes[static_cast<size_t>(c)] = integrate_reflectance(one, &plane_counts);
+      add_path_counts(plane_counts, &counts);
+      cv::GaussianBlur(planes[static_cast<size_t>(c)], planes[static_cast<size_t>(c)], cv::Size(),
+                       sigma_px, sigma_px, cv::BORDER_REFLECT);
+    }
+    result = cv::Mat(planes[0].size(), CV_32F);
+    for (int y = 0; y < result.rows; ++y)
+      for (int x = 0; x < result.cols; ++x)
+        result.at<float>(y, x) =
+            planes[static_cast<size_t>(camera_.sensor.channel_at(x, y))].at<float>(y, x);
   }
-  // The baseline blur spreads each colour over its neighbours, which a mosaic does not
-  // hold: integrate R, G and B at every pixel (three times the cost), blur each plane and
-  // keep each pixel's own colour.
-  std::array<cv::Mat, 3> planes;
-  for (int c = 0; c < 3; ++c) {
-    IntegratorSetup one = setup;
-    one.cfa.clear();
-    one.channel = c;
-    planes[static_cast<size_t>(c)] = integrate_reflectance(one);
-    cv::GaussianBlur(planes[static_cast<size_t>(c)], planes[static_cast<size_t>(c)], cv::Size(),
-                     sigma_px, sigma_px, cv::BORDER_REFLECT);
+  const double pixels = counts.flat_pixels + counts.edge_pixels + counts.edge_sampled_pixels +
+                        counts.smooth_pixels + counts.sampled_pixels;
+  if (setup.adaptive && pixels > 0) {
+    stats->flat_share = counts.flat_pixels / pixels;
+    stats->edge_share = (counts.edge_pixels + counts.edge_sampled_pixels) / pixels;
+    stats->smooth_share = counts.smooth_pixels / pixels;
+    stats->sampled_share = counts.sampled_pixels / pixels;
+    stats->mean_samples_per_pixel = counts.evaluations / pixels;
   }
-  cv::Mat mosaic(planes[0].size(), CV_32F);
-  for (int y = 0; y < mosaic.rows; ++y)
-    for (int x = 0; x < mosaic.cols; ++x)
-      mosaic.at<float>(y, x) =
-          planes[static_cast<size_t>(camera_.sensor.channel_at(x, y))].at<float>(y, x);
-  return mosaic;
+  return result;
 }
 
-cv::Mat Renderer::cached_reflectance(const IntegrationKey& key) const {
-  for (const auto& [k, image] : reflectance_cache_)
-    if (k == key) return image;  // shared, never written after insertion
-  return {};
+const SceneIntegral* Renderer::cached_integral(const IntegrationKey& key) const {
+  for (const auto& [k, integral] : integral_cache_)
+    if (k == key) return &integral;  // its image is shared, never written after insertion
+  return nullptr;
 }
 
-void Renderer::remember_reflectance(const IntegrationKey& key, const cv::Mat& reflectance) {
+void Renderer::remember_integral(const IntegrationKey& key, const SceneIntegral& integral) {
   // Bounded: a long focus sweep must not hold every frame's integral in memory.
-  if (reflectance_cache_.size() >= kReflectanceCacheSize)
-    reflectance_cache_.erase(reflectance_cache_.begin());
-  reflectance_cache_.emplace_back(key, reflectance);
+  if (integral_cache_.size() >= kReflectanceCacheSize)
+    integral_cache_.erase(integral_cache_.begin());
+  integral_cache_.emplace_back(key, integral);
 }
 
 struct Renderer::FramePlan {
@@ -199,8 +213,7 @@ Result<Renderer::FramePlan> Renderer::plan_frame(const RenderSettings& settings,
   auto lens_grid_for = [&](double max_coc_px) {
     if (options.aperture_samples > 0)
       return std::max(1, static_cast<int>(std::lround(std::sqrt(options.aperture_samples))));
-    if (options.aperture_samples < 0 && max_coc_px >= kNegligibleCocPx)
-      return lens_grid_for_coc(max_coc_px);
+    if (options.aperture_samples < 0) return lens_grid_for_coc(max_coc_px);
     return 0;
   };
 
@@ -259,21 +272,32 @@ Result<Renderer::FramePlan> Renderer::plan_frame(const RenderSettings& settings,
   setup.seed = mix_seed(options.seed, 1);
   setup.threads =
       options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
-  plan.key = IntegrationKey{view,       settings.focus_position, settings.f_number,
-                            lens_grids, setup.pixel_grid,        setup.seed};
+  setup.adaptive = options.aperture_samples < 0;
+  plan.key = IntegrationKey{view,          settings.focus_position, settings.f_number,
+                            lens_grids,    setup.pixel_grid,        setup.seed,
+                            setup.adaptive};
   return plan;
 }
 
 cv::Mat Renderer::scene_integral(const FramePlan& plan, RenderStats* stats) {
-  cv::Mat reflectance = cached_reflectance(plan.key);
-  stats->cached = !reflectance.empty();
-  if (reflectance.empty()) {
-    IntegratorSetup setup = plan.setup;
-    setup.surfaces = &plan.surfaces;
-    reflectance = integrate(setup);
-    remember_reflectance(plan.key, reflectance);
+  if (const SceneIntegral* cached = cached_integral(plan.key)) {
+    stats->cached = true;
+    stats->mean_samples_per_pixel = cached->stats.mean_samples_per_pixel;
+    stats->flat_share = cached->stats.flat_share;
+    stats->edge_share = cached->stats.edge_share;
+    stats->smooth_share = cached->stats.smooth_share;
+    stats->sampled_share = cached->stats.sampled_share;
+    return cached->reflectance;
   }
-  return reflectance;
+  stats->cached = false;
+  IntegratorSetup setup = plan.setup;
+  setup.surfaces = &plan.surfaces;
+  SceneIntegral integral;
+  integral.stats = *stats;
+  integral.reflectance = integrate(setup, &integral.stats);
+  *stats = integral.stats;
+  remember_integral(plan.key, integral);
+  return integral.reflectance;
 }
 
 Result<SceneIntegral> Renderer::integrate_scene(const RenderSettings& settings, int view,

@@ -58,10 +58,18 @@ struct RenderOptions {
 };
 
 struct RenderStats {
-  int aperture_samples = 0;           // 0 = pinhole (lens not sampled)
-  int pixel_samples = 0;              // samples per pixel in total
-  double mean_samples_per_pixel = 0;  // rays traced per pixel, averaged over the frame
-  double max_coc_px = 0;              // largest predicted CoC over the visible targets
+  int aperture_samples = 0;  // 0 = pinhole (lens not sampled)
+  int pixel_samples = 0;     // samples per pixel in total
+  // Rays traced (or straight-edge coverages evaluated) per pixel, over the frame.
+  double mean_samples_per_pixel = 0;
+  // Where the automatic rule's work went, as shares of the pixels: one flat patch (one
+  // value, exactly), one straight edge (exact coverage), one smooth pattern (a fixed
+  // cubature rule), sampled at random. 0 with explicit counts.
+  double flat_share = 0;
+  double edge_share = 0;
+  double smooth_share = 0;
+  double sampled_share = 0;
+  double max_coc_px = 0;  // largest predicted CoC over the visible targets
   double seconds = 0;
   bool cached = false;  // the scene integral was reused from an earlier frame
 };
@@ -93,6 +101,7 @@ class Renderer {
     std::array<int, 3> lens_grids;  // grey (then 0, 0), or R, G, B
     int pixel_grid;
     uint64_t seed;
+    bool adaptive;  // the automatic rule's paths, or uniform sampling
     bool operator==(const IntegrationKey&) const = default;
   };
 
@@ -126,10 +135,10 @@ class Renderer {
   cv::Mat scene_integral(const FramePlan& plan, RenderStats* stats);
   // The scene integral (mean reflectance per pixel, each in its own channel) for `setup`,
   // with the lens's baseline blur.
-  cv::Mat integrate(const IntegratorSetup& setup) const;
+  cv::Mat integrate(const IntegratorSetup& setup, RenderStats* stats) const;
   const ChiefRayTable& rays_for(int focus_position);
-  cv::Mat cached_reflectance(const IntegrationKey& key) const;
-  void remember_reflectance(const IntegrationKey& key, const cv::Mat& reflectance);
+  const SceneIntegral* cached_integral(const IntegrationKey& key) const;
+  void remember_integral(const IntegrationKey& key, const SceneIntegral& integral);
 
   static constexpr size_t kReflectanceCacheSize = 8;
 
@@ -138,7 +147,7 @@ class Renderer {
   std::shared_ptr<const ChiefRayTable> reference_rays_;                // focused at infinity
   std::map<int, std::shared_ptr<const ChiefRayTable>> rays_by_focus_;  // small LRU-less cache
   std::vector<std::shared_ptr<const cv::Mat>> textures_;               // one per target (or null)
-  std::vector<std::pair<IntegrationKey, cv::Mat>> reflectance_cache_;  // oldest first
+  std::vector<std::pair<IntegrationKey, SceneIntegral>> integral_cache_;  // oldest first
 };
 
 }  // namespace camlab::mock

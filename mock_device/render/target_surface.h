@@ -28,6 +28,22 @@ inline double reflectance_in(const Reflectance& r, int channel) {
 // Rotation matrix (row-major 3x3) of an mrcal rotation vector (Rodrigues).
 std::array<double, 9> rotation_from_vector(double rx, double ry, double rz);
 
+// Reflectance of one region of a target in each channel (kRed .. kGrey).
+struct RegionValues {
+  double by_channel[4] = {0, 0, 0, 0};
+  bool operator==(const RegionValues&) const = default;
+};
+
+// What a target holds over a box of its own coordinates (TargetSurface::structure_in).
+struct LocalStructure {
+  // kSmooth: a pattern smooth at the scale of a pixel (a texture), no steps.
+  enum Kind { kConstant, kOneLine, kSmooth, kComplex };
+  Kind kind = kComplex;
+  RegionValues negative;  // kConstant: the value; kOneLine: e_u u + e_v v < e0
+  RegionValues positive;  // kOneLine: e_u u + e_v v > e0
+  double e_u = 0, e_v = 0, e0 = 0;
+};
+
 class TargetSurface {
  public:
   TargetSurface(const TargetSpec& spec, const RtCamTarget& rt_cam_target,
@@ -58,6 +74,23 @@ class TargetSurface {
   // A target point (metres, target frame) in the camera frame.
   std::array<double, 3> to_camera(double u, double v) const;
 
+  // What the target's pattern is over the box [u0, u1] x [v0, v1] of target coordinates
+  // (inside its extent): one value, two values split by one straight line, or more
+  // (textures always). For the renderer's analytic paths (radiance_integrator.h).
+  LocalStructure structure_in(double u0, double u1, double v0, double v1) const;
+
+  // The plane n . X = c and the target's axes and origin, in the camera frame (metres);
+  // its extent in target coordinates.
+  const std::array<double, 3>& normal() const { return n_; }
+  double plane_offset() const { return plane_offset_; }
+  std::array<double, 3> u_axis() const { return {R_[0], R_[3], R_[6]}; }
+  std::array<double, 3> v_axis() const { return {R_[1], R_[4], R_[7]}; }
+  const std::array<double, 3>& origin() const { return t_; }
+  double x_min() const { return x_min_; }
+  double x_max() const { return x_max_; }
+  double y_min() const { return y_min_; }
+  double y_max() const { return y_max_; }
+
   const TargetSpec& spec() const { return *spec_; }
 
  private:
@@ -68,6 +101,9 @@ class TargetSurface {
   double plane_offset_;      // n . t
   double x_min_, x_max_, y_min_, y_max_;
   double edge_cos_ = 1, edge_sin_ = 0;  // slanted edge normal in target coordinates
+  RegionValues dark_values() const;
+  RegionValues light_values() const;
+
   // Dark and light reflectance by channel (kRed .. kGrey); a grey target answers every
   // channel with its grey values, exactly as a monochrome sensor sees it.
   double dark_[4] = {0, 0, 0, 0};
