@@ -167,7 +167,11 @@ Footprint classify_footprint(const FootprintQuery& query, const std::vector<Plan
       out.negative = s.negative;
       out.positive = s.positive;
     } else if (s.kind == LocalStructure::kSmooth) {
+      const TargetBounds& b = kept[cover];
       out.kind = Footprint::kSmooth;
+      out.steps = false;
+      out.target = hit[cover];
+      out.features_across = std::max(b.u1 - b.u0, b.v1 - b.v0) / s.scale_m;
     }
     return out;
   }

@@ -45,13 +45,21 @@ struct FootprintQuery {
 };
 
 struct Footprint {
-  // kSmooth: one target hit by every ray, nothing in front, its pattern smooth (a texture).
+  // kSmooth: one target hit by every ray, nothing in front, its pattern without steps (a
+  // texture).
   enum Kind { kFlat, kOneLine, kSmooth, kComplex };
   Kind kind = kComplex;
+  // kComplex: whether the footprint may hold steps (edges, corners, several targets); false
+  // for a texture too fine for kSmooth.
+  bool steps = true;
   RegionValues flat;      // kFlat: every ray sees this (background included)
   EdgeInCamera edge{};    // kOneLine: the edge between the two values
   RegionValues negative;  // kOneLine: E . X < K
   RegionValues positive;  // kOneLine: E . X > K
+  int target = -1;        // kSmooth: the target every ray sees
+  // kSmooth: the footprint's size on the target in features of its pattern (how much the
+  // pattern changes across it).
+  double features_across = 0;
   // The largest aperture footprint radius (normalised units) on any target the group may
   // see: the blur the sampled path must resolve. 0 when it sees no target.
   double rho_max = 0;

@@ -23,10 +23,13 @@ constexpr int kBlock = ChiefRayTable::kBlockPx;
 constexpr double kEdgeTolerance = 5e-4;
 // Area samples of an edge pixel whose h is too far from linear for the closed form.
 constexpr int kEdgeAreaGrid = 4;
-// Up to this CoC (px) a pixel that sees one smooth pattern takes the fixed cubature rule
-// (2 x 2 Gauss points over its area, 4 over the aperture: 0.017% RMS of the contrast on the
-// example texture against 0.18% for the 16 random samples the rule gives; docs/BENCHMARKS.md);
-// beyond it the pattern changes too much across the aperture for 4 points.
+// Up to this CoC (px) a pixel that sees one smooth pattern takes the fixed cubature rule:
+// g x g Gauss points over its area, g = 2, 3, 4 for a footprint up to 1, 2, 3 of the
+// pattern's features across (beyond: random samples), times 4 points over the aperture.
+// On the example texture (tilted 62 degrees, 4 mm features, blur 1-2 px) 0.017% RMS of the
+// contrast against 0.18% for the 16 random samples the rule gives (docs/BENCHMARKS.md);
+// with 1 mm features 0.046% against 0.53%. Beyond 2 px blur the pattern changes too much
+// across the aperture for 4 points.
 constexpr double kSmoothRuleMaxCocPx = 2.0;
 // Least grid (per side) of a sampled pixel that sees steps: 64 samples.
 constexpr int kStepGrid = 8;
@@ -204,18 +207,37 @@ float integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candi
   const auto trace = [&](const double* o, const double* d) {
     return trace_ray(*s.surfaces, hits, hit_count, c.background_reflectance, o, d, channel);
   };
-  if (fp.kind == Footprint::kSmooth && coc_px < kSmoothRuleMaxCocPx) {
+  // A smooth pattern: Gauss points over the pixel's area, more the more of the pattern
+  // its footprint spans, times 4 points over the aperture (1 below kNegligibleCocPx).
+  const int gauss = fp.features_across <= 1   ? 2
+                    : fp.features_across <= 2 ? 3
+                    : fp.features_across <= 3 ? 4
+                                              : 0;
+  if (fp.kind == Footprint::kSmooth && coc_px < kSmoothRuleMaxCocPx && gauss > 0) {
     const DiskRule& disk = coc_px < kNegligibleCocPx ? kDisk1 : kDisk4;
+    const GaussRule& area = kGauss[gauss];
     ++st.smooth_pixels;
-    st.evaluations += kGauss[2].n * kGauss[2].n * disk.n;
-    return static_cast<float>(smooth_pixel(s, corners, c, kGauss[2], disk, trace));
+    st.evaluations += area.n * area.n * disk.n;
+    // Every ray meets this one target inside its extent: the plane's hit and the texel
+    // lookup, nothing else.
+    const PlaneTarget& t = ctx.targets[static_cast<size_t>(fp.target)];
+    const TargetSurface& surface = *t.surface;
+    const auto on_texture = [&](const double* o, const double* d) {
+      const double lambda =
+          (t.c - (t.n[0] * o[0] + t.n[1] * o[1])) / (t.n[0] * d[0] + t.n[1] * d[1] + t.n[2] * d[2]);
+      const double X[3] = {o[0] + lambda * d[0], o[1] + lambda * d[1], lambda * d[2]};
+      const double u = t.au[0] * X[0] + t.au[1] * X[1] + t.au[2] * X[2] - t.au_t;
+      const double v = t.av[0] * X[0] + t.av[1] * X[1] + t.av[2] * X[2] - t.av_t;
+      return surface.texture_at(u, v, channel);
+    };
+    return static_cast<float>(smooth_pixel(s, corners, c, area, disk, on_texture));
   }
   // Sampled at random, with the lens grid the rule gives for that blur; where the pixel
   // sees steps (corners, several targets) at least kStepGrid^2 samples, since a step
   // needs more than a smooth pattern and such pixels are few.
   int grid = lens_grid_for_coc(coc_px);
   int area_grid = s.pixel_grid;
-  if (fp.kind != Footprint::kSmooth) {
+  if (fp.steps) {
     if (grid > 0) grid = std::max(grid, kStepGrid);
     area_grid = std::max(area_grid, kStepGrid);
   }

@@ -56,6 +56,7 @@ LocalStructure TargetSurface::structure_in(double u0, double u1, double v0, doub
     case TargetType::kTexture: {
       LocalStructure smooth;
       smooth.kind = LocalStructure::kSmooth;
+      smooth.scale_m = s.feature_m;
       return smooth;
     }
     case TargetType::kSlantedEdge: {

@@ -4,6 +4,7 @@
 // Thread-safe for concurrent reads after construction (the texture is immutable).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <memory>
 
@@ -36,12 +37,13 @@ struct RegionValues {
 
 // What a target holds over a box of its own coordinates (TargetSurface::structure_in).
 struct LocalStructure {
-  // kSmooth: a pattern smooth at the scale of a pixel (a texture), no steps.
+  // kSmooth: a pattern without steps that changes over `scale_m` (a texture's features).
   enum Kind { kConstant, kOneLine, kSmooth, kComplex };
   Kind kind = kComplex;
   RegionValues negative;  // kConstant: the value; kOneLine: e_u u + e_v v < e0
   RegionValues positive;  // kOneLine: e_u u + e_v v > e0
   double e_u = 0, e_v = 0, e0 = 0;
+  double scale_m = 0;  // kSmooth
 };
 
 class TargetSurface {
@@ -70,6 +72,20 @@ class TargetSurface {
 
   // Reflectance in `channel` at target coordinates (u, v) in metres, inside the extent.
   double reflectance_at(double u, double v, int channel) const;
+
+  // For a texture target: reflectance_at without its dispatch, for the renderer's inner
+  // loop (the same bilinear texel lookup, the channel's [dark, light] as a gain and offset).
+  double texture_at(double u, double v, int channel) const {
+    const cv::Mat& tex = *texture_;
+    const double fx = (u - x_min_) * texels_per_m_u_, fy = (v - y_min_) * texels_per_m_v_;
+    const int x0 = std::clamp(static_cast<int>(fx), 0, tex.cols - 2);
+    const int y0 = std::clamp(static_cast<int>(fy), 0, tex.rows - 2);
+    const double a = fx - x0, b = fy - y0;
+    const float* r0 = tex.ptr<float>(y0) + x0;
+    const float* r1 = tex.ptr<float>(y0 + 1) + x0;
+    const double grey = (1 - b) * ((1 - a) * r0[0] + a * r0[1]) + b * ((1 - a) * r1[0] + a * r1[1]);
+    return texture_offset_[channel] + texture_gain_[channel] * grey;
+  }
 
   // A target point (metres, target frame) in the camera frame.
   std::array<double, 3> to_camera(double u, double v) const;
@@ -110,6 +126,10 @@ class TargetSurface {
   double light_[4] = {0, 0, 0, 0};
   bool grey_ = true;
   std::shared_ptr<const cv::Mat> texture_;  // CV_32F grey reflectance over the extent
+  double texels_per_m_u_ = 0, texels_per_m_v_ = 0;
+  // A channel's reflectance = offset + gain x the texture's grey value.
+  double texture_offset_[4] = {0, 0, 0, 0};
+  double texture_gain_[4] = {1, 1, 1, 1};
 };
 
 // The texture of a `texture` target: band-limited noise with features of about
