@@ -30,8 +30,9 @@ class ChiefRayTable {
                                       const std::vector<double>& intrinsics, int width_px,
                                       int height_px);
 
-  // The table for fx = ratio x this table's fx (ratio >= 1), same principal point.
-  ChiefRayTable rescaled(double ratio) const;
+  // The table for fx = ratio x this table's fx (ratio >= 1), same principal point: a
+  // bilinear resampling, rows split over `threads`.
+  ChiefRayTable rescaled(double ratio, int threads = 1) const;
 
   int width_px() const { return width_; }
   int height_px() const { return height_; }

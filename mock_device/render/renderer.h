@@ -23,7 +23,6 @@
 
 #include <array>
 #include <cstdint>
-#include <map>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -136,17 +135,19 @@ class Renderer {
   // The scene integral (mean reflectance per pixel, each in its own channel) for `setup`,
   // with the lens's baseline blur.
   cv::Mat integrate(const IntegratorSetup& setup, RenderStats* stats) const;
-  const ChiefRayTable& rays_for(int focus_position);
+  const ChiefRayTable& rays_for(int focus_position, int threads);
   const SceneIntegral* cached_integral(const IntegrationKey& key) const;
   void remember_integral(const IntegrationKey& key, const SceneIntegral& integral);
 
   static constexpr size_t kReflectanceCacheSize = 8;
+  static constexpr size_t kRayTableCacheSize = 8;
 
   CameraSpec camera_;
   SceneSpec scene_;
-  std::shared_ptr<const ChiefRayTable> reference_rays_;                // focused at infinity
-  std::map<int, std::shared_ptr<const ChiefRayTable>> rays_by_focus_;  // small LRU-less cache
-  std::vector<std::shared_ptr<const cv::Mat>> textures_;               // one per target (or null)
+  std::shared_ptr<const ChiefRayTable> reference_rays_;  // focused at infinity
+  // By focus position, oldest first.
+  std::vector<std::pair<int, std::shared_ptr<const ChiefRayTable>>> rays_by_focus_;
+  std::vector<std::shared_ptr<const cv::Mat>> textures_;  // one per target (or null)
   std::vector<std::pair<IntegrationKey, SceneIntegral>> integral_cache_;  // oldest first
 };
 
