@@ -7,9 +7,11 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <numbers>
 #include <numeric>
 #include <vector>
 
@@ -120,17 +122,42 @@ constexpr GaussRule kGauss[5] = {
      {0.17392742256872692, 0.32607257743127307, 0.32607257743127307, 0.17392742256872692}},
 };
 
-// Points and weights of a cubature rule on the unit disk: 1 point (the centre) or 4 (exact
-// for polynomials of degree 3: +-1/sqrt 2 on the axes).
+// Points and weights of a cubature rule on the unit disk: the centre alone (rings = 0), or
+// `rings` rings at the Gauss-Legendre nodes of r^2 on [0, 1] with 4 rings equally spaced
+// points each, every ring turned half a step from the one inside it. One ring is 4 points
+// at 1/sqrt 2 on the axes, exact for polynomials of degree 3; each ring more resolves a
+// pattern that changes faster across the disk.
+inline constexpr int kMaxDiskRings = 4;
 struct DiskRule {
-  int n;
-  double x[4], y[4], w[4];
+  int n = 0;
+  double x[4 * kMaxDiskRings * kMaxDiskRings], y[4 * kMaxDiskRings * kMaxDiskRings],
+      w[4 * kMaxDiskRings * kMaxDiskRings];
 };
-constexpr DiskRule kDisk1 = {1, {0}, {0}, {1}};
-constexpr DiskRule kDisk4 = {4,
-                             {0.7071067811865476, -0.7071067811865476, 0, 0},
-                             {0, 0, 0.7071067811865476, -0.7071067811865476},
-                             {0.25, 0.25, 0.25, 0.25}};
+
+inline const DiskRule& disk_rule(int rings) {
+  static const std::array<DiskRule, kMaxDiskRings + 1> rules = [] {
+    std::array<DiskRule, kMaxDiskRings + 1> out{};
+    out[0].n = 1;
+    out[0].x[0] = out[0].y[0] = 0;
+    out[0].w[0] = 1;
+    for (int rings = 1; rings <= kMaxDiskRings; ++rings) {
+      DiskRule& r = out[static_cast<size_t>(rings)];
+      const GaussRule& radial = kGauss[rings];
+      const int per_ring = 4 * rings;
+      for (int i = 0; i < rings; ++i)
+        for (int j = 0; j < per_ring; ++j) {
+          const double radius = std::sqrt(radial.x[i]);
+          const double angle = 2 * std::numbers::pi * (j + 0.5 * (i % 2)) / per_ring;
+          r.x[r.n] = radius * std::cos(angle);
+          r.y[r.n] = radius * std::sin(angle);
+          r.w[r.n] = radial.w[i] / per_ring;
+          ++r.n;
+        }
+    }
+    return out;
+  }();
+  return rules[static_cast<size_t>(std::clamp(rings, 0, kMaxDiskRings))];
+}
 
 // A pixel whose rays see one smooth pattern: a product of Gauss-Legendre points over the
 // pixel's area and a cubature rule over the aperture. No randomness: for a smooth

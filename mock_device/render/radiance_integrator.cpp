@@ -23,14 +23,12 @@ constexpr int kBlock = ChiefRayTable::kBlockPx;
 constexpr double kEdgeTolerance = 5e-4;
 // Area samples of an edge pixel whose h is too far from linear for the closed form.
 constexpr int kEdgeAreaGrid = 4;
-// Up to this CoC (px) a pixel that sees one smooth pattern takes the fixed cubature rule:
-// g x g Gauss points over its area, g = 2, 3, 4 for a footprint up to 1, 2, 3 of the
-// pattern's features across (beyond: random samples), times 4 points over the aperture.
-// On the example texture (tilted 62 degrees, 4 mm features, blur 1-2 px) 0.017% RMS of the
-// contrast against 0.18% for the 16 random samples the rule gives (docs/BENCHMARKS.md);
-// with 1 mm features 0.046% against 0.53%. Beyond 2 px blur the pattern changes too much
-// across the aperture for 4 points.
-constexpr double kSmoothRuleMaxCocPx = 2.0;
+// A pixel that sees one smooth pattern (a texture) takes a fixed cubature rule sized to the
+// pattern (pixel_quadrature.h) unless that would take more than this many points; then
+// random samples. On the example texture (tilted 62 degrees, 4 mm features, blur 1-2 px)
+// 0.017% RMS of the contrast against 0.18% for the 16 random samples the rule gives
+// (docs/BENCHMARKS.md); on a focus sweep of a 1.6 px texture 0.05-0.16% against 0.4-1.2%.
+constexpr int kMaxSmoothPoints = 256;
 // Least grid (per side) of a sampled pixel that sees steps: 64 samples.
 constexpr int kStepGrid = 8;
 
@@ -207,14 +205,18 @@ float integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candi
   const auto trace = [&](const double* o, const double* d) {
     return trace_ray(*s.surfaces, hits, hit_count, c.background_reflectance, o, d, channel);
   };
-  // A smooth pattern: Gauss points over the pixel's area, more the more of the pattern
-  // its footprint spans, times 4 points over the aperture (1 below kNegligibleCocPx).
-  const int gauss = fp.features_across <= 1   ? 2
-                    : fp.features_across <= 2 ? 3
-                    : fp.features_across <= 3 ? 4
-                                              : 0;
-  if (fp.kind == Footprint::kSmooth && coc_px < kSmoothRuleMaxCocPx && gauss > 0) {
-    const DiskRule& disk = coc_px < kNegligibleCocPx ? kDisk1 : kDisk4;
+  // A smooth pattern: g x g Gauss points over the pixel's area and a disk rule of r rings
+  // over the aperture, each sized to how much of the pattern it spans: the footprint's
+  // features shared between the pixel and the blur in proportion to their sizes (px).
+  const double pixel_features = fp.features_across / (1 + coc_px);
+  const double disk_features = fp.features_across * coc_px / (1 + coc_px);
+  const int gauss = pixel_features <= 1 ? 2 : pixel_features <= 2 ? 3 : pixel_features <= 3 ? 4 : 0;
+  const int rings =
+      coc_px < kNegligibleCocPx ? 0 : std::max(1, static_cast<int>(std::ceil(disk_features)));
+  const int points = gauss * gauss * (rings == 0 ? 1 : 4 * rings * rings);
+  if (fp.kind == Footprint::kSmooth && gauss > 0 && rings <= kMaxDiskRings &&
+      points <= kMaxSmoothPoints) {
+    const DiskRule& disk = disk_rule(rings);
     const GaussRule& area = kGauss[gauss];
     ++st.smooth_pixels;
     st.evaluations += area.n * area.n * disk.n;

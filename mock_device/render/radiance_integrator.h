@@ -5,12 +5,14 @@
 // - uniform (explicit sample counts, and the reference the fast paths are measured
 //   against): every pixel takes the channel's lens_grid^2 stratified samples (or
 //   pixel_grid^2 area samples without the lens), tracing every target;
-// - adaptive (the automatic rule): each 8x8 block, then each pixel, is classified by the
-//   footprint of its rays (footprint.h). A footprint on one flat patch takes that patch's
-//   value, exactly; one on a single straight edge between two flat patches takes the
-//   closed-form coverage of edge_coverage.h; anything else is sampled as above, with the
-//   lens grid the rule gives for the blur of the targets that pixel can see (not the
-//   frame's worst), tracing only those targets.
+// - adaptive (the automatic rule): each 8x8 block, then each 4x4 quarter, then each pixel,
+//   is classified by the footprint of its rays (footprint.h). A footprint on one flat
+//   patch takes that patch's value, exactly; one on a single straight edge between two
+//   flat patches takes the closed-form coverage of edge_coverage.h; one on a texture alone
+//   takes a fixed cubature rule sized to how many of its features the pixel and the blur
+//   span (pixel_quadrature.h); anything else is sampled as above, with the lens grid the
+//   rule gives for the blur of the targets that pixel can see (not the frame's worst), at
+//   least 64 samples where it sees steps, tracing only those targets.
 //
 // A pixel sees one channel: grey on a monochrome sensor, its own colour on a Bayer
 // sensor, so a colour frame costs what a grey one does. Each channel has its own plane of

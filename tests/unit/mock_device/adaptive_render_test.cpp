@@ -336,7 +336,7 @@ TEST(AdaptiveRender, EachPixelOfATiltedTextureGetsWhatItsOwnBlurNeeds) {
 
 TEST(AdaptiveRender, ASmoothTextureTakesTheCubatureRuleAndBeatsManyRandomSamples) {
   // Tilted 62 degrees, blurred less than 2 px: every pixel's footprint lies on one smooth
-  // patch and takes the fixed Gauss points. With 4 mm features (10 px at 0.8 m) and with
+  // patch and takes fixed Gauss points. With 4 mm features (10 px at 0.8 m) and with
   // 1 mm ones (2.5 px: more points per pixel), against 1024 random samples, the rule must
   // err less than random samples with about four times as many points.
   const int width = 96, height = 72;
