@@ -359,11 +359,17 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
   frame.truth = make_frame_truth(truth);
   frame.truth["render"] = {{"aperture_samples", stats.aperture_samples},
                            {"samples_per_pixel", stats.pixel_samples},
+                           {"mean_samples_per_pixel", stats.mean_samples_per_pixel},
                            {"max_coc_px", stats.max_coc_px},
                            {"noise", options.noise},
                            {"integral_reused", stats.cached},
                            {"seed", options.seed},
                            {"frame_number", options.frame_number}};
+  if (plan.setup.adaptive)
+    frame.truth["render"]["pixel_paths"] = {{"flat", stats.flat_share},
+                                            {"edge", stats.edge_share},
+                                            {"smooth", stats.smooth_share},
+                                            {"sampled", stats.sampled_share}};
 
   const ControlsSpec& c = camera_.controls;
   frame.settings = {

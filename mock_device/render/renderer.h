@@ -14,8 +14,10 @@
 // exposure time. Then photon shot noise (Poisson), full-well clipping, read noise,
 // conversion gain x analogue gain, black level, rounding and clipping to the bit depth.
 //
-// Only what the scene needs is modelled: no aperture sampling when the predicted CoC over
-// the visible targets is negligible, no noise when the sensor spec has none.
+// Only what the scene needs is modelled: each pixel takes the work what its own rays see
+// needs (radiance_integrator.h: one value for a flat patch, a closed form for a straight
+// edge, a cubature rule for a texture, samples for the rest at the count its own blur
+// needs), no noise when the sensor spec has none.
 //
 // A Renderer is thread-compatible: render() may be called from one thread at a time; it
 // uses std::thread internally for rows.
@@ -57,8 +59,11 @@ struct RenderOptions {
 };
 
 struct RenderStats {
-  int aperture_samples = 0;  // 0 = pinhole (lens not sampled)
-  int pixel_samples = 0;     // samples per pixel in total
+  // Lens and total samples per pixel: the counts every pixel takes with explicit counts;
+  // with the automatic rule the most any pixel may take (the rule at the largest
+  // predicted CoC). 0 lens samples = pinhole (lens not sampled).
+  int aperture_samples = 0;
+  int pixel_samples = 0;
   // Rays traced (or straight-edge coverages evaluated) per pixel, over the frame.
   double mean_samples_per_pixel = 0;
   // Where the automatic rule's work went, as shares of the pixels: one flat patch (one
