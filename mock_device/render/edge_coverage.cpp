@@ -48,7 +48,8 @@ double disk_coverage_second_integral(double h) {
   if (h <= -1) return 0;
   if (h >= 1) return 0.5 * h * h + 0.125;
   const double r = std::sqrt(1 - h * h), as = std::asin(h);
-  // The antiderivatives of (1 - h^2)^{3/2}, h asin h and sqrt(1 - h^2) (docs/physics.md).
+  // The antiderivatives of (1 - h^2)^{3/2}, h asin h and sqrt(1 - h^2) (P, Q, S of
+  // docs/virtual-camera.md).
   const double p = 0.25 * h * r * r * r + 0.375 * (h * r + as);
   const double q = 0.5 * h * h * as - 0.25 * (as - h * r);
   const double s = 0.5 * (h * r + as);

@@ -16,7 +16,7 @@
 //   w0 = c (E . c') - K (n . c')
 //   h  = sign(c) w0 / (|w| R)
 //
-// (the derivation is in docs/physics.md, "Straight edges through a thin lens").
+// (the derivation is in docs/virtual-camera.md, "Straight edges through a thin lens").
 // Over a pixel the renderer's chief rays are bilinear in the pixel's corners, so h is
 // close to linear there; the mean of C over the pixel is then a closed form in C's second
 // antiderivative (pixel_mean_coverage). In focus (R |1/z - q| -> 0) h grows without bound
