@@ -275,7 +275,8 @@ Result<Renderer::FramePlan> Renderer::plan_frame(const RenderSettings& settings,
   // sampling pattern would add rendering noise to photon-transfer measurements).
   stats.mean_samples_per_pixel = stats.pixel_samples;
   setup.seed = mix_seed(options.seed, 1);
-  setup.adaptive = options.aperture_samples < 0;
+  // Explicit counts (either) take the uniform path: every pixel those samples.
+  setup.adaptive = options.aperture_samples < 0 && options.pixel_samples < 0;
   plan.key = IntegrationKey{view,          settings.focus_position, settings.f_number,
                             lens_grids,    setup.pixel_grid,        setup.seed,
                             setup.adaptive};

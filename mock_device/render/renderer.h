@@ -50,7 +50,9 @@ struct RenderSettings {
 };
 
 struct RenderOptions {
-  int aperture_samples = -1;  // lens samples per pixel; -1 = decide from the predicted CoC
+  // Both -1: the automatic rule, each pixel what its own rays need (radiance_integrator.h).
+  // Either set: every pixel takes these counts, tracing every target (the uniform path).
+  int aperture_samples = -1;  // lens samples per pixel; -1 = from the predicted CoC
   int pixel_samples = -1;     // area samples per pixel when the lens is not sampled; -1 = 16
   bool noise = true;          // false renders the expected signal (still quantised)
   uint64_t seed = 1;
