@@ -30,8 +30,9 @@ class ChiefRayTable {
                                       const std::vector<double>& intrinsics, int width_px,
                                       int height_px);
 
-  // The table for fx = ratio x this table's fx (ratio >= 1), same principal point.
-  ChiefRayTable rescaled(double ratio) const;
+  // The table for fx = ratio x this table's fx (ratio >= 1), same principal point: a
+  // bilinear resampling, rows split over `threads`.
+  ChiefRayTable rescaled(double ratio, int threads = 1) const;
 
   int width_px() const { return width_; }
   int height_px() const { return height_; }
@@ -44,7 +45,21 @@ class ChiefRayTable {
   // Share of corners that could not be unprojected (outside the model's domain).
   double invalid_fraction() const;
 
+  // The box of the chief rays over all pixel corners of each kBlockPx x kBlockPx block of
+  // pixels (block (bx, by) holds pixels [8 bx, 8 bx + 8) x [8 by, 8 by + 8), clipped to
+  // the imager), and whether all of them are valid: the renderer classifies blocks by it.
+  static constexpr int kBlockPx = 8;
+  struct BlockBounds {
+    float x_min, x_max, y_min, y_max;
+    bool valid;
+  };
+  const BlockBounds& block_bounds(int bx, int by) const {
+    return blocks_[static_cast<size_t>(by) * blocks_x_ + bx];
+  }
+
  private:
+  void compute_block_bounds();
+
   int width_ = 0;
   int height_ = 0;
   double cx_ = 0;
@@ -52,6 +67,8 @@ class ChiefRayTable {
   std::vector<float> xn_;
   std::vector<float> yn_;
   std::vector<unsigned char> valid_;
+  int blocks_x_ = 0;
+  std::vector<BlockBounds> blocks_;
 };
 
 }  // namespace camlab::mock

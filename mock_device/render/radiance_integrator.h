@@ -1,6 +1,19 @@
 // The inner loop of the renderer: mean reflectance seen by each pixel, integrated over
 // the pixel's area and (when the lens is sampled) over the aperture disk.
 //
+// Two ways to integrate:
+// - uniform (explicit sample counts, and the reference the fast paths are measured
+//   against): every pixel takes the channel's lens_grid^2 stratified samples (or
+//   pixel_grid^2 area samples without the lens), tracing every target;
+// - adaptive (the automatic rule): each 8x8 block, then each 4x4 quarter, then each pixel,
+//   is classified by the footprint of its rays (footprint.h). A footprint on one flat
+//   patch takes that patch's value, exactly; one on a single straight edge between two
+//   flat patches takes the closed-form coverage of edge_coverage.h; one on a texture alone
+//   takes a fixed cubature rule sized to how many of its features the pixel and the blur
+//   span (pixel_quadrature.h); anything else is sampled as above, with the lens grid the
+//   rule gives for the blur of the targets that pixel can see (not the frame's worst), at
+//   least 64 samples where it sees steps, tracing only those targets.
+//
 // A pixel sees one channel: grey on a monochrome sensor, its own colour on a Bayer
 // sensor, so a colour frame costs what a grey one does. Each channel has its own plane of
 // focus (longitudinal chromatic aberration) and its own lens sample count.
@@ -43,11 +56,23 @@ struct IntegratorSetup {
   int pixel_grid = 4;  // m: m x m area samples when the lens is not sampled
   uint64_t seed = 0;
   int threads = 1;
+  bool adaptive = false;  // the automatic rule (above); false: uniform sampling
+};
+
+// Where the adaptive path spent its work (pixels by path, and the samples taken).
+struct IntegratorStats {
+  long flat_pixels = 0;          // one value, exactly
+  long edge_pixels = 0;          // one straight edge, closed form
+  long edge_sampled_pixels = 0;  // one straight edge, exact lens coverage at area samples
+  long smooth_pixels = 0;        // one smooth pattern, a fixed cubature rule
+  long sampled_pixels = 0;       // rays traced at random
+  long evaluations = 0;          // rays traced + coverage evaluations (flat pixels: 1)
+  int max_lens_grid = 0;         // the largest lens grid a pixel took
 };
 
 // Returns a CV_32F image (height x width of the ray table) of mean reflectance, each
 // pixel in its own channel. Pixels whose chief rays fall outside the lens model's domain
 // are 0 (black), as a real lens with a mechanical vignette would show them.
-cv::Mat integrate_reflectance(const IntegratorSetup& setup);
+cv::Mat integrate_reflectance(const IntegratorSetup& setup, IntegratorStats* stats = nullptr);
 
 }  // namespace camlab::mock

@@ -18,17 +18,6 @@ namespace camlab::mock {
 
 namespace {
 
-// Below this predicted CoC the aperture is not sampled: a disk a tenth of a pixel wide
-// changes a pixel-integrated edge by less than the rendering's own sampling noise.
-constexpr double kNegligibleCocPx = 0.1;
-
-// Lens grid k (k x k stratified samples) for a predicted CoC: the bigger the disk, the
-// more strata are needed for its edge to be resolved; docs/BENCHMARKS.md has the
-// error-against-samples table this rule was chosen from.
-int lens_grid_for_coc(double coc_px) {
-  return std::clamp(static_cast<int>(std::lround(4 + coc_px / 2.5)), 4, 16);
-}
-
 // The reflectance image with each pixel scaled by its channel's `ratio` (a shared,
 // unchanged image when every ratio is 1, as for a monochrome sensor).
 cv::Mat scaled_by_channel(const cv::Mat& reflectance, const SensorSpec& sensor,
@@ -108,74 +97,117 @@ Status Renderer::validate(const RenderSettings& s) const {
   return {};
 }
 
-const ChiefRayTable& Renderer::rays_for(int focus_position) {
+const ChiefRayTable& Renderer::rays_for(int focus_position, int threads) {
   if (focus_position == 0 || camera_.lens.focus.extension_mm_per_step == 0) return *reference_rays_;
-  auto it = rays_by_focus_.find(focus_position);
-  if (it != rays_by_focus_.end()) return *it->second;
-  if (rays_by_focus_.size() >= 64) rays_by_focus_.clear();  // bound the cache for long sweeps
+  for (const auto& [position, table] : rays_by_focus_)
+    if (position == focus_position) return *table;
+  // Bounded (a table is 2.5 MB at 640x480, 8 MB at 1280x800); a new one costs a resampling
+  // of the reference, a few ms, so a sweep need not keep them all.
+  if (rays_by_focus_.size() >= kRayTableCacheSize) rays_by_focus_.erase(rays_by_focus_.begin());
   const double lens_to_sensor_mm =
       camera_.lens.focal_mm + focus_position * camera_.lens.focus.extension_mm_per_step;
-  auto table = std::make_shared<const ChiefRayTable>(
-      reference_rays_->rescaled(lens_to_sensor_mm / camera_.lens.focal_mm));
-  return *rays_by_focus_.emplace(focus_position, std::move(table)).first->second;
+  rays_by_focus_.emplace_back(focus_position,
+                              std::make_shared<const ChiefRayTable>(reference_rays_->rescaled(
+                                  lens_to_sensor_mm / camera_.lens.focal_mm, threads)));
+  return *rays_by_focus_.back().second;
 }
 
-cv::Mat Renderer::integrate(const IntegratorSetup& setup) const {
+namespace {
+
+void add_path_counts(const IntegratorStats& in, IntegratorStats* total) {
+  total->flat_pixels += in.flat_pixels;
+  total->edge_pixels += in.edge_pixels;
+  total->edge_sampled_pixels += in.edge_sampled_pixels;
+  total->sampled_pixels += in.sampled_pixels;
+  total->smooth_pixels += in.smooth_pixels;
+  total->evaluations += in.evaluations;
+}
+
+}  // namespace
+
+cv::Mat Renderer::integrate(const IntegratorSetup& setup, RenderStats* stats) const {
   const double sigma_px = camera_.lens.baseline_blur_sigma_px;
+  IntegratorStats counts;
+  cv::Mat result;
   if (sigma_px <= 0 || setup.cfa.empty()) {
-    cv::Mat reflectance = integrate_reflectance(setup);
+    result = integrate_reflectance(setup, &counts);
     if (sigma_px > 0)
-      cv::GaussianBlur(reflectance, reflectance, cv::Size(), sigma_px, sigma_px,
-                       cv::BORDER_REFLECT);
-    return reflectance;
+      cv::GaussianBlur(result, result, cv::Size(), sigma_px, sigma_px, cv::BORDER_REFLECT);
+  } else {
+    // The baseline blur spreads each colour over its neighbours, which a mosaic does not
+    // hold: integrate R, G and B at every pixel (three times the cost), blur each plane
+    // and keep each pixel's own colour.
+    std::array<cv::Mat, 3> planes;
+    for (int c = 0; c < 3; ++c) {
+      IntegratorSetup one = setup;
+      one.cfa.clear();
+      one.channel = c;
+      IntegratorStats plane_counts;
+      planes[static_cast<size_t>(c)] = integrate_reflectance(one, &plane_counts);
+      add_path_counts(plane_counts, &counts);
+      cv::GaussianBlur(planes[static_cast<size_t>(c)], planes[static_cast<size_t>(c)], cv::Size(),
+                       sigma_px, sigma_px, cv::BORDER_REFLECT);
+    }
+    result = cv::Mat(planes[0].size(), CV_32F);
+    for (int y = 0; y < result.rows; ++y)
+      for (int x = 0; x < result.cols; ++x)
+        result.at<float>(y, x) =
+            planes[static_cast<size_t>(camera_.sensor.channel_at(x, y))].at<float>(y, x);
   }
-  // The baseline blur spreads each colour over its neighbours, which a mosaic does not
-  // hold: integrate R, G and B at every pixel (three times the cost), blur each plane and
-  // keep each pixel's own colour.
-  std::array<cv::Mat, 3> planes;
-  for (int c = 0; c < 3; ++c) {
-    IntegratorSetup one = setup;
-    one.cfa.clear();
-    one.channel = c;
-    planes[static_cast<size_t>(c)] = integrate_reflectance(one);
-    cv::GaussianBlur(planes[static_cast<size_t>(c)], planes[static_cast<size_t>(c)], cv::Size(),
-                     sigma_px, sigma_px, cv::BORDER_REFLECT);
+  const double pixels = counts.flat_pixels + counts.edge_pixels + counts.edge_sampled_pixels +
+                        counts.smooth_pixels + counts.sampled_pixels;
+  if (setup.adaptive && pixels > 0) {
+    stats->flat_share = counts.flat_pixels / pixels;
+    stats->edge_share = (counts.edge_pixels + counts.edge_sampled_pixels) / pixels;
+    stats->smooth_share = counts.smooth_pixels / pixels;
+    stats->sampled_share = counts.sampled_pixels / pixels;
+    stats->mean_samples_per_pixel = counts.evaluations / pixels;
   }
-  cv::Mat mosaic(planes[0].size(), CV_32F);
-  for (int y = 0; y < mosaic.rows; ++y)
-    for (int x = 0; x < mosaic.cols; ++x)
-      mosaic.at<float>(y, x) =
-          planes[static_cast<size_t>(camera_.sensor.channel_at(x, y))].at<float>(y, x);
-  return mosaic;
+  return result;
 }
 
-cv::Mat Renderer::cached_reflectance(const IntegrationKey& key) const {
-  for (const auto& [k, image] : reflectance_cache_)
-    if (k == key) return image;  // shared, never written after insertion
-  return {};
+const SceneIntegral* Renderer::cached_integral(const IntegrationKey& key) const {
+  for (const auto& [k, integral] : integral_cache_)
+    if (k == key) return &integral;  // its image is shared, never written after insertion
+  return nullptr;
 }
 
-void Renderer::remember_reflectance(const IntegrationKey& key, const cv::Mat& reflectance) {
+void Renderer::remember_integral(const IntegrationKey& key, const SceneIntegral& integral) {
   // Bounded: a long focus sweep must not hold every frame's integral in memory.
-  if (reflectance_cache_.size() >= kReflectanceCacheSize)
-    reflectance_cache_.erase(reflectance_cache_.begin());
-  reflectance_cache_.emplace_back(key, reflectance);
+  if (integral_cache_.size() >= kReflectanceCacheSize)
+    integral_cache_.erase(integral_cache_.begin());
+  integral_cache_.emplace_back(key, integral);
 }
 
-Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
-                                       const RenderOptions& options) {
+struct Renderer::FramePlan {
+  RenderSettings settings;
+  int view = 0;
+  double lens_to_sensor_mm = 0;
+  double focus_mm = 0;
+  std::vector<TargetSurface> surfaces;  // the targets at this view
+  IntegratorSetup setup;                // without `surfaces`: set where it is used
+  IntegrationKey key{};
+  std::array<ChannelTruthInputs, 3> channels{};
+  RenderStats stats;
+};
+
+Result<Renderer::FramePlan> Renderer::plan_frame(const RenderSettings& settings, int view,
+                                                 const RenderOptions& options) {
   if (Status ok = validate(settings); !ok) return ok.error();
   if (view < 0 || view >= scene_.view_count)
     return make_error("out_of_range", "view " + std::to_string(view) + " is not in 0.." +
                                           std::to_string(scene_.view_count - 1));
-  const auto start = std::chrono::steady_clock::now();
+  FramePlan plan;
+  plan.settings = settings;
+  plan.view = view;
   const LensSpec& lens = camera_.lens;
-  const double lens_to_sensor_mm =
+  plan.lens_to_sensor_mm =
       lens.focal_mm + settings.focus_position * lens.focus.extension_mm_per_step;
-  auto focus_mm = optics::focus_distance_mm(lens.focal_mm, lens_to_sensor_mm);
+  auto focus_mm = optics::focus_distance_mm(lens.focal_mm, plan.lens_to_sensor_mm);
   if (!focus_mm) return focus_mm.error();
+  plan.focus_mm = *focus_mm;
 
-  std::vector<TargetSurface> surfaces;
+  std::vector<TargetSurface>& surfaces = plan.surfaces;
   surfaces.reserve(scene_.targets.size());
   for (size_t i = 0; i < scene_.targets.size(); ++i)
     surfaces.emplace_back(scene_.targets[i], scene_.pose(scene_.targets[i], view), textures_[i]);
@@ -184,22 +216,21 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
   auto lens_grid_for = [&](double max_coc_px) {
     if (options.aperture_samples > 0)
       return std::max(1, static_cast<int>(std::lround(std::sqrt(options.aperture_samples))));
-    if (options.aperture_samples < 0 && max_coc_px >= kNegligibleCocPx)
-      return lens_grid_for_coc(max_coc_px);
+    if (options.aperture_samples < 0) return lens_grid_for_coc(max_coc_px);
     return 0;
   };
 
-  RenderStats stats;
-  IntegratorSetup setup;
-  setup.rays = &rays_for(settings.focus_position);
-  setup.surfaces = &surfaces;
+  RenderStats& stats = plan.stats;
+  IntegratorSetup& setup = plan.setup;
+  setup.threads =
+      options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+  setup.rays = &rays_for(settings.focus_position, setup.threads);
   setup.aperture_radius_m = lens.focal_mm / settings.f_number / 2 * 1e-3;
   setup.pixel_grid =
       options.pixel_samples > 0
           ? std::max(1, static_cast<int>(std::lround(std::sqrt(options.pixel_samples))))
           : 4;
   const SensorSpec& sensor = camera_.sensor;
-  std::array<ChannelTruthInputs, 3> channels{};
   std::array<int, 3> lens_grids = {0, 0, 0};
   if (!sensor.is_colour()) {
     for (const auto& surface : surfaces)
@@ -217,7 +248,7 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
     // Each pixel sees its own colour, through its channel's own focus.
     setup.cfa = sensor.cfa;
     for (int c = 0; c < 3; ++c) {
-      auto optics = channel_optics(camera_, c, settings.f_number, lens_to_sensor_mm);
+      auto optics = channel_optics(camera_, c, settings.f_number, plan.lens_to_sensor_mm);
       if (!optics) return optics.error();
       double max_coc_px = 0;
       for (const auto& surface : surfaces)
@@ -233,34 +264,75 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
       stats.aperture_samples = std::max(stats.aperture_samples, samples);
       stats.pixel_samples = std::max(stats.pixel_samples,
                                      samples > 0 ? samples : setup.pixel_grid * setup.pixel_grid);
-      channels[static_cast<size_t>(c)].optics = *optics;
-      channels[static_cast<size_t>(c)].quantum_efficiency =
-          sensor.quantum_efficiency_rgb[static_cast<size_t>(c)];
-      channels[static_cast<size_t>(c)].aperture_samples = samples;
+      ChannelTruthInputs& truth = plan.channels[static_cast<size_t>(c)];
+      truth.optics = *optics;
+      truth.quantum_efficiency = sensor.quantum_efficiency_rgb[static_cast<size_t>(c)];
+      truth.aperture_samples = samples;
     }
   }
   // The scene integral depends on the seed but not on the frame: repeated frames of one
   // setting differ by sensor noise only, as a static scene's frames do (a frame-varying
   // sampling pattern would add rendering noise to photon-transfer measurements).
+  stats.mean_samples_per_pixel = stats.pixel_samples;
   setup.seed = mix_seed(options.seed, 1);
-  setup.threads =
-      options.threads > 0 ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+  // Explicit counts (either) take the uniform path: every pixel those samples.
+  setup.adaptive = options.aperture_samples < 0 && options.pixel_samples < 0;
+  plan.key = IntegrationKey{view,          settings.focus_position, settings.f_number,
+                            lens_grids,    setup.pixel_grid,        setup.seed,
+                            setup.adaptive};
+  return plan;
+}
 
-  const IntegrationKey key{view,       settings.focus_position, settings.f_number,
-                           lens_grids, setup.pixel_grid,        setup.seed};
-  cv::Mat reflectance = cached_reflectance(key);
-  if (reflectance.empty()) {
-    reflectance = integrate(setup);
-    remember_reflectance(key, reflectance);
-    stats.cached = false;
-  } else {
-    stats.cached = true;
+cv::Mat Renderer::scene_integral(const FramePlan& plan, RenderStats* stats) {
+  if (const SceneIntegral* cached = cached_integral(plan.key)) {
+    stats->cached = true;
+    stats->mean_samples_per_pixel = cached->stats.mean_samples_per_pixel;
+    stats->flat_share = cached->stats.flat_share;
+    stats->edge_share = cached->stats.edge_share;
+    stats->smooth_share = cached->stats.smooth_share;
+    stats->sampled_share = cached->stats.sampled_share;
+    return cached->reflectance;
   }
+  stats->cached = false;
+  IntegratorSetup setup = plan.setup;
+  setup.surfaces = &plan.surfaces;
+  SceneIntegral integral;
+  integral.stats = *stats;
+  integral.reflectance = integrate(setup, &integral.stats);
+  *stats = integral.stats;
+  remember_integral(plan.key, integral);
+  return integral.reflectance;
+}
 
-  const double electrons_per_reflectance = electrons_per_unit_reflectance(
-      camera_, scene_.illuminance_lux, settings.exposure_us, settings.f_number, lens_to_sensor_mm);
+Result<SceneIntegral> Renderer::integrate_scene(const RenderSettings& settings, int view,
+                                                const RenderOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  auto plan = plan_frame(settings, view, options);
+  if (!plan) return plan.error();
+  SceneIntegral out;
+  out.stats = plan->stats;
+  out.reflectance = scene_integral(*plan, &out.stats);
+  out.stats.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
+}
+
+Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
+                                       const RenderOptions& options) {
+  const auto start = std::chrono::steady_clock::now();
+  auto planned = plan_frame(settings, view, options);
+  if (!planned) return planned.error();
+  const FramePlan& plan = *planned;
+  RenderStats stats = plan.stats;
+  cv::Mat reflectance = scene_integral(plan, &stats);
+
+  const SensorSpec& sensor = camera_.sensor;
+  const double electrons_per_reflectance =
+      electrons_per_unit_reflectance(camera_, scene_.illuminance_lux, settings.exposure_us,
+                                     settings.f_number, plan.lens_to_sensor_mm);
   // A colour pixel collects its channel's QE where the sensor model counts the grey QE:
   // its reflectance is scaled by the ratio.
+  std::array<ChannelTruthInputs, 3> channels = plan.channels;
   std::array<double, 3> qe_ratio = {1, 1, 1};
   for (int c = 0; c < 3 && sensor.is_colour(); ++c) {
     qe_ratio[static_cast<size_t>(c)] =
@@ -271,28 +343,34 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
   RenderedFrame frame;
   frame.image = expose(scaled_by_channel(reflectance, sensor, qe_ratio), camera_,
                        electrons_per_reflectance, settings.gain, options.noise,
-                       mix_seed(options.seed, options.frame_number * 2 + 2), setup.threads);
+                       mix_seed(options.seed, options.frame_number * 2 + 2), plan.setup.threads);
 
   TruthInputs truth;
   truth.camera = &camera_;
   truth.scene = &scene_;
-  truth.surfaces = &surfaces;
+  truth.surfaces = &plan.surfaces;
   truth.view = view;
-  truth.intrinsics = intrinsics_at(camera_, lens_to_sensor_mm);
+  truth.intrinsics = intrinsics_at(camera_, plan.lens_to_sensor_mm);
   truth.f_number = settings.f_number;
-  truth.focus_distance_mm = *focus_mm;
-  truth.lens_to_sensor_mm = lens_to_sensor_mm;
+  truth.focus_distance_mm = plan.focus_mm;
+  truth.lens_to_sensor_mm = plan.lens_to_sensor_mm;
   truth.electrons_per_unit_reflectance = electrons_per_reflectance;
   truth.gain = settings.gain;
   truth.channels = channels;
   frame.truth = make_frame_truth(truth);
   frame.truth["render"] = {{"aperture_samples", stats.aperture_samples},
                            {"samples_per_pixel", stats.pixel_samples},
+                           {"mean_samples_per_pixel", stats.mean_samples_per_pixel},
                            {"max_coc_px", stats.max_coc_px},
                            {"noise", options.noise},
                            {"integral_reused", stats.cached},
                            {"seed", options.seed},
                            {"frame_number", options.frame_number}};
+  if (plan.setup.adaptive)
+    frame.truth["render"]["pixel_paths"] = {{"flat", stats.flat_share},
+                                            {"edge", stats.edge_share},
+                                            {"smooth", stats.smooth_share},
+                                            {"sampled", stats.sampled_share}};
 
   const ControlsSpec& c = camera_.controls;
   frame.settings = {
@@ -302,8 +380,8 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
       {"gain_control", settings.gain * c.gain_unity},
       {"f_number", settings.f_number},
       {"focus_position", settings.focus_position},
-      {"focus_distance_m", *focus_mm * 1e-3},
-      {"lens_to_sensor_mm", lens_to_sensor_mm},
+      {"focus_distance_m", plan.focus_mm * 1e-3},
+      {"lens_to_sensor_mm", plan.lens_to_sensor_mm},
   };
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   frame.stats = stats;

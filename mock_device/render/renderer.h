@@ -14,8 +14,10 @@
 // exposure time. Then photon shot noise (Poisson), full-well clipping, read noise,
 // conversion gain x analogue gain, black level, rounding and clipping to the bit depth.
 //
-// Only what the scene needs is modelled: no aperture sampling when the predicted CoC over
-// the visible targets is negligible, no noise when the sensor spec has none.
+// Only what the scene needs is modelled: each pixel takes the work what its own rays see
+// needs (radiance_integrator.h: one value for a flat patch, a closed form for a straight
+// edge, a cubature rule for a texture, samples for the rest at the count its own blur
+// needs), no noise when the sensor spec has none.
 //
 // A Renderer is thread-compatible: render() may be called from one thread at a time; it
 // uses std::thread internally for rows.
@@ -23,7 +25,6 @@
 
 #include <array>
 #include <cstdint>
-#include <map>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -49,7 +50,9 @@ struct RenderSettings {
 };
 
 struct RenderOptions {
-  int aperture_samples = -1;  // lens samples per pixel; -1 = decide from the predicted CoC
+  // Both -1: the automatic rule, each pixel what its own rays need (radiance_integrator.h).
+  // Either set: every pixel takes these counts, tracing every target (the uniform path).
+  int aperture_samples = -1;  // lens samples per pixel; -1 = from the predicted CoC
   int pixel_samples = -1;     // area samples per pixel when the lens is not sampled; -1 = 16
   bool noise = true;          // false renders the expected signal (still quantised)
   uint64_t seed = 1;
@@ -58,11 +61,30 @@ struct RenderOptions {
 };
 
 struct RenderStats {
-  int aperture_samples = 0;  // 0 = pinhole (lens not sampled)
-  int pixel_samples = 0;     // samples per pixel in total
-  double max_coc_px = 0;     // largest predicted CoC over the visible targets
+  // Lens and total samples per pixel: the counts every pixel takes with explicit counts;
+  // with the automatic rule the most any pixel may take (the rule at the largest
+  // predicted CoC). 0 lens samples = pinhole (lens not sampled).
+  int aperture_samples = 0;
+  int pixel_samples = 0;
+  // Rays traced (or straight-edge coverages evaluated) per pixel, over the frame.
+  double mean_samples_per_pixel = 0;
+  // Where the automatic rule's work went, as shares of the pixels: one flat patch (one
+  // value, exactly), one straight edge (exact coverage), one smooth pattern (a fixed
+  // cubature rule), sampled at random. 0 with explicit counts.
+  double flat_share = 0;
+  double edge_share = 0;
+  double smooth_share = 0;
+  double sampled_share = 0;
+  double max_coc_px = 0;  // largest predicted CoC over the visible targets
   double seconds = 0;
   bool cached = false;  // the scene integral was reused from an earlier frame
+};
+
+// The scene integral of one frame: mean reflectance per pixel, each pixel in its own
+// channel, before the sensor (QE, noise, quantisation).
+struct SceneIntegral {
+  cv::Mat reflectance;  // CV_32F, height x width of the sensor
+  RenderStats stats;
 };
 
 struct RenderedFrame {
@@ -85,6 +107,7 @@ class Renderer {
     std::array<int, 3> lens_grids;  // grey (then 0, 0), or R, G, B
     int pixel_grid;
     uint64_t seed;
+    bool adaptive;  // the automatic rule's paths, or uniform sampling
     bool operator==(const IntegrationKey&) const = default;
   };
 
@@ -94,6 +117,11 @@ class Renderer {
   // Checks the settings against the camera's ranges; renders view `view` of the scene.
   Result<RenderedFrame> render(const RenderSettings& settings, int view,
                                const RenderOptions& options);
+
+  // The scene integral alone, as render() computes (and caches) it: what the sensor model
+  // turns into DN. For measuring the renderer's speed and error without the sensor.
+  Result<SceneIntegral> integrate_scene(const RenderSettings& settings, int view,
+                                        const RenderOptions& options);
 
   // The settings the camera's control defaults give.
   RenderSettings default_settings() const;
@@ -106,21 +134,28 @@ class Renderer {
 
  private:
   Renderer() = default;
+  struct FramePlan;  // renderer.cpp: everything a frame's integral and truth need
+  Result<FramePlan> plan_frame(const RenderSettings& settings, int view,
+                               const RenderOptions& options);
+  // The integral for `plan`, from the cache or computed (and remembered).
+  cv::Mat scene_integral(const FramePlan& plan, RenderStats* stats);
   // The scene integral (mean reflectance per pixel, each in its own channel) for `setup`,
   // with the lens's baseline blur.
-  cv::Mat integrate(const IntegratorSetup& setup) const;
-  const ChiefRayTable& rays_for(int focus_position);
-  cv::Mat cached_reflectance(const IntegrationKey& key) const;
-  void remember_reflectance(const IntegrationKey& key, const cv::Mat& reflectance);
+  cv::Mat integrate(const IntegratorSetup& setup, RenderStats* stats) const;
+  const ChiefRayTable& rays_for(int focus_position, int threads);
+  const SceneIntegral* cached_integral(const IntegrationKey& key) const;
+  void remember_integral(const IntegrationKey& key, const SceneIntegral& integral);
 
   static constexpr size_t kReflectanceCacheSize = 8;
+  static constexpr size_t kRayTableCacheSize = 8;
 
   CameraSpec camera_;
   SceneSpec scene_;
-  std::shared_ptr<const ChiefRayTable> reference_rays_;                // focused at infinity
-  std::map<int, std::shared_ptr<const ChiefRayTable>> rays_by_focus_;  // small LRU-less cache
-  std::vector<std::shared_ptr<const cv::Mat>> textures_;               // one per target (or null)
-  std::vector<std::pair<IntegrationKey, cv::Mat>> reflectance_cache_;  // oldest first
+  std::shared_ptr<const ChiefRayTable> reference_rays_;  // focused at infinity
+  // By focus position, oldest first.
+  std::vector<std::pair<int, std::shared_ptr<const ChiefRayTable>>> rays_by_focus_;
+  std::vector<std::shared_ptr<const cv::Mat>> textures_;  // one per target (or null)
+  std::vector<std::pair<IntegrationKey, SceneIntegral>> integral_cache_;  // oldest first
 };
 
 }  // namespace camlab::mock

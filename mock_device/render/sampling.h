@@ -7,6 +7,7 @@
 // Reentrant.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -37,6 +38,20 @@ class SplitMix64 {
 inline uint64_t mix_seed(uint64_t a, uint64_t b) {
   SplitMix64 g(a ^ (b * 0xD1B54A32D192ED03ull));
   return g.next();
+}
+
+// Below this CoC (px) the aperture is not sampled: a disk a tenth of a pixel wide changes
+// a pixel-integrated edge by less than the rendering's own sampling noise.
+inline constexpr double kNegligibleCocPx = 0.1;
+
+// The automatic rule: lens grid k (k x k stratified samples) for a CoC of `coc_px`, the
+// bigger the disk the more strata its edge needs to be resolved; docs/BENCHMARKS.md has the
+// error-against-samples table it was chosen from. 0 (the pixel area alone) below
+// kNegligibleCocPx.
+inline int lens_grid_for_coc(double coc_px) {
+  if (!(coc_px >= kNegligibleCocPx)) return 0;
+  if (!(coc_px < 1e3)) return 16;
+  return std::clamp(static_cast<int>(std::lround(4 + coc_px / 2.5)), 4, 16);
 }
 
 // Shirley and Chiu's concentric map from the square [0,1)^2 to the unit disk. It keeps

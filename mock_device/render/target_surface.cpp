@@ -40,6 +40,17 @@ TargetSurface::TargetSurface(const TargetSpec& spec, const RtCamTarget& rt,
     light_[c] = reflectance_in(spec.light, c);
   }
   grey_ = spec.dark.is_grey() && spec.light.is_grey();
+  if (texture_) {
+    texels_per_m_u_ = (texture_->cols - 1) / (x_max_ - x_min_);
+    texels_per_m_v_ = (texture_->rows - 1) / (y_max_ - y_min_);
+    // As reflectance_at: a channel spans its own [dark, light] at the grey value's fraction
+    // of the way (a grey target answers every channel with the grey value).
+    const double grey_span = light_[kGrey] - dark_[kGrey];
+    for (int c = 0; c < kGrey && !grey_; ++c) {
+      texture_gain_[c] = grey_span == 0 ? 0 : (light_[c] - dark_[c]) / grey_span;
+      texture_offset_[c] = grey_span == 0 ? light_[c] : dark_[c] - dark_[kGrey] * texture_gain_[c];
+    }
+  }
 }
 
 std::array<double, 3> TargetSurface::to_camera(double u, double v) const {
