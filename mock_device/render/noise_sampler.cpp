@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <numbers>
+#include <vector>
 
 namespace camlab::mock::noise {
 
@@ -123,7 +124,7 @@ double standard_normal(uint64_t key, uint64_t index) {
     const uint64_t bits = hash(key, c++);
     const int layer = static_cast<int>(bits & (kLayers - 1));
     const double sign = (bits & kLayers) ? -1.0 : 1.0;
-    const double u = static_cast<double>(bits >> 11) * 0x1.0p-53;  // [0, 1)
+    const double u = static_cast<double>(static_cast<int64_t>(bits >> 11)) * 0x1.0p-53;  // [0, 1)
     const double x = u * z.outer[layer];
     if (u < z.inner_ratio[layer]) return sign * x;
     if (layer == 0) {
@@ -155,12 +156,7 @@ PoissonLaw::PoissonLaw(double mean) : mean_(mean > 0 ? mean : 0) {
   }
   // PTRS (W. Hormann, "The transformed rejection method for generating Poisson random
   // variables", Insurance: Mathematics and Economics 12, 1993).
-  sqrt_mean_ = std::sqrt(mean_);
-  b_ = 0.931 + 2.53 * sqrt_mean_;
-  a_ = -0.059 + 0.02483 * b_;
-  v_r_ = 0.9277 - 3.6224 / (b_ - 2);
-  inv_alpha_ = 1.1239 + 1.1328 / (b_ - 3.4);
-  log_mean_ = std::log(mean_);
+  hat_ = ptrs_hat(mean_);
 }
 
 int64_t PoissonLaw::draw(uint64_t key, uint64_t index) const {
@@ -184,41 +180,120 @@ int64_t PoissonLaw::by_inversion(uint64_t key, uint64_t first) const {
   return k;
 }
 
+namespace {
+
 // PTRS: a hat from a transformed uniform, a squeeze that accepts most draws without a
 // logarithm, and the exact test against log f(k) for the rest.
-int64_t PoissonLaw::by_ptrs(uint64_t key, uint64_t first) const {
+int64_t ptrs_draw(const PtrsHat& hat, double mean, uint64_t key, uint64_t first) {
   const uint64_t last = first + kPoissonDraws - 2;  // the fallback's two
+  double log_mean = 0;  // computed on the first exact test
   for (uint64_t c = first; c < last; c += 2) {
     const double u = uniform(key, c) - 0.5;
     const double v = uniform(key, c + 1);
     const double us = 0.5 - std::fabs(u);
-    const double k = floor_of((2 * a_ / us + b_) * u + mean_ + 0.43);
-    if (us >= 0.07 && v <= v_r_) return static_cast<int64_t>(k);  // the squeeze
+    const double k = floor_of((hat.two_a / us + hat.b) * u + hat.shift);
+    if (us >= 0.07 && v <= hat.v_r) return static_cast<int64_t>(k);  // the squeeze
     if (k < 0 || (us < 0.013 && v > us)) continue;
+    if (log_mean == 0) log_mean = std::log(mean);  // mean >= 10: never 0 itself
     // log(v) + log(1 / alpha) - log(a / us^2 + b), as one logarithm.
-    if (std::log(v * inv_alpha_ / (a_ / (us * us) + b_)) <=
-        -mean_ + k * log_mean_ - log_factorial(static_cast<int64_t>(k)))
+    if (std::log(v * hat.inv_alpha / (hat.a / (us * us) + hat.b)) <=
+        -mean + k * log_mean - log_factorial(static_cast<int64_t>(k)))
       return static_cast<int64_t>(k);
   }
   // Every attempt rejected: the normal approximation with continuity correction.
   const double z = std::sqrt(-2.0 * std::log(uniform(key, last))) *
                    std::cos(2.0 * std::numbers::pi * uniform(key, last + 1));
-  return std::max<int64_t>(0, static_cast<int64_t>(std::floor(mean_ + sqrt_mean_ * z + 0.5)));
+  return std::max<int64_t>(0, static_cast<int64_t>(std::floor(mean + hat.sqrt_mean * z + 0.5)));
+}
+
+}  // namespace
+
+int64_t PoissonLaw::by_ptrs(uint64_t key, uint64_t first) const {
+  return ptrs_draw(hat_, mean_, key, first);
 }
 
 int64_t poisson(double mean, uint64_t key, uint64_t index) {
   return PoissonLaw(mean).draw(key, index);
 }
 
-double log_factorial(int64_t k) {
-  if (k < kLogFactorialTable)
-    return log_factorial_table()[static_cast<size_t>(std::max<int64_t>(k, 0))];
-  // Stirling's series for log Gamma(x), x = k + 1 >= 65; the next term, 1/(1188 x^9), is
-  // below 1e-19.
+void poisson_row(const double* means, int64_t* out, int count, uint64_t key,
+                 uint64_t first_index, std::vector<uint8_t>& scratch) {
+  scratch.resize(static_cast<size_t>(count));
+  uint8_t* pending = scratch.data();
+  for (int i = 0; i < count; ++i) {
+    // PoissonLaw's clamp of the mean, and its PTRS first attempt (by_ptrs, c = first).
+    const double mean = means[i] > 0 ? means[i] : 0;
+    const uint64_t first = (first_index + static_cast<uint64_t>(i)) * kPoissonDraws;
+    const PtrsHat hat = ptrs_hat(mean >= kPoissonInversionMaxMean ? mean : kPoissonInversionMaxMean);
+    const double u = uniform(key, first) - 0.5;
+    const double v = uniform(key, first + 1);
+    const double us = 0.5 - std::fabs(u);
+    out[i] = static_cast<int64_t>(floor_of((hat.two_a / us + hat.b) * u + hat.shift));
+    // Means below PTRS's range (inversion, or 0) go to the scalar law whatever the draw.
+    // Written as the scalar squeeze's negation, so that a NaN anywhere falls to it too.
+    pending[i] = !(mean >= kPoissonInversionMaxMean) | !((us >= 0.07) & (v <= hat.v_r));
+  }
+  // The rest: PTRS from its first attempt again (without rebuilding a law), or inversion.
+  for (int i = 0; i < count; ++i) {
+    if (!pending[i]) continue;
+    const uint64_t index = first_index + static_cast<uint64_t>(i);
+    out[i] = means[i] >= kPoissonInversionMaxMean
+                 ? ptrs_draw(ptrs_hat(means[i]), means[i], key, index * kPoissonDraws)
+                 : poisson(means[i], key, index);
+  }
+}
+
+void standard_normal_row(double* out, int count, uint64_t key, uint64_t first_index,
+                         std::vector<uint8_t>& scratch) {
+  const Ziggurat& z = ziggurat();
+  scratch.resize(static_cast<size_t>(count));
+  uint8_t* pending = scratch.data();
+  for (int i = 0; i < count; ++i) {
+    // standard_normal's first ziggurat draw.
+    const uint64_t bits = hash(key, (first_index + static_cast<uint64_t>(i)) * kNormalDraws);
+    const int layer = static_cast<int>(bits & (kLayers - 1));
+    const double sign = (bits & kLayers) ? -1.0 : 1.0;
+    const double u = static_cast<double>(static_cast<int64_t>(bits >> 11)) * 0x1.0p-53;
+    out[i] = sign * (u * z.outer[layer]);
+    pending[i] = !(u < z.inner_ratio[layer]);
+  }
+  for (int i = 0; i < count; ++i)
+    if (pending[i]) out[i] = standard_normal(key, first_index + static_cast<uint64_t>(i));
+}
+
+namespace {
+
+// Stirling's series for log Gamma(x), x = k + 1 >= 65; the next term, 1/(1188 x^9), is
+// below 1e-19.
+double log_factorial_stirling(int64_t k) {
   const double x = static_cast<double>(k) + 1.0;
   const double x2 = x * x;
   return (x - 0.5) * std::log(x) - x + 0.5 * std::log(2 * std::numbers::pi) +
          (1.0 / 12 - (1.0 / 360 - (1.0 / 1260 - 1.0 / (1680 * x2)) / x2) / x2) / x;
+}
+
+// The series' own values up to the counts of large wells (128 KiB): PTRS's exact test
+// needs log k! for k near the mean, and the series' two logarithms were a sixth of the
+// sensor model's time.
+constexpr int64_t kStirlingTable = 16384;
+
+const std::vector<double>& stirling_table() {
+  static const std::vector<double> table = [] {
+    std::vector<double> t(static_cast<size_t>(kStirlingTable));
+    for (int64_t k = kLogFactorialTable; k < kStirlingTable; ++k)
+      t[static_cast<size_t>(k)] = log_factorial_stirling(k);
+    return t;
+  }();
+  return table;
+}
+
+}  // namespace
+
+double log_factorial(int64_t k) {
+  if (k < kLogFactorialTable)
+    return log_factorial_table()[static_cast<size_t>(std::max<int64_t>(k, 0))];
+  if (k < kStirlingTable) return stirling_table()[static_cast<size_t>(k)];
+  return log_factorial_stirling(k);
 }
 
 }  // namespace camlab::mock::noise

@@ -22,7 +22,9 @@
 // use, thread-safely).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
+#include <vector>
 
 namespace camlab::mock::noise {
 
@@ -47,16 +49,40 @@ inline uint64_t hash(uint64_t key, uint64_t counter) {
 // Uniform in the open interval (0, 1): 53 bits, centred in their cell (never 0 or 1, so
 // its logarithm is finite).
 inline double uniform(uint64_t key, uint64_t counter) {
-  return (static_cast<double>(hash(key, counter) >> 11) + 0.5) * 0x1.0p-53;
+  // Through int64_t: the 53 bits fit, and a signed conversion is one instruction where an
+  // unsigned one branches on the top bit.
+  return (static_cast<double>(static_cast<int64_t>(hash(key, counter) >> 11)) + 0.5) * 0x1.0p-53;
 }
 
 // Standard normal deviate number `index` of stream `key` (counters index x kNormalDraws
 // onwards).
 double standard_normal(uint64_t key, uint64_t index);
 
+// PTRS's hat for one mean (>= kPoissonInversionMaxMean): Hormann's a, b, v_r and 1/alpha,
+// with 2a and mean + 0.43 ready for the first step. One function for the law and the
+// row sampler, so both draw the same deviates to the bit.
+struct PtrsHat {
+  double sqrt_mean = 0, a = 0, b = 0, v_r = 0, inv_alpha = 0, two_a = 0, shift = 0;
+};
+
+inline PtrsHat ptrs_hat(double mean) {
+  PtrsHat hat;
+  hat.sqrt_mean = std::sqrt(mean);
+  hat.b = 0.931 + 2.53 * hat.sqrt_mean;
+  hat.a = -0.059 + 0.02483 * hat.b;
+  // v_r = 0.9277 - 3.6224 / (b - 2) and 1/alpha = 1.1239 + 1.1328 / (b - 3.4), with one
+  // division for the two (b >= 8.9 here, so neither denominator is near 0).
+  const double below_2 = hat.b - 2, below_3_4 = hat.b - 3.4;
+  const double inverse_product = 1.0 / (below_2 * below_3_4);
+  hat.v_r = 0.9277 - 3.6224 * below_3_4 * inverse_product;
+  hat.inv_alpha = 1.1239 + 1.1328 * below_2 * inverse_product;
+  hat.two_a = 2 * hat.a;
+  hat.shift = mean + 0.43;
+  return hat;
+}
+
 // The Poisson law of one mean (>= 0, finite; a negative or NaN mean is 0), with what its
-// sampler needs computed once: the uniform parts of a frame (a chessboard's squares)
-// give many pixels the same mean, and the sensor model keeps the law while it lasts.
+// sampler needs computed once.
 class PoissonLaw {
  public:
   explicit PoissonLaw(double mean = 0);
@@ -71,14 +97,28 @@ class PoissonLaw {
   double mean_ = 0;
   bool ptrs_ = false;
   double exp_minus_mean_ = 1;  // inversion: P(0)
-  // PTRS: the hat's parameters (Hormann's a, b, v_r, 1/alpha) and log(mean).
-  double sqrt_mean_ = 0, a_ = 0, b_ = 0, v_r_ = 0, inv_alpha_ = 0, log_mean_ = 0;
+  // log(mean) is left to the draws that reach the exact test (about one in five): under a
+  // lens's falloff every pixel has its own mean, so a law is built for each pixel.
+  PtrsHat hat_;
 };
 
 // PoissonLaw(mean).draw(key, index).
 int64_t poisson(double mean, uint64_t key, uint64_t index);
 
-// log(k!) for k >= 0: a table below 64, Stirling's series above (error below 1e-15).
+// A row of deviates at once: out[i] = poisson(means[i], key, first_index + i) and
+// normal_out[i] = standard_normal(key, first_index + i), the same numbers to the bit.
+// Every deviate's first attempt is taken for the whole row in one branch-free pass (the
+// PTRS squeeze accepts about three in four, the ziggurat's rectangles 99%), and only the
+// rest go through the scalar samplers: a frame's pixels each have their own mean, and a
+// pixel at a time the samplers wait on their own divisions and mispredicted branches.
+// `scratch` holds a row's flags; reused across rows to keep the pass allocation-free.
+void poisson_row(const double* means, int64_t* out, int count, uint64_t key,
+                 uint64_t first_index, std::vector<uint8_t>& scratch);
+void standard_normal_row(double* out, int count, uint64_t key, uint64_t first_index,
+                         std::vector<uint8_t>& scratch);
+
+// log(k!) for k >= 0: a table below 64, Stirling's series above (error below 1e-15),
+// tabulated below 16384.
 double log_factorial(int64_t k);
 
 }  // namespace camlab::mock::noise

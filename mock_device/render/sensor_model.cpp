@@ -37,33 +37,52 @@ cv::Mat expose(const cv::Mat& mean_reflectance, const CameraSpec& camera,
   const double certain_full_e = s.full_well_e + 10 * std::sqrt(s.full_well_e) + 100;
   cv::Mat out(mean_reflectance.size(), s.bit_depth <= 8 ? CV_8UC1 : CV_16UC1);
 
+  // A row at a time: electrons, then the row's shot and read deviates in one pass each
+  // (noise::poisson_row), then DN; typed output so that no pixel tests the format.
+  struct RowBuffers {
+    std::vector<double> electrons, read_e;
+    std::vector<int64_t> shot_e;
+    std::vector<uint8_t> scratch;
+  };
+  auto expose_row = [&]<typename Pixel>(int y, Pixel* row, RowBuffers& b) {
+    const int width = mean_reflectance.cols;
+    const float* in = mean_reflectance.ptr<float>(y);
+    const uint64_t row_start = static_cast<uint64_t>(y) * static_cast<uint64_t>(width);
+    double* electrons = b.electrons.data();
+    for (int x = 0; x < width; ++x)
+      electrons[x] = std::max(0.0, static_cast<double>(in[x])) * electrons_per_reflectance;
+    if (shot) {
+      // Means at or above certain_full_e draw nothing: 0 in the row pass, then the full well.
+      double* means = b.read_e.data();  // borrowed until the read noise needs it
+      for (int x = 0; x < width; ++x) means[x] = electrons[x] < certain_full_e ? electrons[x] : 0;
+      noise::poisson_row(means, b.shot_e.data(), width, shot_key, row_start, b.scratch);
+      for (int x = 0; x < width; ++x)
+        electrons[x] = electrons[x] < certain_full_e ? static_cast<double>(b.shot_e[x])
+                                                     : s.full_well_e;
+    }
+    if (read) noise::standard_normal_row(b.read_e.data(), width, read_key, row_start, b.scratch);
+    for (int x = 0; x < width; ++x) {
+      // The well saturates before the ADC; read noise is added after it.
+      double e = std::min(electrons[x], s.full_well_e);
+      if (read) e += s.read_noise_e * b.read_e[x];
+      // Rounded half up and clipped to the ADC's range (a cast, not std::round: the
+      // library call cost a sixth of the frame).
+      const double level = s.black_level_dn + e * dn_per_e;
+      row[x] = static_cast<Pixel>(level <= 0 ? 0 : level >= max_dn ? max_dn
+                                                                     : static_cast<int>(level + 0.5));
+    }
+  };
   auto expose_rows = [&](int first_row, int row_step) {
-    noise::PoissonLaw law;  // kept while neighbouring pixels see the same mean
+    RowBuffers buffers;
+    const size_t width = static_cast<size_t>(mean_reflectance.cols);
+    buffers.electrons.resize(width);
+    buffers.read_e.resize(width);
+    buffers.shot_e.resize(width);
     for (int y = first_row; y < mean_reflectance.rows; y += row_step) {
-      const float* in = mean_reflectance.ptr<float>(y);
-      const uint64_t row_start = static_cast<uint64_t>(y) * mean_reflectance.cols;
-      for (int x = 0; x < mean_reflectance.cols; ++x) {
-        const uint64_t pixel = row_start + static_cast<uint64_t>(x);
-        double electrons = std::max(0.0, static_cast<double>(in[x])) * electrons_per_reflectance;
-        if (shot && electrons > 0) {
-          if (electrons >= certain_full_e) {
-            electrons = s.full_well_e;
-          } else {
-            if (electrons != law.mean()) law = noise::PoissonLaw(electrons);
-            electrons = static_cast<double>(law.draw(shot_key, pixel));
-          }
-        }
-        electrons = std::min(electrons, s.full_well_e);  // the well saturates before the ADC
-        if (read) electrons += s.read_noise_e * noise::standard_normal(read_key, pixel);
-        // Rounded half up and clipped to the ADC's range (a cast, not std::round: the
-        // library call cost a sixth of the frame).
-        const double level = s.black_level_dn + electrons * dn_per_e;
-        const int dn = level <= 0 ? 0 : level >= max_dn ? max_dn : static_cast<int>(level + 0.5);
-        if (out.depth() == CV_8U)
-          out.ptr<uint8_t>(y)[x] = static_cast<uint8_t>(dn);
-        else
-          out.ptr<uint16_t>(y)[x] = static_cast<uint16_t>(dn);
-      }
+      if (out.depth() == CV_8U)
+        expose_row(y, out.ptr<uint8_t>(y), buffers);
+      else
+        expose_row(y, out.ptr<uint16_t>(y), buffers);
     }
   };
   threads = std::max(1, threads);

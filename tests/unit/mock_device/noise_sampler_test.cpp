@@ -194,10 +194,51 @@ TEST(NormalSampler, NeighbouringCountersAndKeysAreUncorrelated) {
 }
 
 TEST(LogFactorial, MatchesLogGammaOnBothSidesOfTheTable) {
-  for (int64_t k : {0, 1, 2, 10, 63, 64, 65, 100, 1000, 123456}) {
+  for (int64_t k : {0, 1, 2, 10, 63, 64, 65, 100, 1000, 16383, 16384, 16385, 123456}) {
     const double truth = std::lgamma(static_cast<double>(k) + 1);
     EXPECT_NEAR(log_factorial(k), truth, 1e-13 * std::max(1.0, truth)) << k;
   }
+}
+
+// The row samplers are the scalar ones reorganised for speed: the same deviate for every
+// mean and index, to the bit, including the draws their fast pass hands back (PTRS's
+// exact test and its fallback, the ziggurat's wedges and tail) and means outside PTRS's
+// range (0, negative, NaN, inversion, the switch at 10).
+TEST(RowSamplers, PoissonRowDrawsWhatTheLawDraws) {
+  std::vector<double> means = {0,    -3,    std::nan(""), 0.05, 0.5,   3,     9.999999,
+                               10,   10.0001, 37.5,       999.9, 1000,  6000,  12000,
+                               1e5,  1e7};
+  // A falloff-like ramp (every pixel its own mean) across both algorithms.
+  for (int i = 0; i < 20000; ++i) means.push_back(15.0 * i * i / 20000.0 + 0.37 * i);
+  std::vector<int64_t> row(means.size());
+  std::vector<uint8_t> scratch;
+  for (uint64_t first : {0ull, 12345ull, 0xFFFFFFFFull}) {
+    poisson_row(means.data(), row.data(), static_cast<int>(means.size()), kKey, first, scratch);
+    int64_t mismatches = 0;
+    for (size_t i = 0; i < means.size(); ++i)
+      if (row[i] != poisson(means[i], kKey, first + i)) ++mismatches;
+    EXPECT_EQ(mismatches, 0) << "first index " << first;
+  }
+  // The fast pass accepted some and handed some back: both branches ran.
+  size_t handed_back = 0;
+  for (uint8_t flag : scratch) handed_back += flag;
+  EXPECT_GT(handed_back, means.size() / 20);
+  EXPECT_LT(handed_back, means.size() / 2);
+}
+
+TEST(RowSamplers, NormalRowDrawsWhatTheScalarSamplerDraws) {
+  constexpr int kCount = 200000;  // about 2000 wedge or tail draws handed back
+  std::vector<double> row(kCount);
+  std::vector<uint8_t> scratch;
+  standard_normal_row(row.data(), kCount, kKey, 777, scratch);
+  int64_t mismatches = 0, handed_back = 0;
+  for (int i = 0; i < kCount; ++i) {
+    if (row[static_cast<size_t>(i)] != standard_normal(kKey, 777 + static_cast<uint64_t>(i)))
+      ++mismatches;
+    handed_back += scratch[static_cast<size_t>(i)];
+  }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_GT(handed_back, kCount / 500);
 }
 
 }  // namespace
