@@ -160,7 +160,8 @@ Status detect(const std::vector<ImageSource>& images, const CalibrateOptions& op
     const ChessboardCorners& c = *outcomes[i].corners;
     v.detector = c.detector;
     for (size_t k = 0; k < c.corners_px.size(); ++k)
-      v.corners.push_back({c.corners_px[k].x, c.corners_px[k].y, c.weights[k], true});
+      // Weight 0: a corner the detector could not place; mrcal takes it as missing.
+      v.corners.push_back({c.corners_px[k].x, c.corners_px[k].y, c.weights[k], c.weights[k] > 0});
     data->views.push_back(std::move(v));
   }
   return {};

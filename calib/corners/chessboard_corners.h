@@ -24,7 +24,9 @@ struct ChessboardCorners {
   int rows = 0;
   std::vector<cv::Point2d> corners_px;  // cols * rows, pixel centres at integers
   // cols * rows, mrcal's weight of each corner: 0.5^level for a corner refined at image
-  // pyramid level `level` (mrgingham), 1 for a full-resolution corner (OpenCV).
+  // pyramid level `level` (mrgingham), 1 for a full-resolution corner (OpenCV); 0 for a
+  // corner the detector could not place (missing: its position is only the grid's
+  // prediction).
   std::vector<double> weights;
   std::string detector;  // "opencv" or "mrgingham"
 };

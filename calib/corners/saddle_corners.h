@@ -12,7 +12,11 @@
 //                   alternating sectors on a circle around it); the board is the lattice
 //                   when it is exactly cols x rows (or rows x cols) and complete;
 //   3. refinement   cornerSubPix at the coarse level, then at full resolution
-//                   (refine_corners_subpix, calib/corners/chessboard_corners.h).
+//                   (refine_corners_subpix, calib/corners/chessboard_corners.h);
+//   4. re-check     each refined corner must still be an X-junction on a small circle
+//                   around it (cornerSubPix can carry a corner along an edge); one that
+//                   is not is refined again from its neighbours' prediction with a smaller
+//                   window, or left out.
 //
 // A level that finds no board hands over to the next finer one, down to full resolution
 // (small, far boards). Whole boards only: a board cut by the image's edge is not found.
@@ -21,7 +25,8 @@
 // labelled so the grid is never mirrored (the i axis turned onto the j axis by +90 deg in
 // the image, as for a board seen from the front) and, among the labellings the board's
 // shape allows (a half turn; quarter turns on a square board), the one whose i axis runs
-// nearest the image's +x. Every corner is refined at full resolution: weight 1.
+// nearest the image's +x. Every corner is refined at full resolution: weight 1; a corner
+// the re-check could not place has weight 0 (missing, as mrcal takes it).
 //
 // Reentrant.
 #pragma once

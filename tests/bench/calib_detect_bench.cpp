@@ -56,7 +56,8 @@ struct Frame {
 };
 
 // Errors of a detection against the truth under the best of the grid's symmetries that a
-// labelling may take (a half turn, mirrors; quarter turns on a square board).
+// labelling may take (a half turn, mirrors; quarter turns on a square board), over the
+// corners the detector placed (weight > 0).
 std::vector<double> errors(const ChessboardCorners& c, const nlohmann::json& truth) {
   std::vector<double> best;
   double best_sum = 1e300;
@@ -76,6 +77,7 @@ std::vector<double> errors(const ChessboardCorners& c, const nlohmann::json& tru
           ok = false;
           break;
         }
+        if (!(c.weights[j * n + i] > 0)) continue;  // left out (missing): not a position
         const double d = std::hypot(c.corners_px[j * n + i].x - t[0].get<double>(),
                                     c.corners_px[j * n + i].y - t[1].get<double>());
         e.push_back(d);
@@ -131,8 +133,8 @@ int main(int argc, char** argv) {
   for (std::string d; std::getline(list, d, ',');) {
     if (!check_chessboard_detector(d, cols, rows).ok()) continue;
     double sum_sq = 0, max_px = 0, found_s = 0, miss_s = 0, cpu_s = 0;
-    int n = 0, found = 0;
-    std::string missed;
+    int n = 0, found = 0, left_out = 0;
+    std::string missed, off;  // off: views with a corner over 1 px from the truth
     for (size_t k = 0; k < frames.size(); ++k) {
       const auto t0 = std::chrono::steady_clock::now();
       const double c0 = process_cpu_s();
@@ -146,16 +148,26 @@ int main(int argc, char** argv) {
       }
       found_s += s;
       ++found;
+      for (double w : c->weights) left_out += w > 0 ? 0 : 1;
+      double view_max_px = 0;
       for (double e : errors(*c, frames[k].truth)) {
         sum_sq += e * e;
-        max_px = std::max(max_px, e);
+        view_max_px = std::max(view_max_px, e);
         ++n;
+      }
+      max_px = std::max(max_px, view_max_px);
+      if (view_max_px > 1) {
+        char text[48];
+        std::snprintf(text, sizeof text, " %zu (%.2f px)", k, view_max_px);
+        off += text;
       }
     }
     const int misses = static_cast<int>(frames.size()) - found;
     std::printf("%-10s %4d/%-2zu %10.4f %8.3f %10.1f %10.1f %s\n", d.c_str(), found, frames.size(),
                 n ? std::sqrt(sum_sq / n) : 0.0, max_px, 1e3 * (found_s + miss_s) / frames.size(),
                 misses ? 1e3 * miss_s / misses : 0.0, missed.c_str());
+    if (!off.empty()) std::printf("%-10s views with a corner over 1 px off:%s\n", "", off.c_str());
+    if (left_out > 0) std::printf("%-10s corners left out (missing): %d\n", "", left_out);
   }
 
   std::printf("\ncalibrate() from the folder (default detector, all cores), median of %d:\n",

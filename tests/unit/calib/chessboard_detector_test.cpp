@@ -293,6 +293,38 @@ TEST(ChessboardDetector, SaddleCornersMatchTheTruthOnSquareAndOblongBoards) {
   EXPECT_LT(rms, 0.1);
 }
 
+// Every view of the README's example set (14x10, 40 views): no corner the detector hands
+// on may be pixels off. cornerSubPix can carry a corner along an edge whose window sees
+// mostly that edge (view 23 had one 9.9 px down an edge, and its board counted as found);
+// such a corner is refined again or left out (weight 0), never passed on.
+TEST(ChessboardDetector, SaddleHandsOnNoCornerSlidAlongAnEdgeInAnyExampleView) {
+  int found_views = 0, placed = 0, left_out = 0;
+  double worst_px = 0;
+  int worst_view = -1;
+  for (int view = 0; view < 40; ++view) {
+    const Rendered& r = render(view, false);
+    auto found = find_chessboard_corners_saddle(r.image, 14, 10);
+    if (!found) continue;  // boards the detector does not find are counted elsewhere
+    ++found_views;
+    const Match m = match_truth(*found, r.corners_px);
+    ASSERT_GE(m.symmetry, 0) << "view " << view;
+    for (size_t k = 0; k < m.errors_px.size(); ++k) {
+      if (!(found->weights[k] > 0)) {
+        ++left_out;
+        continue;
+      }
+      ++placed;
+      if (m.errors_px[k] > worst_px) worst_px = m.errors_px[k], worst_view = view;
+      EXPECT_LT(m.errors_px[k], 0.5) << "view " << view << ", corner " << k;
+    }
+  }
+  std::printf("saddle on the 40 example views: %d boards, %d corners placed (worst %.3f px, "
+              "view %d), %d left out\n",
+              found_views, placed, worst_px, worst_view, left_out);
+  EXPECT_GE(found_views, 37);
+  EXPECT_LE(left_out, found_views);  // a corner now and then, not whole rows
+}
+
 TEST(ChessboardDetector, SaddleLabelsATurnedBoardByQuarterTurnsNeverMirrored) {
   for (int q = 0; q < 4; ++q) {
     const Rendered& r = render(kFirstSpinView + q);
