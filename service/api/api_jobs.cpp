@@ -161,6 +161,10 @@ void cancel_job(const ServiceContext& context, const PathParams& params, Reply r
     auto cancelled = context.store->cancel_queued(job->id);
     if (!cancelled) return reply(error_response(cancelled.error()));
     if (*cancelled) {
+      // The worker's queue still lists it: free its slot now (the worker would skip it
+      // anyway, since the store no longer lets a cancelled job start).
+      if (auto worker = job->camera_id.empty() ? nullptr : context.cameras->find(job->camera_id))
+        worker->forget_queued(job->id);
       auto now = context.store->get(job->id);
       return reply(json_response(200, now && now->has_value() ? to_json(**now) : to_json(*job)));
     }

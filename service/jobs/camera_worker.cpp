@@ -128,6 +128,11 @@ Status CameraWorker::enqueue_job(int64_t job_id) {
   return {};
 }
 
+void CameraWorker::forget_queued(int64_t id) {
+  std::lock_guard lock(mutex_);
+  std::erase(jobs_, id);
+}
+
 bool CameraWorker::cancel_running(int64_t id) {
   if (id == 0 || running_job_.load() != id) return false;
   cancel_ = true;

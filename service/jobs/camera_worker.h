@@ -121,6 +121,9 @@ class CameraWorker {
   Status can_accept_job() const;
   // Requests cancellation of job `id` if it is the one running; false otherwise.
   bool cancel_running(int64_t id);
+  // Takes job `id` out of the queue (it was cancelled while queued), so that its slot is
+  // free for the next submission at once, not when the worker reaches it.
+  void forget_queued(int64_t id);
 
  private:
   void run();

@@ -231,6 +231,38 @@ TEST_F(ServiceApi, TooManyQueuedJobsGet429) {
   for (int64_t id : ids) daemon_->wait_finished(id);
 }
 
+// The review's finding: after cancelling every queued job, the next capture still got 429
+// until the running job ended, because the worker's queue kept the cancelled jobs' slots.
+TEST_F(ServiceApi, CancelledQueuedJobsGiveTheirQueueSlotsBackAtOnce) {
+  const int64_t running = capture(0, {{"kind", "single"}, {"repeats", 300}});
+  ASSERT_GT(running, 0);
+  ASSERT_GE(wait_frames(running, 1)["progress"]["frames_done"].get<int>(), 1);  // out of the queue
+  std::vector<int64_t> queued;
+  for (int i = 0; i < 8; ++i) {  // the queue takes 4 (--max-queued-jobs)
+    auto r = daemon_->post(camera_path(0) + "/captures", {{"kind", "single"}});
+    if (r.status != 202) {
+      EXPECT_EQ(r.status, 429) << r.body;
+      break;
+    }
+    queued.push_back(r.json()["id"]);
+  }
+  ASSERT_FALSE(queued.empty());
+  for (int64_t id : queued) {
+    auto cancel = daemon_->del("/v1/jobs/" + std::to_string(id));
+    EXPECT_EQ(cancel.status, 200) << cancel.body;
+  }
+  ASSERT_EQ(daemon_->get("/v1/jobs/" + std::to_string(running)).json()["state"], "running")
+      << "the test needs the first job still running";
+  auto next = daemon_->post(camera_path(0) + "/captures", {{"kind", "single"}});
+  EXPECT_EQ(next.status, 202) << next.body;
+  daemon_->del("/v1/jobs/" + std::to_string(running));
+  if (next.status == 202) {
+    const json job = daemon_->wait_finished(next.json()["id"]);
+    EXPECT_EQ(job["state"], "succeeded") << job.dump();
+  }
+  daemon_->wait_finished(running);
+}
+
 TEST_F(ServiceApi, LatencyProbeMeasuresTheSpecsThreeFramesAndStoresIt) {
   auto r = daemon_->post(camera_path(0) + "/latency-probe", json::object());
   ASSERT_EQ(r.status, 202) << r.body;
