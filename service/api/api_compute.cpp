@@ -3,6 +3,7 @@
 // normalised job and queue it on the compute worker (service/jobs/compute_jobs.h).
 #include <algorithm>
 
+#include "calib/lens_model.h"
 #include "image/capture_folder.h"
 #include "service/api/service_context.h"
 #include "service/jobs/compute_jobs.h"
@@ -114,6 +115,17 @@ void post_calibration(const ServiceContext& context, const ApiRequest& request, 
       model.get<std::string>().size() > 200)
     return reply(error_response("invalid_request",
                                 "\"model\" must be \"auto\" or a mrcal LENSMODEL_... name"));
+  // A name mrcal does not know is refused now, not when the job reaches the solve. The
+  // imager size only configures a bare splined model; any size checks the name.
+  if (model != "auto") {
+    auto configured = calib::configured_lensmodel(model.get<std::string>(), 1280, 800, 90);
+    if (configured) {
+      auto params = calib::lensmodel_param_count(*configured);
+      if (!params) return reply(error_response(params.error()));
+    } else {
+      return reply(error_response(configured.error()));
+    }
+  }
   const nlohmann::json& detector = body->value("detector", nlohmann::json("auto"));
   if (!detector.is_string() || !(detector == "auto" || detector == "saddle" ||
                                  detector == "opencv" || detector == "mrgingham"))

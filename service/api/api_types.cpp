@@ -1,6 +1,9 @@
 #include "service/api/api_types.h"
 
 #include <cctype>
+#include <set>
+#include <string>
+#include <vector>
 
 namespace camlab::service {
 
@@ -22,8 +25,28 @@ ApiResponse error_response(ErrorCodeName code, const std::string& message) {
 }
 
 Result<nlohmann::json> parse_json_object(const std::string& body) {
-  nlohmann::json json = nlohmann::json::parse(body, nullptr, /*allow_exceptions=*/false);
+  // RFC 8259 8.1: a sender must not add a byte order mark; the parser would skip it.
+  if (body.rfind("\xEF\xBB\xBF", 0) == 0)
+    return make_error("bad_json", "the request body starts with a UTF-8 byte order mark");
+  // Duplicate keys: the parser keeps the last, so {"repeats": 1, "repeats": 1000} would run
+  // what the client did not mean to send. One set of keys per open object.
+  std::vector<std::set<std::string>> keys_per_object;
+  std::string duplicate;
+  const nlohmann::json::parser_callback_t check_keys =
+      [&](int, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
+        using Event = nlohmann::json::parse_event_t;
+        if (event == Event::object_start) keys_per_object.emplace_back();
+        if (event == Event::object_end && !keys_per_object.empty()) keys_per_object.pop_back();
+        if (event == Event::key && !keys_per_object.empty() && duplicate.empty() &&
+            !keys_per_object.back().insert(parsed.get<std::string>()).second)
+          duplicate = parsed.get<std::string>();
+        return true;
+      };
+  nlohmann::json json = nlohmann::json::parse(body, check_keys, /*allow_exceptions=*/false);
   if (json.is_discarded()) return make_error("bad_json", "the request body is not valid JSON");
+  if (!duplicate.empty())
+    return make_error("bad_json", "the request body has the key \"" + duplicate.substr(0, 100) +
+                                      "\" twice in one object");
   if (!json.is_object())
     return make_error("invalid_request", "the request body must be a JSON object");
   return json;

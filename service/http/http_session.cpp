@@ -82,6 +82,13 @@ void HttpSession::on_read(beast::error_code ec, std::size_t) {
   ApiRequest api;
   api.method = std::string(request.method_string());
   const std::string target(request.target());
+  // Origin form only (RFC 9112 3.2.1): "v1/jobs" or an absolute URI would otherwise be
+  // routed as if it were the path it resembles.
+  if (target.empty() || target[0] != '/')
+    return send(error_response("invalid_request",
+                               "the request target must be a path starting with '/', e.g. "
+                               "/v1/cameras"),
+                !keep_alive_);
   const size_t question = target.find('?');
   api.path = target.substr(0, question);
   if (question != std::string::npos) api.query = target.substr(question + 1);

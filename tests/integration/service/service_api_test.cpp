@@ -135,6 +135,46 @@ TEST_F(ServiceApi, ControlsAreSetAndOutOfRangeValuesGet422NamingTheRange) {
   }
 }
 
+// The review's "late validation" findings: each of these was accepted before.
+TEST_F(ServiceApi, AmbiguousRequestsAreRefusedWhenSubmittedNotLater) {
+  const int port = daemon_->port();
+  // An unknown lens model: 202 and a failed job 51 s later, before.
+  auto unknown_model = daemon_->post(
+      "/v1/calibrations",
+      {{"inner_corners", {14, 10}}, {"spacing_m", 0.04}, {"model", "LENSMODEL_OPENCV7"}});
+  EXPECT_EQ(unknown_model.status, 422) << unknown_model.body;
+  EXPECT_EQ(unknown_model.error_code(), "bad_lensmodel") << unknown_model.body;
+  // A known one passes this check (and fails later on the missing source, as before).
+  auto known_model = daemon_->post(
+      "/v1/calibrations",
+      {{"inner_corners", {14, 10}}, {"spacing_m", 0.04}, {"model", "LENSMODEL_SPLINED_STEREOGRAPHIC"}});
+  EXPECT_NE(known_model.error_code(), "bad_lensmodel") << known_model.body;
+  // The same key twice: the parser kept the last one.
+  auto duplicate = http(port, "POST", camera_path(0) + "/captures", daemon_->token(),
+                        R"({"kind": "single", "repeats": 2, "repeats": 90})");
+  EXPECT_EQ(duplicate.status, 400) << duplicate.body;
+  EXPECT_EQ(duplicate.error_code(), "bad_json");
+  EXPECT_NE(duplicate.body.find("repeats"), std::string::npos) << duplicate.body;
+  auto nested_duplicate = http(port, "POST", camera_path(0) + "/captures", daemon_->token(),
+                               R"({"kind": "single", "x": {"a": 1, "a": 2}})");
+  EXPECT_EQ(nested_duplicate.error_code(), "bad_json") << nested_duplicate.body;
+  // The same key in two different objects is no duplicate.
+  auto distinct = http(port, "POST", camera_path(0) + "/captures", daemon_->token(),
+                       R"({"kind": "timelapse", "x": {"kind": 1}})");
+  EXPECT_NE(distinct.error_code(), "bad_json") << distinct.body;
+  // A UTF-8 byte order mark before the JSON.
+  auto bom = http(port, "POST", camera_path(0) + "/captures", daemon_->token(),
+                  "\xEF\xBB\xBF{\"kind\": \"single\"}");
+  EXPECT_EQ(bom.status, 400) << bom.body;
+  EXPECT_EQ(bom.error_code(), "bad_json");
+  // A request target that is not a path.
+  for (const char* target : {"v1/health", "http://127.0.0.1/v1/health", "*"}) {
+    auto r = http(port, "GET", target);
+    EXPECT_EQ(r.status, 400) << target << ": " << r.body;
+  }
+  EXPECT_EQ(http(port, "GET", "/v1/health").status, 200);
+}
+
 TEST_F(ServiceApi, MalformedAndOversizedRequestsGet4xxAndTheDaemonKeepsServing) {
   const int port = daemon_->port();
   auto bad_json = http(port, "POST", camera_path(0) + "/captures", daemon_->token(), "{\"kind\": ");
