@@ -71,9 +71,11 @@ int run_daemon(const DaemonConfig& config) {
   }
   if (!token->warning.empty()) log_warning(log::Category::kDaemon, "%s", token->warning.c_str());
   if (token->created) {
-    // Printed once, on the start that created it; later starts only name the file.
-    std::printf("camlabd: API token (also in %s, mode 0600): %s\n", (*data_dir / "token").c_str(),
-                token->token.c_str());
+    // Named, never printed: a daemon's output ends up in journals and CI logs, which
+    // the token must not.
+    std::printf("camlabd: created an API token in %s (mode 0600); clients send it as "
+                "\"Authorization: Bearer $(cat %s)\"\n",
+                (*data_dir / "token").c_str(), (*data_dir / "token").c_str());
     std::fflush(stdout);
   }
 
@@ -139,6 +141,11 @@ int run_daemon(const DaemonConfig& config) {
 
   (*listener)->run();
   const auto bound = (*listener)->local_endpoint();
+  if (!bound.address().is_loopback())
+    log_warning(log::Category::kDaemon,
+                "listening on %s, which other hosts can reach: the API token and the frames "
+                "travel in clear; bind to 127.0.0.1 (the default) or put a TLS proxy in front",
+                bound.address().to_string().c_str());
   log_info(log::Category::kDaemon,
            "listening on http://%s:%u (data %s, %zu camera(s), %d I/O threads%s)",
            bound.address().to_string().c_str(), bound.port(), data_dir->c_str(), workers.size(),

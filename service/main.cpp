@@ -24,7 +24,7 @@ int main(int argc, char** argv) {
       "virtual camera\n"
       "when none is found. Every endpoint but GET /v1/health needs 'Authorization: Bearer TOKEN'; "
       "the token\n"
-      "is generated on first start into DATA/token (mode 0600) and printed once. The API is "
+      "is generated on first start into DATA/token (mode 0600), never printed. The API is "
       "described by\n"
       "GET /v1/openapi.json and docs/service.md. SIGTERM or SIGINT stop it cleanly (exit 0).\n\n"
       "Example:\n"

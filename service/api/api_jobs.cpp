@@ -2,9 +2,14 @@
 // files are found only through the job's own folder (from the database) and the
 // manifest's entries (plain file names, checked by CaptureFolder::open); the request
 // supplies numbers only.
-#include <fstream>
-#include <sstream>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <string>
+
+#include "base/unique_fd.h"
 #include "image/capture_folder.h"
 #include "service/api/service_context.h"
 #include "service/jobs/camera_set.h"
@@ -78,13 +83,21 @@ std::optional<int> frame_index(const image::CaptureFolder& folder, const JobReco
   return static_cast<int>(*n);
 }
 
+// A frame's file, read whole. O_NOFOLLOW, and a regular file only: a frame replaced by a
+// symlink (to the token, say) or by a device or FIFO is refused, not followed.
 bool read_bytes(const std::filesystem::path& path, std::string* out) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return false;
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  *out = buffer.str();
-  return static_cast<bool>(in) || in.eof();
+  UniqueFd fd(::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC | O_NONBLOCK));
+  struct stat info {};
+  if (!fd || ::fstat(fd.get(), &info) != 0 || !S_ISREG(info.st_mode)) return false;
+  out->resize(static_cast<size_t>(info.st_size));
+  size_t done = 0;
+  while (done < out->size()) {
+    const ssize_t n = ::read(fd.get(), out->data() + done, out->size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;  // an error, or the file shrank while read
+    done += static_cast<size_t>(n);
+  }
+  return true;
 }
 
 // Frame {n} of job {id}: its image or its sidecar file, read whole; replies with the

@@ -303,6 +303,35 @@ TEST_F(ServiceApi, CancelledQueuedJobsGiveTheirQueueSlotsBackAtOnce) {
   daemon_->wait_finished(running);
 }
 
+// A frame file replaced by a symlink (here to the API token) must not be followed when
+// frames are served: the review got the token back as "frame 0".
+TEST_F(ServiceApi, AFrameReplacedBySymlinkIsNotFollowed) {
+  const int64_t id = capture(0, {{"kind", "single"}, {"repeats", 2}});
+  ASSERT_GT(id, 0);
+  const json job = daemon_->wait_finished(id);
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  const fs::path folder = *dir_ / "data" / job["folder"].get<std::string>();
+  const json frames = daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames").json();
+  ASSERT_GE(frames["frames"].size(), 2u) << frames.dump();
+  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/1").status, 200);
+  // Frame 0's image and sidecar become symlinks to the token.
+  int replaced = 0;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind("frame_000000", 0) != 0) continue;
+    fs::remove(entry.path());
+    fs::create_symlink(*dir_ / "data" / "token", entry.path());
+    ++replaced;
+  }
+  ASSERT_EQ(replaced, 2);
+  for (const char* suffix : {"", "/meta"}) {
+    auto r = daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/0" + suffix);
+    EXPECT_NE(r.status, 200) << suffix << ": " << r.body;
+    EXPECT_EQ(r.body.find(daemon_->token()), std::string::npos) << "the token was served";
+  }
+  EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/1").status, 200);
+}
+
 TEST_F(ServiceApi, LatencyProbeMeasuresTheSpecsThreeFramesAndStoresIt) {
   auto r = daemon_->post(camera_path(0) + "/latency-probe", json::object());
   ASSERT_EQ(r.status, 202) << r.body;
