@@ -1,7 +1,11 @@
 // camlabd: the REST capture daemon. Parses flags (and an optional config file), then
 // serves (service/daemon.h).
+#include <cstdio>
+#include <string>
+
 #include <CLI/CLI.hpp>
 
+#include "base/file_mode.h"
 #include "base/log.h"
 #include "service/daemon.h"
 
@@ -101,11 +105,26 @@ int main(int argc, char** argv) {
                  "a frame that does not arrive within this fails the job")
       ->check(CLI::Range(100, 600000))
       ->capture_default_str();
+  std::string file_mode;
+  app.add_option("--file-mode", file_mode,
+                 "octal mode of the files camlabd writes (frames, sidecars, manifests, "
+                 "reports), 0600..0666, e.g. 0640; default: 0666 less the umask, as for any "
+                 "new file. The token stays 0600");
   app.add_flag("--test-faults", config.test_faults,
                "TESTS ONLY: enable POST /v1/test/cameras/{id}/faults (fault injection into "
                "in-process virtual cameras)");
   CLI11_PARSE(app, argc, argv);
 
+  if (!file_mode.empty()) {
+    auto mode = camlab::parse_data_file_mode(file_mode);
+    if (!mode) {
+      std::fprintf(stderr, "camlabd: --file-mode: %s [%.*s]\n", mode.error().message.c_str(),
+                   static_cast<int>(camlab::name_of(mode.error().code).size()),
+                   camlab::name_of(mode.error().code).data());
+      return 2;
+    }
+    camlab::set_data_file_mode(*mode);
+  }
   config.cameras.scan_devices = !no_scan;
   config.cameras.libcamera = !no_scan && !no_libcamera;
   config.cameras.rescan_interval = std::chrono::milliseconds(rescan_ms);

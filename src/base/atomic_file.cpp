@@ -1,5 +1,6 @@
 #include "base/atomic_file.h"
 
+#include "base/file_mode.h"
 #include "base/unique_fd.h"
 
 #include <fcntl.h>
@@ -46,7 +47,8 @@ Status write_file_atomically(const std::filesystem::path& path,
   }
   // Data must be on disk before the rename makes it visible, or a power cut could leave
   // an empty file under the final name.
-  if (::fsync(fd.get()) != 0 || ::fchmod(fd.get(), 0644) != 0) {
+  // mkstemp made it 0600: it gets the mode of camlab's data files (base/file_mode.h).
+  if (::fsync(fd.get()) != 0 || ::fchmod(fd.get(), data_file_mode()) != 0) {
     int err = errno;
     ::unlink(temp_name.c_str());
     return io_error(path, "cannot flush", err);

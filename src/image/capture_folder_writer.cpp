@@ -11,6 +11,7 @@
 #include <system_error>
 
 #include "base/atomic_file.h"
+#include "base/file_mode.h"
 #include "image/capture_folder.h"
 #include "image/frame_journal.h"
 #include "image/jpeg_codec.h"
@@ -60,8 +61,13 @@ std::span<const uint8_t> bytes_of(std::string_view text) {
 // partial file (an error here, or a crash) is never listed in the journal.
 Status write_new_file(int dir_fd, const fs::path& dir, const std::string& name,
                       std::span<const uint8_t> bytes) {
-  UniqueFd fd(::openat(dir_fd, name.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644));
-  if (!fd) return io_error(dir / name, "cannot create", errno);
+  UniqueFd fd(::openat(dir_fd, name.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600));
+  // The mode exactly (base/file_mode.h): open's mode argument could only narrow it.
+  if (!fd || ::fchmod(fd.get(), data_file_mode()) != 0) {
+    const int err = errno;
+    if (fd) ::unlinkat(dir_fd, name.c_str(), 0);
+    return io_error(dir / name, "cannot create", err);
+  }
   if (Status s = write_all(fd.get(), bytes, dir / name); !s) {
     ::unlinkat(dir_fd, name.c_str(), 0);
     return s;
@@ -102,8 +108,9 @@ Result<CaptureFolderWriter> CaptureFolderWriter::create(const fs::path& dir,
   };
   if (Status status = writer.write_manifest(false); !status) return status.error();
   writer.journal_fd_.reset(::openat(writer.dir_fd_.get(), kFrameJournalName,
-                                    O_WRONLY | O_CREAT | O_EXCL | O_APPEND | O_CLOEXEC, 0644));
-  if (!writer.journal_fd_) return io_error(dir / kFrameJournalName, "cannot create", errno);
+                                    O_WRONLY | O_CREAT | O_EXCL | O_APPEND | O_CLOEXEC, 0600));
+  if (!writer.journal_fd_ || ::fchmod(writer.journal_fd_.get(), data_file_mode()) != 0)
+    return io_error(dir / kFrameJournalName, "cannot create", errno);
   // The manifest's and the journal's names are on disk before any frame is.
   if (::fsync(writer.dir_fd_.get()) != 0) return io_error(dir, "cannot flush folder", errno);
   return writer;

@@ -2,6 +2,9 @@
 // the next start with its frames readable; SIGTERM during a capture exits 0 and
 // interrupts the job cleanly; the token is created once and kept.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <map>
 
 #include "daemon_harness.h"
 
@@ -113,6 +116,57 @@ TEST_F(ServiceLifecycle, TheTokenIsCreatedOnceKeptAndNeverPrinted) {
   EXPECT_EQ(second.log().find(token), std::string::npos) << "not printed again";
   EXPECT_EQ(http(second.port(), "GET", "/v1/cameras", token).status, 200);
   EXPECT_EQ(second.stop(SIGTERM), 0);
+}
+
+// The permission bits of every file in a capture job's folder.
+std::map<std::string, fs::perms> folder_modes(const fs::path& data, Daemon& daemon) {
+  const std::string camera = "/v1/cameras/" + url_segment(daemon.camera_id());
+  auto r = daemon.post(camera + "/captures", {{"kind", "single"}, {"repeats", 2}});
+  EXPECT_EQ(r.status, 202) << r.body;
+  if (r.status != 202) return {};
+  const json job = daemon.wait_finished(r.json()["id"]);
+  EXPECT_EQ(job["state"], "succeeded") << job.dump();
+  std::map<std::string, fs::perms> modes;
+  for (const auto& e : fs::directory_iterator(data / job["folder"].get<std::string>()))
+    modes[e.path().filename().string()] = e.status().permissions() & fs::perms::all;
+  return modes;
+}
+
+// The review found frames and sidecars 0644 whatever the umask. Now: 0666 less the umask
+// by default, or exactly --file-mode; a mode that is not allowed stops the start with the
+// rule.
+TEST_F(ServiceLifecycle, CaptureFilesFollowTheUmaskOrFileMode) {
+  const mode_t saved = ::umask(027);  // the daemon inherits it
+  Daemon strict;
+  const bool started = strict.start(dir, args);
+  ::umask(saved);
+  ASSERT_TRUE(started) << strict.log();
+  auto modes = folder_modes(dir / "data", strict);
+  ASSERT_GE(modes.size(), 5u);  // 2 frames, 2 sidecars, manifest, journal
+  for (const auto& [name, mode] : modes)
+    EXPECT_EQ(mode, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read)
+        << name << " under umask 027";
+  EXPECT_EQ(strict.stop(SIGTERM), 0);
+
+  std::vector<std::string> with_mode = args;
+  with_mode.insert(with_mode.end(), {"--file-mode", "0664"});
+  Daemon chosen;
+  ASSERT_TRUE(chosen.start(dir, with_mode)) << chosen.log();
+  modes = folder_modes(dir / "data", chosen);
+  ASSERT_GE(modes.size(), 5u);
+  for (const auto& [name, mode] : modes)
+    EXPECT_EQ(mode, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read |
+                        fs::perms::group_write | fs::perms::others_read)
+        << name << " with --file-mode 0664";
+  EXPECT_EQ(fs::status(dir / "data" / "token").permissions() & fs::perms::all,
+            fs::perms::owner_read | fs::perms::owner_write);
+  EXPECT_EQ(chosen.stop(SIGTERM), 0);
+
+  std::vector<std::string> bad_mode = args;
+  bad_mode.insert(bad_mode.end(), {"--file-mode", "0755"});
+  Daemon refused;
+  EXPECT_FALSE(refused.start(dir, bad_mode));
+  EXPECT_NE(refused.log().find("0600 .. 0666"), std::string::npos) << refused.log();
 }
 
 }  // namespace
