@@ -108,6 +108,7 @@ int run_daemon(const DaemonConfig& config) {
 
   TokenAuth auth(token->token);
   Router router(&auth, &metrics);
+  router.hide_data_dir(*data_dir);
   ServiceContext context{*data_dir, store->get(), cameras->get(),
                          &compute,  &metrics,     config.test_faults};
   add_all_routes(router, context);

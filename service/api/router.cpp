@@ -75,12 +75,21 @@ std::vector<std::string> split_path(const std::string& path) {
 
 void Router::add(Route route) { routes_.push_back(std::move(route)); }
 
+void Router::hide_data_dir(const std::filesystem::path& data_dir) {
+  hidden_prefix_ = (data_dir / "").string();
+}
+
 void Router::dispatch(const ApiRequest& request, Reply reply) const {
   // Every answer is counted once, under the route's pattern (bounded label set).
   auto counted = [this, method = request.method,
                   reply = std::move(reply)](const std::string& route_label) {
     return [this, method, route_label, reply](ApiResponse response) {
       if (metrics_) metrics_->count_request(method, route_label, response.status);
+      // JSON only: image bytes are never rewritten.
+      if (!hidden_prefix_.empty() && response.content_type.rfind("application/json", 0) == 0)
+        for (size_t at = response.body.find(hidden_prefix_); at != std::string::npos;
+             at = response.body.find(hidden_prefix_, at))
+          response.body.erase(at, hidden_prefix_.size());
       reply(std::move(response));
     };
   };

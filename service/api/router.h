@@ -6,7 +6,9 @@
 // Routes are added before serving starts; dispatch is then thread-safe (read-only).
 #pragma once
 
+#include <filesystem>
 #include <functional>
+#include <string>
 #include <string>
 #include <vector>
 
@@ -35,6 +37,11 @@ class Router {
   void add(Route route);
   const std::vector<Route>& routes() const { return routes_; }
 
+  // The data folder's absolute path, hidden from JSON answers: error messages name files
+  // relative to it ("captures/job-000001/frame_000000.png"), so that a client learns
+  // nothing of the server's file system.
+  void hide_data_dir(const std::filesystem::path& data_dir);
+
   // Answers through `reply` exactly once: 401 without a valid token, 404 for an unknown
   // path, 405 (with Allow) for a known path and another method, else the handler's.
   void dispatch(const ApiRequest& request, Reply reply) const;
@@ -43,6 +50,7 @@ class Router {
   const TokenAuth* auth_;
   Metrics* metrics_;
   std::vector<Route> routes_;
+  std::string hidden_prefix_;  // "/abs/data/" or empty
 };
 
 // Percent-decodes one path segment; false for a malformed escape or a decoded '/' or NUL

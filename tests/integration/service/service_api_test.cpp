@@ -332,6 +332,22 @@ TEST_F(ServiceApi, AFrameReplacedBySymlinkIsNotFollowed) {
   EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/1").status, 200);
 }
 
+// Error messages name files relative to the data folder: the server's absolute paths
+// are not the client's business (the review saw them in errors).
+TEST_F(ServiceApi, ErrorsNameFilesRelativeToTheDataFolder) {
+  const int64_t id = capture(0, {{"kind", "single"}, {"repeats", 1}});
+  ASSERT_GT(id, 0);
+  const json job = daemon_->wait_finished(id);
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  const std::string folder = job["folder"].get<std::string>();
+  std::ofstream(*dir_ / "data" / folder / "manifest.json") << "{ not json";
+  auto r = daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames");
+  EXPECT_GE(r.status, 400) << r.body;
+  const std::string absolute = fs::canonical(*dir_ / "data").string();
+  EXPECT_EQ(r.body.find(absolute), std::string::npos) << r.body;
+  EXPECT_NE(r.body.find(folder), std::string::npos) << "names the folder: " << r.body;
+}
+
 TEST_F(ServiceApi, LatencyProbeMeasuresTheSpecsThreeFramesAndStoresIt) {
   auto r = daemon_->post(camera_path(0) + "/latency-probe", json::object());
   ASSERT_EQ(r.status, 202) << r.body;
