@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <filesystem>
 #include <string>
 
 #include "base/unique_fd.h"
@@ -223,8 +224,16 @@ void add_job_routes(Router& router, const ServiceContext& context) {
               [context](const ApiRequest&, const PathParams& params, Reply reply) {
                 auto job = find_job(context, params, reply);
                 if (!job) return;
-                if (job->kind == "capture" && job->state == JobState::kQueued)
+                // Queued, or started but still setting the camera up (the latency probe,
+                // the format): no folder yet, and no frames, which is no error.
+                const bool folder_pending =
+                    job->kind == "capture" &&
+                    (job->state == JobState::kQueued ||
+                     (job->state == JobState::kRunning &&
+                      !std::filesystem::exists(context.data_dir / job->folder / "manifest.json")));
+                if (folder_pending)
                   return reply(json_response(200, {{"job_id", job->id},
+                                                   {"state", job_state_name(job->state)},
                                                    {"complete", false},
                                                    {"frames", nlohmann::json::array()}}));
                 auto folder = job_folder(context, *job, reply);

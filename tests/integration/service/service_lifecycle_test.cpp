@@ -118,6 +118,32 @@ TEST_F(ServiceLifecycle, TheTokenIsCreatedOnceKeptAndNeverPrinted) {
   EXPECT_EQ(second.stop(SIGTERM), 0);
 }
 
+// The README's session typed line by line: GET .../frames right after the POST must
+// answer 200 with the frames so far (none at first), never 404 while the job is queued or
+// setting the camera up (the review got 404 during the first job's latency probe).
+TEST_F(ServiceLifecycle, FramesOfAFreshJobAreAnEmptyListNotAnError) {
+  Daemon daemon;
+  ASSERT_TRUE(daemon.start(dir, args)) << daemon.log();
+  const std::string camera = "/v1/cameras/" + url_segment(daemon.camera_id());
+  auto r = daemon.post(camera + "/captures",
+                       {{"kind", "bracket"}, {"exposures_us", {1000, 2000, 4000, 8000}}, {"repeats", 2}});
+  ASSERT_EQ(r.status, 202) << r.body;
+  const std::string frames_path = "/v1/jobs/" + std::to_string(r.json()["id"].get<int64_t>()) + "/frames";
+  size_t seen = 0;
+  int polls = 0;
+  for (; polls < 2000; ++polls) {  // bounded: 2000 x about 5 ms
+    auto frames = daemon.get(frames_path);
+    ASSERT_EQ(frames.status, 200) << "poll " << polls << ": " << frames.body;
+    const size_t now = frames.json()["frames"].size();
+    EXPECT_GE(now, seen) << "the frame list shrank";
+    seen = now;
+    if (frames.json()["complete"].get<bool>()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(seen, 8u) << "after " << polls << " polls";
+  EXPECT_EQ(daemon.stop(SIGTERM), 0);
+}
+
 // The permission bits of every file in a capture job's folder.
 std::map<std::string, fs::perms> folder_modes(const fs::path& data, Daemon& daemon) {
   const std::string camera = "/v1/cameras/" + url_segment(daemon.camera_id());
