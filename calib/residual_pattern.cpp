@@ -54,7 +54,7 @@ ResidualPattern residual_pattern(const CalibrationData& data, const Solution& s)
   double sum_dot = 0, sum_dot2 = 0;
   for (const auto& [key, e] : by_corner) {
     const int i = key.second % cols, j = key.second / cols;
-    for (const auto [di, dj] : {std::pair{1, 0}, std::pair{0, 1}}) {
+    for (const auto& [di, dj] : {std::pair{1, 0}, std::pair{0, 1}}) {
       if (i + di >= cols || j + dj >= rows) continue;
       const auto it = by_corner.find({key.first, key.second + dj * cols + di});
       if (it == by_corner.end()) continue;

@@ -34,12 +34,20 @@ HttpSession::HttpSession(net::ip::tcp::socket&& socket, const Router& router,
       limits_(limits),
       connections_(std::move(connections)) {}
 
-HttpSession::~HttpSession() { --connections_->open; }
+HttpSession::~HttpSession() {
+  if (table_id_ != 0) connections_->table.remove(table_id_);
+  --connections_->open;
+}
 
 void HttpSession::run() {
+  table_id_ = connections_->table.add(weak_from_this());
   // The socket's executor is this connection's strand (the acceptor made it so).
   net::dispatch(stream_.get_executor(),
                 beast::bind_front_handler(&HttpSession::do_read, shared_from_this()));
+}
+
+void HttpSession::evict() {
+  net::post(stream_.get_executor(), [self = shared_from_this()] { self->do_close(); });
 }
 
 void HttpSession::do_read() {
@@ -48,6 +56,7 @@ void HttpSession::do_read() {
   parser_->header_limit(static_cast<std::uint32_t>(limits_.max_header_bytes));
   parser_->body_limit(limits_.max_body_bytes);
   stream_.expires_after(limits_.read_timeout);
+  connections_->table.waiting(table_id_);
   http::async_read(stream_, buffer_, *parser_,
                    beast::bind_front_handler(&HttpSession::on_read, shared_from_this()));
 }
@@ -74,6 +83,7 @@ void HttpSession::on_read(beast::error_code ec, std::size_t) {
     return do_close();
   }
 
+  connections_->table.busy(table_id_);
   http::request<http::string_body> request = parser_->release();
   http_version_ = request.version();
   keep_alive_ = request.keep_alive();

@@ -22,15 +22,18 @@
 #include <boost/beast/http/string_body.hpp>
 
 #include "service/api/api_types.h"
+#include "service/http/connection_table.h"
 #include "service/http/http_limits.h"
 
 namespace camlab::service {
 
 class Router;
 
-// Open sessions, for HttpLimits::max_connections. Thread-safe.
+// Open sessions, for HttpLimits::max_connections, and what each is doing (for eviction
+// when full). Thread-safe.
 struct ConnectionCount {
   std::atomic<int> open{0};
+  ConnectionTable table;
 };
 
 class HttpSession : public std::enable_shared_from_this<HttpSession> {
@@ -41,6 +44,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
   // Starts reading on the session's strand.
   void run();
+  // Closes the connection from any thread (on its strand): the server is full and this
+  // one was waiting longest for a request.
+  void evict();
 
  private:
   void do_read();
@@ -59,6 +65,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   const Router& router_;
   const HttpLimits& limits_;
   std::shared_ptr<ConnectionCount> connections_;
+  uint64_t table_id_ = 0;  // in connections_->table, from run()
   std::optional<boost::beast::http::request_parser<boost::beast::http::string_body>> parser_;
   std::optional<boost::beast::http::response<boost::beast::http::string_body>> response_;
   unsigned http_version_ = 11;

@@ -1,5 +1,9 @@
 #include "service/http/listener.h"
 
+#include <array>
+#include <chrono>
+#include <string>
+
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/strand.hpp>
 #include <boost/beast/core/bind_handler.hpp>
@@ -89,14 +93,45 @@ void Listener::on_accept(beast::error_code ec, tcp::socket socket) {
   if (ec == net::error::operation_aborted || !acceptor_.is_open()) return;  // stopped
   if (ec) {
     log_warning(log::Category::kHttp, "accept: %s", ec.message().c_str());
-  } else if (connections_->open.load() >= limits_.max_connections) {
-    beast::error_code ignored;
-    socket.close(ignored);  // over the limit: refuse rather than queue without bound
   } else {
-    ++connections_->open;
-    std::make_shared<HttpSession>(std::move(socket), router_, limits_, connections_)->run();
+    bool admit = connections_->open.load() < limits_.max_connections;
+    if (!admit) {
+      // Full: make room by closing the connection that has waited longest for a request
+      // (at least a second: a client that just connected gets its chance to send).
+      if (auto longest = connections_->table.take_longest_waiting(std::chrono::seconds(1))) {
+        longest->evict();
+        admit = true;  // over the limit by one until it closes, a moment from now
+      }
+    }
+    if (admit) {
+      ++connections_->open;
+      std::make_shared<HttpSession>(std::move(socket), router_, limits_, connections_)->run();
+    } else {
+      refuse(std::move(socket));
+    }
   }
   do_accept();
+}
+
+void Listener::refuse(tcp::socket socket) {
+  // Every connection is busy answering a request: an HTTP answer, not a reset. Written
+  // without waiting (a 503 fits any socket buffer); what the client sent is read off
+  // before the close, which would otherwise send a reset that can discard the answer.
+  static const std::string kAnswer = [] {
+    const std::string body =
+        "{\"error\":{\"code\":\"too_many_connections\",\"message\":\"every connection "
+        "camlabd accepts is busy answering a request; retry in a second\"}}";
+    return "HTTP/1.1 503 Service Unavailable\r\nServer: camlabd\r\nContent-Type: "
+           "application/json\r\nRetry-After: 1\r\nConnection: close\r\nContent-Length: " +
+           std::to_string(body.size()) + "\r\n\r\n" + body;
+  }();
+  beast::error_code ec;
+  socket.non_blocking(true, ec);
+  socket.write_some(net::buffer(kAnswer), ec);
+  socket.shutdown(tcp::socket::shutdown_send, ec);
+  std::array<char, 4096> unread{};
+  for (int i = 0; i < 16 && !ec; ++i) socket.read_some(net::buffer(unread), ec);
+  socket.close(ec);
 }
 
 }  // namespace camlab::service

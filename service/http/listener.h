@@ -1,7 +1,9 @@
 // Accepts TCP connections and starts an HttpSession on each, every connection on a strand
-// of its own (Beast's advanced server). Connections above HttpLimits::max_connections are
-// closed at once. stop() closes the acceptor: no new connection is accepted, sessions
-// already open finish their requests.
+// of its own (Beast's advanced server). At HttpLimits::max_connections a new connection
+// takes the place of the one that has waited longest for a request (connection_table.h);
+// when every connection is busy answering, it gets 503 too_many_connections. stop()
+// closes the acceptor: no new connection is accepted, sessions already open finish their
+// requests.
 //
 // Thread-safe: run() and stop() post to the acceptor's strand.
 #pragma once
@@ -38,6 +40,8 @@ class Listener : public std::enable_shared_from_this<Listener> {
   Listener(boost::asio::io_context& ioc, const Router& router, const HttpLimits& limits);
   void do_accept();
   void on_accept(boost::beast::error_code ec, boost::asio::ip::tcp::socket socket);
+  // Answers 503 too_many_connections and closes (no session).
+  static void refuse(boost::asio::ip::tcp::socket socket);
 
   boost::asio::io_context& ioc_;
   boost::asio::ip::tcp::acceptor acceptor_;

@@ -47,6 +47,7 @@ enum class ErrorCode : uint8_t {
   kCancelled,
   kInterrupted,
   kShuttingDown,
+  kTooManyConnections,
   // Cameras.
   kNoDevice,
   kDeviceLost,
@@ -149,6 +150,9 @@ inline constexpr std::array kErrorCodes = {
                   "The job was stopped because camlabd stopped; the frames taken are kept."},
     ErrorCodeInfo{ErrorCode::kShuttingDown, "shutting_down", 503,
                   "camlabd is stopping and takes no new work."},
+    ErrorCodeInfo{ErrorCode::kTooManyConnections, "too_many_connections", 503,
+                  "Every connection camlabd accepts is busy answering a request; retry shortly "
+                  "(Retry-After)."},
     ErrorCodeInfo{ErrorCode::kNoDevice, "no_device", 503,
                   "The camera is not there: never found, or unplugged."},
     ErrorCodeInfo{ErrorCode::kDeviceLost, "device_lost", 503,

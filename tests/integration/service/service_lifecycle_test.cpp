@@ -2,7 +2,10 @@
 // the next start with its frames readable; SIGTERM during a capture exits 0 and
 // interrupts the job cleanly; the token is created once and kept.
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <map>
 
@@ -141,6 +144,49 @@ TEST_F(ServiceLifecycle, FramesOfAFreshJobAreAnEmptyListNotAnError) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   EXPECT_EQ(seen, 8u) << "after " << polls << " polls";
+  EXPECT_EQ(daemon.stop(SIGTERM), 0);
+}
+
+// A loopback connection that sends `bytes` (maybe nothing, maybe half a request) and
+// then holds the connection open without reading.
+int hold_connection(int port, const std::string& bytes) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_port = htons(static_cast<uint16_t>(port));
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (fd < 0 || ::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) return -1;
+  if (!bytes.empty()) (void)::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
+  return fd;
+}
+
+// The review: 256 idle keep-alive or slow-header connections from one process made every
+// other client, health checks included, get a reset for 15 s. Now the connection that
+// has waited longest for a request gives way to a new one, and a client that finds every
+// connection busy gets 503, never a reset.
+TEST_F(ServiceLifecycle, HeldOpenConnectionsCannotLockOtherClientsOut) {
+  std::vector<std::string> limited = args;
+  limited.insert(limited.end(), {"--max-connections", "8"});
+  Daemon daemon;
+  ASSERT_TRUE(daemon.start(dir, limited)) << daemon.log();
+  std::vector<int> held;
+  for (int i = 0; i < 8; ++i)  // half idle, half dribbling their headers
+    held.push_back(hold_connection(
+        daemon.port(), i % 2 ? "" : "GET /v1/health HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: "));
+  for (int fd : held) ASSERT_GE(fd, 0);
+  // Straight away nothing can give way (none has waited a second): an answer, not a reset.
+  auto first = http(daemon.port(), "GET", "/v1/health");
+  EXPECT_TRUE(first.status == 200 || first.status == 503) << "status " << first.status;
+  if (first.status == 503) {
+    EXPECT_EQ(first.error_code(), "too_many_connections");
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  for (int i = 0; i < 12; ++i) {  // more than the limit: each takes a held one's place
+    auto r = http(daemon.port(), "GET", "/v1/health");
+    EXPECT_EQ(r.status, 200) << "request " << i << ": " << r.body;
+  }
+  EXPECT_EQ(http(daemon.port(), "GET", "/v1/cameras", daemon.token()).status, 200);
+  for (int fd : held) ::close(fd);
   EXPECT_EQ(daemon.stop(SIGTERM), 0);
 }
 
