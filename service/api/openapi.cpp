@@ -1,6 +1,7 @@
 // The OpenAPI 3.0 document of camlabd's API (GET /v1/openapi.json). Written by hand, so
 // it documents bodies and errors; tests/integration/service checks that its paths and
 // methods are exactly the router's.
+#include "capture/capture_plan.h"
 #include "service/api/service_context.h"
 
 namespace camlab::service {
@@ -116,8 +117,19 @@ json schemas() {
           {"step", {{"type", "integer"}}},
           {"f_numbers", {{"type", "array"}, {"items", {{"type", "number"}}}}},
           {"iris_positions", {{"type", "array"}, {"items", {{"type", "integer"}}}}},
-          {"repeats", {{"type", "integer"}, {"minimum", 1}}},
-          {"format", {{"type", "object"}}},
+          {"repeats", {{"type", "integer"}, {"minimum", 1}, {"maximum", capture::kMaxRepeats}}},
+          {"exposure_us",
+           {{"type", "number"},
+            {"description", "exposure held through a focus stack, aperture series or single"}}},
+          {"label", {{"type", "string"}, {"description", "free text kept with the job"}}},
+          {"format",
+           {{"type", "object"},
+            {"properties",
+             {{"fourcc", {{"type", "string"}, {"maxLength", 4}}},
+              {"width", {{"type", "integer"}}},
+              {"height", {{"type", "integer"}}},
+              {"frame_interval_us", {{"type", "number"}}}}},
+            {"additionalProperties", false}}},
           {"controls", {{"type", "object"}, {"additionalProperties", {{"type", "integer"}}}}}}}}},
       {"Controls",
        {{"type", "object"},

@@ -348,6 +348,39 @@ TEST_F(ServiceApi, ErrorsNameFilesRelativeToTheDataFolder) {
   EXPECT_NE(r.body.find(folder), std::string::npos) << "names the folder: " << r.body;
 }
 
+// The OpenAPI document and the validators must not drift (the review found exposure_us,
+// label and the repeats maximum missing): every field the capture validator accepts, for
+// every kind, is a documented property of CaptureRequest, and the documented maximum of
+// repeats is the one the validator enforces.
+TEST_F(ServiceApi, TheOpenApiCaptureSchemaListsEveryFieldTheValidatorAccepts) {
+  const json doc = daemon_->get("/v1/openapi.json").json();
+  const json& properties = doc["components"]["schemas"]["CaptureRequest"]["properties"];
+  ASSERT_TRUE(properties.is_object()) << doc.dump().substr(0, 500);
+  for (const char* kind : {"single", "bracket", "focus_stack", "aperture_series"}) {
+    auto r = daemon_->post(camera_path(0) + "/captures", {{"kind", kind}, {"zz_not_a_field", 1}});
+    ASSERT_EQ(r.status, 400) << r.body;
+    const std::string message = r.json()["error"]["message"];
+    const size_t at = message.find("(allowed: ");
+    ASSERT_NE(at, std::string::npos) << message;
+    std::string list = message.substr(at + 10, message.find(')', at) - at - 10);
+    int fields = 0;
+    for (size_t start = 0; start < list.size();) {
+      size_t end = list.find(", ", start);
+      if (end == std::string::npos) end = list.size();
+      const std::string field = list.substr(start, end - start);
+      EXPECT_TRUE(properties.contains(field)) << kind << ": '" << field << "' is undocumented";
+      ++fields;
+      start = end + 2;
+    }
+    EXPECT_GE(fields, 7) << message;
+  }
+  const int maximum = properties["repeats"]["maximum"].get<int>();
+  EXPECT_EQ(daemon_->post(camera_path(0) + "/captures",
+                          {{"kind", "single"}, {"repeats", maximum + 1}})
+                .status,
+            400);
+}
+
 TEST_F(ServiceApi, LatencyProbeMeasuresTheSpecsThreeFramesAndStoresIt) {
   auto r = daemon_->post(camera_path(0) + "/latency-probe", json::object());
   ASSERT_EQ(r.status, 202) << r.body;
