@@ -73,9 +73,10 @@ int run_daemon(const DaemonConfig& config) {
   if (token->created) {
     // Named, never printed: a daemon's output ends up in journals and CI logs, which
     // the token must not.
-    std::printf("camlabd: created an API token in %s (mode 0600); clients send it as "
-                "\"Authorization: Bearer $(cat %s)\"\n",
-                (*data_dir / "token").c_str(), (*data_dir / "token").c_str());
+    std::printf(
+        "camlabd: created an API token in %s (mode 0600); clients send it as "
+        "\"Authorization: Bearer $(cat %s)\"\n",
+        (*data_dir / "token").c_str(), (*data_dir / "token").c_str());
     std::fflush(stdout);
   }
 

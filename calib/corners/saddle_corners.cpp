@@ -427,8 +427,8 @@ std::vector<cv::Point2f> find_at_level(const cv::Mat& level8, int cols, int rows
 // row and column neighbours, or a straight step from the two next ones at the grid's
 // border. Off by a fraction of a pixel under perspective and distortion, where a slid
 // corner is off by pixels.
-cv::Point2f predicted_from_neighbours(const std::vector<cv::Point2f>& g, int cols, int rows,
-                                      int i, int j) {
+cv::Point2f predicted_from_neighbours(const std::vector<cv::Point2f>& g, int cols, int rows, int i,
+                                      int j) {
   auto at = [&](int a, int b) { return g[static_cast<size_t>(b * cols + a)]; };
   cv::Point2f sum(0, 0);
   int n = 0;
@@ -455,8 +455,8 @@ cv::Point2f predicted_from_neighbours(const std::vector<cv::Point2f>& g, int col
 // orthogonal to the offset from the corner) holds anywhere along a straight edge, so a
 // window that sees mostly one edge can carry a corner along it: 9.9 px in view 23 of the
 // README's example set. A refined corner must still be an X-junction on a small circle
-// around it (an eighth of its spacing, 2.5-4 px); one that is not is refined again from its neighbours'
-// prediction with a smaller window, and if that fails too it is left out (weight 0:
+// around it (an eighth of its spacing, 2.5-4 px); one that is not is refined again from its
+// neighbours' prediction with a smaller window, and if that fails too it is left out (weight 0:
 // missing, as mrcal takes it) rather than handed on pixels off.
 void recheck_corners(const cv::Mat& gray8, int cols, int rows, std::vector<cv::Point2f>* corners,
                      std::vector<double>* weights) {
@@ -482,8 +482,9 @@ void recheck_corners(const cv::Mat& gray8, int cols, int rows, std::vector<cv::P
       const cv::Point2f predicted = predicted_from_neighbours(g, cols, rows, i, j);
       std::vector<cv::Point2f> again = {predicted};
       const int half_window = std::clamp(static_cast<int>(0.2f * spacing_px), 2, 4);
-      cv::cornerSubPix(gray, again, cv::Size(half_window, half_window), cv::Size(-1, -1),
-                       cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-4));
+      cv::cornerSubPix(
+          gray, again, cv::Size(half_window, half_window), cv::Size(-1, -1),
+          cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-4));
       const bool placed = std::isfinite(again[0].x) && std::isfinite(again[0].y) &&
                           cv::norm(again[0] - predicted) < 0.25 * spacing_px &&
                           is_x_junction(blurred, again[0], radius_px);

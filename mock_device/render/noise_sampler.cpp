@@ -186,7 +186,7 @@ namespace {
 // logarithm, and the exact test against log f(k) for the rest.
 int64_t ptrs_draw(const PtrsHat& hat, double mean, uint64_t key, uint64_t first) {
   const uint64_t last = first + kPoissonDraws - 2;  // the fallback's two
-  double log_mean = 0;  // computed on the first exact test
+  double log_mean = 0;                              // computed on the first exact test
   for (uint64_t c = first; c < last; c += 2) {
     const double u = uniform(key, c) - 0.5;
     const double v = uniform(key, c + 1);
@@ -216,15 +216,16 @@ int64_t poisson(double mean, uint64_t key, uint64_t index) {
   return PoissonLaw(mean).draw(key, index);
 }
 
-void poisson_row(const double* means, int64_t* out, int count, uint64_t key,
-                 uint64_t first_index, std::vector<uint8_t>& scratch) {
+void poisson_row(const double* means, int64_t* out, int count, uint64_t key, uint64_t first_index,
+                 std::vector<uint8_t>& scratch) {
   scratch.resize(static_cast<size_t>(count));
   uint8_t* pending = scratch.data();
   for (int i = 0; i < count; ++i) {
     // PoissonLaw's clamp of the mean, and its PTRS first attempt (by_ptrs, c = first).
     const double mean = means[i] > 0 ? means[i] : 0;
     const uint64_t first = (first_index + static_cast<uint64_t>(i)) * kPoissonDraws;
-    const PtrsHat hat = ptrs_hat(mean >= kPoissonInversionMaxMean ? mean : kPoissonInversionMaxMean);
+    const PtrsHat hat =
+        ptrs_hat(mean >= kPoissonInversionMaxMean ? mean : kPoissonInversionMaxMean);
     const double u = uniform(key, first) - 0.5;
     const double v = uniform(key, first + 1);
     const double us = 0.5 - std::fabs(u);

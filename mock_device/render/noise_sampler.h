@@ -112,8 +112,8 @@ int64_t poisson(double mean, uint64_t key, uint64_t index);
 // rest go through the scalar samplers: a frame's pixels each have their own mean, and a
 // pixel at a time the samplers wait on their own divisions and mispredicted branches.
 // `scratch` holds a row's flags; reused across rows to keep the pass allocation-free.
-void poisson_row(const double* means, int64_t* out, int count, uint64_t key,
-                 uint64_t first_index, std::vector<uint8_t>& scratch);
+void poisson_row(const double* means, int64_t* out, int count, uint64_t key, uint64_t first_index,
+                 std::vector<uint8_t>& scratch);
 void standard_normal_row(double* out, int count, uint64_t key, uint64_t first_index,
                          std::vector<uint8_t>& scratch);
 

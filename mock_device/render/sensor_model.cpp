@@ -57,8 +57,8 @@ cv::Mat expose(const cv::Mat& mean_reflectance, const CameraSpec& camera,
       for (int x = 0; x < width; ++x) means[x] = electrons[x] < certain_full_e ? electrons[x] : 0;
       noise::poisson_row(means, b.shot_e.data(), width, shot_key, row_start, b.scratch);
       for (int x = 0; x < width; ++x)
-        electrons[x] = electrons[x] < certain_full_e ? static_cast<double>(b.shot_e[x])
-                                                     : s.full_well_e;
+        electrons[x] =
+            electrons[x] < certain_full_e ? static_cast<double>(b.shot_e[x]) : s.full_well_e;
     }
     if (read) noise::standard_normal_row(b.read_e.data(), width, read_key, row_start, b.scratch);
     for (int x = 0; x < width; ++x) {
@@ -68,8 +68,9 @@ cv::Mat expose(const cv::Mat& mean_reflectance, const CameraSpec& camera,
       // Rounded half up and clipped to the ADC's range (a cast, not std::round: the
       // library call cost a sixth of the frame).
       const double level = s.black_level_dn + e * dn_per_e;
-      row[x] = static_cast<Pixel>(level <= 0 ? 0 : level >= max_dn ? max_dn
-                                                                     : static_cast<int>(level + 0.5));
+      row[x] = static_cast<Pixel>(level <= 0        ? 0
+                                  : level >= max_dn ? max_dn
+                                                    : static_cast<int>(level + 0.5));
     }
   };
   auto expose_rows = [&](int first_row, int row_step) {

@@ -32,16 +32,16 @@ Result<nlohmann::json> parse_json_object(const std::string& body) {
   // what the client did not mean to send. One set of keys per open object.
   std::vector<std::set<std::string>> keys_per_object;
   std::string duplicate;
-  const nlohmann::json::parser_callback_t check_keys =
-      [&](int, nlohmann::json::parse_event_t event, nlohmann::json& parsed) {
-        using Event = nlohmann::json::parse_event_t;
-        if (event == Event::object_start) keys_per_object.emplace_back();
-        if (event == Event::object_end && !keys_per_object.empty()) keys_per_object.pop_back();
-        if (event == Event::key && !keys_per_object.empty() && duplicate.empty() &&
-            !keys_per_object.back().insert(parsed.get<std::string>()).second)
-          duplicate = parsed.get<std::string>();
-        return true;
-      };
+  const nlohmann::json::parser_callback_t check_keys = [&](int, nlohmann::json::parse_event_t event,
+                                                           nlohmann::json& parsed) {
+    using Event = nlohmann::json::parse_event_t;
+    if (event == Event::object_start) keys_per_object.emplace_back();
+    if (event == Event::object_end && !keys_per_object.empty()) keys_per_object.pop_back();
+    if (event == Event::key && !keys_per_object.empty() && duplicate.empty() &&
+        !keys_per_object.back().insert(parsed.get<std::string>()).second)
+      duplicate = parsed.get<std::string>();
+    return true;
+  };
   nlohmann::json json = nlohmann::json::parse(body, check_keys, /*allow_exceptions=*/false);
   if (json.is_discarded()) return make_error("bad_json", "the request body is not valid JSON");
   if (!duplicate.empty())

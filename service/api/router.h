@@ -9,7 +9,6 @@
 #include <filesystem>
 #include <functional>
 #include <string>
-#include <string>
 #include <vector>
 
 #include "service/api/api_types.h"

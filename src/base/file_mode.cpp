@@ -42,7 +42,8 @@ Result<mode_t> parse_data_file_mode(const std::string& text) {
       "a file mode is 3 or 4 octal digits within 0666 that keep the owner's read and write "
       "(0600 .. 0666), e.g. 0640";
   if (text.empty() || text.size() > 4 || text.find_first_not_of("01234567") != std::string::npos)
-    return make_error("invalid_argument", "'" + text.substr(0, 20) + "' is not an octal mode: " + rule);
+    return make_error("invalid_argument",
+                      "'" + text.substr(0, 20) + "' is not an octal mode: " + rule);
   const mode_t mode = static_cast<mode_t>(std::stoul(text, nullptr, 8));
   if ((mode & ~static_cast<mode_t>(0666)) != 0 || (mode & 0600) != 0600)
     return make_error("invalid_argument", "file mode " + text + " is not allowed: " + rule);

@@ -145,9 +145,10 @@ TEST_F(ServiceApi, AmbiguousRequestsAreRefusedWhenSubmittedNotLater) {
   EXPECT_EQ(unknown_model.status, 422) << unknown_model.body;
   EXPECT_EQ(unknown_model.error_code(), "bad_lensmodel") << unknown_model.body;
   // A known one passes this check (and fails later on the missing source, as before).
-  auto known_model = daemon_->post(
-      "/v1/calibrations",
-      {{"inner_corners", {14, 10}}, {"spacing_m", 0.04}, {"model", "LENSMODEL_SPLINED_STEREOGRAPHIC"}});
+  auto known_model =
+      daemon_->post("/v1/calibrations", {{"inner_corners", {14, 10}},
+                                         {"spacing_m", 0.04},
+                                         {"model", "LENSMODEL_SPLINED_STEREOGRAPHIC"}});
   EXPECT_NE(known_model.error_code(), "bad_lensmodel") << known_model.body;
   // The same key twice: the parser kept the last one.
   auto duplicate = http(port, "POST", camera_path(0) + "/captures", daemon_->token(),
@@ -375,10 +376,10 @@ TEST_F(ServiceApi, TheOpenApiCaptureSchemaListsEveryFieldTheValidatorAccepts) {
     EXPECT_GE(fields, 7) << message;
   }
   const int maximum = properties["repeats"]["maximum"].get<int>();
-  EXPECT_EQ(daemon_->post(camera_path(0) + "/captures",
-                          {{"kind", "single"}, {"repeats", maximum + 1}})
-                .status,
-            400);
+  EXPECT_EQ(
+      daemon_->post(camera_path(0) + "/captures", {{"kind", "single"}, {"repeats", maximum + 1}})
+          .status,
+      400);
 }
 
 TEST_F(ServiceApi, LatencyProbeMeasuresTheSpecsThreeFramesAndStoresIt) {

@@ -109,7 +109,8 @@ TEST_F(ServiceLifecycle, TheTokenIsCreatedOnceKeptAndNeverPrinted) {
   EXPECT_EQ(token.size(), 64u);
   EXPECT_EQ(first.log().find(token), std::string::npos) << "the token was printed";
   EXPECT_NE(first.log().find((dir / "data" / "token").string()), std::string::npos)
-      << "the first start names the token's file:\n" << first.log();
+      << "the first start names the token's file:\n"
+      << first.log();
   EXPECT_EQ(fs::status(dir / "data" / "token").permissions() & fs::perms::all,
             fs::perms::owner_read | fs::perms::owner_write);
   EXPECT_EQ(first.stop(SIGTERM), 0);
@@ -128,10 +129,12 @@ TEST_F(ServiceLifecycle, FramesOfAFreshJobAreAnEmptyListNotAnError) {
   Daemon daemon;
   ASSERT_TRUE(daemon.start(dir, args)) << daemon.log();
   const std::string camera = "/v1/cameras/" + url_segment(daemon.camera_id());
-  auto r = daemon.post(camera + "/captures",
-                       {{"kind", "bracket"}, {"exposures_us", {1000, 2000, 4000, 8000}}, {"repeats", 2}});
+  auto r = daemon.post(
+      camera + "/captures",
+      {{"kind", "bracket"}, {"exposures_us", {1000, 2000, 4000, 8000}}, {"repeats", 2}});
   ASSERT_EQ(r.status, 202) << r.body;
-  const std::string frames_path = "/v1/jobs/" + std::to_string(r.json()["id"].get<int64_t>()) + "/frames";
+  const std::string frames_path =
+      "/v1/jobs/" + std::to_string(r.json()["id"].get<int64_t>()) + "/frames";
   size_t seen = 0;
   int polls = 0;
   for (; polls < 2000; ++polls) {  // bounded: 2000 x about 5 ms
@@ -202,8 +205,9 @@ TEST_F(ServiceLifecycle, TheDocumentedRequestsKeepEveryFrameOnTheDefaultVirtualC
     json request;
     int frames;
   };
-  for (const Case& c : {Case{{{"kind", "focus_stack"}, {"start", 0}, {"stop", 200}, {"step", 10}}, 21},
-                        Case{{{"kind", "single"}, {"repeats", 100}}, 100}}) {
+  for (const Case& c :
+       {Case{{{"kind", "focus_stack"}, {"start", 0}, {"stop", 200}, {"step", 10}}, 21},
+        Case{{{"kind", "single"}, {"repeats", 100}}, 100}}) {
     auto r = daemon.post(camera + "/captures", c.request);
     ASSERT_EQ(r.status, 202) << r.body;
     const json job = daemon.wait_finished(r.json()["id"]);

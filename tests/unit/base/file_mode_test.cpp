@@ -9,8 +9,8 @@ namespace camlab {
 namespace {
 
 TEST(DataFileMode, ParsesOctalModesThatKeepTheOwnersReadAndWrite) {
-  for (auto [text, mode] : {std::pair{"0640", 0640}, {"640", 0640}, {"0600", 0600}, {"0666", 0666},
-                            {"0644", 0644}}) {
+  for (auto [text, mode] :
+       {std::pair{"0640", 0640}, {"640", 0640}, {"0600", 0600}, {"0666", 0666}, {"0644", 0644}}) {
     auto parsed = parse_data_file_mode(text);
     ASSERT_TRUE(parsed.ok()) << text << ": " << parsed.error().message;
     EXPECT_EQ(*parsed, static_cast<mode_t>(mode)) << text;
@@ -18,8 +18,8 @@ TEST(DataFileMode, ParsesOctalModesThatKeepTheOwnersReadAndWrite) {
 }
 
 TEST(DataFileMode, RefusesExecuteBitsSetuidLockingOutTheOwnerAndNonOctal) {
-  for (const char* text : {"0755", "0700", "4644", "0400", "0240", "0066", "0648", "rw-r-----",
-                           "", "06400", "-644", "0x1a4"}) {
+  for (const char* text : {"0755", "0700", "4644", "0400", "0240", "0066", "0648", "rw-r-----", "",
+                           "06400", "-644", "0x1a4"}) {
     auto parsed = parse_data_file_mode(text);
     ASSERT_FALSE(parsed.ok()) << text;
     EXPECT_EQ(parsed.error().code, "invalid_argument") << text;

@@ -318,9 +318,10 @@ TEST(ChessboardDetector, SaddleHandsOnNoCornerSlidAlongAnEdgeInAnyExampleView) {
       EXPECT_LT(m.errors_px[k], 0.5) << "view " << view << ", corner " << k;
     }
   }
-  std::printf("saddle on the 40 example views: %d boards, %d corners placed (worst %.3f px, "
-              "view %d), %d left out\n",
-              found_views, placed, worst_px, worst_view, left_out);
+  std::printf(
+      "saddle on the 40 example views: %d boards, %d corners placed (worst %.3f px, "
+      "view %d), %d left out\n",
+      found_views, placed, worst_px, worst_view, left_out);
   EXPECT_GE(found_views, 37);
   EXPECT_LE(left_out, found_views);  // a corner now and then, not whole rows
 }

@@ -103,7 +103,9 @@ TEST(FrameWriter, ReportsOnlyListedFramesAndRefusesWhenFull) {
   int reported = 0;
   cv::Mat small(4, 4, CV_16UC1, cv::Scalar(7));
   for (uint64_t k = 2; k < 12;) {
-    if (writer.has_room()) ASSERT_TRUE(writer.push(small.clone(), sidecar(k++)).ok());
+    if (writer.has_room()) {
+      ASSERT_TRUE(writer.push(small.clone(), sidecar(k++)).ok());
+    }
     for (const auto& w : writer.take_written()) {
       EXPECT_EQ(w.entry.index, reported++);
       EXPECT_GE(image::CaptureFolder::open(dir / "f")->frames().size(),

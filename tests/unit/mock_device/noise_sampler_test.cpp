@@ -205,9 +205,8 @@ TEST(LogFactorial, MatchesLogGammaOnBothSidesOfTheTable) {
 // exact test and its fallback, the ziggurat's wedges and tail) and means outside PTRS's
 // range (0, negative, NaN, inversion, the switch at 10).
 TEST(RowSamplers, PoissonRowDrawsWhatTheLawDraws) {
-  std::vector<double> means = {0,    -3,    std::nan(""), 0.05, 0.5,   3,     9.999999,
-                               10,   10.0001, 37.5,       999.9, 1000,  6000,  12000,
-                               1e5,  1e7};
+  std::vector<double> means = {0,       -3,   std::nan(""), 0.05, 0.5,  3,     9.999999, 10,
+                               10.0001, 37.5, 999.9,        1000, 6000, 12000, 1e5,      1e7};
   // A falloff-like ramp (every pixel its own mean) across both algorithms.
   for (int i = 0; i < 20000; ++i) means.push_back(15.0 * i * i / 20000.0 + 0.37 * i);
   std::vector<int64_t> row(means.size());
