@@ -2,8 +2,8 @@
 // set (mock_device/examples/scene_charuco_calibration.json: 40 views of an 11x8-square
 // board on the wide OPENCV8 lens, 103 deg across, 14 of them cut by the frame's edges),
 // against the renderer's corner truth, which tests/unit/mock_device/charuco_render_test.cpp
-// checks against a projection written out with mrcal; and corners.vnl with the missing
-// corners of partial views.
+// checks against a projection written out with mrcal; corners.vnl with the missing
+// corners of partial views; and the calibration they make against the truth's lens.
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -14,9 +14,12 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
+#include "calib/calibrate.h"
 #include "calib/corners/charuco_corners.h"
 #include "calib/corners/corners_vnl.h"
+#include "calib/mrcal_api.h"
 #include "mock_device/render/renderer.h"
 
 namespace camlab::calib {
@@ -32,6 +35,7 @@ CharucoBoardSpec example_board() { return {11, 8, 0.06, 0.045, "DICT_4X4_50"}; }
 struct View {
   cv::Mat image;
   nlohmann::json corners_px;  // by id; null off the imager
+  nlohmann::json truth;       // the frame's whole truth
 };
 
 class CharucoCorners : public ::testing::Test {
@@ -48,7 +52,7 @@ class CharucoCorners : public ::testing::Test {
       options.frame_number = static_cast<uint64_t>(v);
       auto frame = r->render(r->default_settings(), v, options);
       ASSERT_TRUE(frame.ok()) << frame.error().message;
-      views_->push_back({frame->image, frame->truth["targets"][0]["corners_px"]});
+      views_->push_back({frame->image, frame->truth["targets"][0]["corners_px"], frame->truth});
     }
   }
   static void TearDownTestSuite() { delete views_; }
@@ -220,6 +224,74 @@ TEST_F(CharucoCorners, PartialViewsGoToCornersVnlWithTheirMissingCornersAsMissin
       EXPECT_NEAR(o[1].get<double>(), a.y_px, 1e-9);
       EXPECT_EQ(o[2].get<double>(), 1.0);
     }
+}
+
+// calibrate() as `camlab calibrate --images DIR --detector charuco` runs it, on the
+// example set saved as 16-bit PNG: partial views enter the solve with their missing
+// corners, and the lens comes out as the truth's, compared by projection (each truth
+// pixel unprojected through the truth's lens, projected through the solved one).
+TEST_F(CharucoCorners, CalibrationFromTheViewsIsTheTruthsLens) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("camlab_charuco_cal_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  for (size_t k = 0; k < views_->size(); ++k) {
+    char name[32];
+    std::snprintf(name, sizeof name, "view_%02zu.png", k);
+    ASSERT_TRUE(cv::imwrite((dir / name).string(), (*views_)[k].image));
+  }
+  CalibrateOptions o;
+  o.images_dir = dir;
+  o.board = {kCols, kRows, 0.06};
+  o.detector = "charuco";
+  o.charuco_marker_m = 0.045;
+  o.charuco_dictionary = "DICT_4X4_50";
+  o.model = "LENSMODEL_OPENCV8";
+  o.detect_threads = 2;
+  o.out_corners_vnl = dir / "corners.vnl";
+  auto run = calibrate(o);
+  ASSERT_TRUE(run.ok()) << run.error().message;
+  const auto& detector = run->report_json["detector"];
+  EXPECT_EQ(detector["requested"], "charuco");
+  EXPECT_EQ(detector["views"]["charuco"], run->data.views.size());
+  EXPECT_GE(detector["charuco"]["partial_views"].get<int>(), 12);
+  EXPECT_GE(run->data.views.size(), 38u);
+  // The solve used every view, the partial ones with their missing corners.
+  EXPECT_EQ(run->report.solution.views_used.size(), run->data.views.size());
+  // corners.vnl holds every view's 70 rows, the corners not found as "- - -".
+  auto vnl = read_corners_vnl(dir / "corners.vnl", o.board);
+  ASSERT_TRUE(vnl.ok()) << vnl.error().message;
+  ASSERT_EQ(vnl->size(), run->data.views.size());
+  int missing = 0;
+  for (const BoardView& v : *vnl) missing += kCols * kRows - v.present_count();
+  EXPECT_GT(missing, 400);
+  fs::remove_all(dir);
+
+  const auto& truth = (*views_)[1].truth;
+  const std::vector<double> truth_intrinsics = truth["intrinsics"];
+  const auto& model = run->report.solution.model;
+  mrcal_lensmodel_t truth_lens, fitted_lens;
+  ASSERT_TRUE(
+      mrcal_lensmodel_from_name(&truth_lens, truth["lensmodel"].get<std::string>().c_str()));
+  ASSERT_TRUE(mrcal_lensmodel_from_name(&fitted_lens, model.lensmodel.c_str()));
+  double sum_sq = 0, worst = 0;
+  int n = 0;
+  for (int y = 0; y <= 20; ++y)
+    for (int x = 0; x <= 32; ++x) {
+      const mrcal_point2_t q = {.x = x * 1279.0 / 32, .y = y * 799.0 / 20};
+      mrcal_point3_t v;
+      mrcal_point2_t back;
+      ASSERT_TRUE(mrcal_unproject(&v, &q, 1, &truth_lens, truth_intrinsics.data()));
+      ASSERT_TRUE(
+          mrcal_project(&back, nullptr, nullptr, &v, 1, &fitted_lens, model.intrinsics.data()));
+      const double e = std::hypot(back.x - q.x, back.y - q.y);
+      sum_sq += e * e;
+      worst = std::max(worst, e);
+      ++n;
+    }
+  std::printf("solved lens against the truth: %.4f px RMS over the imager, max %.3f px\n",
+              std::sqrt(sum_sq / n), worst);
+  EXPECT_LT(std::sqrt(sum_sq / n), 0.1);
+  EXPECT_LT(worst, 0.5);
 }
 
 TEST(CharucoBoard, BadBoardsAndImagesAreRefusedSayingWhy) {
