@@ -55,6 +55,9 @@ struct BadCharuco {
   const char* expected_in_message;
 };
 
+// Test names and failures show the case, not the struct's bytes.
+void PrintTo(const BadCharuco& c, std::ostream* os) { *os << c.description; }
+
 class BadCharucoSpec : public ::testing::TestWithParam<BadCharuco> {};
 
 TEST_P(BadCharucoSpec, IsRefusedSayingWhy) {
