@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "base/atomic_file.h"
+#include "calib/corners/charuco_corners.h"
 #include "calib/corners/chessboard_detector.h"
 #include "calib/corners/corners_vnl.h"
 #include "calib/lens_model.h"
@@ -89,20 +90,61 @@ Result<std::vector<ImageSource>> job_sources(const fs::path& dir) {
   return out;
 }
 
+bool is_charuco(const CalibrateOptions& options) { return options.detector == "charuco"; }
+
+CharucoBoardSpec charuco_board(const CalibrateOptions& options) {
+  return {options.board.cols + 1, options.board.rows + 1, options.board.spacing_m,
+          options.charuco_marker_m, options.charuco_dictionary};
+}
+
+// The detector and the board it is asked for, before any image is read: a wrong choice is
+// the caller's to fix, not a lost view.
+Status check_detector(const CalibrateOptions& options) {
+  if (is_charuco(options)) return check_charuco_board(charuco_board(options));
+  if (options.charuco_marker_m != 0 || !options.charuco_dictionary.empty())
+    return make_error("invalid_argument",
+                      "a marker size and a dictionary describe a ChArUco board: use them with "
+                      "the charuco detector");
+  return check_chessboard_detector(options.detector, options.board.cols, options.board.rows);
+}
+
+// One image's board as a view (row-major corners, mrcal's order), or nothing.
+std::optional<BoardView> find_view(const cv::Mat& image, const CalibrateOptions& options,
+                                   const BoardSpec& board) {
+  BoardView v;
+  if (is_charuco(options)) {
+    auto c = find_charuco_corners(image, charuco_board(options));
+    if (!c) return std::nullopt;
+    // By id: a ChArUco id is the corner's row-major index; the corners not found stay
+    // missing, as mrcal takes a partial view.
+    v.corners.assign(static_cast<size_t>(board.cols * board.rows), CornerObservation{});
+    for (size_t k = 0; k < c->ids.size(); ++k)
+      v.corners[static_cast<size_t>(c->ids[k])] = {c->corners_px[k].x, c->corners_px[k].y, 1.0,
+                                                   true};
+    v.detector = "charuco";
+    return v;
+  }
+  auto c = find_chessboard(image, board.cols, board.rows, options.detector);
+  if (!c) return std::nullopt;
+  v.detector = c->detector;
+  for (size_t k = 0; k < c->corners_px.size(); ++k)
+    // Weight 0: a corner the detector could not place; mrcal takes it as missing.
+    v.corners.push_back(
+        {c->corners_px[k].x, c->corners_px[k].y, c->weights[k], c->weights[k] > 0});
+  return v;
+}
+
 // Reads each image and detects the board in it on up to options.detect_threads threads
 // (images are independent) with options.detector; views keep the images' order and
 // record which detector found them. The first unreadable image (in order) is the error,
 // and so is the first whose size differs from the first image's.
 Status detect(const std::vector<ImageSource>& images, const CalibrateOptions& options,
               CalibrationData* data) {
-  // Before any image is searched: a wrong choice is the caller's to fix, not a lost view.
-  if (Status s = check_chessboard_detector(options.detector, data->board.cols, data->board.rows);
-      !s)
-    return s;
+  if (Status s = check_detector(options); !s) return s;
   struct Outcome {
     std::optional<Error> load_error;
     cv::Size size;
-    std::optional<ChessboardCorners> corners;
+    std::optional<BoardView> view;
   };
   std::vector<Outcome> outcomes(images.size());
   std::atomic<size_t> next{0}, done{0};
@@ -119,11 +161,8 @@ Status detect(const std::vector<ImageSource>& images, const CalibrateOptions& op
         break;
       }
       o.size = image->size();
-      auto corners = find_chessboard(*image, data->board.cols, data->board.rows, options.detector);
-      if (corners) {
-        o.corners = std::move(*corners);
-        ++boards;
-      }
+      o.view = find_view(*image, options, data->board);
+      if (o.view) ++boards;
       const size_t n = ++done;
       if (options.progress) {
         std::lock_guard<std::mutex> lock(progress_mutex);
@@ -154,15 +193,9 @@ Status detect(const std::vector<ImageSource>& images, const CalibrateOptions& op
     }
   }
   for (size_t i = 0; i < images.size(); ++i) {
-    if (!outcomes[i].corners) continue;
-    BoardView v;
-    v.name = images[i].name;
-    const ChessboardCorners& c = *outcomes[i].corners;
-    v.detector = c.detector;
-    for (size_t k = 0; k < c.corners_px.size(); ++k)
-      // Weight 0: a corner the detector could not place; mrcal takes it as missing.
-      v.corners.push_back({c.corners_px[k].x, c.corners_px[k].y, c.weights[k], c.weights[k] > 0});
-    data->views.push_back(std::move(v));
+    if (!outcomes[i].view) continue;
+    outcomes[i].view->name = images[i].name;
+    data->views.push_back(std::move(*outcomes[i].view));
   }
   return {};
 }
@@ -229,6 +262,14 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
                                                      : images_dir_sources(options.images_dir));
     run.images = static_cast<int>(images.size());
     if (Status s = detect(images, options, &data); !s) return s.error();
+    if (data.views.empty() && is_charuco(options))
+      return make_error("no_board", "no corner of the " + std::to_string(data.board.cols + 1) +
+                                        "x" + std::to_string(data.board.rows + 1) + "-square " +
+                                        options.charuco_dictionary +
+                                        " ChArUco board found in any of the " +
+                                        std::to_string(images.size()) +
+                                        " images (check --board: inner corners, not squares; "
+                                        "the dictionary and the marker size)");
     if (data.views.empty())
       return make_error("no_board", "no " + std::to_string(data.board.cols) + "x" +
                                         std::to_string(data.board.rows) +
@@ -290,10 +331,27 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
   if (run.images > 0) {
     // Boards found per detector: under "auto", the "mrgingham" count on a square board is
     // the images the saddle detector missed.
-    nlohmann::json views_by_detector = {{"saddle", 0}, {"mrgingham", 0}, {"opencv", 0}};
+    nlohmann::json views_by_detector =
+        is_charuco(options) ? nlohmann::json{{"charuco", 0}}
+                            : nlohmann::json{{"saddle", 0}, {"mrgingham", 0}, {"opencv", 0}};
     for (const auto& v : data.views)
       views_by_detector[v.detector] = views_by_detector.value(v.detector, 0) + 1;
     run.report_json["detector"] = {{"requested", options.detector}, {"views", views_by_detector}};
+    if (is_charuco(options)) {
+      // Partial views are the point of a ChArUco board: how many, and the corners found.
+      int corners = 0, partial = 0;
+      for (const auto& v : data.views) {
+        corners += v.present_count();
+        partial += v.present_count() < static_cast<int>(v.corners.size()) ? 1 : 0;
+      }
+      run.report_json["detector"]["charuco"] = {
+          {"squares", {data.board.cols + 1, data.board.rows + 1}},
+          {"square_m", data.board.spacing_m},
+          {"marker_m", options.charuco_marker_m},
+          {"dictionary", options.charuco_dictionary},
+          {"corners", corners},
+          {"partial_views", partial}};
+    }
   }
   // With mrcal's optimization_inputs, so mrcal's uncertainty and residual tools read it.
   CAMLAB_ASSIGN(run.cameramodel_text,

@@ -33,8 +33,14 @@ struct CalibrateOptions {
   std::string sensor;          // a sensor format name instead of the pitch (optics)
   double focal_guess_px = 0;   // searched around, never trusted
   bool board_warp = true;
-  int detect_threads = 0;         // 0: hardware concurrency, at most 16
-  std::string detector = "auto";  // auto | opencv | mrgingham (calib/corners/chessboard_detector.h)
+  int detect_threads = 0;  // 0: hardware concurrency, at most 16
+  // auto | saddle | opencv | mrgingham (calib/corners/chessboard_detector.h), or charuco
+  // for a ChArUco board (calib/corners/charuco_corners.h): its squares are board.cols + 1
+  // by board.rows + 1 of board.spacing_m, and these two describe its markers. A view of a
+  // ChArUco board keeps the corners found, the others missing (a board cut by the frame).
+  std::string detector = "auto";
+  double charuco_marker_m = 0;     // a marker's side, its black border included
+  std::string charuco_dictionary;  // cv::aruco's name, e.g. DICT_4X4_50
   // Outputs written by calibrate_folder() when not empty.
   std::filesystem::path out_cameramodel, out_report_json, out_opencv_yaml, out_corners_vnl,
       plots_dir;
@@ -54,9 +60,9 @@ struct CalibrationRun {
 
 // Detects, solves and reports; writes only options.out_corners_vnl (right after
 // detection, so the corners survive a solve that fails). Errors (stable codes): "invalid_argument"
-// (options), "io_error" (unreadable inputs), "imager_mismatch" (images of different
-// sizes), "too_few_views", "seed_failed", "solve_failed", "bad_lensmodel",
-// "unknown_sensor", and those of the corners.vnl reader.
+// and "out_of_range" (options, the ChArUco board), "io_error" (unreadable inputs),
+// "imager_mismatch" (images of different sizes), "too_few_views", "seed_failed", "solve_failed",
+// "bad_lensmodel", "unknown_sensor", and those of the corners.vnl reader.
 Result<CalibrationRun> calibrate(const CalibrateOptions& options);
 
 // Writes the outputs named in `options` (cameramodel, OpenCV YAML, plots, JSON report)

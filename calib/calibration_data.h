@@ -1,8 +1,10 @@
-// The input of a calibration: chessboard observations of one camera.
+// The input of a calibration: board observations of one camera (a chessboard, or a
+// ChArUco board's inner corners).
 //
 // Corners are in mrcal's order: row-major over the inner corners, corner (i, j) being the
-// board point (i * spacing_m, j * spacing_m, 0), i < cols, j < rows. Pixel centres are at
-// integer coordinates (mrcal's and OpenCV's convention).
+// board point (i * spacing_m, j * spacing_m, 0), i < cols, j < rows; for a ChArUco board
+// the index is the corner's ChArUco id. Pixel centres are at integer coordinates (mrcal's
+// and OpenCV's convention).
 //
 // Reentrant: plain value types.
 #pragma once
@@ -28,7 +30,8 @@ struct CornerObservation {
 struct BoardView {
   std::string name;                        // image file name, or a label
   std::vector<CornerObservation> corners;  // cols * rows, row-major
-  std::string detector;  // "opencv" or "mrgingham"; empty when read from corners.vnl
+  // "saddle", "opencv", "mrgingham" or "charuco"; empty when read from corners.vnl
+  std::string detector;
   int present_count() const;
 };
 

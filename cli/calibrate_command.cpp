@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/calibrate.h"
+#include "calib/corners/charuco_corners.h"
 #include "calib/corners/chessboard_detector.h"
 #include "calib/report.h"
 #include "command_errors.h"
@@ -24,8 +25,8 @@ namespace {
 struct CalibrateArgs {
   std::string images_dir, job_dir, corners_path;
   std::string board, imager, model = "auto", detector = "auto", sensor, out, report_path, yaml_path,
-                             write_corners, plots_dir;
-  double spacing_m = 0, pixel_um = 0, focal_guess_px = 0;
+                             write_corners, plots_dir, dictionary;
+  double spacing_m = 0, pixel_um = 0, focal_guess_px = 0, marker_m = 0;
   bool json = false, quiet = false, no_board_warp = false;
 };
 
@@ -43,11 +44,26 @@ void run_calibrate(const CalibrateArgs& a) {
   if (!parse_wxh(a.board, &o.board.cols, &o.board.rows) || o.board.cols < 2 || o.board.rows < 2)
     errors.fail("invalid_argument", "--board must be COLSxROWS inner corners, e.g. 14x10");
   o.board.spacing_m = a.spacing_m;
-  // Checked here, before any image is read: an unknown name, or mrgingham on a board
-  // it cannot find.
-  if (auto s = calib::check_chessboard_detector(a.detector, o.board.cols, o.board.rows); !s)
-    errors.fail(s.error().with_context("--detector: "));
+  // Checked here, before any image is read: an unknown name, mrgingham on a board it
+  // cannot find, a ChArUco board without its markers or with impossible ones.
   o.detector = a.detector;
+  o.charuco_marker_m = a.marker_m;
+  o.charuco_dictionary = a.dictionary;
+  if (a.detector == "charuco") {
+    if (a.marker_m == 0 || a.dictionary.empty())
+      errors.fail("invalid_argument",
+                  "--detector charuco needs the board's markers: --marker-m and --dictionary");
+    if (auto s = calib::check_charuco_board(
+            {o.board.cols + 1, o.board.rows + 1, o.board.spacing_m, a.marker_m, a.dictionary});
+        !s)
+      errors.fail(s.error().with_context("--board/--marker-m/--dictionary: "));
+  } else if (a.marker_m != 0 || !a.dictionary.empty()) {
+    errors.fail("invalid_argument",
+                "--marker-m and --dictionary describe a ChArUco board: add --detector charuco");
+  } else if (auto s = calib::check_chessboard_detector(a.detector, o.board.cols, o.board.rows);
+             !s) {
+    errors.fail(s.error().with_context("--detector: "));
+  }
   if (!a.imager.empty() && !parse_wxh(a.imager, &o.imager_width_px, &o.imager_height_px))
     errors.fail("invalid_argument", "--imager must be WxH pixels");
   if (!a.corners_path.empty() && a.imager.empty())
@@ -77,11 +93,19 @@ void run_calibrate(const CalibrateArgs& a) {
   if (!a.quiet && run->images > 0) {
     const nlohmann::json by = run->report_json.value("detector", nlohmann::json::object())
                                   .value("views", nlohmann::json::object());
-    std::fprintf(stderr,
-                 "camlab calibrate: found the board in %zu of %d images (saddle %d, mrgingham %d, "
-                 "opencv %d)\n",
-                 run->data.views.size(), run->images, by.value("saddle", 0),
-                 by.value("mrgingham", 0), by.value("opencv", 0));
+    const nlohmann::json charuco = run->report_json["detector"].value("charuco", nlohmann::json());
+    if (!charuco.is_null())
+      std::fprintf(stderr,
+                   "camlab calibrate: found ChArUco corners in %zu of %d images (%d corners; %d "
+                   "partial views)\n",
+                   run->data.views.size(), run->images, charuco.value("corners", 0),
+                   charuco.value("partial_views", 0));
+    else
+      std::fprintf(stderr,
+                   "camlab calibrate: found the board in %zu of %d images (saddle %d, mrgingham "
+                   "%d, opencv %d)\n",
+                   run->data.views.size(), run->images, by.value("saddle", 0),
+                   by.value("mrgingham", 0), by.value("opencv", 0));
   }
   auto report = calib::write_calibration_outputs(&*run, o);
   if (!report) errors.fail(report.error());
@@ -96,21 +120,28 @@ void run_calibrate(const CalibrateArgs& a) {
 void register_calibrate_command(CLI::App& app) {
   auto args = std::make_shared<CalibrateArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "calibrate", "Calibrate a camera's intrinsics with mrcal from chessboard views");
-  cmd->add_option("--images", args->images_dir, "Folder of chessboard images");
-  cmd->add_option("--job", args->job_dir, "camlab capture folder of chessboard frames");
+      "calibrate", "Calibrate a camera's intrinsics with mrcal from chessboard or ChArUco views");
+  cmd->add_option("--images", args->images_dir, "Folder of board images");
+  cmd->add_option("--job", args->job_dir, "camlab capture folder of board frames");
   cmd->add_option("--corners", args->corners_path, "mrcal corners.vnl (# filename x y level)");
   cmd->add_option("--board", args->board, "Inner corners COLSxROWS, e.g. 14x10")->required();
   cmd->add_option("--spacing-m", args->spacing_m, "Corner spacing in metres")->required();
   cmd->add_option("--model", args->model, "auto (default) or a mrcal LENSMODEL_... name");
   cmd->add_option(
       "--detector", args->detector,
-      "Chessboard corner detector for --images/--job: auto (default), saddle, opencv or "
-      "mrgingham. saddle: saddle points at reduced resolution, a grid grown from them, "
-      "cornerSubPix at full resolution (any board, a few ms an image); auto: saddle, then "
-      "mrgingham (mrcal's detector, N x N boards only) on a square board's image where "
-      "saddle finds none; opencv: findChessboardCornersSB + cornerSubPix (any board, "
-      "0.7-0.9 s an image)");
+      "Corner detector for --images/--job: auto (default), saddle, opencv or mrgingham for a "
+      "chessboard, charuco for a ChArUco board. saddle: saddle points at reduced resolution, "
+      "a grid grown from them, cornerSubPix at full resolution (any board, a few ms an "
+      "image); auto: saddle, then mrgingham (mrcal's detector, N x N boards only) on a square "
+      "board's image where saddle finds none; opencv: findChessboardCornersSB + cornerSubPix "
+      "(any board, 0.7-0.9 s an image); charuco: OpenCV's ArUco markers name the corners, "
+      "each refined as the image's saddle point, partial boards kept (needs --marker-m and "
+      "--dictionary; --board counts inner corners, squares - 1, and --spacing-m is the "
+      "square)");
+  cmd->add_option("--marker-m", args->marker_m,
+                  "ChArUco: a marker's side in metres, its black border included");
+  cmd->add_option("--dictionary", args->dictionary,
+                  "ChArUco: OpenCV's ArUco dictionary, e.g. DICT_4X4_50, DICT_5X5_100");
   cmd->add_option("--imager", args->imager, "Imager size WxH (px); default: from the images");
   auto pixel = cmd->add_option("--pixel-um", args->pixel_um, "Pixel pitch in micrometres");
   cmd->add_option("--sensor", args->sensor, "Sensor format (full-frame, aps-c, 1/2.3in, ...)")

@@ -7,6 +7,7 @@ packages=(
   build-essential cmake pkg-config git
   clang-format           # scripts/check-format.sh (Debian 12: version 14, the one .clang-format is checked with)
   libopencv-dev          # image I/O, chessboard detection, filtering
+  libopencv-contrib-dev  # cv::aruco: ArUco dictionaries, ChArUco detection (calib/corners/charuco_corners.h)
   libturbojpeg0-dev      # MJPEG frames: decode (3x OpenCV's imdecode) and the virtual camera's encoder
   libdeflate-dev         # PNG frames: the capture writer's deflate, 5-7x zlib's time at the same size (docs/BENCHMARKS.md)
   zlib1g-dev             # the PNG encoder's test inflates its output with zlib, an independent decoder

@@ -8,7 +8,8 @@ namespace camlab::calib {
 Status check_chessboard_detector(const std::string& detector, int cols, int rows) {
   if (detector != "auto" && detector != "saddle" && detector != "opencv" && detector != "mrgingham")
     return make_error("invalid_argument", "unknown chessboard detector '" + detector +
-                                              "': use auto, saddle, opencv or mrgingham");
+                                              "': use auto, saddle, opencv or mrgingham (or "
+                                              "charuco for a ChArUco board)");
   if (detector == "mrgingham" && cols != rows)
     return make_error("invalid_argument",
                       "the mrgingham detector needs a square board (mrgingham 1.22 finds N x N "

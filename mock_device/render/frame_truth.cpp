@@ -193,9 +193,11 @@ nlohmann::json make_frame_truth(const TruthInputs& in) {
          std::sqrt(origin[0] * origin[0] + origin[1] * origin[1] + origin[2] * origin[2])},
         {"coc_px", {{"at_origin", coc.at_origin_px}, {"min", coc.min_px}, {"max", coc.max_px}}},
     };
-    if (spec.type == TargetType::kChessboard) {
+    if (spec.has_squares()) {
       // mrcal's order: row-major over the inner corners, corner (i, j) at
-      // (i * square, j * square, 0) in the target frame.
+      // (i * square, j * square, 0) in the target frame. For a ChArUco board the index is
+      // also the corner's ChArUco id (OpenCV numbers its inner corners row-major the same
+      // way from the same corner).
       std::vector<std::array<double, 3>> points;
       for (int j = 0; j < spec.corners_rows; ++j)
         for (int i = 0; i < spec.corners_cols; ++i)
@@ -203,6 +205,14 @@ nlohmann::json make_frame_truth(const TruthInputs& in) {
       target["inner_corners"] = {spec.corners_cols, spec.corners_rows};
       target["square_m"] = spec.square_m;
       target["corners_px"] = project_points(camera, in.intrinsics, points, true);
+      if (spec.type == TargetType::kCharuco) {
+        target["squares"] = {spec.corners_cols + 1, spec.corners_rows + 1};
+        target["marker_m"] = spec.marker_m;
+        target["dictionary"] = spec.dictionary;
+        // Every corner, on the imager or not (null only behind the camera): where a
+        // partial board's missing corners would be.
+        target["corners_projected_px"] = project_points(camera, in.intrinsics, points, false);
+      }
     }
     if (spec.type == TargetType::kSlantedEdge) {
       // The edge segment inside the target's rectangle, through the origin along

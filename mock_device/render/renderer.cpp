@@ -55,7 +55,12 @@ Result<Renderer> Renderer::create(CameraSpec camera, SceneSpec scene) {
                           std::to_string(static_cast<int>(rays->invalid_fraction() * 100)) +
                           "% of the imager; check lens.distortion");
   r.reference_rays_ = std::make_shared<const ChiefRayTable>(std::move(*rays));
-  for (const auto& target : r.scene_.targets) r.textures_.push_back(make_texture(target));
+  for (const auto& target : r.scene_.targets) {
+    r.textures_.push_back(make_texture(target));
+    std::shared_ptr<const CharucoPattern> pattern;
+    if (target.type == TargetType::kCharuco) CAMLAB_ASSIGN(pattern, CharucoPattern::create(target));
+    r.charuco_patterns_.push_back(std::move(pattern));
+  }
   return r;
 }
 
@@ -210,7 +215,8 @@ Result<Renderer::FramePlan> Renderer::plan_frame(const RenderSettings& settings,
   std::vector<TargetSurface>& surfaces = plan.surfaces;
   surfaces.reserve(scene_.targets.size());
   for (size_t i = 0; i < scene_.targets.size(); ++i)
-    surfaces.emplace_back(scene_.targets[i], scene_.pose(scene_.targets[i], view), textures_[i]);
+    surfaces.emplace_back(scene_.targets[i], scene_.pose(scene_.targets[i], view), textures_[i],
+                          charuco_patterns_[i]);
 
   // Lens samples for the largest predicted CoC a channel sees (docs/BENCHMARKS.md).
   auto lens_grid_for = [&](double max_coc_px) {

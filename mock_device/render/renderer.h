@@ -33,6 +33,7 @@
 #include <opencv2/core.hpp>
 
 #include "base/result.h"
+#include "mock_device/render/charuco_pattern.h"
 #include "mock_device/render/chief_ray_table.h"
 #include "mock_device/spec/camera_spec.h"
 #include "mock_device/spec/scene_spec.h"
@@ -154,7 +155,8 @@ class Renderer {
   std::shared_ptr<const ChiefRayTable> reference_rays_;  // focused at infinity
   // By focus position, oldest first.
   std::vector<std::pair<int, std::shared_ptr<const ChiefRayTable>>> rays_by_focus_;
-  std::vector<std::shared_ptr<const cv::Mat>> textures_;  // one per target (or null)
+  std::vector<std::shared_ptr<const cv::Mat>> textures_;                 // one per target (or null)
+  std::vector<std::shared_ptr<const CharucoPattern>> charuco_patterns_;  // one per target (or null)
   std::vector<std::pair<IntegrationKey, SceneIntegral>> integral_cache_;  // oldest first
 };
 

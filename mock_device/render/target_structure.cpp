@@ -93,6 +93,14 @@ LocalStructure TargetSurface::structure_in(double u0, double u1, double v0, doub
       if (a == b && c == d) return split(a, c, 0, 1, j1 * sq);  // split at v = j1 sq
       return complex_structure();
     }
+    case TargetType::kCharuco: {
+      const CharucoPattern::Structure c = charuco_->structure_in(u0, u1, v0, v1);
+      const RegionValues neg = c.negative_light ? light_values() : dark_values();
+      const RegionValues pos = c.positive_light ? light_values() : dark_values();
+      if (c.kind == CharucoPattern::Structure::kConstant) return constant(neg);
+      if (c.kind == CharucoPattern::Structure::kOneLine) return split(neg, pos, c.e_u, c.e_v, c.e0);
+      return complex_structure();
+    }
     case TargetType::kBars: {
       // Along u only: x = u + total / 2; bar k covers [k period, k period + width); the
       // breakpoints are 0, width, period, period + width, ..., total.

@@ -20,8 +20,9 @@ std::array<double, 9> rotation_from_vector(double rx, double ry, double rz) {
 }
 
 TargetSurface::TargetSurface(const TargetSpec& spec, const RtCamTarget& rt,
-                             std::shared_ptr<const cv::Mat> texture)
-    : spec_(&spec), texture_(std::move(texture)) {
+                             std::shared_ptr<const cv::Mat> texture,
+                             std::shared_ptr<const CharucoPattern> charuco)
+    : spec_(&spec), texture_(std::move(texture)), charuco_(std::move(charuco)) {
   R_ = rotation_from_vector(rt[0], rt[1], rt[2]);
   t_ = {rt[3], rt[4], rt[5]};
   n_ = {R_[2], R_[5], R_[8]};
@@ -71,6 +72,8 @@ double TargetSurface::reflectance_at(double u, double v, int channel) const {
       if (i < -1 || j < -1 || i > s.corners_cols - 1 || j > s.corners_rows - 1) return light;
       return (static_cast<long>(i + j) & 1) == 0 ? dark : light;
     }
+    case TargetType::kCharuco:
+      return charuco_->light_at(u, v) ? light : dark;
     case TargetType::kSlantedEdge:
       return u * edge_cos_ - v * edge_sin_ < 0 ? dark : light;
     case TargetType::kBars: {

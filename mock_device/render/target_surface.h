@@ -10,6 +10,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "mock_device/render/charuco_pattern.h"
 #include "mock_device/spec/scene_spec.h"
 
 namespace camlab::mock {
@@ -48,8 +49,11 @@ struct LocalStructure {
 
 class TargetSurface {
  public:
+  // `texture`: a texture target's (make_texture); `charuco`: a ChArUco target's pattern
+  // (CharucoPattern::create). Null for the other types.
   TargetSurface(const TargetSpec& spec, const RtCamTarget& rt_cam_target,
-                std::shared_ptr<const cv::Mat> texture);
+                std::shared_ptr<const cv::Mat> texture,
+                std::shared_ptr<const CharucoPattern> charuco = nullptr);
 
   // Ray origin o and direction d in the camera frame (metres). Returns the ray parameter
   // lambda of the hit (point o + lambda d), or a negative number when the ray misses the
@@ -126,6 +130,7 @@ class TargetSurface {
   double light_[4] = {0, 0, 0, 0};
   bool grey_ = true;
   std::shared_ptr<const cv::Mat> texture_;  // CV_32F grey reflectance over the extent
+  std::shared_ptr<const CharucoPattern> charuco_;
   double texels_per_m_u_ = 0, texels_per_m_v_ = 0;
   // A channel's reflectance = offset + gain x the texture's grey value.
   double texture_offset_[4] = {0, 0, 0, 0};

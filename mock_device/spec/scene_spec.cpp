@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "image/aruco_dictionary.h"
 #include "mock_device/spec/json_fields.h"
 
 namespace camlab::mock {
@@ -12,6 +13,8 @@ const char* target_type_name(TargetType type) {
   switch (type) {
     case TargetType::kChessboard:
       return "chessboard";
+    case TargetType::kCharuco:
+      return "charuco";
     case TargetType::kSlantedEdge:
       return "slanted_edge";
     case TargetType::kBars:
@@ -25,17 +28,16 @@ const char* target_type_name(TargetType type) {
 }
 
 double TargetSpec::x_min_m() const {
-  return type == TargetType::kChessboard ? -(1 + margin_squares) * square_m : -width_m / 2;
+  return has_squares() ? -(1 + margin_squares) * square_m : -width_m / 2;
 }
 double TargetSpec::x_max_m() const {
-  return type == TargetType::kChessboard ? (corners_cols + margin_squares) * square_m : width_m / 2;
+  return has_squares() ? (corners_cols + margin_squares) * square_m : width_m / 2;
 }
 double TargetSpec::y_min_m() const {
-  return type == TargetType::kChessboard ? -(1 + margin_squares) * square_m : -height_m / 2;
+  return has_squares() ? -(1 + margin_squares) * square_m : -height_m / 2;
 }
 double TargetSpec::y_max_m() const {
-  return type == TargetType::kChessboard ? (corners_rows + margin_squares) * square_m
-                                         : height_m / 2;
+  return has_squares() ? (corners_rows + margin_squares) * square_m : height_m / 2;
 }
 
 namespace {
@@ -94,6 +96,42 @@ Result<Reflectance> parse_reflectance(const JsonFields& f, const char* key, doub
   return Reflectance::uniform(grey);
 }
 
+// A ChArUco board: "squares": [cols, rows], "square_m", "marker_m", "dictionary",
+// "margin_squares". Checked against what OpenCV's CharucoBoard can be: a marker smaller
+// than its square, a known dictionary, and one marker of it for every light square.
+Status parse_charuco(const JsonFields& f, TargetSpec* t) {
+  std::vector<double> squares;
+  CAMLAB_ASSIGN(squares, f.numbers("squares", 2, 2, 3, 201));
+  const int cols = static_cast<int>(squares[0]), rows = static_cast<int>(squares[1]);
+  if (cols != squares[0] || rows != squares[1])
+    return make_error("invalid_argument", f.path_of("squares") + " must be two integers");
+  t->corners_cols = cols - 1;
+  t->corners_rows = rows - 1;
+  CAMLAB_ASSIGN(t->square_m, f.number("square_m", 0, 10, std::nullopt, true));
+  CAMLAB_ASSIGN(t->marker_m, f.number("marker_m", 0, 10, std::nullopt, true));
+  if (!(t->marker_m < t->square_m))
+    return make_error("out_of_range",
+                      f.path_of("marker_m") + " = " + f.json().at("marker_m").dump() +
+                          " m must be smaller than square_m = " + f.json().at("square_m").dump() +
+                          " m (a marker sits inside a light square)");
+  CAMLAB_ASSIGN(t->margin_squares, f.number("margin_squares", 0, 100, 1.0));
+  CAMLAB_ASSIGN(t->dictionary, f.string("dictionary"));
+  image::ArucoDictionary dictionary;
+  if (auto d = image::find_aruco_dictionary(t->dictionary); d.ok())
+    dictionary = *d;
+  else
+    return d.error().with_context(f.path_of("dictionary") + ": ");
+  // The light squares hold the markers: half the squares, rounded down (the top-left
+  // square is dark).
+  const int markers = cols * rows / 2;
+  if (markers > dictionary.marker_count)
+    return make_error("out_of_range", f.path() + ": a " + std::to_string(cols) + "x" +
+                                          std::to_string(rows) + "-square ChArUco board needs " +
+                                          std::to_string(markers) + " markers; " + dictionary.name +
+                                          " has " + std::to_string(dictionary.marker_count));
+  return {};
+}
+
 Result<TargetSpec> parse_target(const JsonFields& f) {
   TargetSpec t;
   std::string type;
@@ -101,6 +139,8 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
   CAMLAB_ASSIGN(t.name, f.string("name", type));
   if (type == "chessboard")
     t.type = TargetType::kChessboard;
+  else if (type == "charuco")
+    t.type = TargetType::kCharuco;
   else if (type == "slanted_edge")
     t.type = TargetType::kSlantedEdge;
   else if (type == "bars")
@@ -111,8 +151,8 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
     t.type = TargetType::kUniform;
   else
     return make_error("invalid_argument", f.path_of("type") + " = \"" + type +
-                                              "\" is not one of chessboard, slanted_edge, bars, "
-                                              "texture, uniform");
+                                              "\" is not one of chessboard, charuco, slanted_edge, "
+                                              "bars, texture, uniform");
 
   CAMLAB_ASSIGN(t.dark, parse_reflectance(f, "dark_reflectance", 0.05));
   CAMLAB_ASSIGN(t.light, parse_reflectance(f, "light_reflectance", 0.85));
@@ -128,6 +168,8 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
       return make_error("invalid_argument", f.path_of("inner_corners") + " must be two integers");
     CAMLAB_ASSIGN(t.square_m, f.number("square_m", 0, 10, std::nullopt, true));
     CAMLAB_ASSIGN(t.margin_squares, f.number("margin_squares", 0, 100, 1.0));
+  } else if (t.type == TargetType::kCharuco) {
+    if (Status s = parse_charuco(f, &t); !s) return s.error();
   } else {
     std::vector<double> size;
     CAMLAB_ASSIGN(size, f.numbers("size_m", 2, 2, 1e-6, 1e6));

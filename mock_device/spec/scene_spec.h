@@ -4,8 +4,8 @@
 // Target coordinates: x right, y down, in the target's plane z = 0, in metres. A pose is
 // mrcal's rt_cam_target (rotation vector in radians, translation in metres) mapping a
 // target point into the camera frame (x right, y down, z forward along the optical axis).
-// A chessboard's origin is its first inner corner (mrcal's convention); every other
-// target's origin is its centre.
+// A chessboard's and a ChArUco board's origin is its first inner corner (mrcal's
+// convention); every other target's origin is its centre.
 //
 // A target may list several poses: the scene then has that many views (a calibration set
 // is one scene with many views of one board).
@@ -25,7 +25,7 @@
 
 namespace camlab::mock {
 
-enum class TargetType { kChessboard, kSlantedEdge, kBars, kTexture, kUniform };
+enum class TargetType { kChessboard, kCharuco, kSlantedEdge, kBars, kTexture, kUniform };
 
 const char* target_type_name(TargetType type);
 
@@ -55,12 +55,25 @@ struct TargetSpec {
   Reflectance dark = Reflectance::uniform(0.05);
   Reflectance light = Reflectance::uniform(0.85);
 
-  // Chessboard: inner corners cols x rows, square size, and a light quiet zone around
-  // the outer squares (in squares) so detectors find the outer corners.
+  // Chessboard and ChArUco: inner corners cols x rows, square size, and a light quiet
+  // zone around the outer squares (in squares) so detectors find the outer corners.
   int corners_cols = 0;
   int corners_rows = 0;
   double square_m = 0;
   double margin_squares = 1.0;
+
+  // ChArUco (OpenCV 4.6's cv::aruco::CharucoBoard layout): (corners_cols + 1) x
+  // (corners_rows + 1) squares, the top-left one dark; each light square holds an ArUco
+  // marker of side marker_m (< square_m) at its centre, marker ids 0, 1, ... in row-major
+  // order over the light squares; dictionary names cv::aruco's predefined dictionary
+  // (image/aruco_dictionary.h). Inner corner (i, j) has the ChArUco id j * corners_cols + i.
+  double marker_m = 0;
+  std::string dictionary;
+
+  // Whether the target is a board of squares (chessboard or ChArUco).
+  bool has_squares() const {
+    return type == TargetType::kChessboard || type == TargetType::kCharuco;
+  }
 
   // Every other target: its extent, centred on its origin.
   double width_m = 0;

@@ -218,7 +218,8 @@ inline constexpr std::array kErrorCodes = {
                   "Blur against focus does not trace a V, so there is no best focus to give."},
     ErrorCodeInfo{ErrorCode::kEmptyPlot, "empty_plot", 422, "Nothing to plot."},
     ErrorCodeInfo{ErrorCode::kBoardNotFound, "board_not_found", 422,
-                  "The image shows no complete calibration board of the given size."},
+                  "The image shows no calibration board of the given size (no complete "
+                  "chessboard, no corner of a ChArUco board)."},
     ErrorCodeInfo{ErrorCode::kNoBoard, "no_board", 422,
                   "No image of the calibration set shows the board: check its size."},
     ErrorCodeInfo{ErrorCode::kSolveFailed, "solve_failed", 422,

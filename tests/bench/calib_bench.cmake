@@ -12,3 +12,7 @@ target_compile_definitions(calib_bench_uncertainty PRIVATE CAMLAB_SOURCE_DIR="${
 # Corner detection against the virtual camera's truth, and calibrate()'s detect/solve split.
 add_executable(calib_detect_bench ${CMAKE_CURRENT_LIST_DIR}/calib_detect_bench.cpp)
 target_link_libraries(calib_detect_bench PRIVATE camlab_calib nlohmann_json::nlohmann_json)
+
+# ChArUco corners against the virtual camera's truth, stage by stage.
+add_executable(charuco_detect_bench ${CMAKE_CURRENT_LIST_DIR}/charuco_detect_bench.cpp)
+target_link_libraries(charuco_detect_bench PRIVATE camlab_calib mrcal::mrcal nlohmann_json::nlohmann_json)

@@ -161,6 +161,39 @@ TEST_F(CalibrateCli, BadInputFailsWithCode2AndAMessage) {
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_NE(run.err.find("--imager"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(path("x.cameramodel")));
+  // A ChArUco board needs its markers, and they must fit it; markers without the
+  // ChArUco detector are a mistake, not ignored.
+  const std::string images = " --images " + dir_.string() + " --out " + path("x.cameramodel");
+  run = camlab::testing::run_cli("calibrate --board 10x7 --spacing-m 0.06 --detector charuco" +
+                                 images);
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("--detector charuco needs the board's markers: --marker-m and "
+                         "--dictionary"),
+            std::string::npos)
+      << run.err;
+  run = camlab::testing::run_cli(
+      "calibrate --board 10x7 --spacing-m 0.06 --detector charuco --marker-m 0.07 "
+      "--dictionary DICT_4X4_50" +
+      images);
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("smaller than the square"), std::string::npos) << run.err;
+  run = camlab::testing::run_cli(
+      "calibrate --board 11x8 --spacing-m 0.06 --detector charuco --marker-m 0.045 "
+      "--dictionary DICT_4X4_50" +
+      images);
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("needs 54 markers; DICT_4X4_50 has 50"), std::string::npos) << run.err;
+  run = camlab::testing::run_cli(
+      "calibrate --board 10x7 --spacing-m 0.06 --detector charuco --marker-m 0.045 "
+      "--dictionary DICT_4X4_5" +
+      images);
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("unknown ArUco dictionary \"DICT_4X4_5\""), std::string::npos) << run.err;
+  run =
+      camlab::testing::run_cli("calibrate --board 10x7 --spacing-m 0.06 --marker-m 0.045" + images);
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("add --detector charuco"), std::string::npos) << run.err;
+  EXPECT_FALSE(fs::exists(path("x.cameramodel")));
 }
 
 // Renders a chessboard (cols x rows inner corners, white margin of one square) through a
