@@ -6,6 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config git
   clang-format           # scripts/check-format.sh (Debian 12: version 14, the one .clang-format is checked with)
+  clang-14 libclang-rt-14-dev   # scripts/fuzz.sh: clang++ and its libFuzzer and sanitizer runtimes
   libopencv-dev          # image I/O, chessboard detection, filtering
   libturbojpeg0-dev      # MJPEG frames: decode (3x OpenCV's imdecode) and the virtual camera's encoder
   libdeflate-dev         # PNG frames: the capture writer's deflate, 5-7x zlib's time at the same size (docs/BENCHMARKS.md)
