@@ -35,6 +35,12 @@ cmake --build "$build_dir" -j "$(nproc)" "${targets[@]}" >"$build_dir/build.log"
 echo "fuzz: built ${#harnesses[@]} harnesses with $cxx in $((SECONDS - build_start)) s"
 
 mkdir -p "$build_dir/artifacts"
+# The capture_folder harness writes its folders here (tmpfs when there is one), removed at exit.
+scratch_base=/dev/shm
+[ -d "$scratch_base" ] && [ -w "$scratch_base" ] || scratch_base="${TMPDIR:-/tmp}"
+CAMLAB_FUZZ_SCRATCH=$(mktemp -d "$scratch_base/camlab-fuzz-XXXXXX")
+export CAMLAB_FUZZ_SCRATCH
+trap 'rm -rf "$CAMLAB_FUZZ_SCRATCH"' EXIT
 failed=0
 printf '%-16s %6s %10s %8s %6s %7s %8s  %s\n' harness seconds execs exec/s cov ft corpus result
 for h in "${harnesses[@]}"; do

@@ -21,19 +21,16 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// scripts/fuzz.sh gives a scratch folder (CAMLAB_FUZZ_SCRATCH, on tmpfs when there is one:
+// recovery syncs what it cuts, and syncs to a disk would bound the harness to a few hundred
+// inputs a second) and removes it afterwards: libFuzzer ends with _Exit, so the harness
+// itself cannot clean up. Run by hand without it, the harness uses the temp directory.
 const fs::path& scratch_root() {
   static const fs::path root = [] {
-    // On tmpfs when there is one: recovery syncs what it cuts, and a sync to a disk
-    // would bound the harness to a few hundred inputs a second.
-    std::error_code ec;
-    const fs::path base = fs::is_directory("/dev/shm", ec) ? "/dev/shm" : fs::temp_directory_path();
-    std::string pattern = (base / "camlab-fuzz-XXXXXX").string();
+    if (const char* given = std::getenv("CAMLAB_FUZZ_SCRATCH"); given && *given)
+      return fs::path(given);
+    std::string pattern = (fs::temp_directory_path() / "camlab-fuzz-XXXXXX").string();
     if (::mkdtemp(pattern.data()) == nullptr) std::abort();
-    // Removed at exit, so that runs leave nothing behind in /tmp.
-    std::atexit([] {
-      std::error_code ec;
-      fs::remove_all(scratch_root(), ec);
-    });
     return fs::path(pattern);
   }();
   return root;
