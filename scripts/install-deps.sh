@@ -6,6 +6,7 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config git
   clang-format           # scripts/check-format.sh (Debian 12: version 14, the one .clang-format is checked with)
+  clang-14 libclang-rt-14-dev   # scripts/fuzz.sh: clang++ and its libFuzzer and sanitizer runtimes
   libopencv-dev          # image I/O, chessboard detection, filtering
   libopencv-contrib-dev  # cv::aruco: ArUco dictionaries, ChArUco detection (calib/corners/charuco_corners.h)
   libturbojpeg0-dev      # MJPEG frames: decode (3x OpenCV's imdecode) and the virtual camera's encoder

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <set>
 #include <sstream>
 
 namespace camlab::calib {
@@ -45,6 +46,7 @@ Result<std::vector<BoardView>> parse_corners_vnl(std::string_view text, const Bo
   WeightColumn weight_column = WeightColumn::kNone;
   bool have_header = false;
   std::vector<BoardView> views;
+  std::set<std::string> seen;  // image names already read
   BoardView current;
   int line_no = 0;
   auto bad = [&](const std::string& why) {
@@ -89,6 +91,10 @@ Result<std::vector<BoardView>> parse_corners_vnl(std::string_view text, const Bo
           views.push_back(std::move(current));
         }
       }
+      // An image's rows are consecutive: the same name again after another image would
+      // make a second view of one image (and cannot be written back as two).
+      if (!seen.insert(name).second)
+        return bad("image '" + name + "' appears again after other images");
       current = BoardView{};
       current.name = name;
     } else if (current.corners.size() >= per_view) {

@@ -85,6 +85,13 @@ nlohmann::json to_json(const FrameSidecar& sidecar) {
 
 Result<FrameSidecar> frame_sidecar_from_json(const nlohmann::json& json) {
   if (!json.is_object()) return make_error("bad_sidecar", "frame sidecar is not a JSON object");
+  // Integers must be JSON integers: converting 1e300 to an int is undefined behaviour
+  // (found by fuzzing), and a fraction of a DN or a frame is not a value any writer makes.
+  for (const char* key : {"sequence", "timestamp_ns", "bit_depth", "black_level_dn",
+                          "white_level_dn", "frames_discarded"})
+    if (json.contains(key) && !json[key].is_number_integer())
+      return make_error("bad_sidecar",
+                        std::string("frame sidecar: ") + key + " must be an integer");
   FrameSidecar sidecar;
   try {
     sidecar.sequence = json.at("sequence").get<uint64_t>();
@@ -131,6 +138,18 @@ Result<FrameSidecar> frame_sidecar_from_json(const nlohmann::json& json) {
   return sidecar;
 }
 
+int CaptureFolder::version() const {
+  const auto it = manifest_.find("version");
+  if (it == manifest_.end() || !it->is_number_integer()) return 0;
+  const int64_t version = it->get<int64_t>();
+  return version >= 1 && version <= 999 ? static_cast<int>(version) : 0;
+}
+
+bool CaptureFolder::complete() const {
+  const auto it = manifest_.find("complete");
+  return it != manifest_.end() && it->is_boolean() && it->get<bool>();
+}
+
 Result<CaptureFolder> CaptureFolder::open(const fs::path& dir) {
   auto text = read_text_file(dir / "manifest.json");
   if (!text)
@@ -143,13 +162,21 @@ Result<CaptureFolder> CaptureFolder::open(const fs::path& dir) {
     folder.manifest_ = nlohmann::json::parse(*text);
     if (folder.manifest_.value("format", "") != kCaptureFormatName)
       return make_error("not_a_capture", manifest_path + " does not say format \"camlab-capture\"");
-    const int version = folder.manifest_.value("version", 0);
+    // Read as typed values, never converted: a "version": 1e300 or a "complete": "yes"
+    // is an error here, not undefined behaviour or an exception later (found by fuzzing).
+    const int version = folder.version();
     if (version < 1 || version > kCaptureFormatVersion)
-      return make_error("unsupported_version", "capture format version " + std::to_string(version) +
-                                                   " is not supported (this camlab reads 1.." +
-                                                   std::to_string(kCaptureFormatVersion) + ")");
+      return make_error("unsupported_version",
+                        "capture format version " +
+                            folder.manifest_.value("version", nlohmann::json()).dump() +
+                            " is not supported (this camlab reads 1.." +
+                            std::to_string(kCaptureFormatVersion) + ")");
+    if (folder.manifest_.contains("complete") && !folder.manifest_["complete"].is_boolean())
+      return make_error("bad_manifest", manifest_path + ": \"complete\" must be true or false");
     if (version <= 2) {
       for (const auto& f : folder.manifest_.at("frames")) {
+        if (!f.is_object() || !f.value("index", nlohmann::json()).is_number_integer())
+          return make_error("bad_manifest", manifest_path + ": a frame without an integer index");
         CaptureFrameEntry entry{f.at("index").get<int>(), f.at("image").get<std::string>(),
                                 f.at("sidecar").get<std::string>()};
         if (!is_plain_file_name(entry.image_file) || !is_plain_file_name(entry.sidecar_file))

@@ -177,9 +177,11 @@ class CaptureFolder {
 
   const std::filesystem::path& dir() const { return dir_; }
   const nlohmann::json& manifest() const { return manifest_; }
-  int version() const { return manifest_.value("version", 0); }
+  // 0 when the manifest's version is not an integer in 1..999 (open() refuses those).
+  int version() const;
   const std::vector<CaptureFrameEntry>& frames() const { return frames_; }
-  bool complete() const { return manifest_.value("complete", false); }
+  // false unless the manifest says true (open() refuses a "complete" that is not a boolean).
+  bool complete() const;
   // Why bytes at the end of the journal were not read ("" when none were): what a crash
   // mid-append leaves until recover_capture_folder cuts it.
   const std::string& journal_problem() const { return journal_problem_; }

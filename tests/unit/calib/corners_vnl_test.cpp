@@ -78,4 +78,17 @@ TEST(CornersVnl, RejectsWrongCornerCountsAndGarbage) {
 }
 
 }  // namespace
+// Found by the corners_vnl fuzz harness: an image listed again after another image was
+// read as a second view of it, which to_corners_vnl then wrote as one image with twice
+// the rows (unreadable). An image's rows must be consecutive.
+TEST(CornersVnl, RejectsAnImageListedAgainAfterAnother) {
+  auto twice = parse_corners_vnl(
+      "# filename x y\nq 1 2\nq - -\nq 2 2\nq 1 2\nr - -\nq 1 2\nq - -\nq 2 2\nq 1 2\n", kBoard);
+  ASSERT_FALSE(twice.ok());
+  EXPECT_EQ(twice.error().code, "bad_vnl");
+  EXPECT_NE(twice.error().message.find("'q' appears again"), std::string::npos)
+      << twice.error().message;
+  EXPECT_NE(twice.error().message.find("line 7"), std::string::npos) << twice.error().message;
+}
+
 }  // namespace camlab::calib

@@ -139,6 +139,34 @@ TEST_F(CaptureFolderTest, BrokenFoldersGiveSpecificErrors) {
   EXPECT_EQ(folder->load_image(5).error().code, "out_of_range");
 }
 
+// Found by the capture_folder fuzz harness: values of the wrong JSON type were converted
+// (undefined behaviour for 1e300 as an int) or threw out of open(). Each is a clear error.
+TEST_F(CaptureFolderTest, MistypedManifestAndSidecarValuesAreErrors) {
+  fs::create_directories(dir);
+  auto manifest = [&](const std::string& text) { std::ofstream(dir / "manifest.json") << text; };
+  manifest(R"({"format": "camlab-capture", "version": 1e300, "frames": []})");
+  EXPECT_EQ(CaptureFolder::open(dir).error().code, "unsupported_version");
+  manifest(R"({"format": "camlab-capture", "version": 3, "complete": "yes"})");
+  { std::ofstream(dir / "frames.jsonl") << "x"; }
+  auto complete = CaptureFolder::open(dir);
+  ASSERT_FALSE(complete.ok());
+  EXPECT_EQ(complete.error().code, "bad_manifest");
+  EXPECT_NE(complete.error().message.find("\"complete\" must be true or false"), std::string::npos);
+  manifest(R"({"format": "camlab-capture", "version": 1,
+    "frames": [{"index": 1e300, "image": "a.png", "sidecar": "a.json"}]})");
+  EXPECT_EQ(CaptureFolder::open(dir).error().code, "bad_manifest");
+
+  for (const char* sidecar : {R"({"sequence": 0, "timestamp_ns": 0, "bit_depth": 1e300})",
+                              R"({"sequence": -1e300, "timestamp_ns": 0, "bit_depth": 8})",
+                              R"({"sequence": 0, "timestamp_ns": 0, "bit_depth": 8,
+                                  "black_level_dn": 1e300})"}) {
+    auto read = frame_sidecar_from_json(nlohmann::json::parse(sidecar));
+    ASSERT_FALSE(read.ok()) << sidecar;
+    EXPECT_EQ(read.error().code, "bad_sidecar");
+    EXPECT_NE(read.error().message.find("must be an integer"), std::string::npos);
+  }
+}
+
 // Format version 2: Bayer mosaics, RGB and JPEG frames round trip with their colour keys;
 // version 1 folders still read (as mono, linear, full scale); mono-only readers refuse
 // colour frames by name rather than measure a filter pattern.

@@ -1,0 +1,72 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer harnesses of tests/fuzz with clang (ASan + UBSan) and runs each on
+# its checked-in corpus for a bounded time (docs/fuzzing.md). Fails on any crash, leak,
+# sanitizer report, timeout or failed check, and prints each harness's figures.
+#
+#   scripts/fuzz.sh [SECONDS_EACH] [HARNESS...]     default: 15 s, every harness
+#
+# CAMLAB_FUZZ_BUILD_DIR (default build/fuzz) holds the build, the corpus each run grows
+# (corpus/NAME, never the checked-in one) and any crashing input (artifacts/).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+seconds="${1:-15}"
+shift || true
+build_dir="${CAMLAB_FUZZ_BUILD_DIR:-build/fuzz}"
+all=(api_request camera_spec scene_spec corners_vnl frame_journal capture_folder broker_protocol)
+harnesses=("${@:-${all[@]}}")
+
+cxx=""
+for candidate in clang++ clang++-14; do
+  if command -v "$candidate" >/dev/null; then cxx="$candidate"; break; fi
+done
+if [ -z "$cxx" ]; then
+  echo "fuzz: no clang++; install clang-14 and libclang-rt-14-dev (scripts/install-deps.sh)" >&2
+  exit 1
+fi
+launcher=()
+command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
+
+cmake -S tests/fuzz -B "$build_dir" -DCMAKE_CXX_COMPILER="$cxx" "${launcher[@]}" >/dev/null
+targets=()
+for h in "${harnesses[@]}"; do targets+=(--target "fuzz_$h"); done
+build_start=$SECONDS
+cmake --build "$build_dir" -j "$(nproc)" "${targets[@]}" >"$build_dir/build.log" 2>&1 ||
+  { cat "$build_dir/build.log" >&2; exit 1; }
+echo "fuzz: built ${#harnesses[@]} harnesses with $cxx in $((SECONDS - build_start)) s"
+
+mkdir -p "$build_dir/artifacts"
+# The capture_folder harness writes its folders here (tmpfs when there is one), removed at exit.
+scratch_base=/dev/shm
+[ -d "$scratch_base" ] && [ -w "$scratch_base" ] || scratch_base="${TMPDIR:-/tmp}"
+CAMLAB_FUZZ_SCRATCH=$(mktemp -d "$scratch_base/camlab-fuzz-XXXXXX")
+export CAMLAB_FUZZ_SCRATCH
+trap 'rm -rf "$CAMLAB_FUZZ_SCRATCH"' EXIT
+failed=0
+printf '%-16s %6s %10s %8s %6s %7s %8s  %s\n' harness seconds execs exec/s cov ft corpus result
+for h in "${harnesses[@]}"; do
+  seeds="tests/fuzz/corpus/$h"
+  work="$build_dir/corpus/$h"
+  log="$build_dir/$h.log"
+  mkdir -p "$work"
+  status=ok
+  # The grown corpus first (libFuzzer adds new inputs there), the checked-in seeds second.
+  # -timeout: an input that takes 10 s is a hang; -rss_limit_mb: a blow-up is a finding.
+  "$build_dir/fuzz_$h" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+    -max_len=16384 -print_final_stats=1 -artifact_prefix="$build_dir/artifacts/$h-" \
+    "$work" "$seeds" >"$log" 2>&1 || status=FAILED
+  # The last status line: "#RUNS DONE cov: C ft: F corp: N/SIZE exec/s: E ...".
+  done_line=$(grep -E "^#[0-9]+[[:space:]]+(DONE|pulse|NEW|REDUCE|INITED)" "$log" | tail -n 1 || true)
+  field() { sed -nE "s/.*$1: ([0-9]+[a-zA-Z]*).*/\1/p" <<<"$done_line"; }
+  execs=$(sed -nE 's/^stat::number_of_executed_units: *([0-9]+).*/\1/p' "$log")
+  rate=$(sed -nE 's/^stat::average_exec_per_sec: *([0-9]+).*/\1/p' "$log")
+  corpus=$(sed -nE 's/.*corp: ([0-9]+\/[0-9]+[a-zA-Z]*).*/\1/p' <<<"$done_line")
+  printf '%-16s %6s %10s %8s %6s %7s %8s  %s\n' "$h" "$seconds" "${execs:--}" "${rate:--}" \
+    "$(field cov)" "$(field ft)" "${corpus:--}" "$status"
+  if [ "$status" != ok ]; then
+    failed=1
+    echo "---- $log (last 60 lines):" >&2
+    tail -n 60 "$log" >&2
+  fi
+done
+[ "$failed" -eq 0 ] || { echo "fuzz: a harness failed; its input is in $build_dir/artifacts/" >&2; exit 1; }
+echo "fuzz: ${#harnesses[@]} harnesses, ${seconds} s each, no crash"
