@@ -129,8 +129,7 @@ std::optional<BoardView> find_view(const cv::Mat& image, const CalibrateOptions&
   v.detector = c->detector;
   for (size_t k = 0; k < c->corners_px.size(); ++k)
     // Weight 0: a corner the detector could not place; mrcal takes it as missing.
-    v.corners.push_back(
-        {c->corners_px[k].x, c->corners_px[k].y, c->weights[k], c->weights[k] > 0});
+    v.corners.push_back({c->corners_px[k].x, c->corners_px[k].y, c->weights[k], c->weights[k] > 0});
   return v;
 }
 
