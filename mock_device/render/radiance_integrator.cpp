@@ -365,15 +365,7 @@ cv::Mat integrate_reflectance(const IntegratorSetup& setup, IntegratorStats* sta
   for (auto& w : workers) w.join();
   if (stats) {
     *stats = IntegratorStats{};
-    for (const IntegratorStats& p : per_thread) {
-      stats->flat_pixels += p.flat_pixels;
-      stats->edge_pixels += p.edge_pixels;
-      stats->edge_sampled_pixels += p.edge_sampled_pixels;
-      stats->sampled_pixels += p.sampled_pixels;
-      stats->smooth_pixels += p.smooth_pixels;
-      stats->evaluations += p.evaluations;
-      stats->max_lens_grid = std::max(stats->max_lens_grid, p.max_lens_grid);
-    }
+    for (const IntegratorStats& p : per_thread) *stats += p;
   }
   return out;
 }

@@ -68,6 +68,18 @@ struct IntegratorStats {
   long sampled_pixels = 0;       // rays traced at random
   long evaluations = 0;          // rays traced + coverage evaluations (flat pixels: 1)
   int max_lens_grid = 0;         // the largest lens grid a pixel took
+
+  // Adds another part's counts (a thread's rows, a colour channel's plane).
+  IntegratorStats& operator+=(const IntegratorStats& other) {
+    flat_pixels += other.flat_pixels;
+    edge_pixels += other.edge_pixels;
+    edge_sampled_pixels += other.edge_sampled_pixels;
+    smooth_pixels += other.smooth_pixels;
+    sampled_pixels += other.sampled_pixels;
+    evaluations += other.evaluations;
+    max_lens_grid = max_lens_grid > other.max_lens_grid ? max_lens_grid : other.max_lens_grid;
+    return *this;
+  }
 };
 
 // Returns a CV_32F image (height x width of the ray table) of mean reflectance, each

@@ -117,19 +117,6 @@ const ChiefRayTable& Renderer::rays_for(int focus_position, int threads) {
   return *rays_by_focus_.back().second;
 }
 
-namespace {
-
-void add_path_counts(const IntegratorStats& in, IntegratorStats* total) {
-  total->flat_pixels += in.flat_pixels;
-  total->edge_pixels += in.edge_pixels;
-  total->edge_sampled_pixels += in.edge_sampled_pixels;
-  total->sampled_pixels += in.sampled_pixels;
-  total->smooth_pixels += in.smooth_pixels;
-  total->evaluations += in.evaluations;
-}
-
-}  // namespace
-
 cv::Mat Renderer::integrate(const IntegratorSetup& setup, RenderStats* stats) const {
   const double sigma_px = camera_.lens.baseline_blur_sigma_px;
   IntegratorStats counts;
@@ -149,7 +136,7 @@ cv::Mat Renderer::integrate(const IntegratorSetup& setup, RenderStats* stats) co
       one.channel = c;
       IntegratorStats plane_counts;
       planes[static_cast<size_t>(c)] = integrate_reflectance(one, &plane_counts);
-      add_path_counts(plane_counts, &counts);
+      counts += plane_counts;
       cv::GaussianBlur(planes[static_cast<size_t>(c)], planes[static_cast<size_t>(c)], cv::Size(),
                        sigma_px, sigma_px, cv::BORDER_REFLECT);
     }
