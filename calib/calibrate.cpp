@@ -108,9 +108,10 @@ Status check_detector(const CalibrateOptions& options) {
   return check_chessboard_detector(options.detector, options.board.cols, options.board.rows);
 }
 
-// One image's board as a view (row-major corners, mrcal's order), or nothing.
-std::optional<BoardView> find_view(const cv::Mat& image, const CalibrateOptions& options,
-                                   const BoardSpec& board) {
+}  // namespace
+
+std::optional<BoardView> detect_board_view(const cv::Mat& image, const CalibrateOptions& options) {
+  const BoardSpec& board = options.board;
   BoardView v;
   if (is_charuco(options)) {
     auto c = find_charuco_corners(image, charuco_board(options));
@@ -132,6 +133,10 @@ std::optional<BoardView> find_view(const cv::Mat& image, const CalibrateOptions&
     v.corners.push_back({c->corners_px[k].x, c->corners_px[k].y, c->weights[k], c->weights[k] > 0});
   return v;
 }
+
+Status check_board_detector(const CalibrateOptions& options) { return check_detector(options); }
+
+namespace {
 
 // Reads each image and detects the board in it on up to options.detect_threads threads
 // (images are independent) with options.detector; views keep the images' order and
@@ -160,7 +165,7 @@ Status detect(const std::vector<ImageSource>& images, const CalibrateOptions& op
         break;
       }
       o.size = image->size();
-      o.view = find_view(*image, options, data->board);
+      o.view = detect_board_view(*image, options);
       if (o.view) ++boards;
       const size_t n = ++done;
       if (options.progress) {

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
 #include "base/result.h"
 #include "calib/calibration_data.h"
@@ -57,6 +58,16 @@ struct CalibrationRun {
   std::string cameramodel_text;                 // full precision (model_io.h)
   std::optional<std::string> opencv_yaml_text;  // when the model has an OpenCV equivalent
 };
+
+// The detector and board of `options` (detector, board, ChArUco marker and dictionary),
+// checked before any image is read. Errors "invalid_argument", "out_of_range".
+Status check_board_detector(const CalibrateOptions& options);
+
+// One image's board as a view with options.detector (checked by check_board_detector):
+// row-major corners in mrcal's order, a ChArUco board's by id with those not found
+// missing; nothing when no board is found. For callers that take images one at a time
+// (the daemon's calibration sessions).
+std::optional<BoardView> detect_board_view(const cv::Mat& image, const CalibrateOptions& options);
 
 // Detects, solves and reports; writes only options.out_corners_vnl (right after
 // detection, so the corners survive a solve that fails). Errors (stable codes): "invalid_argument"

@@ -64,6 +64,27 @@ Result<Renderer> Renderer::create(CameraSpec camera, SceneSpec scene) {
   return r;
 }
 
+Status Renderer::set_target_pose(const std::string& target, int view, const RtCamTarget& pose) {
+  if (view < 0 || view >= scene_.view_count)
+    return make_error("out_of_range", "view " + std::to_string(view) + " is not in [0, " +
+                                          std::to_string(scene_.view_count - 1) + "]");
+  if (!(pose[5] > 0) ||
+      !std::all_of(pose.begin(), pose.end(), [](double v) { return std::isfinite(v); }))
+    return make_error("out_of_range",
+                      "the target origin must be finite and in front of the camera (z > 0)");
+  for (TargetSpec& t : scene_.targets) {
+    if (t.name != target) continue;
+    // A single-pose target is the same in every view: it moves in all of them.
+    t.poses[t.poses.size() == 1 ? 0 : static_cast<size_t>(view)] = pose;
+    integral_cache_.clear();
+    return {};
+  }
+  std::string names;
+  for (const TargetSpec& t : scene_.targets) names += (names.empty() ? "" : ", ") + t.name;
+  return make_error("not_found", "the scene has no target '" + target.substr(0, 60) +
+                                     "' (it has: " + names + ")");
+}
+
 RenderSettings Renderer::default_settings() const {
   const ControlsSpec& c = camera_.controls;
   RenderSettings s;

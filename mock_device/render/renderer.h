@@ -133,6 +133,12 @@ class Renderer {
   const CameraSpec& camera() const { return camera_; }
   const SceneSpec& scene() const { return scene_; }
 
+  // Moves the target named `target` to `pose` in view `view` (a person moving the board
+  // between shots; the guided calibration's tests place it at each suggestion). Drops
+  // the cached scene integrals; the truth of later frames follows. Errors: "not_found"
+  // (no such target), "out_of_range" (view, or the origin not in front of the camera).
+  Status set_target_pose(const std::string& target, int view, const RtCamTarget& pose);
+
  private:
   Renderer() = default;
   struct FramePlan;  // renderer.cpp: everything a frame's integral and truth need

@@ -40,11 +40,7 @@ double TargetSpec::y_max_m() const {
   return has_squares() ? (corners_rows + margin_squares) * square_m : height_m / 2;
 }
 
-namespace {
-
-// A pose is [rx, ry, rz, tx, ty, tz] (mrcal rt_cam_target), {"rt_cam_target": [...]}, or
-// {"position_m": [x, y, z], "rotation_deg": [rx, ry, rz]} with a rotation vector in degrees.
-Result<RtCamTarget> parse_pose(const nlohmann::json& json, const std::string& path) {
+Result<RtCamTarget> parse_target_pose(const nlohmann::json& json, const std::string& path) {
   std::vector<double> values;
   if (json.is_array()) {
     nlohmann::json wrapper = {{"rt_cam_target", json}};
@@ -76,6 +72,8 @@ Result<RtCamTarget> parse_pose(const nlohmann::json& json, const std::string& pa
   std::copy(values.begin(), values.end(), rt.begin());
   return rt;
 }
+
+namespace {
 
 // A reflectance: a number in [0, 1] (grey), or [r, g, b] each in [0, 1].
 Result<Reflectance> parse_reflectance(const JsonFields& f, const char* key, double fallback) {
@@ -199,7 +197,7 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
     return make_error("invalid_argument", f.path() + " needs exactly one of \"pose\" or \"poses\"");
   if (f.has("pose")) {
     RtCamTarget rt;
-    CAMLAB_ASSIGN(rt, parse_pose(f.json().at("pose"), f.path_of("pose")));
+    CAMLAB_ASSIGN(rt, parse_target_pose(f.json().at("pose"), f.path_of("pose")));
     t.poses.push_back(rt);
   } else {
     const auto& poses = f.json().at("poses");
@@ -208,7 +206,8 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
                         f.path_of("poses") + " must be a non-empty array (<= 10000)");
     for (size_t i = 0; i < poses.size(); ++i) {
       RtCamTarget rt;
-      CAMLAB_ASSIGN(rt, parse_pose(poses[i], f.path_of("poses") + "[" + std::to_string(i) + "]"));
+      CAMLAB_ASSIGN(
+          rt, parse_target_pose(poses[i], f.path_of("poses") + "[" + std::to_string(i) + "]"));
       t.poses.push_back(rt);
     }
   }

@@ -115,6 +115,12 @@ struct SceneSpec {
 };
 
 Result<SceneSpec> parse_scene_spec(const nlohmann::json& json);
+
+// One pose as a scene spec writes it: [rx, ry, rz, tx, ty, tz] (rt_cam_target),
+// {"rt_cam_target": [...]}, or {"position_m": [x, y, z], "rotation_deg": [rx, ry, rz]} (a
+// rotation vector in degrees). `path` names it in errors. Errors: "invalid_argument",
+// "out_of_range" (the origin not in front of the camera).
+Result<RtCamTarget> parse_target_pose(const nlohmann::json& json, const std::string& path);
 Result<SceneSpec> load_scene_spec(const std::filesystem::path& path);
 
 }  // namespace camlab::mock

@@ -8,7 +8,10 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <string>
+
+#include "base/log.h"
 
 namespace camlab::mock {
 
@@ -229,6 +232,36 @@ void VirtualV4l2Device::stall(bool stalled) {
   clock_.stall(stalled);
   signal_readiness();
   changed_.notify_all();
+}
+
+Status VirtualV4l2Device::set_target_pose(const std::string& target, const RtCamTarget& pose) {
+  std::lock_guard lock(mutex_);
+  // The renderer's scene names never change, so checking against it here is safe while the
+  // producer renders; the pose is checked the same way the renderer will check it.
+  const auto& targets = renderer_.scene().targets;
+  if (std::none_of(targets.begin(), targets.end(),
+                   [&](const TargetSpec& t) { return t.name == target; })) {
+    std::string names;
+    for (const TargetSpec& t : targets) names += (names.empty() ? "" : ", ") + t.name;
+    return make_error("not_found", "the scene has no target '" + target.substr(0, 60) +
+                                       "' (it has: " + names + ")");
+  }
+  if (!(pose[5] > 0) ||
+      !std::all_of(pose.begin(), pose.end(), [](double v) { return std::isfinite(v); }))
+    return make_error("out_of_range",
+                      "the target origin must be finite and in front of the camera (z > 0)");
+  pending_target_moves_.emplace_back(target, pose);
+  return {};
+}
+
+void VirtualV4l2Device::apply_target_moves() {
+  if (pending_target_moves_.empty()) return;
+  for (const auto& [target, pose] : pending_target_moves_)
+    if (Status s = renderer_.set_target_pose(target, options_.view, pose); !s)
+      log_warning(log::Category::kVcam, "cannot move target '%s': %s", target.c_str(),
+                  s.error().message.c_str());
+  pending_target_moves_.clear();
+  prepared_.valid = false;  // frame 0 rendered ahead shows the old pose
 }
 
 }  // namespace camlab::mock

@@ -108,6 +108,12 @@ class VirtualV4l2Device {
   void drop_next_frames(int count);
   void stall(bool stalled);
 
+  // Moves a scene target (the board a person holds) in the view this device looks at.
+  // Checked at once (the name must exist; errors as Renderer::set_target_pose); applied by
+  // the producer before its next render, since the renderer is not shared while rendering,
+  // so every frame whose rendering starts after this call shows the new pose.
+  Status set_target_pose(const std::string& target, const RtCamTarget& pose);
+
   const CameraSpec& camera() const { return renderer_.camera(); }
   int index() const { return options_.index; }
 
@@ -218,6 +224,10 @@ class VirtualV4l2Device {
     cv::Mat image;  // raw DN, as Renderer::render gives
   };
   PreparedFrame prepared_;
+  // Target moves not yet given to the renderer (set_target_pose), oldest first; the
+  // producer applies them (apply_target_moves) with the mutex held, before it renders.
+  std::vector<std::pair<std::string, RtCamTarget>> pending_target_moves_;
+  void apply_target_moves();
   bool prepare_pending_ = false;
   std::thread producer_;
   bool stop_producer_ = false;

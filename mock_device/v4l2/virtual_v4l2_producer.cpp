@@ -63,6 +63,7 @@ bool same_settings(const RenderSettings& a, const RenderSettings& b) {
 
 void VirtualV4l2Device::prepare_first_frame(std::unique_lock<std::mutex>& lock) {
   prepare_pending_ = false;
+  apply_target_moves();
   const RenderSettings settings = settings_in_effect();
   // The stream's own frame 0 serves when its settings are still those in effect.
   if (prepared_.valid && same_settings(prepared_.settings, settings)) return;
@@ -84,6 +85,7 @@ bool VirtualV4l2Device::render_into(int index, uint64_t sequence,
                                     bool* failed) {
   *failed = false;
   *bytes_used = 0;
+  apply_target_moves();
   const RenderSettings settings = settings_in_effect();
   const v4l2_pix_format format = format_;
   const OfferedFormat offered = *find_format(format.pixelformat);

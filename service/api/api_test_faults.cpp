@@ -63,6 +63,37 @@ void add_test_routes(Router& router, const ServiceContext& context) {
       }};
   route.test_only = true;
   router.add(std::move(route));
+
+  // {"target": "board", "pose": [rx, ry, rz, tx, ty, tz]} (or a pose object as in a scene
+  // spec): moves a scene target, as a person moves the board between shots.
+  Route move{
+      "POST", "/v1/test/cameras/{id}/scene",
+      "TEST ONLY (--test-faults): move a target of an in-process virtual camera's scene",
+      [context](const ApiRequest& request, const PathParams& params, Reply reply) {
+        mock::VirtualV4l2Device* device = context.cameras->virtual_device(params.at("id"));
+        if (!context.cameras->find(params.at("id")))
+          return reply(
+              error_response("not_found", "no camera '" + params.at("id").substr(0, 100) + "'"));
+        if (!device)
+          return reply(error_response("unsupported",
+                                      "only an in-process virtual camera's scene can be moved"));
+        auto body = parse_json_object(request.body);
+        if (!body) return reply(error_response(body.error()));
+        for (const auto& [key, value] : body->items())
+          if (key != "target" && key != "pose")
+            return reply(error_response(
+                "invalid_request", "unknown field '" + key.substr(0, 40) + "' (target, pose)"));
+        if (!body->contains("target") || !(*body)["target"].is_string() || !body->contains("pose"))
+          return reply(
+              error_response("invalid_request", "give \"target\" (a target's name) and \"pose\""));
+        auto pose = mock::parse_target_pose((*body)["pose"], "pose");
+        if (!pose) return reply(error_response(pose.error()));
+        if (Status s = device->set_target_pose((*body)["target"].get<std::string>(), *pose); !s)
+          return reply(error_response(s.error()));
+        reply(json_response(200, {{"camera_id", params.at("id")}, {"moved", *body}}));
+      }};
+  move.test_only = true;
+  router.add(std::move(move));
 }
 
 }  // namespace camlab::service

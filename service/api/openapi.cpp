@@ -292,6 +292,15 @@ json openapi_document(bool include_test_routes) {
                        merge(ok(200, "injected", object), error_responses({400, 401, 404, 422})),
                        ref("Faults")),
              {{"x-test-only", true}})}};
+  if (include_test_routes)
+    paths["/v1/test/cameras/{id}/scene"] = {
+        {"post",
+         merge(operation("TEST ONLY: move a target of an in-process virtual camera's scene "
+                         "(--test-faults): {\"target\": NAME, \"pose\": rt_cam_target}",
+                         "test", {camera_id},
+                         merge(ok(200, "moved", object), error_responses({400, 401, 404, 422})),
+                         object),
+               {{"x-test-only", true}})}};
   return {{"openapi", "3.0.3"},
           {"info",
            {{"title", "camlabd"},

@@ -125,5 +125,42 @@ TEST_F(ChessboardRender, MrcalPythonToolsProjectTheTruthCornersIdentically) {
   }
 }
 
+// Moving the board (set_target_pose) renders exactly what a scene spec with that pose
+// renders: the same image bits and the same corner truth. The spec path is the
+// independent one: it parses the pose and builds a new renderer.
+TEST(TargetMove, RendersWhatASpecWithThatPoseRenders) {
+  auto camera = load_camera_spec(kExamples / "camera_wide_1280x800.json");
+  auto scene = load_scene_spec(kExamples / "scene_chessboard_calibration.json");
+  ASSERT_TRUE(camera.ok() && scene.ok());
+  auto moved = Renderer::create(*camera, *scene);
+  ASSERT_TRUE(moved.ok());
+  const RtCamTarget pose = {0.2, -0.3, 0.05, -0.25, -0.12, 0.7};
+  RenderOptions options;
+  options.frame_number = 3;
+  // Render once before the move, so a stale cached integral would show.
+  ASSERT_TRUE(moved->render(moved->default_settings(), 5, options).ok());
+  ASSERT_TRUE(moved->set_target_pose("board", 5, pose).ok());
+  auto after = moved->render(moved->default_settings(), 5, options);
+  ASSERT_TRUE(after.ok());
+
+  scene->targets[0].poses[5] = pose;
+  auto fresh = Renderer::create(*camera, *scene);
+  ASSERT_TRUE(fresh.ok());
+  auto expected = fresh->render(fresh->default_settings(), 5, options);
+  ASSERT_TRUE(expected.ok());
+  EXPECT_EQ(cv::norm(after->image, expected->image, cv::NORM_INF), 0.0);
+  EXPECT_EQ(after->truth["targets"][0]["corners_px"], expected->truth["targets"][0]["corners_px"]);
+  // The other views keep their poses.
+  EXPECT_EQ(moved->scene().targets[0].poses[4], fresh->scene().targets[0].poses[4]);
+
+  EXPECT_EQ(moved->set_target_pose("no such board", 5, pose).error().code, "not_found");
+  EXPECT_EQ(moved->set_target_pose("board", 40, pose).error().code, "out_of_range");
+  RtCamTarget behind = pose;
+  behind[5] = -0.5;
+  EXPECT_EQ(moved->set_target_pose("board", 5, behind).error().code, "out_of_range");
+  behind[5] = std::nan("");
+  EXPECT_EQ(moved->set_target_pose("board", 5, behind).error().code, "out_of_range");
+}
+
 }  // namespace
 }  // namespace camlab::mock
