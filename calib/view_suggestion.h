@@ -18,6 +18,7 @@
 #pragma once
 
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -34,9 +35,9 @@ struct SuggestionOptions {
   // Distance at which uncertainty is evaluated and boards are placed; <= 0: the solve's
   // working distance (median distance of the boards' centres).
   double distance_m = 0;
-  double max_tilt_deg = 40;           // largest tilt of a candidate off facing the camera
-  bool whole_board_required = true;   // chessboards: every corner on the imager
-  double min_corner_margin_px = 10;   // corners this close to the imager edge count as off
+  double max_tilt_deg = 40;          // largest tilt of a candidate off facing the camera
+  bool whole_board_required = true;  // chessboards: every corner on the imager
+  double min_corner_margin_px = 10;  // corners this close to the imager edge count as off
   // Used before the first solve: the nominal horizontal field of view (deg) and the
   // distance at which to open the session (m).
   double nominal_fov_x_deg = 90;
@@ -82,5 +83,10 @@ struct UncertaintyCoverage {
 };
 Result<UncertaintyCoverage> uncertainty_coverage(const Solution& solution,
                                                  const SuggestionOptions& options);
+
+// The warm start for re-solving a session's data after views were appended: the
+// solution's model, warp, poses and rejected corners for the views it used, a PnP pose
+// through its model for the others (solver.h, WarmStart).
+std::shared_ptr<const WarmStart> session_warm_start(const Solution& solution);
 
 }  // namespace camlab::calib
