@@ -29,6 +29,9 @@ struct LoopSpec {
   double distance_m = 0.7;  // where the uncertainty is evaluated and guided boards are put
   int max_views = 60;       // a run that has not reached the target by then stops
   uint32_t seed = 1;
+  // Random poses keep boards partly off the imager (as a ChArUco detector sees them)
+  // instead of drawing whole boards only (as a chessboard detector needs).
+  bool random_partial = false;
 };
 
 struct LoopResult {
@@ -104,7 +107,7 @@ inline LoopResult run_random(const LoopSpec& spec) {
   draw.views = spec.max_views;
   draw.noise_px = spec.noise_px;
   // A chessboard detector needs the whole board: partial views are drawn again.
-  draw.keep_partial = false;
+  draw.keep_partial = spec.random_partial;
   draw.seed = spec.seed;
   const CalibrationData all = make_views(spec.truth, spec.board, draw);
   CalibrationData data = all;
