@@ -9,6 +9,8 @@
 #include <cstdint>
 #include <vector>
 
+#include <opencv2/core.hpp>
+
 #include "base/result.h"
 #include "calib/calibration_data.h"
 #include "calib/mrcal_api.h"
@@ -35,6 +37,22 @@ MrcalProblem make_mrcal_problem(const CalibrationData& data, const std::vector<i
 // What a stage optimises. The camera never moves (it is the reference frame).
 mrcal_problem_selections_t mrcal_selections(bool core, bool distortions, bool warp, bool regularize,
                                             bool outliers);
+
+// The information of the problem `p` at its current state, in mrcal's packed (unitless)
+// state b* = D^-1 b: J^T J over every measurement (regularization included) and
+// J_obs^T J_obs over the board observations' rows (uncertainty.h), and where each part of
+// the state sits in b*. Error "solve_failed" when mrcal's callback fails.
+struct PackedInformation {
+  int nstate = 0;
+  cv::Mat jtj, jobs;                 // nstate x nstate, CV_64F
+  std::vector<double> unpack;        // D: full units = D * packed, per state
+  std::vector<int> intrinsic_index;  // per intrinsic of the model: its index in b*, or -1
+  std::vector<int> frame_index;      // per frame: index of its r (then t) in b*, or -1
+  int warp_index = -1;               // index of the board warp's two terms, or -1
+  std::vector<double> x;             // the measurements at the state
+};
+Result<PackedInformation> packed_information(const MrcalProblem& p, const BoardSpec& board,
+                                             mrcal_problem_selections_t sel);
 
 struct StateCovariance;
 // The state covariance of the solved problem `p` (uncertainty.h), from mrcal's Jacobian

@@ -35,9 +35,8 @@ double PixelCovariance::worst_px() const {
 
 double PixelCovariance::rms_px() const { return std::sqrt(std::max(0.0, 0.5 * (xx + yy))); }
 
-Result<StateCovariance> state_covariance(const MrcalProblem& p, const BoardSpec& board,
-                                         mrcal_problem_selections_t sel,
-                                         const std::vector<char>& downweighted) {
+Result<PackedInformation> packed_information(const MrcalProblem& p, const BoardSpec& board,
+                                             mrcal_problem_selections_t sel) {
   const int nobs = static_cast<int>(p.observations.size());
   const int nframes = static_cast<int>(p.frames.size());
   const int W = board.cols, H = board.rows;
@@ -47,7 +46,10 @@ Result<StateCovariance> state_covariance(const MrcalProblem& p, const BoardSpec&
   const int nnz = _mrcal_num_j_nonzero(nobs, 0, W, H, 1, 0, nframes, 0, 0, p.observations.data(),
                                        nullptr, sel, &p.lensmodel);
   std::vector<int> row_start(nmeas + 1), col(nnz);
-  std::vector<double> val(nnz), b_packed(nstate), x(nmeas);
+  std::vector<double> val(nnz), b_packed(nstate);
+  PackedInformation info;
+  info.nstate = nstate;
+  info.x.assign(nmeas, 0.0);
   cholmod_sparse_struct jt{};
   jt.nrow = nstate;
   jt.ncol = nmeas;
@@ -58,7 +60,7 @@ Result<StateCovariance> state_covariance(const MrcalProblem& p, const BoardSpec&
   jt.sorted = jt.packed = 1;
   const mrcal_problem_constants_t constants = {-1.0, -1.0};
   if (!mrcal_optimizer_callback(b_packed.data(), nstate * static_cast<int>(sizeof(double)),
-                                x.data(), nmeas * static_cast<int>(sizeof(double)), &jt,
+                                info.x.data(), nmeas * static_cast<int>(sizeof(double)), &jt,
                                 p.intrinsics.data(), nullptr, p.frames.data(), nullptr, &p.warp, 1,
                                 0, nframes, 0, 0, p.observations.data(), nullptr, nobs, 0,
                                 p.pool.data(), &p.lensmodel, p.imagersize, sel, &constants,
@@ -66,41 +68,61 @@ Result<StateCovariance> state_covariance(const MrcalProblem& p, const BoardSpec&
     return make_error("solve_failed", "mrcal_optimizer_callback failed on the solved problem");
 
   // J^T J over all rows, and J_obs^T J_obs over the board observations' rows.
-  cv::Mat jtj = cv::Mat::zeros(nstate, nstate, CV_64F),
-          jobs = cv::Mat::zeros(nstate, nstate, CV_64F);
+  info.jtj = cv::Mat::zeros(nstate, nstate, CV_64F);
+  info.jobs = cv::Mat::zeros(nstate, nstate, CV_64F);
   for (int r = 0; r < nmeas; ++r) {
-    cv::Mat& m = r < nmeas_boards ? jobs : jtj;
+    cv::Mat& m = r < nmeas_boards ? info.jobs : info.jtj;
     for (int a = row_start[r]; a < row_start[r + 1]; ++a) {
       double* out = m.ptr<double>(col[a]);
       for (int b = row_start[r]; b < row_start[r + 1]; ++b) out[col[b]] += val[a] * val[b];
     }
   }
-  jtj += jobs;
-  cv::Mat jtj_inv;
-  if (cv::invert(jtj, jtj_inv, cv::DECOMP_CHOLESKY) == 0)
-    return make_error("singular",
-                      "J^T J of the solve is singular: the data do not determine every "
-                      "parameter, so no projection uncertainty can be given");
-  const cv::Mat var_packed = jtj_inv * jobs * jtj_inv;  // Var(b*) / sigma^2
+  info.jtj += info.jobs;
 
   // b = D b*: D from unpacking ones.
-  std::vector<double> d(nstate, 1.0);
-  mrcal_unpack_solver_state_vector(d.data(), 1, 0, nframes, 0, 0, sel, &p.lensmodel);
+  info.unpack.assign(nstate, 1.0);
+  mrcal_unpack_solver_state_vector(info.unpack.data(), 1, 0, nframes, 0, 0, sel, &p.lensmodel);
 
-  // Our layout: every intrinsic (the ones not optimised stay 0), then 6 per board.
   const int nintr = mrcal_lensmodel_num_params(&p.lensmodel);
-  std::vector<int> index(nintr + 6 * nframes, -1);
+  info.intrinsic_index.assign(nintr, -1);
   const int i_intr = mrcal_state_index_intrinsics(0, 1, 0, nframes, 0, 0, nobs, sel, &p.lensmodel);
   if (i_intr >= 0) {
     int k = i_intr;
     for (int j = 0; j < nintr; ++j) {
       const bool core = j < 4;
       if (core ? sel.do_optimize_intrinsics_core : sel.do_optimize_intrinsics_distortions)
-        index[j] = k++;
+        info.intrinsic_index[j] = k++;
     }
   }
+  info.frame_index.assign(nframes, -1);
+  for (int f = 0; f < nframes; ++f)
+    info.frame_index[f] = mrcal_state_index_frames(f, 1, 0, nframes, 0, 0, nobs, sel, &p.lensmodel);
+  info.warp_index = mrcal_state_index_calobject_warp(1, 0, nframes, 0, 0, nobs, sel, &p.lensmodel);
+  return info;
+}
+
+Result<StateCovariance> state_covariance(const MrcalProblem& p, const BoardSpec& board,
+                                         mrcal_problem_selections_t sel,
+                                         const std::vector<char>& downweighted) {
+  PackedInformation info;
+  CAMLAB_ASSIGN(info, packed_information(p, board, sel));
+  const int nstate = info.nstate;
+  const int nframes = static_cast<int>(p.frames.size());
+  const std::vector<double>& x = info.x;
+  cv::Mat jtj_inv;
+  if (cv::invert(info.jtj, jtj_inv, cv::DECOMP_CHOLESKY) == 0)
+    return make_error("singular",
+                      "J^T J of the solve is singular: the data do not determine every "
+                      "parameter, so no projection uncertainty can be given");
+  const cv::Mat var_packed = jtj_inv * info.jobs * jtj_inv;  // Var(b*) / sigma^2
+  const std::vector<double>& d = info.unpack;
+
+  // Our layout: every intrinsic (the ones not optimised stay 0), then 6 per board.
+  const int nintr = static_cast<int>(info.intrinsic_index.size());
+  std::vector<int> index(nintr + 6 * nframes, -1);
+  std::copy(info.intrinsic_index.begin(), info.intrinsic_index.end(), index.begin());
   for (int f = 0; f < nframes; ++f) {
-    const int i0 = mrcal_state_index_frames(f, 1, 0, nframes, 0, 0, nobs, sel, &p.lensmodel);
+    const int i0 = info.frame_index[f];
     for (int j = 0; j < 6 && i0 >= 0; ++j) index[nintr + 6 * f + j] = i0 + j;
   }
   StateCovariance c;
@@ -208,7 +230,7 @@ PixelCovariance propagate(const std::vector<double>& g, const StateCovariance& c
   return {s2 * v[0][0], s2 * 0.5 * (v[0][1] + v[1][0]), s2 * v[1][1]};
 }
 
-double working_distance_m(const Solution& s, const BoardSpec* board) {
+double median_board_distance_m(const Solution& s, const BoardSpec* board) {
   std::vector<double> d;
   for (const auto& rt : s.rt_cam_board) {
     double centre[3] = {0, 0, 0}, p[3];
@@ -226,6 +248,21 @@ double working_distance_m(const Solution& s, const BoardSpec* board) {
 
 }  // namespace
 
+double working_distance_m(const Solution& s) {
+  return median_board_distance_m(s, s.board.cols > 0 ? &s.board : nullptr);
+}
+
+Result<PixelCovariance> projection_uncertainty_of_point(const Solution& s,
+                                                        const std::array<double, 3>& p_cam,
+                                                        bool at_infinity, double sigma_px) {
+  if (!s.covariance)
+    return make_error("no_covariance", s.covariance_error.empty() ? "the solve kept no covariance"
+                                                                  : s.covariance_error);
+  std::vector<double> g;
+  CAMLAB_ASSIGN(g, projection_gradient(s, *s.covariance, p_cam.data(), at_infinity));
+  return propagate(g, *s.covariance, sigma_px > 0 ? sigma_px : s.covariance->observed_sigma_px);
+}
+
 Result<PixelCovariance> projection_uncertainty(const Solution& s, double x_px, double y_px,
                                                double distance_m, double observed_sigma_px) {
   if (!s.covariance)
@@ -237,11 +274,8 @@ Result<PixelCovariance> projection_uncertainty(const Solution& s, double x_px, d
   if (!v) return make_error("projection_failed", v.error().message);
   const bool inf = !std::isfinite(distance_m);
   const double scale = inf ? 1.0 : distance_m;
-  const double p[3] = {(*v)[0] * scale, (*v)[1] * scale, (*v)[2] * scale};
-  std::vector<double> g;
-  CAMLAB_ASSIGN(g, projection_gradient(s, *s.covariance, p, inf));
-  const double sigma = observed_sigma_px > 0 ? observed_sigma_px : s.covariance->observed_sigma_px;
-  return propagate(g, *s.covariance, sigma);
+  return projection_uncertainty_of_point(s, {(*v)[0] * scale, (*v)[1] * scale, (*v)[2] * scale},
+                                         inf, observed_sigma_px);
 }
 
 Result<UncertaintySummary> summarize_uncertainty(const Solution& s) {
@@ -250,7 +284,7 @@ Result<UncertaintySummary> summarize_uncertainty(const Solution& s) {
                                                                   : s.covariance_error);
   UncertaintySummary out;
   out.observed_sigma_px = s.covariance->observed_sigma_px;
-  out.working_distance_m = working_distance_m(s, s.board.cols > 0 ? &s.board : nullptr);
+  out.working_distance_m = working_distance_m(s);
   const double w = s.model.width_px - 1, h = s.model.height_px - 1;
   const struct {
     const char* name;

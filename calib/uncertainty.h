@@ -73,6 +73,17 @@ struct PixelCovariance {
 Result<PixelCovariance> projection_uncertainty(const Solution& solution, double x_px, double y_px,
                                                double distance_m, double observed_sigma_px = 0);
 
+// The same for a point given in the camera frame (m; a direction when at_infinity):
+// callers that evaluate one set of points for several solutions unproject them once.
+// sigma_px <= 0: the solution's estimate. Error "no_covariance".
+Result<PixelCovariance> projection_uncertainty_of_point(const Solution& solution,
+                                                        const std::array<double, 3>& p_cam,
+                                                        bool at_infinity, double sigma_px = 0);
+
+// The working distance of a solution: the median distance of its boards' centres from
+// the camera (m); 0 without boards.
+double working_distance_m(const Solution& solution);
+
 // The uncertainty at the imager's centre and four corners, at infinity and at the
 // working distance (the median distance of the boards' centres), for the report.
 struct UncertaintyPoint {

@@ -86,6 +86,7 @@ enum class ErrorCode : uint8_t {
   kSolveFailed,
   kSingular,
   kNoCovariance,
+  kNoCandidate,
   kBadLensmodel,
   kProjectionFailed,
   // A bug.
@@ -229,6 +230,9 @@ inline constexpr std::array kErrorCodes = {
                   "The data do not determine every parameter of the model."},
     ErrorCodeInfo{ErrorCode::kNoCovariance, "no_covariance", 422,
                   "The solve has no covariance to give an uncertainty from."},
+    ErrorCodeInfo{ErrorCode::kNoCandidate, "no_candidate", 422,
+                  "No pose of the board keeps it visible: it is too large for the imager at "
+                  "that distance."},
     ErrorCodeInfo{ErrorCode::kBadLensmodel, "bad_lensmodel", 422,
                   "The lens model is unknown or misconfigured, or its parameters do not match "
                   "it."},

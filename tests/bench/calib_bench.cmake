@@ -16,3 +16,9 @@ target_link_libraries(calib_detect_bench PRIVATE camlab_calib nlohmann_json::nlo
 # ChArUco corners against the virtual camera's truth, stage by stage.
 add_executable(charuco_detect_bench ${CMAKE_CURRENT_LIST_DIR}/charuco_detect_bench.cpp)
 target_link_libraries(charuco_detect_bench PRIVATE camlab_calib mrcal::mrcal nlohmann_json::nlohmann_json)
+
+# The guided calibration loop against random poses: views to a worst-uncertainty target,
+# and the time of a suggestion (docs/BENCHMARKS.md).
+add_executable(guided_calibration_bench ${CMAKE_CURRENT_LIST_DIR}/guided_calibration_bench.cpp)
+target_link_libraries(guided_calibration_bench PRIVATE camlab_calib mrcal::mrcal opencv_calib3d)
+target_include_directories(guided_calibration_bench PRIVATE ${PROJECT_SOURCE_DIR}/tests/unit/calib ${PROJECT_SOURCE_DIR})
