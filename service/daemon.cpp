@@ -17,6 +17,7 @@
 #include "service/api/router.h"
 #include "service/api/service_context.h"
 #include "service/http/listener.h"
+#include "service/jobs/calibration_sessions.h"
 #include "service/jobs/compute_jobs.h"
 #include "service/jobs/job_recovery.h"
 #include "service/metrics.h"
@@ -106,12 +107,13 @@ int run_daemon(const DaemonConfig& config) {
     return 1;
   }
   ComputeWorker compute(*data_dir, **store, metrics, config.max_compute_jobs);
+  CalibrationSessions sessions(*data_dir, **store, **cameras);
 
   TokenAuth auth(token->token);
   Router router(&auth, &metrics);
   router.hide_data_dir(*data_dir);
-  ServiceContext context{*data_dir, store->get(), cameras->get(),
-                         &compute,  &metrics,     config.test_faults};
+  ServiceContext context{*data_dir, store->get(),       cameras->get(), &compute,
+                         &metrics,  config.test_faults, &sessions};
   add_all_routes(router, context);
 
   net::io_context ioc(config.io_threads);
@@ -123,6 +125,7 @@ int run_daemon(const DaemonConfig& config) {
 
   (*cameras)->start();
   compute.start();
+  sessions.start();
   const auto workers = (*cameras)->workers();
   for (const auto& worker : workers) {
     const CameraSnapshot s = worker->snapshot();
@@ -161,6 +164,7 @@ int run_daemon(const DaemonConfig& config) {
            "%s received: stopping (no new connections; running jobs are interrupted, frames kept)",
            signal_number == SIGTERM ? "SIGTERM" : "SIGINT");
   (*listener)->stop();
+  sessions.stop();
   (*cameras)->stop();
   compute.stop();
   ioc.stop();

@@ -3,9 +3,9 @@
 // normalised job and queue it on the compute worker (service/jobs/compute_jobs.h).
 #include <algorithm>
 
-#include "calib/lens_model.h"
 #include "image/capture_folder.h"
 #include "service/api/service_context.h"
+#include "service/jobs/calibration_request.h"
 #include "service/jobs/compute_jobs.h"
 #include "service/store/job_store.h"
 
@@ -94,63 +94,13 @@ void queue_compute_job(const ServiceContext& context, const std::string& kind,
 void post_calibration(const ServiceContext& context, const ApiRequest& request, Reply reply) {
   auto body = parse_json_object(request.body);
   if (!body) return reply(error_response(body.error()));
-  nlohmann::json normalised = nlohmann::json::object();
-  const nlohmann::json& corners = body->value("inner_corners", nlohmann::json());
-  if (!corners.is_array() || corners.size() != 2 || !corners[0].is_number_integer() ||
-      !corners[1].is_number_integer())
-    return reply(
-        error_response("invalid_request", "\"inner_corners\" must be [COLS, ROWS], e.g. [14, 10]"));
-  const int cols = corners[0].get<int>(), rows = corners[1].get<int>();
-  if (cols < 2 || rows < 2 || cols > 100 || rows > 100)
-    return reply(error_response("out_of_range", "inner corners must be in [2, 100] each"));
-  const nlohmann::json& spacing = body->value("spacing_m", nlohmann::json());
-  if (!spacing.is_number())
-    return reply(
-        error_response("invalid_request", "\"spacing_m\" (corner spacing in metres) is required"));
-  if (!(spacing.get<double>() > 0) || spacing.get<double>() > 10)
-    return reply(error_response("out_of_range", "spacing_m must be in (0, 10] metres"));
-  const nlohmann::json& model = body->value("model", nlohmann::json("auto"));
-  if (!model.is_string() ||
-      !(model == "auto" || model.get<std::string>().rfind("LENSMODEL_", 0) == 0) ||
-      model.get<std::string>().size() > 200)
-    return reply(error_response("invalid_request",
-                                "\"model\" must be \"auto\" or a mrcal LENSMODEL_... name"));
-  // A name mrcal does not know is refused now, not when the job reaches the solve. The
-  // imager size only configures a bare splined model; any size checks the name.
-  if (model != "auto") {
-    auto configured = calib::configured_lensmodel(model.get<std::string>(), 1280, 800, 90);
-    if (configured) {
-      auto params = calib::lensmodel_param_count(*configured);
-      if (!params) return reply(error_response(params.error()));
-    } else {
-      return reply(error_response(configured.error()));
-    }
-  }
-  const nlohmann::json& detector = body->value("detector", nlohmann::json("auto"));
-  if (!detector.is_string() || !(detector == "auto" || detector == "saddle" ||
-                                 detector == "opencv" || detector == "mrgingham"))
-    return reply(error_response(
-        "invalid_request",
-        "\"detector\" must be \"auto\" (camlab's saddle-point detector, with mrgingham on "
-        "square boards where it misses), \"saddle\", \"opencv\" or \"mrgingham\""));
-  if (detector == "mrgingham" && cols != rows)
-    return reply(error_response(
-        "unsupported", "the mrgingham detector finds square boards only (N x N inner corners)"));
-  if (body->contains("pixel_um")) {
-    const auto& pixel = (*body)["pixel_um"];
-    if (!pixel.is_number() || !(pixel.get<double>() > 0) || pixel.get<double>() > 100)
-      return reply(error_response("out_of_range", "pixel_um must be in (0, 100] micrometres"));
-    normalised["pixel_um"] = pixel;
-  }
+  auto normalised = normalised_calibration_fields(*body);
+  if (!normalised) return reply(error_response(normalised.error()));
   // The source last: a malformed request is refused before any file is looked at.
   auto source = resolve_source(context, *body);
   if (!source) return reply(error_response(source.error()));
-  for (const auto& [key, value] : source->items()) normalised[key] = value;
-  normalised["inner_corners"] = {cols, rows};
-  normalised["spacing_m"] = spacing;
-  normalised["model"] = model;
-  normalised["detector"] = detector;
-  queue_compute_job(context, "calibration", normalised, reply);
+  for (const auto& [key, value] : source->items()) (*normalised)[key] = value;
+  queue_compute_job(context, "calibration", *normalised, reply);
 }
 
 void post_analysis(const ServiceContext& context, const ApiRequest& request, Reply reply) {

@@ -39,6 +39,7 @@ void add_all_routes(Router& router, const ServiceContext& context) {
   add_camera_routes(router, context);
   add_job_routes(router, context);
   add_compute_routes(router, context);
+  add_session_routes(router, context);
   if (context.test_faults) add_test_routes(router, context);
 }
 

@@ -149,11 +149,42 @@ json schemas() {
            {{"type", "string"}, {"description", "auto (default) or a mrcal LENSMODEL_... name"}}},
           {"detector",
            {{"type", "string"},
-            {"enum", {"auto", "saddle", "opencv", "mrgingham"}},
+            {"enum", {"auto", "saddle", "opencv", "mrgingham", "charuco"}},
             {"description",
              "auto (default): camlab's saddle-point detector, with mrgingham on square boards "
-             "where it misses"}}},
+             "where it misses; charuco: a ChArUco board (give marker_m and dictionary)"}}},
+          {"marker_m",
+           {{"type", "number"},
+            {"description", "ChArUco: a marker's side (m), its black border included"}}},
+          {"dictionary",
+           {{"type", "string"}, {"description", "ChArUco: OpenCV's dictionary, e.g. DICT_4X4_50"}}},
           {"pixel_um", {{"type", "number"}}}}}}},
+      {"CalibrationSessionRequest",
+       {{"type", "object"},
+        {"required", {"camera", "inner_corners", "spacing_m"}},
+        {"properties",
+         {{"camera", {{"type", "string"}, {"description", "a camera id (GET /v1/cameras)"}}},
+          {"inner_corners",
+           {{"type", "array"}, {"items", {{"type", "integer"}}}, {"minItems", 2}, {"maxItems", 2}}},
+          {"spacing_m", {{"type", "number"}}},
+          {"model",
+           {{"type", "string"},
+            {"description",
+             "auto (default: OPENCV8 during the loop, selection at the finish) or a mrcal "
+             "LENSMODEL_... name"}}},
+          {"detector",
+           {{"type", "string"}, {"enum", {"auto", "saddle", "opencv", "mrgingham", "charuco"}}}},
+          {"marker_m", {{"type", "number"}}},
+          {"dictionary", {{"type", "string"}}},
+          {"pixel_um", {{"type", "number"}}},
+          {"target_uncertainty_px",
+           {{"type", "number"},
+            {"minimum", 0.01},
+            {"maximum", 100},
+            {"default", 0.5},
+            {"description",
+             "worst projection uncertainty over the imager (px, at the working distance) at "
+             "which the session has enough views"}}}}}}},
       {"AnalysisRequest",
        {{"type", "object"},
         {"required", {"kind"}},
@@ -283,6 +314,34 @@ json openapi_document(bool include_test_routes) {
                            merge(ok(202, "the queued job; its result holds the report", ref("Job")),
                                  error_responses({400, 401, 404, 409, 413, 422, 429})),
                            ref("AnalysisRequest"))}}}};
+  const json session_id =
+      path_param("id", "calibration session id", {{"type", "integer"}, {"minimum", 1}});
+  const std::string session_state =
+      "the session: phase (ready, capturing, solving, finishing, ended), frames, solution, "
+      "uncertainty over the imager, suggestion of the next view, last_error";
+  paths["/v1/calibration-sessions"] = {
+      {"post", operation("Open a guided calibration on a camera", "calibration", json::array(),
+                         merge(ok(201, session_state, object),
+                               error_responses({400, 401, 404, 413, 422, 429, 503})),
+                         ref("CalibrationSessionRequest"))}};
+  paths["/v1/calibration-sessions/{id}"] = {
+      {"get", operation("A calibration session's state", "calibration", {session_id},
+                        merge(ok(200, session_state, object), error_responses({400, 401, 404})))},
+      {"delete",
+       operation("Cancel a calibration session", "calibration", {session_id},
+                 merge(ok(200, session_state, object), error_responses({400, 401, 404, 409})))}};
+  paths["/v1/calibration-sessions/{id}/views"] = {
+      {"post", operation("Take a view: capture, detect, solve, suggest the next (poll the "
+                         "session until its phase is ready)",
+                         "calibration", {session_id},
+                         merge(ok(202, session_state, object),
+                               error_responses({400, 401, 404, 409, 429, 503})))}};
+  paths["/v1/calibration-sessions/{id}/finish"] = {
+      {"post", operation("Calibrate on every view of the session into a .cameramodel and a "
+                         "report (poll the session until its phase is ended)",
+                         "calibration", {session_id},
+                         merge(ok(202, session_state, object),
+                               error_responses({400, 401, 404, 409, 422})))}};
   if (include_test_routes)
     paths["/v1/test/cameras/{id}/faults"] = {
         {"post",

@@ -10,6 +10,7 @@
 
 namespace camlab::service {
 
+class CalibrationSessions;
 class CameraSet;
 class ComputeWorker;
 class JobStore;
@@ -21,7 +22,8 @@ struct ServiceContext {
   CameraSet* cameras = nullptr;
   ComputeWorker* compute = nullptr;
   Metrics* metrics = nullptr;
-  bool test_faults = false;  // POST /v1/test/cameras/{id}/faults is registered
+  bool test_faults = false;                 // POST /v1/test/cameras/{id}/faults is registered
+  CalibrationSessions* sessions = nullptr;  // null: /v1/calibration-sessions answers 503
 };
 
 // Registration of each group of routes (one file each).
@@ -30,6 +32,7 @@ void add_camera_routes(Router& router, const ServiceContext& context);   // api_
 void add_job_routes(Router& router, const ServiceContext& context);      // api_jobs.cpp
 void add_compute_routes(Router& router, const ServiceContext& context);  // api_compute.cpp
 void add_test_routes(Router& router, const ServiceContext& context);     // api_test_faults.cpp
+void add_session_routes(Router& router, const ServiceContext& context);  // api_sessions.cpp
 
 // Every route of the daemon, in the order they are matched (test routes only with
 // context.test_faults).

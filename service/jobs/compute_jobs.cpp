@@ -10,6 +10,7 @@
 #include "calib/calibrate.h"
 #include "calib/model_io.h"
 #include "image/capture_folder.h"
+#include "service/jobs/calibration_request.h"
 #include "service/metrics.h"
 
 namespace camlab::service {
@@ -23,7 +24,8 @@ JobOutcome failure(Error error) {
   return outcome;
 }
 
-// The pixel pitch a capture's manifest knows (the virtual camera's spec), else 0.
+}  // namespace
+
 double manifest_pixel_pitch_um(const image::CaptureFolder& folder) {
   const nlohmann::json& source = folder.manifest().value("source", nlohmann::json::object());
   if (source.is_object() && source.contains("camera_spec")) {
@@ -35,8 +37,6 @@ double manifest_pixel_pitch_um(const image::CaptureFolder& folder) {
   return 0;
 }
 
-}  // namespace
-
 JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path& data_dir) {
   const nlohmann::json& request = job.request;
   const std::filesystem::path source = data_dir / request.at("source_folder").get<std::string>();
@@ -47,13 +47,8 @@ JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path
 
   // The same run as `camlab calibrate --job` (calib/calibrate.h): detector choice, corner
   // weights, model selection, report, and a model file with mrcal's optimization inputs.
-  calib::CalibrateOptions options;
+  calib::CalibrateOptions options = calibration_options(request);
   options.job_dir = source;
-  options.board.cols = request.at("inner_corners").at(0).get<int>();
-  options.board.rows = request.at("inner_corners").at(1).get<int>();
-  options.board.spacing_m = request.at("spacing_m").get<double>();
-  options.model = request.value("model", "auto");
-  options.detector = request.value("detector", "auto");
   const double pixel_um = request.contains("pixel_um") ? request["pixel_um"].get<double>()
                                                        : manifest_pixel_pitch_um(*folder);
   options.pixel_pitch_um = pixel_um > 0 && pixel_um <= 100 ? pixel_um : 0;

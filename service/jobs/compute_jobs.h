@@ -18,6 +18,7 @@
 #include <mutex>
 #include <thread>
 
+#include "image/capture_folder.h"
 #include "service/jobs/capture_job.h"
 #include "service/store/job_store.h"
 
@@ -27,6 +28,9 @@ class Metrics;
 
 // Writes the model into DATA/<job folder>/camera.cameramodel (and report.json); the
 // job's result holds the report and the model text.
+// The pixel pitch (um) a capture folder's manifest knows (the virtual camera's spec), else 0.
+double manifest_pixel_pitch_um(const image::CaptureFolder& folder);
+
 JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path& data_dir);
 JobOutcome execute_analysis(const JobRecord& job, const std::filesystem::path& data_dir);
 
