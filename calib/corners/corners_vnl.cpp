@@ -111,7 +111,10 @@ Result<std::vector<BoardView>> parse_corners_vnl(std::string_view text, const Bo
       if (weight_column != WeightColumn::kNone) {
         double v = 0;
         if (!parse_double(fields[3], &v)) return bad("level/weight must be a number or '-'");
-        c.weight = weight_column == WeightColumn::kLevel ? std::pow(0.5, v) : v;
+        if (!std::isfinite(v)) return bad("level/weight must be a finite number or '-'");
+        // mrcal's convention: a negative level marks a corner to skip, as '-' does (and
+        // 0.5^level would overflow to an infinite weight for a large negative one).
+        c.weight = weight_column == WeightColumn::kLevel ? (v < 0 ? 0.0 : std::pow(0.5, v)) : v;
         if (!(c.weight > 0)) c.present = false;  // a non-positive weight marks an outlier
       }
     }

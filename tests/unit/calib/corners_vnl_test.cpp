@@ -1,6 +1,8 @@
 // corners.vnl reading and writing (mrcal / mrgingham interop).
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "calib/corners/corners_vnl.h"
 
 namespace camlab::calib {
@@ -71,6 +73,26 @@ TEST(CornersVnl, RejectsWrongCornerCountsAndGarbage) {
   auto short_view = parse_corners_vnl("# filename x y level\na 1 2 0\na 1 2 0\nb 1 2 0\n", kBoard);
   ASSERT_FALSE(short_view.ok());
   EXPECT_EQ(short_view.error().code, "bad_vnl");
+  // A negative level marks a corner to skip (mrcal's convention), never an infinite
+  // weight: the fuzzer's input had level -666666, 0.5^level overflowing to inf.
+  auto skipped = parse_corners_vnl("# filename x y level\na 1 2 -666666\n", kBoard);
+  if (skipped.ok()) {
+    for (const auto& view : *skipped)
+      for (const auto& c : view.corners) EXPECT_TRUE(std::isfinite(c.weight));
+  }
+  auto skipped_row = parse_corners_vnl(
+      "# filename x y level\n" +
+          [] {
+            std::string rows;
+            for (int k = 0; k < kBoard.cols * kBoard.rows; ++k)
+              rows += std::string("a ") + std::to_string(k) + " 2 " + (k == 1 ? "-3" : "0") + "\n";
+            return rows;
+          }(),
+      kBoard);
+  ASSERT_TRUE(skipped_row.ok()) << skipped_row.error().message;
+  EXPECT_FALSE((*skipped_row)[0].corners[1].present);
+  EXPECT_TRUE((*skipped_row)[0].corners[0].present);
+  EXPECT_FALSE(parse_corners_vnl("# filename x y weight\na 1 2 inf\n", kBoard).ok());
   auto garbage = parse_corners_vnl("# filename x y level\na 1 zz 0\n", kBoard);
   ASSERT_FALSE(garbage.ok());
   EXPECT_NE(garbage.error().message.find("line 2"), std::string::npos);
