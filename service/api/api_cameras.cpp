@@ -45,6 +45,7 @@ nlohmann::json summary_json(const ServiceContext& context, const CameraSnapshot&
   json["running_job"] = s.running_job ? nlohmann::json(s.running_job) : nlohmann::json(nullptr);
   json["queued_jobs"] = s.queued_jobs;
   json["control_latency"] = latency_json(context, s.identity.id);
+  json["measuring_latency"] = s.measuring_latency;
   return json;
 }
 

@@ -174,8 +174,44 @@ void CameraWorker::refresh_snapshot() {
   if (formats) snapshot_.formats = std::move(*formats);
 }
 
+CaptureJobEnv CameraWorker::job_env() {
+  CaptureJobEnv env{
+      store_,          metrics_,         options_.data_dir,      options_.spec_latency_frames,
+      options_.traits, nlohmann::json(), options_.frame_timeout, &cancel_,
+      &shutting_down_};
+  env.source = snapshot().description;
+  env.source["transport"] = entry_.transport;
+  for (const auto& [key, value] : options_.source_extra.items()) env.source[key] = value;
+  return env;
+}
+
+void CameraWorker::probe_latency_at_startup(device::Camera& camera) {
+  auto stored = store_.latency(id());
+  if (!stored || stored->has_value()) return;
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_) return;
+    snapshot_.measuring_latency = true;
+  }
+  log_info(log::Category::kCameras,
+           "camera %s: measuring its control latency (once; kept in the database)", id().c_str());
+  int frames = 0;
+  Status probed = probe_and_store_latency(camera, job_env(), &frames);
+  if (!probed)
+    log_warning(log::Category::kCameras,
+                "camera %s: start-up latency probe: %s (the first capture probes again)",
+                id().c_str(), probed.error().message.c_str());
+  {
+    std::lock_guard lock(mutex_);
+    snapshot_.measuring_latency = false;
+  }
+  if (!probed && is_device_error(probed.error().code)) drop_camera(probed.error());
+  refresh_snapshot();
+}
+
 void CameraWorker::run() {
-  if (auto opened = ensure_open(); !opened)
+  auto opened = ensure_open();
+  if (!opened)
     log_warning(log::Category::kCameras, "camera %s: cannot open: %s", id().c_str(),
                 opened.error().message.c_str());
   {
@@ -183,6 +219,7 @@ void CameraWorker::run() {
     started_snapshot_ = true;
   }
   wake_.notify_all();
+  if (opened) probe_latency_at_startup(**opened);
 
   for (;;) {
     Task task;
@@ -289,13 +326,7 @@ void CameraWorker::run_job(int64_t id) {
     outcome.failure_detail = camera.error().message;
     outcome.error = camera.error().with_context("camera " + this->id() + " is not available: ");
   } else {
-    CaptureJobEnv env{
-        store_,          metrics_,         options_.data_dir,      options_.spec_latency_frames,
-        options_.traits, nlohmann::json(), options_.frame_timeout, &cancel_,
-        &shutting_down_};
-    env.source = snapshot().description;
-    env.source["transport"] = entry_.transport;
-    for (const auto& [key, value] : options_.source_extra.items()) env.source[key] = value;
+    const CaptureJobEnv env = job_env();
     outcome = job.kind == "latency_probe" ? execute_latency_probe(**camera, job, env)
                                           : execute_capture(**camera, job, env);
   }

@@ -43,6 +43,7 @@
 #include "capture/capture_plan.h"
 #include "device/camera.h"
 #include "device/device_registry.h"
+#include "service/jobs/capture_job.h"
 
 namespace camlab::service {
 
@@ -60,6 +61,9 @@ struct CameraSnapshot {
   nlohmann::json description;    // device::describe_camera, as of the last refresh
   capture::CameraTraits traits;  // what raw values mean (bit depth, f-numbers), when known
   int64_t running_job = 0;       // 0 when idle
+  // The control latency is being measured (at start-up, for a camera the database has no
+  // latency for); jobs and control changes wait for it.
+  bool measuring_latency = false;
   int queued_jobs = 0;
   std::string also_reachable_as;  // the same camera's id under the other backend
   bool gone = false;              // retired: the camera was unplugged (no longer found)
@@ -128,6 +132,11 @@ class CameraWorker {
  private:
   void run();
   void run_job(int64_t id);
+  // A camera with no control latency in the database is probed as soon as it opens, before
+  // any job (which queue meanwhile, as do control changes), so that the first capture
+  // does not carry the probe's seconds as a surprise.
+  void probe_latency_at_startup(device::Camera& camera);
+  CaptureJobEnv job_env();
   // The open camera, opening it if needed (updates the snapshot's availability).
   Result<device::Camera*> ensure_open();
   void drop_camera(const Error& why);

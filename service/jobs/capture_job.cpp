@@ -23,10 +23,12 @@ struct LatencyChoice {
 Result<LatencyChoice> measure_latency(device::Camera& camera, const CaptureJobEnv& env,
                                       int* frames_consumed) {
   const std::string& id = camera.identity().id;
-  auto probe = capture::probe_control_latency(camera, 3, 8, env.cancel);
+  int probe_frames = 0;
+  auto probe = capture::probe_control_latency(camera, 3, 8, env.cancel, &probe_frames);
+  // Counted whether the probe succeeded or not: a failed probe consumed frames too.
+  *frames_consumed += probe_frames;
   LatencyChoice choice;
   if (probe) {
-    *frames_consumed += probe->frames_consumed;
     choice.frames = probe->latency_frames;
     choice.source = "probe";
     choice.details = {{"probed_frames", probe->latency_frames},
@@ -51,7 +53,11 @@ Result<LatencyChoice> measure_latency(device::Camera& camera, const CaptureJobEn
     choice.source = "spec";
     choice.details = {
         {"probe_error", {{"code", probe.error().code}, {"message", probe.error().message}}},
-        {"spec_frames", *env.spec_latency_frames}};
+        {"spec_frames", *env.spec_latency_frames},
+        {"frames_consumed", probe_frames}};
+    log_warning(log::Category::kCameras,
+                "camera %s: latency probe failed (%s); using the spec's %d frames", id.c_str(),
+                probe.error().message.c_str(), *env.spec_latency_frames);
   } else {
     // Not stored: a later probe (another scene, more light) may succeed.
     choice.frames = kFallbackLatencyFrames;
@@ -69,6 +75,17 @@ Result<LatencyChoice> measure_latency(device::Camera& camera, const CaptureJobEn
            choice.frames, choice.source.c_str());
   return choice;
 }
+
+}  // namespace
+
+Status probe_and_store_latency(device::Camera& camera, const CaptureJobEnv& env,
+                               int* frames_consumed) {
+  auto choice = measure_latency(camera, env, frames_consumed);
+  if (!choice) return choice.error();
+  return {};
+}
+
+namespace {
 
 Result<LatencyChoice> latency_for(device::Camera& camera, const CaptureJobEnv& env,
                                   int* frames_consumed) {

@@ -50,6 +50,12 @@ JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const C
 JobOutcome execute_latency_probe(device::Camera& camera, const JobRecord& job,
                                  const CaptureJobEnv& env);
 
+// Probes the camera's control latency and stores it (or the spec's, when the probe is
+// inconclusive) as a capture would before its first frame; `frames_consumed` counts the
+// probe's frames, whether it succeeded or not. Errors: device errors, "cancelled".
+Status probe_and_store_latency(device::Camera& camera, const CaptureJobEnv& env,
+                               int* frames_consumed);
+
 // Whether an error code means the device itself failed (as opposed to bad input).
 bool is_device_error(ErrorCode code);
 

@@ -45,6 +45,7 @@ class Probe {
 
   Result<LatencyProbeResult> run(int repetitions);
   Status restore();
+  int frames_consumed() const { return result_.frames_consumed; }
 
  private:
   Status start();
@@ -302,7 +303,8 @@ Status Probe::restore() {
 
 Result<LatencyProbeResult> probe_control_latency(device::Camera& camera, int repetitions,
                                                  int max_latency_frames,
-                                                 const std::atomic<bool>* cancel) {
+                                                 const std::atomic<bool>* cancel,
+                                                 int* frames_consumed) {
   if (repetitions < 1 || repetitions > 20)
     return make_error("invalid_argument", "repetitions must be 1..20");
   if (max_latency_frames < 0 || max_latency_frames > 32)
@@ -310,6 +312,7 @@ Result<LatencyProbeResult> probe_control_latency(device::Camera& camera, int rep
   Probe probe(camera, max_latency_frames, cancel);
   auto result = probe.run(repetitions);
   Status restored = probe.restore();
+  if (frames_consumed) *frames_consumed = probe.frames_consumed();
   if (!result) return result;
   if (!restored) return restored.error();
   return result;

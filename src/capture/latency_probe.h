@@ -35,9 +35,11 @@ struct LatencyProbeResult {
 // Errors: "unsupported" (no exposure control), "inconclusive" (the signal does not
 // change with exposure, e.g. a dark scene, or the repetitions disagree), "cancelled" when
 // `cancel` (checked every 100 ms while waiting for a frame, and between frames) is set,
-// device errors.
+// device errors. `frames_consumed`, when given, is set to the frames the probe took from
+// the camera whether it succeeded or not (a failed probe costs frames too).
 Result<LatencyProbeResult> probe_control_latency(device::Camera& camera, int repetitions = 3,
                                                  int max_latency_frames = 8,
-                                                 const std::atomic<bool>* cancel = nullptr);
+                                                 const std::atomic<bool>* cancel = nullptr,
+                                                 int* frames_consumed = nullptr);
 
 }  // namespace camlab::capture

@@ -269,4 +269,31 @@ TEST_F(ServiceLifecycle, CaptureFilesFollowTheUmaskOrFileMode) {
   EXPECT_NE(refused.log().find("0600 .. 0666"), std::string::npos) << refused.log();
 }
 
+// The control latency is measured when a camera first opens, not inside the first capture
+// (the review: the README's first capture took 12-16 s, the probe hidden in it). Without
+// any job, the camera's latency appears in GET /v1/cameras; the first capture then probes
+// nothing, and job ids start at 1 as the README's session expects.
+TEST_F(ServiceLifecycle, ControlLatencyIsMeasuredAtStartUpNotInTheFirstCapture) {
+  Daemon daemon;
+  ASSERT_TRUE(daemon.start(dir, args)) << daemon.log();
+  json camera;
+  for (int i = 0; i < 1200; ++i) {
+    camera = daemon.get("/v1/cameras").json()["cameras"][0];
+    if (!camera["control_latency"].is_null()) break;
+    std::this_thread::sleep_for(50ms);
+  }
+  ASSERT_FALSE(camera["control_latency"].is_null()) << camera.dump(1);
+  EXPECT_FALSE(camera["measuring_latency"].get<bool>());
+  EXPECT_TRUE(daemon.get("/v1/jobs").json()["jobs"].empty());
+  auto r = daemon.post("/v1/cameras/" + url_segment(daemon.camera_id()) + "/captures",
+                       {{"kind", "single"}});
+  ASSERT_EQ(r.status, 202) << r.body;
+  EXPECT_EQ(r.json()["id"], 1);
+  const json job = daemon.wait_finished(1);
+  ASSERT_EQ(job["state"], "succeeded") << job.dump(1);
+  EXPECT_EQ(job["result"]["frames_consumed_by_probe"], 0);
+  EXPECT_EQ(job["result"]["control_latency_frames"], camera["control_latency"]["frames"]);
+  EXPECT_EQ(daemon.stop(SIGTERM), 0);
+}
+
 }  // namespace
