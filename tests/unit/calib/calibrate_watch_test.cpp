@@ -2,8 +2,12 @@
 // renders (`camlab render`, the example chessboard scene through the wide 1280x800 lens):
 // the suggestion's fields in the JSON report, and a watched folder that grows by copied
 // images (each detected once, a suggestion after each, the outputs written at the end).
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <fcntl.h>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -116,11 +120,12 @@ TEST_F(CalibrateWatch, SuggestPrintsEveryFieldOfTheNextView) {
 // a capture program should; a copy in progress would also wait for its size to settle).
 TEST_F(CalibrateWatch, WatchDetectsEachNewImageOnceAndSuggestsAfterEach) {
   const fs::path watched = dir_ / "watched";
+  ASSERT_TRUE(fs::exists(frame(kFrames - 1)));  // rendered before the watch's clock starts
   camlab::testing::CliRun run;
   std::thread cli([&] {
     run = camlab::testing::run_cli("calibrate --images " + watched.string() +
                                    " --board 14x10 --spacing-m 0.04 --watch --json --quiet"
-                                   " --watch-poll-s 0.1 --watch-timeout-s 2.5 --out " +
+                                   " --watch-poll-s 0.1 --watch-timeout-s 4 --out " +
                                    (dir_ / "cam.cameramodel").string() + " --report " +
                                    (dir_ / "report.json").string());
   });
@@ -181,6 +186,64 @@ TEST_F(CalibrateWatch, WatchEndsAtTheTarget) {
   const auto not_reached = camlab::testing::run_cli(common + " --target-uncertainty-px 0.01");
   ASSERT_EQ(not_reached.exit_code, 0) << not_reached.err;
   EXPECT_EQ(json_lines(not_reached.out).back()["reason"], "timeout") << not_reached.out;
+}
+
+// Ctrl-C ends the watch like the timeout: the outputs of the views so far are written.
+TEST_F(CalibrateWatch, InterruptEndsTheWatchAndWritesTheOutputs) {
+  const fs::path watched = dir_ / "watched";
+  for (int i = 0; i < 3; ++i) fs::copy_file(frame(i), watched / frame(i).filename());
+  const std::string out_path = (dir_ / "out.jsonl").string();
+  const std::string model_path = (dir_ / "cam.cameramodel").string();
+  const std::string images = watched.string();
+  std::vector<std::string> args = {CAMLAB_CLI_PATH,
+                                   "calibrate",
+                                   "--images",
+                                   images,
+                                   "--board",
+                                   "14x10",
+                                   "--spacing-m",
+                                   "0.04",
+                                   "--watch",
+                                   "--json",
+                                   "--quiet",
+                                   "--watch-poll-s",
+                                   "0.1",
+                                   "--watch-timeout-s",
+                                   "60",
+                                   "--out",
+                                   model_path};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, out_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC,
+                                   0644);
+  pid_t pid = 0;
+  ASSERT_EQ(posix_spawn(&pid, CAMLAB_CLI_PATH, &actions, nullptr, argv.data(), environ), 0);
+  posix_spawn_file_actions_destroy(&actions);
+  // Wait (at most 30 s) for the round that solved the three views, then interrupt.
+  bool solved = false;
+  for (int k = 0; k < 300 && !solved; ++k) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    std::ifstream in(out_path);
+    std::stringstream text;
+    text << in.rdbuf();
+    solved = text.str().find("\"views\":3") != std::string::npos;
+  }
+  EXPECT_TRUE(solved);
+  kill(pid, SIGINT);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  std::ifstream in(out_path);
+  std::stringstream text;
+  text << in.rdbuf();
+  const auto lines = json_lines(text.str());
+  ASSERT_FALSE(lines.empty());
+  EXPECT_EQ(lines.back()["reason"], "interrupted") << text.str();
+  EXPECT_TRUE(fs::exists(model_path));
 }
 
 TEST_F(CalibrateWatch, BadWatchArgumentsAreRefused) {

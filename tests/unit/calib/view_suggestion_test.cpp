@@ -153,6 +153,29 @@ TEST(ViewSuggestion, GuidedLoopNeedsAtMostHalfTheViewsOfRandomPoses) {
   EXPECT_LE(2 * guided_median, random_median);
 }
 
+// A ChArUco board is found from part of it: with whole_board_required off, a candidate
+// may reach past the imager's edge as long as half its corners stay on it.
+TEST(ViewSuggestion, PartialBoardsKeepHalfTheCornersOnTheImager) {
+  LoopSpec spec;
+  testing::ViewSetSpec draw;
+  draw.views = 10;
+  draw.noise_px = spec.noise_px;
+  draw.seed = 4;
+  CalibrationData data = testing::make_views(spec.truth, spec.board, draw);
+  auto s = testing::session_solve(data, nullptr);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  SuggestionOptions o = testing::loop_suggestion_options(spec);
+  o.whole_board_required = false;
+  auto next = suggest_next_view(data, &*s, o);
+  ASSERT_TRUE(next.ok()) << next.error().message;
+  std::printf("  %s\n", next->description.c_str());
+  std::mt19937 rng(0);
+  const BoardView v = testing::observe(spec.truth, spec.board, next->rt_cam_board, 0, 0, rng, "c");
+  // Half through the current model; the truth differs from it by the uncertainty (px).
+  EXPECT_GE(2 * v.present_count() + 4, spec.board.cols * spec.board.rows);
+  EXPECT_LT(next->predicted_worst_px, next->worst_now_px);
+}
+
 TEST(ViewSuggestion, BadInputIsRefused) {
   const LoopSpec spec;
   const SuggestionOptions ok = testing::loop_suggestion_options(spec);
