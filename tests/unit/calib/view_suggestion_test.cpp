@@ -130,11 +130,11 @@ TEST(ViewSuggestion, SuggestionsAreVisibleAndImproveAsPredicted) {
 // Views until the worst of the grid at 0.7 m falls below 0.5 px: the guided loop against
 // poses drawn as ViewSetSpec draws them (whole boards, as a chessboard detector needs;
 // 0.4-1.0 m, tilts up to 40 deg, centres over the central 90%), median over 10 seeds,
-// each run capped at 30 views to keep the test near 10 s (the benchmark caps at 60). The corner noise, 0.08 px, is
-// about what camlab's saddle detector has on the virtual camera's boards; the guided loop
-// needs 5-7 views with it, so the count is not decided by the opening alone. Random poses
-// rarely put a whole board near the imager's corners, where the worst uncertainty is:
-// they mostly end at the cap, which makes "half of random" a bound, not a ratio.
+// each run capped at 30 views to keep the test near 10 s (the benchmark caps at 60). The corner
+// noise, 0.08 px, is about what camlab's saddle detector has on the virtual camera's boards; the
+// guided loop needs 5-7 views with it, so the count is not decided by the opening alone. Random
+// poses rarely put a whole board near the imager's corners, where the worst uncertainty is: they
+// mostly end at the cap, which makes "half of random" a bound, not a ratio.
 TEST(ViewSuggestion, GuidedLoopNeedsAtMostHalfTheViewsOfRandomPoses) {
   std::vector<int> guided, random;
   for (uint32_t seed = 1; seed <= 10; ++seed) {
