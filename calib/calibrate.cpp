@@ -367,6 +367,24 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
   return run;
 }
 
+Result<std::optional<BoardView>> detect_image_view(const fs::path& image,
+                                                   const CalibrateOptions& options, int* width_px,
+                                                   int* height_px) {
+  if (Status s = check_detector(options); !s) return s.error();
+  cv::Mat m;
+  try {
+    m = cv::imread(image.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+  } catch (const cv::Exception& e) {
+    return make_error("io_error", "cannot read image '" + image.string() + "': " + e.what());
+  }
+  if (m.empty()) return make_error("io_error", "cannot read image '" + image.string() + "'");
+  *width_px = m.cols;
+  *height_px = m.rows;
+  auto view = find_view(m, options, options.board);
+  if (view) view->name = image.filename().string();
+  return view;
+}
+
 Result<nlohmann::json> calibrate_folder(const CalibrateOptions& options) {
   CalibrationRun run;
   CAMLAB_ASSIGN(run, calibrate(options));

@@ -84,6 +84,15 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options);
 Result<nlohmann::json> write_calibration_outputs(CalibrationRun* run,
                                                  const CalibrateOptions& options);
 
+// One image file's board as a view (corners in mrcal's order, named after the file), or
+// nullopt when the board is not in it; *width_px and *height_px get the image's size.
+// Errors: "io_error" (unreadable, or not yet whole), and the detector choice's
+// ("invalid_argument", "out_of_range") as calibrate(). The folder watch of the guided
+// calibration (guided_session.h) detects each new image with it.
+Result<std::optional<BoardView>> detect_image_view(const std::filesystem::path& image,
+                                                   const CalibrateOptions& options, int* width_px,
+                                                   int* height_px);
+
 // calibrate() then write_calibration_outputs(): the daemon's entry point for
 // POST /v1/calibrations. Returns the JSON report (what `--report` writes).
 Result<nlohmann::json> calibrate_folder(const CalibrateOptions& options);

@@ -5,11 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <memory>
 
 #include "calib/library_stderr.h"
-#include "calib/mrcal_problem.h"
 #include "calib/uncertainty.h"
 #include "calib/uncertainty_update.h"
 #include "calib/view_candidates.h"
@@ -17,6 +17,12 @@
 namespace camlab::calib {
 
 namespace {
+
+std::string metres(double m) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2f m", m);
+  return buf;
+}
 
 constexpr double kNan = std::numeric_limits<double>::quiet_NaN();
 
@@ -134,9 +140,8 @@ Result<ViewSuggestion> opening_view(const CalibrationData& data, const Suggestio
     c = place_towards(nominal, data.board, {0, 0}, 0, 0, o.opening_distance_m, 0, 0, wide);
   if (!c)
     return make_error("no_candidate",
-                      "the board does not fit on the imager at " +
-                          std::to_string(o.opening_distance_m) +
-                          " m even facing the camera: hold it farther away or use a smaller board");
+                      "the board does not fit on the imager at " + metres(o.opening_distance_m) +
+                          " even facing the camera: hold it farther away or use a smaller board");
   ViewSuggestion s = suggestion_from(*c, data);
   s.opening = true;
   s.description = describe(s);
@@ -235,8 +240,8 @@ Result<ViewSuggestion> suggest_next_view(const CalibrationData& data, const Solu
     }
   if (placed == 0)
     return make_error("no_candidate",
-                      "no pose keeps the board visible at " + std::to_string(now.distance_m) +
-                          " m: the board is too large for the imager at this distance");
+                      "no pose keeps the board visible at " + metres(now.distance_m) +
+                          ": the board is too large for the imager at this distance");
   if (!best)
     return make_error("singular", "no candidate view gave a projection uncertainty: " + last_error);
   ViewSuggestion out = suggestion_from(*best, data);

@@ -1,12 +1,17 @@
 // `camlab calibrate`: parses arguments, runs calib::calibrate() (calib/calibrate.h: corners
 // from images, a capture folder or corners.vnl -> staged mrcal solve or `--model auto`
 // selection -> report), writes the outputs and prints the report (text, or JSON).
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -14,7 +19,9 @@
 #include "calib/calibrate.h"
 #include "calib/corners/charuco_corners.h"
 #include "calib/corners/chessboard_detector.h"
+#include "calib/guided_session.h"
 #include "calib/report.h"
+#include "calib/view_suggestion.h"
 #include "command_errors.h"
 #include "commands.h"
 
@@ -28,7 +35,98 @@ struct CalibrateArgs {
                              write_corners, plots_dir, dictionary;
   double spacing_m = 0, pixel_um = 0, focal_guess_px = 0, marker_m = 0;
   bool json = false, quiet = false, no_board_warp = false;
+  // The guided calibration (calib/view_suggestion.h, calib/guided_session.h).
+  bool suggest = false, watch = false;
+  double target_uncertainty_px = 0, watch_timeout_s = 60, watch_poll_s = 0.5,
+         suggest_distance_m = 0;
 };
+
+std::atomic<bool> g_interrupted{false};
+
+extern "C" void on_interrupt(int) { g_interrupted = true; }
+
+std::string coverage_line(const calib::UncertaintyCoverage& c) {
+  char buf[200];
+  std::snprintf(buf, sizeof buf,
+                "worst projection uncertainty %.3f px at (%.0f, %.0f) px, at %.2f m (%dx%d grid)",
+                c.worst_of_grid_px, c.worst_x_px, c.worst_y_px, c.distance_m, c.cols, c.rows);
+  return buf;
+}
+
+// `--watch`: calibrates the folder as images arrive until the target, Ctrl-C, or
+// --watch-timeout-s without a new image; then writes the outputs as a single run does.
+void run_watch(const CalibrateArgs& a, const calib::CalibrateOptions& o,
+               const calib::SuggestionOptions& so, const CommandErrors& errors) {
+  auto session = calib::FolderSession::open(o, so);
+  if (!session) errors.fail(session.error());
+  struct sigaction action {};
+  action.sa_handler = on_interrupt;
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+  using Clock = std::chrono::steady_clock;
+  auto last_new = Clock::now();
+  std::string reason;
+  for (;;) {
+    auto poll = session->poll();
+    if (!poll) errors.fail(poll.error());
+    if (poll->new_images > 0) last_new = Clock::now();
+    for (const auto& s : poll->skipped)
+      std::fprintf(stderr, "camlab calibrate: skipped %s\n", s.c_str());
+    if (poll->new_images > 0) {
+      if (a.json) {
+        nlohmann::json j = {{"event", "round"},
+                            {"images", session->images()},
+                            {"views", session->data().views.size()},
+                            {"new_images", poll->new_images},
+                            {"new_views", poll->new_views},
+                            {"solved", poll->solved}};
+        if (!poll->solve_error.empty()) j["solve_error"] = poll->solve_error;
+        if (poll->coverage) j["coverage"] = calib::to_json(*poll->coverage);
+        if (poll->suggestion) j["suggestion"] = calib::to_json(*poll->suggestion);
+        if (!poll->suggestion_error.empty()) j["suggestion_error"] = poll->suggestion_error;
+        std::cout << j.dump() << std::endl;
+      } else {
+        std::cout << session->images() << " images, " << session->data().views.size() << " views: "
+                  << (poll->coverage ? coverage_line(*poll->coverage)
+                                     : "no solution yet (" + poll->solve_error + ")")
+                  << "\n";
+        if (poll->suggestion) std::cout << "  " << poll->suggestion->description << "\n";
+        if (!poll->suggestion_error.empty())
+          std::cout << "  no suggestion: " << poll->suggestion_error << "\n";
+        std::cout << std::flush;
+      }
+    }
+    if (a.target_uncertainty_px > 0 && poll->coverage &&
+        poll->coverage->worst_of_grid_px < a.target_uncertainty_px) {
+      reason = "target";
+      break;
+    }
+    const auto wait = std::chrono::duration<double>(a.watch_poll_s);
+    const auto until = Clock::now() + std::chrono::duration_cast<Clock::duration>(wait);
+    while (!g_interrupted && Clock::now() < until) usleep(20000);
+    if (g_interrupted) {
+      reason = "interrupted";
+      break;
+    }
+    if (std::chrono::duration<double>(Clock::now() - last_new).count() > a.watch_timeout_s) {
+      reason = "timeout";
+      break;
+    }
+  }
+  signal(SIGINT, SIG_DFL);
+  signal(SIGTERM, SIG_DFL);
+  if (!a.quiet) std::fprintf(stderr, "camlab calibrate: watch ended (%s)\n", reason.c_str());
+  auto run = session->run();
+  if (!run) errors.fail(run.error());
+  auto report = calib::write_calibration_outputs(&*run, o);
+  if (!report) errors.fail(report.error());
+  if (a.json) {
+    std::cout << nlohmann::json{{"event", "done"}, {"reason", reason}, {"report", *report}}.dump()
+              << std::endl;
+  } else {
+    std::cout << "watch ended: " << reason << "\n" << calib::to_text(run->report);
+  }
+}
 
 bool parse_wxh(const std::string& s, int* w, int* h) {
   char extra = 0;
@@ -88,6 +186,25 @@ void run_calibrate(const CalibrateArgs& a) {
                    total, boards, done == total ? "\n" : "");
     };
 
+  calib::SuggestionOptions so;
+  so.distance_m = a.suggest_distance_m;
+  // A ChArUco board is found from part of it; a chessboard only whole.
+  so.whole_board_required = a.detector != "charuco";
+  if (!(a.suggest_distance_m >= 0) || !std::isfinite(a.suggest_distance_m))
+    errors.fail("invalid_argument", "--suggest-distance-m must be >= 0 (0: the working distance)");
+  if (!(a.target_uncertainty_px >= 0) || !std::isfinite(a.target_uncertainty_px))
+    errors.fail("invalid_argument", "--target-uncertainty-px must be >= 0 px (0: no target)");
+  if (!(a.watch_timeout_s > 0 && a.watch_timeout_s <= 86400))
+    errors.fail("invalid_argument", "--watch-timeout-s must be in (0, 86400] s");
+  if (!(a.watch_poll_s >= 0.05 && a.watch_poll_s <= 60))
+    errors.fail("invalid_argument", "--watch-poll-s must be in [0.05, 60] s");
+  if (a.watch) {
+    if (a.images_dir.empty() || !a.job_dir.empty() || !a.corners_path.empty())
+      errors.fail("invalid_argument", "--watch needs --images DIR (and no other source)");
+    run_watch(a, o, so, errors);
+    return;
+  }
+
   auto run = calib::calibrate(o);
   if (!run) errors.fail(run.error());
   if (!a.quiet && run->images > 0) {
@@ -109,10 +226,34 @@ void run_calibrate(const CalibrateArgs& a) {
   }
   auto report = calib::write_calibration_outputs(&*run, o);
   if (!report) errors.fail(report.error());
-  if (a.json)
+  // --suggest: the current worst uncertainty and where to put the board next. The
+  // calibration stands without it: an error here is reported, not fatal.
+  std::optional<calib::UncertaintyCoverage> coverage;
+  std::optional<calib::ViewSuggestion> suggestion;
+  std::optional<Error> suggest_error;
+  if (a.suggest) {
+    const calib::Solution& solution = run->report.solution;
+    auto c = calib::uncertainty_coverage(solution, so);
+    auto next = calib::suggest_next_view(run->data, &solution, so);
+    if (c) coverage = *c;
+    if (next)
+      suggestion = *next;
+    else
+      suggest_error = next.error();
+  }
+  if (a.json) {
+    if (coverage) (*report)["coverage"] = calib::to_json(*coverage);
+    if (suggestion) (*report)["suggestion"] = calib::to_json(*suggestion);
+    if (suggest_error)
+      (*report)["suggestion"] = {
+          {"error", {{"code", name_of(suggest_error->code)}, {"message", suggest_error->message}}}};
     std::cout << report->dump(2) << "\n";
-  else
+  } else {
     std::cout << calib::to_text(run->report);
+    if (coverage) std::cout << "Guided calibration: " << coverage_line(*coverage) << "\n";
+    if (suggestion) std::cout << suggestion->description << "\n";
+    if (suggest_error) std::cout << "No suggestion: " << suggest_error->text() << "\n";
+  }
 }
 
 }  // namespace
@@ -158,6 +299,26 @@ void register_calibrate_command(CLI::App& app) {
       "Write PNG plots here: residuals, residual histogram, coverage, uncertainty, distortion");
   cmd->add_flag("--no-board-warp", args->no_board_warp,
                 "Skip the board-warp stage (for a board known to be flat to a few um)");
+  cmd->add_flag("--suggest", args->suggest,
+                "After the calibration, print the worst projection uncertainty over the imager "
+                "and the next view that most reduces it (with --json: \"coverage\" and "
+                "\"suggestion\" objects)");
+  cmd->add_option("--suggest-distance-m", args->suggest_distance_m,
+                  "Distance (m) at which the uncertainty is taken and the board suggested; "
+                  "default 0: the working distance (median distance of the boards)");
+  cmd->add_flag("--watch", args->watch,
+                "Keep calibrating the --images folder as new images arrive: detect only the "
+                "new ones, re-solve warm-started, print the next suggestion each time (with "
+                "--json one JSON object per line); ends at --target-uncertainty-px, on Ctrl-C, or "
+                "after --watch-timeout-s without a new image, then writes the outputs. --model "
+                "auto solves LENSMODEL_OPENCV8");
+  cmd->add_option("--target-uncertainty-px", args->target_uncertainty_px,
+                  "--watch: stop once the worst projection uncertainty is below this (px); "
+                  "default 0: no target");
+  cmd->add_option("--watch-timeout-s", args->watch_timeout_s,
+                  "--watch: stop after this long without a new image (s, default 60)");
+  cmd->add_option("--watch-poll-s", args->watch_poll_s,
+                  "--watch: how often the folder is listed (s, default 0.5)");
   cmd->add_flag("--json", args->json, "Print the report as JSON");
   cmd->add_flag("--quiet", args->quiet, "No progress output");
   cmd->callback([args] { run_calibrate(*args); });
