@@ -134,8 +134,6 @@ std::optional<BoardView> detect_board_view(const cv::Mat& image, const Calibrate
   return v;
 }
 
-Status check_board_detector(const CalibrateOptions& options) { return check_detector(options); }
-
 namespace {
 
 // Reads each image and detects the board in it on up to options.detect_threads threads
@@ -380,7 +378,7 @@ Result<std::optional<BoardView>> detect_image_view(const fs::path& image,
   if (m.empty()) return make_error("io_error", "cannot read image '" + image.string() + "'");
   *width_px = m.cols;
   *height_px = m.rows;
-  auto view = find_view(m, options, options.board);
+  auto view = detect_board_view(m, options);
   if (view) view->name = image.filename().string();
   return view;
 }

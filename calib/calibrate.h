@@ -59,11 +59,8 @@ struct CalibrationRun {
   std::optional<std::string> opencv_yaml_text;  // when the model has an OpenCV equivalent
 };
 
-// The detector and board of `options` (detector, board, ChArUco marker and dictionary),
-// checked before any image is read. Errors "invalid_argument", "out_of_range".
-Status check_board_detector(const CalibrateOptions& options);
-
-// One image's board as a view with options.detector (checked by check_board_detector):
+// One image's board as a view with options.detector (checked by the caller, as the
+// request validation of calibration_request.h does):
 // row-major corners in mrcal's order, a ChArUco board's by id with those not found
 // missing; nothing when no board is found. For callers that take images one at a time
 // (the daemon's calibration sessions).
