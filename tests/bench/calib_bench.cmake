@@ -16,3 +16,11 @@ target_link_libraries(calib_detect_bench PRIVATE camlab_calib nlohmann_json::nlo
 # ChArUco corners against the virtual camera's truth, stage by stage.
 add_executable(charuco_detect_bench ${CMAKE_CURRENT_LIST_DIR}/charuco_detect_bench.cpp)
 target_link_libraries(charuco_detect_bench PRIVATE camlab_calib mrcal::mrcal nlohmann_json::nlohmann_json)
+
+# Partial chessboard views with OpenCV 4.6's circle markers, against the virtual camera's
+# truth: OpenCV's own marker detection, its grid named by camlab's marker reading, and
+# camlab's detector (docs/calibration.md).
+add_executable(marker_chessboard_bench ${CMAKE_CURRENT_LIST_DIR}/marker_chessboard_bench.cpp)
+target_link_libraries(marker_chessboard_bench PRIVATE camlab_calib camlab_mock_device
+                      nlohmann_json::nlohmann_json)
+target_compile_definitions(marker_chessboard_bench PRIVATE CAMLAB_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
