@@ -20,8 +20,15 @@
 //    whose id falls outside the board is dropped (a junction of the background). Each
 //    corner is refined as a saddle point (calib/corners/saddle_point.h) in a window of 0.4
 //    x the distance to its nearest lattice neighbour (a marker disc's edge is 0.54 squares
-//    from the nearest corner), at most 12 px and inside the image; a corner whose
-//    refinement fails or moves more than half the window is dropped.
+//    from the nearest corner), at most 12 px and inside the image; a corner whose window
+//    the image's border halves, or whose refinement fails or moves more than half the
+//    window, is dropped.
+// 4. The named corners are checked against each other by id: each must lie where its named
+//    neighbours along the board's rows and columns put it (their midpoint, or a straight
+//    step) within 0.2 of a step; the worst offender is dropped until none is left, and so
+//    is a corner no neighbour predicts. A lattice that skipped a column at the imager's
+//    edge (where distortion squeezes the squares) names the corners beyond it one over;
+//    this check drops them (marker_chessboard_bench: view 14 of the example set).
 //
 // Reentrant.
 #pragma once
@@ -54,6 +61,7 @@ struct MarkerChessboardCorners {
   int grid_corners = 0;                 // corners the grid held
   int off_board = 0;                    // of those, with an id outside the board
   int dropped = 0;                      // of those, not refined
+  int inconsistent = 0;                 // refined, then dropped by the id check (step 4)
 };
 
 // Names the corners of a grid by the markers it holds: grid corner k at lattice cell

@@ -24,3 +24,11 @@ add_executable(marker_chessboard_bench ${CMAKE_CURRENT_LIST_DIR}/marker_chessboa
 target_link_libraries(marker_chessboard_bench PRIVATE camlab_calib camlab_mock_device
                       nlohmann_json::nlohmann_json)
 target_compile_definitions(marker_chessboard_bench PRIVATE CAMLAB_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+
+# Partial views at the imager's edges against their whole-board twins, rendered, for a
+# ChArUco board and a marker chessboard: border coverage and the error at the corners.
+add_executable(partial_views_bench ${CMAKE_CURRENT_LIST_DIR}/partial_views_bench.cpp)
+target_link_libraries(partial_views_bench PRIVATE camlab_calib camlab_mock_device mrcal::mrcal
+                      nlohmann_json::nlohmann_json)
+target_include_directories(partial_views_bench PRIVATE ${PROJECT_SOURCE_DIR}/tests/unit/calib)
+target_compile_definitions(partial_views_bench PRIVATE CAMLAB_SOURCE_DIR="${PROJECT_SOURCE_DIR}")

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -103,6 +104,11 @@ struct BorderPlan {
   double max_tilt_deg = 35;
   double noise_px = 0.2;
   uint32_t seed = 7;
+  // The board point aimed at the plan's image points (board frame, m; default: the board's
+  // centre) and how far inside the border those points lie (px). A board with markers
+  // aims its marker square a little inside, so the markers stay in view.
+  std::optional<std::array<double, 2>> aim_board_m;
+  double inset_px = 0;
 };
 
 // The poses of a border plan: board centres aimed along the border, then inside.
@@ -118,14 +124,17 @@ inline std::vector<std::array<double, 6>> border_plan_poses(const LensModel& tru
     if (k < plan.border_views) {
       // A point at perimeter fraction s, walking the border clockwise from the top-left.
       const double s = (k + 0.5) / plan.border_views * 2 * (w + h);
+      const double in = plan.inset_px;
       if (s < w)
-        x = s, y = 0;
+        x = s, y = in;
       else if (s < w + h)
-        x = w, y = s - w;
+        x = w - in, y = s - w;
       else if (s < 2 * w + h)
-        x = 2 * w + h - s, y = h;
+        x = 2 * w + h - s, y = h - in;
       else
-        x = 0, y = 2 * (w + h) - s;
+        x = in, y = 2 * (w + h) - s;
+      x = std::clamp(x, in, w - in);
+      y = std::clamp(y, in, h - in);
     } else {
       x = (0.2 + 0.6 * u01(rng)) * w;
       y = (0.2 + 0.6 * u01(rng)) * h;
@@ -137,7 +146,17 @@ inline std::vector<std::array<double, 6>> border_plan_poses(const LensModel& tru
     const cv::Vec3d centre = cv::Vec3d((*dir)[0], (*dir)[1], (*dir)[2]) * dist;
     const double tilt = plan.max_tilt_deg * u01(rng) * M_PI / 180, az = 2 * M_PI * u01(rng);
     const double roll = (u01(rng) - 0.5) * 40 * M_PI / 180;
-    poses.push_back(pose_facing(centre, tilt * std::cos(az), tilt * std::sin(az), roll, b));
+    auto rt = pose_facing(centre, tilt * std::cos(az), tilt * std::sin(az), roll, b);
+    if (plan.aim_board_m) {
+      // Slide the board in its plane so the aimed point, not its centre, is at `centre`.
+      cv::Matx33d R;
+      cv::Rodrigues(cv::Vec3d(rt[0], rt[1], rt[2]), R);
+      const cv::Vec3d half(0.5 * (b.cols - 1) * b.spacing_m, 0.5 * (b.rows - 1) * b.spacing_m, 0);
+      const cv::Vec3d aim((*plan.aim_board_m)[0], (*plan.aim_board_m)[1], 0);
+      const cv::Vec3d t = cv::Vec3d(rt[3], rt[4], rt[5]) + R * (half - aim);
+      rt = {rt[0], rt[1], rt[2], t[0], t[1], t[2]};
+    }
+    poses.push_back(rt);
   }
   return poses;
 }
