@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "calib/corners/image_8bit.h"
 #include "calib/corners/saddle_corners.h"
 #include "calib/corners/saddle_point.h"
 
@@ -266,11 +268,34 @@ Result<MarkerChessboardCorners> find_marker_chessboard(const cv::Mat& image, int
     return make_error("invalid_argument",
                       "a chessboard with markers needs at least 3 x 3 inner corners; got " +
                           std::to_string(cols) + "x" + std::to_string(rows));
-  SaddleLattice lattice;
   // The lattice may start anywhere on the board: it spans the board from any seed.
-  CAMLAB_ASSIGN(lattice, find_saddle_lattice(image, std::max(cols, rows) + 1, 9));
-  std::vector<cv::Point2i> ij = lattice.ij;
-  return name_by_markers(image, ij, lattice.corners_px, cols, rows);
+  auto lattice = find_saddle_lattice(image, std::max(cols, rows) + 1, 9);
+  Result<MarkerChessboardCorners> named =
+      lattice ? name_by_markers(image, lattice->ij, lattice->corners_px, cols, rows)
+              : Result<MarkerChessboardCorners>(lattice.error());
+  if (named) return named;
+  // Second chance: OpenCV's grid around its own markers.
+  if (image.depth() != CV_8U && image.depth() != CV_16U) return named;
+  cv::Mat grid, meta;
+  try {
+    if (!cv::findChessboardCornersSB(stretch_to_8bit(image), cv::Size(4, 4), grid,
+                                     cv::CALIB_CB_LARGER | cv::CALIB_CB_MARKER, meta))
+      return named;
+  } catch (const cv::Exception&) {
+    return named;
+  }
+  if (meta.rows * meta.cols != static_cast<int>(grid.total())) return named;
+  grid = grid.reshape(2, meta.rows * meta.cols);
+  std::vector<cv::Point2i> ij;
+  std::vector<cv::Point2d> px;
+  for (int k = 0; k < meta.rows * meta.cols; ++k) {
+    const cv::Point2f p = grid.at<cv::Point2f>(k);
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+    ij.emplace_back(k % meta.cols, k / meta.cols);
+    px.emplace_back(p);
+  }
+  auto second = name_by_markers(image, ij, px, cols, rows);
+  return second ? second : named;
 }
 
 }  // namespace camlab::calib

@@ -4,11 +4,13 @@
 // board's origin, so a board cut off by the frame still names its corners.
 //
 // 1. The grid: the saddle detector's lattice of X-junctions (find_saddle_lattice,
-//    calib/corners/saddle_corners.h), whole board or not. Not OpenCV 4.6's
-//    findChessboardCornersSB: with CALIB_CB_MARKER it found 2 of the example set's 14 cut
-//    boards, and with CALIB_CB_LARGER alone its grids stop short of the markers and take
-//    the board's outer L-corners (against the quiet zone) as inner corners
-//    (tests/bench/marker_chessboard_bench.cpp).
+//    calib/corners/saddle_corners.h), whole board or not, 7-14 ms an image. Where its
+//    grid is not named (steps 2-4), OpenCV 4.6's findChessboardCornersSB with
+//    CALIB_CB_LARGER | CALIB_CB_MARKER is a second chance (about 0.2 s an image): its grid
+//    (not its naming: the grid comes back transposed or flipped from view to view) goes
+//    through the same steps. Not CALIB_CB_LARGER alone: its grids stop short of the
+//    markers and take the board's outer L-corners (against the quiet zone) for inner
+//    corners (tests/bench/marker_chessboard_bench.cpp).
 // 2. The markers: each grid cell's centre (where its diagonals cross) is compared with its
 //    body (four points halfway to its corners, outside the disc of 0.17 squares); a cell
 //    whose centre is the other colour holds a marker. The one light marker cell with a
@@ -73,7 +75,8 @@ Result<MarkerChessboardCorners> name_by_markers(const cv::Mat& image,
                                                 int rows);
 
 // The board of cols x rows inner corners (each >= 3) in `image`: the saddle lattice named
-// by its markers. Errors: "invalid_argument", "bad_image", "board_not_found".
+// by its markers, else OpenCV's marker grid named the same way. Errors:
+// "invalid_argument", "bad_image", "board_not_found" (the lattice's reason).
 Result<MarkerChessboardCorners> find_marker_chessboard(const cv::Mat& image, int cols, int rows);
 
 }  // namespace camlab::calib

@@ -2,7 +2,8 @@
 // with markers"): renders the marker chessboard example set
 // (mock_device/examples/scene_marker_chessboard_calibration.json) in process and, per
 // view, runs (a) OpenCV 4.6's findChessboardCornersSB with CALIB_CB_LARGER |
-// CALIB_CB_MARKER (found or not); (b) its grid with CALIB_CB_LARGER alone, named by
+// CALIB_CB_MARKER (found or not, and whether its grid, named by camlab's marker reading,
+// is right); (b) its grid with CALIB_CB_LARGER alone, named by
 // camlab's marker reading (name_by_markers, calib/corners/marker_chessboard_corners.h);
 // (c) camlab's detector, find_marker_chessboard (the saddle lattice named by the same
 // marker reading). (b) and (c) are checked against the renderer's truth: a view is
@@ -68,7 +69,7 @@ int main(int argc, char** argv) {
   int n[2] = {0, 0}, a_found[2] = {0, 0}, found[2][2] = {{0, 0}, {0, 0}},
       right[2][2] = {{0, 0}, {0, 0}}, corners[2][2] = {{0, 0}, {0, 0}};
   double seconds[2] = {0, 0};
-  int markers_seen[2] = {0, 0};
+  int markers_seen[2] = {0, 0}, a_right[2] = {0, 0};
   std::printf(
       "view  board  (a) LARGER|MARKER  (b) LARGER grid + camlab's markers      "
       "(c) saddle lattice + markers\n");
@@ -100,6 +101,19 @@ int main(int argc, char** argv) {
     const bool a_ok = cv::findChessboardCornersSB(view8, cv::Size(4, 4), grid,
                                                   cv::CALIB_CB_LARGER | cv::CALIB_CB_MARKER, meta);
     a_found[cut] += a_ok;
+    // Its grid's ids: OpenCV's meta array marks the origin but its grid comes back
+    // transposed or flipped from view to view, so the grid is named as (b) names its own.
+    if (a_ok) {
+      grid = grid.reshape(2, meta.rows * meta.cols);
+      std::vector<cv::Point2i> ij;
+      std::vector<cv::Point2d> px;
+      for (int k = 0; k < meta.rows * meta.cols; ++k) {
+        ij.emplace_back(k % meta.cols, k / meta.cols);
+        px.emplace_back(grid.at<cv::Point2f>(k));
+      }
+      auto named = calib::name_by_markers(frame->image, ij, px, cols, rows);
+      a_right[cut] += named.ok() && worst_error(*named, target["corners_projected_px"]) < 0.5;
+    }
     std::string text[2];
     for (int method = 0; method < 2; ++method) {
       const auto t0 = std::chrono::steady_clock::now();
@@ -143,10 +157,11 @@ int main(int argc, char** argv) {
   }
   for (int cut = 0; cut < 2; ++cut)
     std::printf(
-        "%s boards: %d (%d with the marker squares on the imager); (a) finds %d; (b) %d, %d with "
+        "%s boards: %d (%d with the marker squares on the imager); (a) finds %d, %d named right; "
+        "(b) %d, %d with "
         "every id right (%d corners); "
         "(c) %d, %d with every id right (%d corners)\n",
-        cut ? "cut" : "whole", n[cut], markers_seen[cut], a_found[cut], found[0][cut],
+        cut ? "cut" : "whole", n[cut], markers_seen[cut], a_found[cut], a_right[cut], found[0][cut],
         right[0][cut], corners[0][cut], found[1][cut], right[1][cut], corners[1][cut]);
   std::printf("time per image: (b) %.0f ms, (c) %.0f ms\n", 1e3 * seconds[0] / (n[0] + n[1]),
               1e3 * seconds[1] / (n[0] + n[1]));
