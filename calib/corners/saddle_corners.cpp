@@ -419,6 +419,24 @@ double min_spacing_px(const std::vector<cv::Point2f>& g, int cols, int rows) {
   return spacing;
 }
 
+// The pyramid of an 8-bit image, full resolution first, down to the deepest level whose
+// short side keeps kMinCoarseSidePx (at most kMaxLevel). Level L is a 2^L box average: its
+// pixel x covers full-resolution pixels 2^L x .. 2^L x + 2^L - 1, whose centre is
+// 2^L (x + 0.5) - 0.5.
+std::vector<cv::Mat> pyramid(const cv::Mat& gray8) {
+  int top = 0;
+  while (top < kMaxLevel && (std::min(gray8.cols, gray8.rows) >> (top + 1)) >= kMinCoarseSidePx)
+    ++top;
+  std::vector<cv::Mat> levels = {gray8};
+  for (int l = 1; l <= top; ++l) {
+    cv::Mat next;
+    cv::resize(levels.back(), next, cv::Size(levels.back().cols / 2, levels.back().rows / 2), 0, 0,
+               cv::INTER_AREA);
+    levels.push_back(next);
+  }
+  return levels;
+}
+
 // One pyramid level: the coarse grid (coarse-level px) or empty.
 std::vector<cv::Point2f> find_at_level(const cv::Mat& level8, int cols, int rows) {
   const Response r = saddle_response(level8);
@@ -519,18 +537,8 @@ Result<ChessboardCorners> find_chessboard_corners_saddle(const cv::Mat& image, i
   if (cols < 2 || rows < 2)
     return make_error("invalid_argument", "a chessboard needs at least 2 x 2 inner corners");
   const cv::Mat gray8 = stretch_to_8bit(image);
-  int top = 0;
-  while (top < kMaxLevel && (std::min(image.cols, image.rows) >> (top + 1)) >= kMinCoarseSidePx)
-    ++top;
-  // Level L is a 2^L box average: its pixel x covers full-resolution pixels
-  // 2^L x .. 2^L x + 2^L - 1, whose centre is 2^L (x + 0.5) - 0.5.
-  std::vector<cv::Mat> levels = {gray8};
-  for (int l = 1; l <= top; ++l) {
-    cv::Mat next;
-    cv::resize(levels.back(), next, cv::Size(levels.back().cols / 2, levels.back().rows / 2), 0, 0,
-               cv::INTER_AREA);
-    levels.push_back(next);
-  }
+  const std::vector<cv::Mat> levels = pyramid(gray8);
+  const int top = static_cast<int>(levels.size()) - 1;
   for (int l = top; l >= 0; --l) {
     std::vector<cv::Point2f> corners = find_at_level(levels[l], cols, rows);
     if (corners.empty()) continue;
@@ -567,17 +575,8 @@ Result<SaddleLattice> find_saddle_lattice(const cv::Mat& image, int max_span, in
                       "chessboard detection needs a single-channel 8- or 16-bit image");
   if (max_span < 2 || min_corners < 4)
     return make_error("invalid_argument", "a lattice needs a span of 2 and 4 corners or more");
-  const cv::Mat gray8 = stretch_to_8bit(image);
-  int top = 0;
-  while (top < kMaxLevel && (std::min(image.cols, image.rows) >> (top + 1)) >= kMinCoarseSidePx)
-    ++top;
-  std::vector<cv::Mat> levels = {gray8};
-  for (int l = 1; l <= top; ++l) {
-    cv::Mat next;
-    cv::resize(levels.back(), next, cv::Size(levels.back().cols / 2, levels.back().rows / 2), 0, 0,
-               cv::INTER_AREA);
-    levels.push_back(next);
-  }
+  const std::vector<cv::Mat> levels = pyramid(stretch_to_8bit(image));
+  const int top = static_cast<int>(levels.size()) - 1;
   for (int l = top; l >= 0; --l) {
     const Response r = saddle_response(levels[l]);
     const int n = (max_span - 1) * (max_span - 1);
