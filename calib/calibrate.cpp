@@ -17,6 +17,7 @@
 #include "calib/corners/charuco_corners.h"
 #include "calib/corners/chessboard_detector.h"
 #include "calib/corners/corners_vnl.h"
+#include "calib/corners/marker_chessboard_corners.h"
 #include "calib/lens_model.h"
 #include "calib/library_stderr.h"
 #include "calib/model_io.h"
@@ -123,6 +124,17 @@ std::optional<BoardView> detect_board_view(const cv::Mat& image, const Calibrate
       v.corners[static_cast<size_t>(c->ids[k])] = {c->corners_px[k].x, c->corners_px[k].y, 1.0,
                                                    true};
     v.detector = "charuco";
+    return v;
+  }
+  if (options.detector == "markers") {
+    auto c = find_marker_chessboard(image, board.cols, board.rows);
+    if (!c) return std::nullopt;
+    // By id, as for ChArUco: the markers name the corners; those not found stay missing.
+    v.corners.assign(static_cast<size_t>(board.cols * board.rows), CornerObservation{});
+    for (size_t k = 0; k < c->ids.size(); ++k)
+      v.corners[static_cast<size_t>(c->ids[k])] = {c->corners_px[k].x, c->corners_px[k].y, 1.0,
+                                                   true};
+    v.detector = "markers";
     return v;
   }
   auto c = find_chessboard(image, board.cols, board.rows, options.detector);
@@ -335,17 +347,22 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
     // the images the saddle detector missed.
     nlohmann::json views_by_detector =
         is_charuco(options) ? nlohmann::json{{"charuco", 0}}
-                            : nlohmann::json{{"saddle", 0}, {"mrgingham", 0}, {"opencv", 0}};
+        : options.detector == "markers"
+            ? nlohmann::json{{"markers", 0}}
+            : nlohmann::json{{"saddle", 0}, {"mrgingham", 0}, {"opencv", 0}};
     for (const auto& v : data.views)
       views_by_detector[v.detector] = views_by_detector.value(v.detector, 0) + 1;
     run.report_json["detector"] = {{"requested", options.detector}, {"views", views_by_detector}};
+    // Partial views are the point of a ChArUco or marker board: how many, and the
+    // corners found.
+    int corners = 0, partial = 0;
+    for (const auto& v : data.views) {
+      corners += v.present_count();
+      partial += v.present_count() < static_cast<int>(v.corners.size()) ? 1 : 0;
+    }
+    if (options.detector == "markers")
+      run.report_json["detector"]["markers"] = {{"corners", corners}, {"partial_views", partial}};
     if (is_charuco(options)) {
-      // Partial views are the point of a ChArUco board: how many, and the corners found.
-      int corners = 0, partial = 0;
-      for (const auto& v : data.views) {
-        corners += v.present_count();
-        partial += v.present_count() < static_cast<int>(v.corners.size()) ? 1 : 0;
-      }
       run.report_json["detector"]["charuco"] = {
           {"squares", {data.board.cols + 1, data.board.rows + 1}},
           {"square_m", data.board.spacing_m},

@@ -39,6 +39,8 @@ struct CalibrateOptions {
   // for a ChArUco board (calib/corners/charuco_corners.h): its squares are board.cols + 1
   // by board.rows + 1 of board.spacing_m, and these two describe its markers. A view of a
   // ChArUco board keeps the corners found, the others missing (a board cut by the frame).
+  // markers: a chessboard with OpenCV's three circle markers
+  // (calib/corners/marker_chessboard_corners.h), whose views keep their corners the same way.
   std::string detector = "auto";
   double charuco_marker_m = 0;     // a marker's side, its black border included
   std::string charuco_dictionary;  // cv::aruco's name, e.g. DICT_4X4_50

@@ -211,7 +211,14 @@ void run_calibrate(const CalibrateArgs& a) {
     const nlohmann::json by = run->report_json.value("detector", nlohmann::json::object())
                                   .value("views", nlohmann::json::object());
     const nlohmann::json charuco = run->report_json["detector"].value("charuco", nlohmann::json());
-    if (!charuco.is_null())
+    const nlohmann::json markers = run->report_json["detector"].value("markers", nlohmann::json());
+    if (!markers.is_null())
+      std::fprintf(stderr,
+                   "camlab calibrate: found the marker chessboard in %zu of %d images (%d "
+                   "corners; %d partial views)\n",
+                   run->data.views.size(), run->images, markers.value("corners", 0),
+                   markers.value("partial_views", 0));
+    else if (!charuco.is_null())
       std::fprintf(stderr,
                    "camlab calibrate: found ChArUco corners in %zu of %d images (%d corners; %d "
                    "partial views)\n",
@@ -275,7 +282,11 @@ void register_calibrate_command(CLI::App& app) {
       "a grid grown from them, cornerSubPix at full resolution (any board, a few ms an "
       "image); auto: saddle, then mrgingham (mrcal's detector, N x N boards only) on a square "
       "board's image where saddle finds none; opencv: findChessboardCornersSB + cornerSubPix "
-      "(any board, 0.7-0.9 s an image); charuco: OpenCV's ArUco markers name the corners, "
+      "(any board, 0.7-0.9 s an image); markers: a chessboard with OpenCV's three circle "
+      "markers near its middle (findChessboardCornersSB's CALIB_CB_MARKER layout): the "
+      "saddle grid, whole or cut by the frame, named by the markers, partial boards kept "
+      "(a view must show the three marker squares); charuco: OpenCV's ArUco markers name the "
+      "corners, "
       "each refined as the image's saddle point, partial boards kept (needs --marker-m and "
       "--dictionary; --board counts inner corners, squares - 1, and --spacing-m is the "
       "square)");

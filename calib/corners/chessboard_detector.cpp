@@ -6,10 +6,16 @@
 namespace camlab::calib {
 
 Status check_chessboard_detector(const std::string& detector, int cols, int rows) {
-  if (detector != "auto" && detector != "saddle" && detector != "opencv" && detector != "mrgingham")
+  if (detector != "auto" && detector != "saddle" && detector != "opencv" &&
+      detector != "mrgingham" && detector != "markers")
     return make_error("invalid_argument", "unknown chessboard detector '" + detector +
-                                              "': use auto, saddle, opencv or mrgingham (or "
-                                              "charuco for a ChArUco board)");
+                                              "': use auto, saddle, opencv or mrgingham, markers "
+                                              "for a chessboard with OpenCV's three circle "
+                                              "markers (or charuco for a ChArUco board)");
+  if (detector == "markers" && (cols < 3 || rows < 3))
+    return make_error("invalid_argument",
+                      "the markers detector needs a board of at least 3x3 inner corners, not " +
+                          std::to_string(cols) + "x" + std::to_string(rows));
   if (detector == "mrgingham" && cols != rows)
     return make_error("invalid_argument",
                       "the mrgingham detector needs a square board (mrgingham 1.22 finds N x N "

@@ -181,10 +181,11 @@ class GridBuilder {
   GridBuilder(std::vector<Candidate>* candidates, const cv::Mat& blurred, int cols, int rows)
       : cand_(*candidates), blurred_(blurred), cols_(cols), rows_(rows) {}
 
-  // The cols x rows grid (row-major, j * nx + i; nx, ny as found) grown from seed, or empty.
-  bool grow(int seed, std::vector<cv::Point2f>* grid, int* nx, int* ny) {
-    const int span = std::max(cols_, rows_) + 1;
-    Lattice lattice(span);
+  // The lattice grown from seed (cells within `span` of it): false when the seed starts
+  // no 2 x 2 block. *count cells are filled, within [imin, imax] x [jmin, jmax].
+  bool grow_lattice(int seed, int span, Lattice* lattice_out, int* count_out, int* imin_out,
+                    int* imax_out, int* jmin_out, int* jmax_out) {
+    Lattice& lattice = *lattice_out;
     used_.assign(cand_.size(), 0);
     // A 2 x 2 block from the seed: its nearest X-junction neighbour, the nearest one more
     // than 30 deg off that line, and the corner that closes the parallelogram.
@@ -264,6 +265,17 @@ class GridBuilder {
           changed = true;
         }
     }
+    *count_out = count;
+    *imin_out = imin, *imax_out = imax, *jmin_out = jmin, *jmax_out = jmax;
+    return true;
+  }
+
+  // The cols x rows grid (row-major, j * nx + i; nx, ny as found) grown from seed, or empty.
+  bool grow(int seed, std::vector<cv::Point2f>* grid, int* nx, int* ny) {
+    const int span = std::max(cols_, rows_) + 1;
+    Lattice lattice(span);
+    int count = 0, imin = 0, imax = 0, jmin = 0, jmax = 0;
+    if (!grow_lattice(seed, span, &lattice, &count, &imin, &imax, &jmin, &jmax)) return false;
     if (count < cols_ * rows_) return false;
     // The board is the one complete cols x rows (or rows x cols) window of the lattice: a
     // few stray junctions past the board's edge (its frame, the background) may join the
@@ -407,6 +419,24 @@ double min_spacing_px(const std::vector<cv::Point2f>& g, int cols, int rows) {
   return spacing;
 }
 
+// The pyramid of an 8-bit image, full resolution first, down to the deepest level whose
+// short side keeps kMinCoarseSidePx (at most kMaxLevel). Level L is a 2^L box average: its
+// pixel x covers full-resolution pixels 2^L x .. 2^L x + 2^L - 1, whose centre is
+// 2^L (x + 0.5) - 0.5.
+std::vector<cv::Mat> pyramid(const cv::Mat& gray8) {
+  int top = 0;
+  while (top < kMaxLevel && (std::min(gray8.cols, gray8.rows) >> (top + 1)) >= kMinCoarseSidePx)
+    ++top;
+  std::vector<cv::Mat> levels = {gray8};
+  for (int l = 1; l <= top; ++l) {
+    cv::Mat next;
+    cv::resize(levels.back(), next, cv::Size(levels.back().cols / 2, levels.back().rows / 2), 0, 0,
+               cv::INTER_AREA);
+    levels.push_back(next);
+  }
+  return levels;
+}
+
 // One pyramid level: the coarse grid (coarse-level px) or empty.
 std::vector<cv::Point2f> find_at_level(const cv::Mat& level8, int cols, int rows) {
   const Response r = saddle_response(level8);
@@ -507,18 +537,8 @@ Result<ChessboardCorners> find_chessboard_corners_saddle(const cv::Mat& image, i
   if (cols < 2 || rows < 2)
     return make_error("invalid_argument", "a chessboard needs at least 2 x 2 inner corners");
   const cv::Mat gray8 = stretch_to_8bit(image);
-  int top = 0;
-  while (top < kMaxLevel && (std::min(image.cols, image.rows) >> (top + 1)) >= kMinCoarseSidePx)
-    ++top;
-  // Level L is a 2^L box average: its pixel x covers full-resolution pixels
-  // 2^L x .. 2^L x + 2^L - 1, whose centre is 2^L (x + 0.5) - 0.5.
-  std::vector<cv::Mat> levels = {gray8};
-  for (int l = 1; l <= top; ++l) {
-    cv::Mat next;
-    cv::resize(levels.back(), next, cv::Size(levels.back().cols / 2, levels.back().rows / 2), 0, 0,
-               cv::INTER_AREA);
-    levels.push_back(next);
-  }
+  const std::vector<cv::Mat> levels = pyramid(gray8);
+  const int top = static_cast<int>(levels.size()) - 1;
   for (int l = top; l >= 0; --l) {
     std::vector<cv::Point2f> corners = find_at_level(levels[l], cols, rows);
     if (corners.empty()) continue;
@@ -547,6 +567,52 @@ Result<ChessboardCorners> find_chessboard_corners_saddle(const cv::Mat& image, i
   return make_error("board_not_found", "no complete " + std::to_string(cols) + "x" +
                                            std::to_string(rows) +
                                            " inner-corner chessboard found in the image");
+}
+
+Result<SaddleLattice> find_saddle_lattice(const cv::Mat& image, int max_span, int min_corners) {
+  if (image.empty() || image.channels() != 1 || (image.depth() != CV_8U && image.depth() != CV_16U))
+    return make_error("bad_image",
+                      "chessboard detection needs a single-channel 8- or 16-bit image");
+  if (max_span < 2 || min_corners < 4)
+    return make_error("invalid_argument", "a lattice needs a span of 2 and 4 corners or more");
+  const std::vector<cv::Mat> levels = pyramid(stretch_to_8bit(image));
+  const int top = static_cast<int>(levels.size()) - 1;
+  for (int l = top; l >= 0; --l) {
+    const Response r = saddle_response(levels[l]);
+    const int n = (max_span - 1) * (max_span - 1);
+    std::vector<Candidate> candidates = find_candidates(r.saddle, n, 4 * n + 200);
+    if (static_cast<int>(candidates.size()) < min_corners) continue;
+    GridBuilder builder(&candidates, r.blurred, max_span, max_span);
+    Lattice lattice(max_span), best(max_span);
+    int best_count = 0;
+    const int seeds = std::min<int>(12, candidates.size());
+    for (int s = 0; s < seeds; ++s) {
+      int count = 0, imin, imax, jmin, jmax;
+      lattice = Lattice(max_span);
+      if (!builder.grow_lattice(s, max_span, &lattice, &count, &imin, &imax, &jmin, &jmax))
+        continue;
+      if (count > best_count) {
+        best_count = count;
+        best = lattice;
+      }
+    }
+    if (best_count < min_corners) continue;
+    SaddleLattice out;
+    out.level = l;
+    const float scale = static_cast<float>(1 << l);
+    for (int j = -max_span; j <= max_span; ++j)
+      for (int i = -max_span; i <= max_span; ++i) {
+        const int k = best.get(i, j);
+        if (k < 0) continue;
+        const cv::Point2f p =
+            (candidates[k].p + cv::Point2f(0.5f, 0.5f)) * scale - cv::Point2f(0.5f, 0.5f);
+        out.ij.emplace_back(i, j);
+        out.corners_px.emplace_back(p.x, p.y);
+      }
+    return out;
+  }
+  return make_error("board_not_found", "no lattice of " + std::to_string(min_corners) +
+                                           " chessboard corners found in the image");
 }
 
 }  // namespace camlab::calib

@@ -31,6 +31,8 @@
 // Reentrant.
 #pragma once
 
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "base/result.h"
@@ -43,5 +45,18 @@ namespace camlab::calib {
 // "invalid_argument" for fewer than 2 x 2 corners; "board_not_found" when no complete
 // board is found at any pyramid level.
 Result<ChessboardCorners> find_chessboard_corners_saddle(const cv::Mat& image, int cols, int rows);
+
+// The largest lattice of X-junctions the grid step grows, whole board or not: for boards
+// whose corners are named otherwise (calib/corners/marker_chessboard_corners.h). Lattice
+// cell (i, j) is a grid index relative to the seed (its axes in no fixed direction);
+// positions are the coarse pass's, at full resolution (not refined). Tried level by
+// level from the coarsest, as above; the first level whose largest lattice holds
+// `min_corners` or more wins. Errors as above ("board_not_found": no such lattice).
+struct SaddleLattice {
+  std::vector<cv::Point2i> ij;          // lattice cells
+  std::vector<cv::Point2d> corners_px;  // their corners, full-resolution px
+  int level = 0;                        // the pyramid level it was found at
+};
+Result<SaddleLattice> find_saddle_lattice(const cv::Mat& image, int max_span, int min_corners);
 
 }  // namespace camlab::calib

@@ -205,6 +205,14 @@ nlohmann::json make_frame_truth(const TruthInputs& in) {
       target["inner_corners"] = {spec.corners_cols, spec.corners_rows};
       target["square_m"] = spec.square_m;
       target["corners_px"] = project_points(camera, in.intrinsics, points, true);
+      if (spec.markers) {
+        // The three marker squares (scene_spec.h): the light one first, then the dark ones
+        // above it and right of it; and every corner, on the imager or not, as for ChArUco.
+        const auto [a, b] = spec.marker_square();
+        target["marker_squares"] = {{a, b}, {a, b - 1}, {a + 1, b}};
+        target["marker_radius_m"] = TargetSpec::kMarkerRadiusSquares * spec.square_m;
+        target["corners_projected_px"] = project_points(camera, in.intrinsics, points, false);
+      }
       if (spec.type == TargetType::kCharuco) {
         target["squares"] = {spec.corners_cols + 1, spec.corners_rows + 1};
         target["marker_m"] = spec.marker_m;

@@ -81,6 +81,17 @@ LocalStructure TargetSurface::structure_in(double u0, double u1, double v0, doub
           return light_values();
         return (static_cast<long>(i + j) & 1) == 0 ? dark_values() : light_values();
       };
+      if (s.markers) {
+        // A box that reaches a marker disc's bounding square is no straight-edge case.
+        const auto [a, b] = s.marker_square();
+        const double r = TargetSpec::kMarkerRadiusSquares * sq;
+        for (const auto& [sa, sb] :
+             {std::array{a, b}, std::array{a, b - 1}, std::array{a + 1, b}}) {
+          const double cu = (sa - 0.5) * sq, cv = (sb - 0.5) * sq;
+          if (u1 >= cu - r && u0 <= cu + r && v1 >= cv - r && v0 <= cv + r)
+            return complex_structure();
+        }
+      }
       if (i1 - i0 > 1 || j1 - j0 > 1) {
         // Several cells: one value only if the box lies in the quiet zone.
         const bool outside =

@@ -70,7 +70,9 @@ double TargetSurface::reflectance_at(double u, double v, int channel) const {
       // lower-right corner is the origin corner (i = j = -1) is dark.
       const double i = std::floor(u / s.square_m), j = std::floor(v / s.square_m);
       if (i < -1 || j < -1 || i > s.corners_cols - 1 || j > s.corners_rows - 1) return light;
-      return (static_cast<long>(i + j) & 1) == 0 ? dark : light;
+      const bool is_dark = (static_cast<long>(i + j) & 1) == 0;
+      // A marker disc is the other colour than its square.
+      return is_dark != s.in_marker(u, v) ? dark : light;
     }
     case TargetType::kCharuco:
       return charuco_->light_at(u, v) ? light : dark;

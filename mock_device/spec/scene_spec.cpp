@@ -27,6 +27,18 @@ const char* target_type_name(TargetType type) {
   return "unknown";
 }
 
+bool TargetSpec::in_marker(double x_m, double y_m) const {
+  if (!markers) return false;
+  const auto [a, b] = marker_square();
+  const double r = kMarkerRadiusSquares * square_m;
+  // Square (a, b)'s centre is at ((a - 0.5), (b - 0.5)) x square_m.
+  for (const auto& [sa, sb] : {std::array{a, b}, std::array{a, b - 1}, std::array{a + 1, b}}) {
+    const double dx = x_m - (sa - 0.5) * square_m, dy = y_m - (sb - 0.5) * square_m;
+    if (dx * dx + dy * dy < r * r) return true;
+  }
+  return false;
+}
+
 double TargetSpec::x_min_m() const {
   return has_squares() ? -(1 + margin_squares) * square_m : -width_m / 2;
 }
@@ -166,6 +178,7 @@ Result<TargetSpec> parse_target(const JsonFields& f) {
       return make_error("invalid_argument", f.path_of("inner_corners") + " must be two integers");
     CAMLAB_ASSIGN(t.square_m, f.number("square_m", 0, 10, std::nullopt, true));
     CAMLAB_ASSIGN(t.margin_squares, f.number("margin_squares", 0, 100, 1.0));
+    CAMLAB_ASSIGN(t.markers, f.boolean("markers", false));
   } else if (t.type == TargetType::kCharuco) {
     if (Status s = parse_charuco(f, &t); !s) return s.error();
   } else {

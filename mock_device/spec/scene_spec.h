@@ -62,6 +62,27 @@ struct TargetSpec {
   double square_m = 0;
   double margin_squares = 1.0;
 
+  // Chessboard only: the three circle markers of OpenCV 4.6's findChessboardCornersSB
+  // (CALIB_CB_MARKER), which name the corners of a board cut by the frame. Square (a, b)
+  // (a = 0 .. corners_cols across, b = 0 .. corners_rows down; dark when a + b is even)
+  // spans target x in [(a - 1), a] x square_m. The marker squares are the light square
+  // (a, b) = marker_square() and the dark squares above it, (a, b - 1), and right of it,
+  // (a + 1, b); each holds a disc of radius kMarkerRadiusSquares x square_m at its centre
+  // in the other colour (OpenCV's gen_pattern.py radon_checkerboard layout; OpenCV 4.6
+  // finds the markers only in this colouring).
+  bool markers = false;
+  static constexpr double kMarkerRadiusSquares = 0.17;
+  // The light marker square (a, b): the board's middle square, moved one left when that
+  // one is dark.
+  std::array<int, 2> marker_square() const {
+    int a = (corners_cols + 1) / 2;
+    const int b = (corners_rows + 1) / 2;
+    if ((a + b) % 2 == 0) --a;
+    return {a, b};
+  }
+  // Whether target point (x, y) (m) lies in a marker disc.
+  bool in_marker(double x_m, double y_m) const;
+
   // ChArUco (OpenCV 4.6's cv::aruco::CharucoBoard layout): (corners_cols + 1) x
   // (corners_rows + 1) squares, the top-left one dark; each light square holds an ArUco
   // marker of side marker_m (< square_m) at its centre, marker ids 0, 1, ... in row-major

@@ -22,3 +22,19 @@ target_link_libraries(charuco_detect_bench PRIVATE camlab_calib mrcal::mrcal nlo
 add_executable(guided_calibration_bench ${CMAKE_CURRENT_LIST_DIR}/guided_calibration_bench.cpp)
 target_link_libraries(guided_calibration_bench PRIVATE camlab_calib mrcal::mrcal opencv_calib3d)
 target_include_directories(guided_calibration_bench PRIVATE ${PROJECT_SOURCE_DIR}/tests/unit/calib ${PROJECT_SOURCE_DIR})
+
+# Partial chessboard views with OpenCV 4.6's circle markers, against the virtual camera's
+# truth: OpenCV's own marker detection, its grid named by camlab's marker reading, and
+# camlab's detector (docs/calibration.md).
+add_executable(marker_chessboard_bench ${CMAKE_CURRENT_LIST_DIR}/marker_chessboard_bench.cpp)
+target_link_libraries(marker_chessboard_bench PRIVATE camlab_calib camlab_mock_device
+                      nlohmann_json::nlohmann_json)
+target_compile_definitions(marker_chessboard_bench PRIVATE CAMLAB_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+
+# Partial views at the imager's edges against their whole-board twins, rendered, for a
+# ChArUco board and a marker chessboard: border coverage and the error at the corners.
+add_executable(partial_views_bench ${CMAKE_CURRENT_LIST_DIR}/partial_views_bench.cpp)
+target_link_libraries(partial_views_bench PRIVATE camlab_calib camlab_mock_device mrcal::mrcal
+                      nlohmann_json::nlohmann_json)
+target_include_directories(partial_views_bench PRIVATE ${PROJECT_SOURCE_DIR}/tests/unit/calib)
+target_compile_definitions(partial_views_bench PRIVATE CAMLAB_SOURCE_DIR="${PROJECT_SOURCE_DIR}")

@@ -20,3 +20,11 @@ camlab_add_test(calib_fov_example_tests
   LIBS camlab_calib camlab_mock_device mrcal::mrcal nlohmann_json::nlohmann_json
   LABELS stability)
 target_include_directories(calib_fov_example_tests PRIVATE ${PROJECT_SOURCE_DIR})
+
+# Partial views at the imager's edges against the same views moved until the board is
+# whole: border coverage and the projection error at the imager's corners (seconds).
+camlab_add_test(calib_partial_views_tests
+  SOURCES ${CMAKE_CURRENT_LIST_DIR}/calib_partial_views_test.cpp
+  LIBS camlab_calib mrcal::mrcal
+  LABELS stability)
+target_include_directories(calib_partial_views_tests PRIVATE ${PROJECT_SOURCE_DIR}/tests/unit/calib)
