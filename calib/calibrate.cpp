@@ -111,6 +111,10 @@ Status check_detector(const CalibrateOptions& options) {
 
 }  // namespace
 
+bool detector_keeps_partial_boards(const std::string& detector) {
+  return detector == "charuco" || detector == "markers";
+}
+
 std::optional<BoardView> detect_board_view(const cv::Mat& image, const CalibrateOptions& options) {
   const BoardSpec& board = options.board;
   BoardView v;

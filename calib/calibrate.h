@@ -61,6 +61,10 @@ struct CalibrationRun {
   std::optional<std::string> opencv_yaml_text;  // when the model has an OpenCV equivalent
 };
 
+// Whether `detector` keeps boards cut by the frame (charuco, markers): the guided
+// calibration may then suggest poses that show part of the board.
+bool detector_keeps_partial_boards(const std::string& detector);
+
 // One image's board as a view with options.detector (checked by the caller, as the
 // request validation of calibration_request.h does):
 // row-major corners in mrcal's order, a ChArUco board's by id with those not found

@@ -189,7 +189,7 @@ void run_calibrate(const CalibrateArgs& a) {
   calib::SuggestionOptions so;
   so.distance_m = a.suggest_distance_m;
   // A ChArUco board is found from part of it; a chessboard only whole.
-  so.whole_board_required = a.detector != "charuco";
+  so.whole_board_required = !calib::detector_keeps_partial_boards(a.detector);
   if (!(a.suggest_distance_m >= 0) || !std::isfinite(a.suggest_distance_m))
     errors.fail("invalid_argument", "--suggest-distance-m must be >= 0 (0: the working distance)");
   if (!(a.target_uncertainty_px >= 0) || !std::isfinite(a.target_uncertainty_px))

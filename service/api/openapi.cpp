@@ -149,10 +149,12 @@ json schemas() {
            {{"type", "string"}, {"description", "auto (default) or a mrcal LENSMODEL_... name"}}},
           {"detector",
            {{"type", "string"},
-            {"enum", {"auto", "saddle", "opencv", "mrgingham", "charuco"}},
+            {"enum", {"auto", "saddle", "opencv", "mrgingham", "markers", "charuco"}},
             {"description",
              "auto (default): camlab's saddle-point detector, with mrgingham on square boards "
-             "where it misses; charuco: a ChArUco board (give marker_m and dictionary)"}}},
+             "where it misses; markers: a chessboard with OpenCV's circle markers (cut boards "
+             "kept); "
+             "charuco: a ChArUco board (give marker_m and dictionary)"}}},
           {"marker_m",
            {{"type", "number"},
             {"description", "ChArUco: a marker's side (m), its black border included"}}},

@@ -35,12 +35,13 @@ Result<nlohmann::json> normalised_calibration_fields(const nlohmann::json& body)
   const nlohmann::json& detector = body.value("detector", nlohmann::json("auto"));
   if (!detector.is_string() ||
       !(detector == "auto" || detector == "saddle" || detector == "opencv" ||
-        detector == "mrgingham" || detector == "charuco"))
+        detector == "mrgingham" || detector == "charuco" || detector == "markers"))
     return make_error(
         "invalid_request",
         "\"detector\" must be \"auto\" (camlab's saddle-point detector, with mrgingham on "
-        "square boards where it misses), \"saddle\", \"opencv\", \"mrgingham\" or \"charuco\" "
-        "(a ChArUco board: give marker_m and dictionary too)");
+        "square boards where it misses), \"saddle\", \"opencv\", \"mrgingham\", \"markers\" "
+        "(a chessboard with OpenCV's three circle markers: boards cut by the frame are kept) or "
+        "\"charuco\" (a ChArUco board: give marker_m and dictionary too)");
   if (detector == "mrgingham" && cols != rows)
     return make_error("unsupported",
                       "the mrgingham detector finds square boards only (N x N inner corners)");

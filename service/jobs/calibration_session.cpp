@@ -84,7 +84,7 @@ Status CalibrationSession::add_frame(const cv::Mat& image, int64_t capture_job,
 
 void CalibrationSession::solve_and_suggest() {
   calib::SuggestionOptions suggest;
-  suggest.whole_board_required = options_.detector != "charuco";
+  suggest.whole_board_required = !calib::detector_keeps_partial_boards(options_.detector);
   const auto solve_start = std::chrono::steady_clock::now();
   solution_.reset();
   coverage_.reset();
