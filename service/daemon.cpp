@@ -99,6 +99,12 @@ int run_daemon(const DaemonConfig& config) {
                 *interrupted);
 
   Metrics metrics;
+  // Finished jobs are counted where their state is stored, so the counters and the job
+  // states cannot disagree (a job cancelled while queued, or cancelled while its outcome
+  // was being written, is counted once, as what the database says).
+  (*store)->set_finish_observer([&metrics](const std::string& kind, JobState state) {
+    metrics.count_job_finished(kind, job_state_name(state));
+  });
   CameraSetOptions camera_options = config.cameras;
   camera_options.worker.data_dir = *data_dir;
   auto cameras = CameraSet::create(camera_options, **store, metrics);

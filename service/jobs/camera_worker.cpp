@@ -267,16 +267,13 @@ void CameraWorker::end_unstarted(int64_t job_id) {
     std::lock_guard lock(mutex_);
     reason = lost_reason_;
   }
-  auto record = store_.get(job_id);
-  const std::string kind = record && record->has_value() ? (*record)->kind : "capture";
   const JobState state = lost_ ? JobState::kDeviceLost : JobState::kInterrupted;
   const Error why = lost_ ? make_error("device_lost", "camera " + id() +
                                                           " was unplugged before "
                                                           "the job started (" +
                                                           reason + ")")
                           : make_error("interrupted", "camlabd stopped before the job started");
-  if (auto done = store_.finish(job_id, state, why, nullptr); done && *done)
-    metrics_.count_job_finished(kind, job_state_name(state));
+  (void)store_.finish(job_id, state, why, nullptr);  // counted by the store's observer
 }
 
 void CameraWorker::mark_device_lost(JobOutcome* outcome) const {
@@ -353,7 +350,6 @@ void CameraWorker::run_job(int64_t id) {
   if (!finished)
     log_error(log::Category::kJobs, "job %lld: %s", static_cast<long long>(id),
               finished.error().message.c_str());
-  metrics_.count_job_finished(job.kind, job_state_name(outcome.state));
   log_info(log::Category::kJobs, "job %lld %s%s%s", static_cast<long long>(id),
            job_state_name(outcome.state), outcome.error ? ": " : "",
            outcome.error ? outcome.error->message.c_str() : "");

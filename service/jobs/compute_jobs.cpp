@@ -174,7 +174,6 @@ void ComputeWorker::run() {
           failure(make_error("internal", std::string("the job failed unexpectedly: ") + e.what()));
     }
     (void)store_.finish(id, outcome.state, outcome.error, outcome.result);
-    metrics_.count_job_finished(job.kind, job_state_name(outcome.state));
     log_info(log::Category::kJobs, "job %lld %s%s%s", static_cast<long long>(id),
              job_state_name(outcome.state), outcome.error ? ": " : "",
              outcome.error ? outcome.error->message.c_str() : "");

@@ -348,7 +348,17 @@ Result<bool> JobStore::finish(int64_t id, JobState state, const std::optional<Er
                                  "WHERE id = ? AND state IN ('queued', 'running')",
                                  job_state_name(state), unix_time_ms(), error_code, error_message,
                                  result_text, id));
+  if (changed == 1) notify_finished(id, state);
   return changed == 1;
+}
+
+void JobStore::notify_finished(int64_t id, JobState state) {
+  if (!finish_observer_) return;
+  std::string kind;
+  (void)query(
+      "read job kind", "SELECT kind FROM jobs WHERE id = ?",
+      [&](const Statement& row) { kind = row.column_text(0); }, id);
+  finish_observer_(kind, state);
 }
 
 Result<bool> JobStore::cancel_queued(int64_t id) {
@@ -359,6 +369,7 @@ Result<bool> JobStore::cancel_queued(int64_t id) {
                                  "error_code = 'cancelled', error_message = "
                                  "'cancelled before it started' WHERE id = ? AND state = 'queued'",
                                  unix_time_ms(), id));
+  if (changed == 1) notify_finished(id, JobState::kCancelled);
   return changed == 1;
 }
 

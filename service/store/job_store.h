@@ -104,6 +104,13 @@ class JobStore {
   // Every queued or running job -> interrupted with `message`; returns how many.
   Result<int> interrupt_unfinished(const std::string& message);
 
+  // Told of every job that reaches a final state through finish() or cancel_queued(), as
+  // it happens: its kind and the state stored (the metrics count finished jobs here, so
+  // they can never disagree with the states in the database). Set before any job runs;
+  // called with the store's lock held, so it must be quick and must not call the store.
+  using FinishObserver = std::function<void(const std::string& kind, JobState state)>;
+  void set_finish_observer(FinishObserver observer) { finish_observer_ = std::move(observer); }
+
   Status put_latency(const LatencyRecord& record);
   Result<std::optional<LatencyRecord>> latency(const std::string& camera_id);
 
@@ -122,8 +129,12 @@ class JobStore {
   template <class... Args>
   Result<std::vector<JobRecord>> query_jobs(const char* sql, const Args&... args);
 
+  // The kind of job `id`, after a change of its state (callers hold mutex_).
+  void notify_finished(int64_t id, JobState state);
+
   sqlite::Connection db_;
   std::mutex mutex_;
+  FinishObserver finish_observer_;
   // Declared after db_, so finalized before the connection closes.
   std::map<std::string, sqlite::Statement, std::less<>> statements_;
 };

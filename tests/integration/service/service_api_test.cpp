@@ -4,6 +4,7 @@
 // each test uses its own camera where a fault could leave it broken.
 #include <gtest/gtest.h>
 
+#include <map>
 #include <set>
 
 #include <opencv2/imgcodecs.hpp>
@@ -389,6 +390,51 @@ TEST_F(ServiceApi, LatencyProbeMeasuresTheSpecsThreeFramesAndStoresIt) {
   ASSERT_EQ(job["state"], "succeeded") << job.dump();
   EXPECT_EQ(job["result"]["details"]["probed_frames"], 3) << job.dump();
   EXPECT_EQ(daemon_->get(camera_path(0)).json()["control_latency"]["frames"], 3);
+}
+
+// The review found two metrics disagreeing with the job states: a job cancelled while
+// queued was never counted as finished, and a job cancelled while running was counted with
+// the outcome it computed rather than the state stored. Now every finished (kind, state)
+// counter equals the number of this daemon's jobs the API lists with that kind and state,
+// and camlabd_jobs{state} equals the listing's count per state.
+TEST_F(ServiceApi, JobMetricsAgreeWithTheJobStates) {
+  const int64_t running = capture(0, {{"kind", "single"}, {"repeats", 60}});
+  const int64_t queued = capture(0, {{"kind", "single"}});
+  ASSERT_EQ(daemon_->del("/v1/jobs/" + std::to_string(queued)).status, 200);
+  (void)daemon_->del("/v1/jobs/" + std::to_string(running));
+  daemon_->wait_finished(running);
+  const int64_t done = capture(1, {{"kind", "single"}});
+  ASSERT_EQ(daemon_->wait_finished(done)["state"], "succeeded");
+  // Every job of this daemon, finished.
+  std::map<std::pair<std::string, std::string>, int64_t> listed;
+  std::map<std::string, int64_t> listed_by_state;
+  for (int offset = 0;; offset += 100) {
+    const json page =
+        daemon_->get("/v1/jobs?limit=100&offset=" + std::to_string(offset)).json()["jobs"];
+    for (const auto& job : page) {
+      json j = job;
+      if (j["state"] == "queued" || j["state"] == "running")
+        j = daemon_->wait_finished(j["id"].get<int64_t>());
+      ++listed[{j["kind"], j["state"]}];
+      ++listed_by_state[j["state"]];
+    }
+    if (page.size() < 100) break;
+  }
+  const std::string metrics = daemon_->get("/metrics").body;
+  auto value_of = [&](const std::string& series) -> int64_t {
+    const size_t at = metrics.find(series + " ");
+    return at == std::string::npos ? 0 : std::stoll(metrics.substr(at + series.size() + 1));
+  };
+  const std::pair<std::string, std::string> cancelled_capture{"capture", "cancelled"};
+  ASSERT_GE(listed[cancelled_capture], 1) << metrics;
+  for (const auto& [key, count] : listed)
+    EXPECT_EQ(value_of("camlabd_jobs_finished_total{kind=\"" + key.first + "\",state=\"" +
+                       key.second + "\"}"),
+              count)
+        << key.first << " " << key.second << "\n"
+        << metrics;
+  for (const auto& [state, count] : listed_by_state)
+    EXPECT_EQ(value_of("camlabd_jobs{state=\"" + state + "\"}"), count) << state;
 }
 
 TEST_F(ServiceApi, MetricsCountRequestsFramesAndJobs) {
