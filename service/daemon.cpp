@@ -20,6 +20,7 @@
 #include "service/jobs/calibration_sessions.h"
 #include "service/jobs/compute_jobs.h"
 #include "service/jobs/job_recovery.h"
+#include "service/jobs/job_waiters.h"
 #include "service/metrics.h"
 #include "service/store/job_store.h"
 
@@ -114,12 +115,13 @@ int run_daemon(const DaemonConfig& config) {
   }
   ComputeWorker compute(*data_dir, **store, metrics, config.max_compute_jobs);
   CalibrationSessions sessions(*data_dir, **store, **cameras);
+  JobWaiters waiters(**store);
 
   TokenAuth auth(token->token);
   Router router(&auth, &metrics);
   router.hide_data_dir(*data_dir);
   ServiceContext context{*data_dir, store->get(),       cameras->get(), &compute,
-                         &metrics,  config.test_faults, &sessions};
+                         &metrics,  config.test_faults, &sessions,      &waiters};
   add_all_routes(router, context);
 
   net::io_context ioc(config.io_threads);
@@ -132,6 +134,7 @@ int run_daemon(const DaemonConfig& config) {
   (*cameras)->start();
   compute.start();
   sessions.start();
+  waiters.start();
   const auto workers = (*cameras)->workers();
   for (const auto& worker : workers) {
     const CameraSnapshot s = worker->snapshot();
@@ -170,6 +173,7 @@ int run_daemon(const DaemonConfig& config) {
            "%s received: stopping (no new connections; running jobs are interrupted, frames kept)",
            signal_number == SIGTERM ? "SIGTERM" : "SIGINT");
   (*listener)->stop();
+  waiters.stop();
   sessions.stop();
   (*cameras)->stop();
   compute.stop();

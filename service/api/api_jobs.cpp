@@ -7,6 +7,9 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 
@@ -14,6 +17,7 @@
 #include "image/capture_folder.h"
 #include "service/api/service_context.h"
 #include "service/jobs/camera_set.h"
+#include "service/jobs/job_waiters.h"
 #include "service/store/job_store.h"
 
 namespace camlab::service {
@@ -138,6 +142,37 @@ std::map<std::string, std::string> parse_query(const std::string& query) {
   return out;
 }
 
+// GET /v1/jobs/{id}[?wait=S]: with wait, the answer comes once the job has finished or
+// after S seconds (0..60, decimals allowed), whichever is first (service/jobs/job_waiters.h).
+void get_job(const ServiceContext& context, const ApiRequest& request, const PathParams& params,
+             Reply reply) {
+  const auto query = parse_query(request.query);
+  double wait_s = 0;
+  if (auto it = query.find("wait"); it != query.end()) {
+    char* end = nullptr;
+    wait_s = std::strtod(it->second.c_str(), &end);
+    if (it->second.empty() || it->second.size() > 12 || *end != '\0' || !std::isfinite(wait_s) ||
+        wait_s < 0 || wait_s > 60)
+      return reply(error_response("invalid_request",
+                                  "wait must be a number of seconds in [0, 60], e.g. ?wait=30"));
+  }
+  auto job = find_job(context, params, reply);
+  if (!job) return;
+  if (wait_s > 0 && !is_finished(job->state) && context.waiters) {
+    const auto deadline = std::chrono::steady_clock::now() +
+                          std::chrono::milliseconds(static_cast<int64_t>(wait_s * 1000));
+    const int64_t id = job->id;
+    const bool waiting = context.waiters->wait(id, deadline, [reply, id](const JobRecord* now) {
+      if (now)
+        reply(json_response(200, to_json(*now)));
+      else
+        reply(error_response("not_found", "no job " + std::to_string(id)));
+    });
+    if (waiting) return;  // answered by the waiters; when full, answer now: the client polls again
+  }
+  reply(json_response(200, to_json(*job)));
+}
+
 void list_jobs(const ServiceContext& context, const ApiRequest& request, Reply reply) {
   const auto query = parse_query(request.query);
   std::optional<JobState> state;
@@ -209,10 +244,11 @@ void add_job_routes(Router& router, const ServiceContext& context) {
               [context](const ApiRequest& request, const PathParams&, Reply reply) {
                 list_jobs(context, request, std::move(reply));
               }});
-  router.add({"GET", "/v1/jobs/{id}", "A job: state, progress, error, result",
-              [context](const ApiRequest&, const PathParams& params, Reply reply) {
-                if (auto job = find_job(context, params, reply))
-                  reply(json_response(200, to_json(*job)));
+  router.add({"GET", "/v1/jobs/{id}",
+              "A job: state, progress, error, result; ?wait=S answers once it has finished or "
+              "after S seconds (at most 60)",
+              [context](const ApiRequest& request, const PathParams& params, Reply reply) {
+                get_job(context, request, params, std::move(reply));
               }});
   router.add(
       {"DELETE", "/v1/jobs/{id}",

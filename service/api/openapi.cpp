@@ -284,7 +284,14 @@ json openapi_document(bool include_test_routes) {
                     {{"name", "offset"}, {"in", "query"}, {"schema", {{"type", "integer"}}}}},
                    merge(ok(200, "{jobs: [...]}", object), error_responses({400, 401})))}}},
       {"/v1/jobs/{id}",
-       {{"get", operation("A job", "jobs", {job_id},
+       {{"get", operation("A job; with ?wait=S the answer comes once it has finished or after S "
+                          "seconds, whichever is first",
+                          "jobs",
+                          {job_id,
+                           {{"name", "wait"},
+                            {"in", "query"},
+                            {"description", "seconds to wait for the job to finish (long-poll)"},
+                            {"schema", {{"type", "number"}, {"minimum", 0}, {"maximum", 60}}}}},
                           merge(ok(200, "the job", ref("Job")), error_responses({400, 401, 404})))},
         {"delete",
          operation(

@@ -14,6 +14,7 @@ class CalibrationSessions;
 class CameraSet;
 class ComputeWorker;
 class JobStore;
+class JobWaiters;
 class Metrics;
 
 struct ServiceContext {
@@ -24,6 +25,7 @@ struct ServiceContext {
   Metrics* metrics = nullptr;
   bool test_faults = false;                 // POST /v1/test/cameras/{id}/faults is registered
   CalibrationSessions* sessions = nullptr;  // null: /v1/calibration-sessions answers 503
+  JobWaiters* waiters = nullptr;            // null: GET /v1/jobs/{id}?wait= answers at once
 };
 
 // Registration of each group of routes (one file each).

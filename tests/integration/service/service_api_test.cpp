@@ -437,6 +437,30 @@ TEST_F(ServiceApi, JobMetricsAgreeWithTheJobStates) {
     EXPECT_EQ(value_of("camlabd_jobs{state=\"" + state + "\"}"), count) << state;
 }
 
+// GET /v1/jobs/{id}?wait=S: one request waits for the job to finish (the README's session
+// typed line by line needs no polling loop); a short wait answers with the job still
+// running; a bad wait is refused.
+TEST_F(ServiceApi, JobLongPollAnswersOnceTheJobHasFinished) {
+  const int64_t id = capture(0, {{"kind", "single"}, {"repeats", 10}});
+  auto r = daemon_->get("/v1/jobs/" + std::to_string(id) + "?wait=60");
+  ASSERT_EQ(r.status, 200) << r.body;
+  EXPECT_EQ(r.json()["state"], "succeeded") << r.body;
+  EXPECT_EQ(r.json()["progress"]["frames_done"], 10);
+
+  const int64_t long_id = capture(0, {{"kind", "single"}, {"repeats", 300}});
+  auto early = daemon_->get("/v1/jobs/" + std::to_string(long_id) + "?wait=0.3");
+  ASSERT_EQ(early.status, 200) << early.body;
+  const std::string state = early.json()["state"];
+  EXPECT_TRUE(state == "queued" || state == "running") << early.body;
+  for (const char* bad : {"abc", "61", "-1", "", "1e400", "nan"})
+    EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(long_id) + "?wait=" + bad).status, 400)
+        << bad;
+  EXPECT_EQ(daemon_->get("/v1/jobs/999999?wait=1").status, 404);
+  (void)daemon_->del("/v1/jobs/" + std::to_string(long_id));
+  EXPECT_NE(daemon_->get("/v1/jobs/" + std::to_string(long_id) + "?wait=60").json()["state"],
+            "running");
+}
+
 TEST_F(ServiceApi, MetricsCountRequestsFramesAndJobs) {
   ASSERT_EQ(daemon_->get(camera_path(0)).status, 200);
   const int64_t id = capture(0, {{"kind", "single"}, {"repeats", 2}});
