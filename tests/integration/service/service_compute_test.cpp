@@ -143,4 +143,39 @@ TEST_F(ServiceCompute, CalibrationOfARenderedChessboardSetRecoversTheFocalLength
   EXPECT_EQ(job["result"]["report"]["detector"]["requested"], "auto");
 }
 
+// A ChArUco board through POST /v1/calibrations: views cut by the frame's edge kept
+// (views 26-39 of the example set are cut), focal length against the spec's f / pitch.
+TEST_F(ServiceCompute, CalibrationOfARenderedCharucoSetKeepsCutViews) {
+  const fs::path set = dir / "data" / "imports" / "charuco-set";
+  auto render =
+      run_cli("render --camera " CAMLAB_SOURCE_DIR
+              "/mock_device/examples/camera_wide_1280x800.json --scene " CAMLAB_SOURCE_DIR
+              "/mock_device/examples/scene_charuco_calibration.json --quiet"
+              " --view 0 --view 4 --view 8 --view 12 --view 16 --view 26 --view 30 --view 34"
+              " --view 38 --out " +
+              set.string());
+  ASSERT_EQ(render.exit_code, 0) << render.err;
+  const json board = {
+      {"folder", "imports/charuco-set"}, {"inner_corners", {10, 7}}, {"spacing_m", 0.06},
+      {"detector", "charuco"},           {"marker_m", 0.045},        {"dictionary", "DICT_4X4_50"},
+      {"model", "LENSMODEL_OPENCV8"}};
+  json too_big_marker = board;
+  too_big_marker["marker_m"] = 0.07;
+  EXPECT_EQ(daemon.post("/v1/calibrations", too_big_marker).status, 422);
+  json unknown_dictionary = board;
+  unknown_dictionary["dictionary"] = "DICT_9X9_1";
+  EXPECT_GE(daemon.post("/v1/calibrations", unknown_dictionary).status, 400);
+  json markers_without_charuco = board;
+  markers_without_charuco["detector"] = "auto";
+  EXPECT_EQ(daemon.post("/v1/calibrations", markers_without_charuco).status, 400);
+  auto r = daemon.post("/v1/calibrations", board);
+  ASSERT_EQ(r.status, 202) << r.body;
+  const json job = daemon.wait_finished(r.json()["id"], std::chrono::seconds(300));
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  const json fx = find_key(job["result"]["report"], "fx_px");
+  ASSERT_TRUE(fx.is_number()) << job["result"]["report"].dump();
+  EXPECT_NEAR(fx.get<double>(), 2.2 / 0.003, 0.02 * 2.2 / 0.003);
+  EXPECT_EQ(job["result"]["report"]["detector"]["requested"], "charuco");
+}
+
 }  // namespace
