@@ -46,7 +46,9 @@ class ServiceSession : public ::testing::Test {
   // names a known phase. Returns the last state; counts the phases seen on the way.
   json wait_phase(int64_t id, const std::string& phase, std::set<std::string>* seen) const {
     json state;
-    for (int i = 0; i < 1200; ++i) {
+    // Bounded at about 2 minutes: the first view waits for the camera's start-up latency
+    // probe, which a loaded 2-core machine can stretch.
+    for (int i = 0; i < 4800; ++i) {
       auto r = daemon.get("/v1/calibration-sessions/" + std::to_string(id));
       EXPECT_EQ(r.status, 200) << r.body;
       state = r.json();
