@@ -283,7 +283,7 @@ Result<JobRecord> JobStore::create(const std::string& kind, const std::string& c
 Result<std::optional<JobRecord>> JobStore::get(int64_t id) {
   std::lock_guard lock(mutex_);
   if (auto cached = finished_.find(id); cached != finished_.end())
-    return std::optional<JobRecord>(cached->second);
+    return std::optional<JobRecord>(cached->second.job);
   static const std::string sql = std::string("SELECT ") + kJobColumns + " FROM jobs WHERE id = ?";
   std::vector<JobRecord> jobs;
   CAMLAB_ASSIGN(jobs, query_jobs(sql.c_str(), id));
@@ -322,12 +322,17 @@ void JobStore::show_live(JobRecord& job) const {
 }
 
 void JobStore::remember_finished(const JobRecord& job) {
+  const size_t bytes = dump(job.request).size() + dump(job.result).size();
+  if (bytes > kFinishedCacheBytes) return;
   // Bounded: the oldest ids give way (status polling is of recent jobs).
-  if (finished_.size() >= kFinishedCacheJobs) {
+  while (!finished_.empty() && (finished_.size() >= kFinishedCacheJobs ||
+                                finished_bytes_ + bytes > kFinishedCacheBytes)) {
     if (job.id < finished_.begin()->first) return;
+    finished_bytes_ -= finished_.begin()->second.bytes;
     finished_.erase(finished_.begin());
   }
-  finished_.emplace(job.id, job);
+  finished_bytes_ += bytes;
+  finished_.emplace(job.id, CachedJob{job, bytes});
 }
 
 Result<std::map<std::string, int64_t>> JobStore::count_by_state() {

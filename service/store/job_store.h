@@ -19,8 +19,8 @@
 // database at most every kProgressRowFrames frames or kProgressRowMs (and always when it
 // finishes or is interrupted), and get()/list() show the in-memory progress, so a reader is
 // never behind the last progress() call; a finished job never changes, so the last
-// kFinishedCacheJobs finished records read are kept and served without SQLite or JSON
-// parsing.
+// finished records read (kFinishedCacheJobs, kFinishedCacheBytes) are kept and served
+// without SQLite or JSON parsing.
 #pragma once
 
 #include <cstdint>
@@ -48,8 +48,11 @@ inline constexpr int kSchemaVersion = 2;
 // A running job's progress row is written after this many frames or this long (ms).
 inline constexpr int kProgressRowFrames = 30;
 inline constexpr int64_t kProgressRowMs = 1000;
-// Finished job records kept in memory for status reads.
+// Finished job records kept in memory for status reads: at most this many, and at most
+// this many bytes of stored request + result JSON in all (a calibration's report can be
+// large; one larger than the whole budget is read from the database each time).
 inline constexpr size_t kFinishedCacheJobs = 1024;
+inline constexpr size_t kFinishedCacheBytes = 16 << 20;
 
 enum class JobState {
   kQueued,
@@ -153,7 +156,12 @@ class JobStore {
   sqlite::Connection db_;
   std::mutex mutex_;
   std::map<int64_t, LiveProgress> live_;
-  std::map<int64_t, JobRecord> finished_;  // at most kFinishedCacheJobs, newest ids kept
+  struct CachedJob {
+    JobRecord job;
+    size_t bytes = 0;  // its request and result as stored
+  };
+  std::map<int64_t, CachedJob> finished_;  // the newest ids within the bounds above
+  size_t finished_bytes_ = 0;
   // Declared after db_, so finalized before the connection closes.
   std::map<std::string, sqlite::Statement, std::less<>> statements_;
 };

@@ -161,6 +161,19 @@ TEST_F(JobStoreTest, TransitionsGoOnlyTheDocumentedWays) {
 // count.
 TEST_F(JobStoreTest, ProgressReadDuringACaptureIsNeverBehindTheLastReport) {
   constexpr int kFrames = 300;
+  // In turn first: each read shows the report just made, through get() and list().
+  const int64_t in_turn = store_->create("capture", "vcam0", {{"n", 0}}, "", kFrames)->id;
+  ASSERT_TRUE(*store_->start(in_turn));
+  for (int k = 1; k <= kFrames; ++k) {
+    ASSERT_TRUE(store_->progress(in_turn, k, kFrames, k / 10).ok());
+    const JobRecord job = **store_->get(in_turn);
+    ASSERT_EQ(job.frames_done, k);
+    ASSERT_EQ(job.frames_discarded, k / 10);
+    ASSERT_EQ((*store_->list(JobState::kRunning, 1, 0))[0].frames_done, k);
+  }
+  ASSERT_TRUE(*store_->finish(in_turn, JobState::kSucceeded, std::nullopt, nullptr));
+
+  // Then racing: the camera's thread reports while this one reads.
   const int64_t id = store_->create("capture", "vcam0", {{"n", 1}}, "", kFrames)->id;
   ASSERT_TRUE(*store_->start(id));
   std::atomic<int> reported{0};
@@ -207,6 +220,26 @@ TEST_F(JobStoreTest, ProgressReadDuringACaptureIsNeverBehindTheLastReport) {
   const JobRecord finished = **store_->get(id);
   EXPECT_EQ(finished.frames_done, kFrames - 2);
   EXPECT_EQ(finished.frames_discarded, 2);
+}
+
+// Finished jobs are served from memory once read: more of them than the cache holds, read
+// twice each, all read back as written, the first of them too (from the database again).
+TEST_F(JobStoreTest, FinishedJobsReadBackTheSameBeyondTheCache) {
+  const int count = static_cast<int>(kFinishedCacheJobs) + 10;
+  std::vector<int64_t> ids;
+  for (int i = 0; i < count; ++i) {
+    const int64_t id = store_->create("capture", "vcam0", {{"i", i}}, "", 1)->id;
+    ASSERT_TRUE(*store_->finish(id, JobState::kSucceeded, std::nullopt, {{"twice", 2 * i}}));
+    ids.push_back(id);
+  }
+  for (int pass = 0; pass < 2; ++pass)
+    for (int i = 0; i < count; ++i) {
+      const JobRecord job = **store_->get(ids[i]);
+      ASSERT_EQ(job.id, ids[i]);
+      ASSERT_EQ(job.state, JobState::kSucceeded);
+      ASSERT_EQ(job.request, nlohmann::json({{"i", i}}));
+      ASSERT_EQ(job.result, nlohmann::json({{"twice", 2 * i}}));
+    }
 }
 
 // A crash-restart's interruption writes the progress that only memory held.
