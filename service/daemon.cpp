@@ -1,9 +1,15 @@
 #include "service/daemon.h"
 
+#include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <future>
 #include <thread>
 #include <vector>
@@ -25,6 +31,21 @@
 #include "service/store/job_store.h"
 
 namespace camlab::service {
+namespace {
+
+// Raises the calling thread's nice value by `by` (Linux: nice is per thread). Raising it
+// needs no privilege; a failure only costs the capture its protection, so it is logged.
+void lower_this_thread_priority(int by) {
+  if (by <= 0) return;
+  const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
+  errno = 0;
+  const int now = ::getpriority(PRIO_PROCESS, tid);
+  if (errno == 0 && ::setpriority(PRIO_PROCESS, tid, std::min(now + by, 19)) == 0) return;
+  log_warning(log::Category::kDaemon, "I/O thread priority not lowered by %d: %s", by,
+              std::strerror(errno));
+}
+
+}  // namespace
 
 namespace net = boost::asio;
 namespace fs = std::filesystem;
@@ -166,7 +187,11 @@ int run_daemon(const DaemonConfig& config) {
            config.io_threads, config.test_faults ? ", TEST FAULT INJECTION ENABLED" : "");
 
   std::vector<std::thread> pool;
-  for (int i = 0; i < config.io_threads; ++i) pool.emplace_back([&ioc] { ioc.run(); });
+  for (int i = 0; i < config.io_threads; ++i)
+    pool.emplace_back([&ioc, io_nice = config.io_nice] {
+      lower_this_thread_priority(io_nice);
+      ioc.run();
+    });
 
   const int signal_number = stop_signal.get_future().get();
   log_info(log::Category::kDaemon,

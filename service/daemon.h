@@ -20,6 +20,10 @@ struct DaemonConfig {
   CameraSetOptions cameras;
   HttpLimits limits;
   int io_threads = 2;
+  // The I/O threads run this much nicer than the rest of camlabd (Linux per-thread nice),
+  // so on a loaded machine a capture's worker and frame writer win the CPU over status
+  // requests (docs/service.md, "Threading model"); 0 runs them at the same priority.
+  int io_nice = 5;
   int max_compute_jobs = 16;
   bool test_faults = false;
 };

@@ -82,6 +82,11 @@ int main(int argc, char** argv) {
   app.add_option("--io-threads", config.io_threads, "threads running the HTTP io_context")
       ->check(CLI::Range(1, 64))
       ->capture_default_str();
+  app.add_option("--io-nice", config.io_nice,
+                 "the I/O threads run this much nicer than the camera threads, so status "
+                 "requests never take a capture's CPU (0: the same priority)")
+      ->check(CLI::Range(0, 19))
+      ->capture_default_str();
   app.add_option("--max-body-bytes", config.limits.max_body_bytes,
                  "largest request body (413 above)")
       ->check(CLI::Range(1024, 64 << 20))

@@ -282,11 +282,16 @@ Result<JobRecord> JobStore::create(const std::string& kind, const std::string& c
 
 Result<std::optional<JobRecord>> JobStore::get(int64_t id) {
   std::lock_guard lock(mutex_);
+  if (auto cached = finished_.find(id); cached != finished_.end())
+    return std::optional<JobRecord>(cached->second.job);
   static const std::string sql = std::string("SELECT ") + kJobColumns + " FROM jobs WHERE id = ?";
   std::vector<JobRecord> jobs;
   CAMLAB_ASSIGN(jobs, query_jobs(sql.c_str(), id));
   if (jobs.empty()) return std::optional<JobRecord>();
-  return std::optional<JobRecord>(std::move(jobs.front()));
+  JobRecord& job = jobs.front();
+  if (is_finished(job.state)) remember_finished(job);
+  show_live(job);
+  return std::optional<JobRecord>(std::move(job));
 }
 
 Result<std::vector<JobRecord>> JobStore::list(std::optional<JobState> state, int limit,
@@ -297,8 +302,37 @@ Result<std::vector<JobRecord>> JobStore::list(std::optional<JobState> state, int
   static const std::string by_state =
       std::string("SELECT ") + kJobColumns +
       " FROM jobs WHERE state = ? ORDER BY id DESC LIMIT ? OFFSET ?";
-  if (state) return query_jobs(by_state.c_str(), job_state_name(*state), limit, offset);
-  return query_jobs(all.c_str(), limit, offset);
+  std::vector<JobRecord> jobs;
+  if (state) {
+    CAMLAB_ASSIGN(jobs, query_jobs(by_state.c_str(), job_state_name(*state), limit, offset));
+  } else {
+    CAMLAB_ASSIGN(jobs, query_jobs(all.c_str(), limit, offset));
+  }
+  for (JobRecord& job : jobs) show_live(job);
+  return jobs;
+}
+
+void JobStore::show_live(JobRecord& job) const {
+  if (job.state != JobState::kRunning) return;
+  if (auto live = live_.find(job.id); live != live_.end()) {
+    job.frames_done = live->second.frames_done;
+    job.frames_total = live->second.frames_total;
+    job.frames_discarded = live->second.frames_discarded;
+  }
+}
+
+void JobStore::remember_finished(const JobRecord& job) {
+  const size_t bytes = dump(job.request).size() + dump(job.result).size();
+  if (bytes > kFinishedCacheBytes) return;
+  // Bounded: the oldest ids give way (status polling is of recent jobs).
+  while (!finished_.empty() && (finished_.size() >= kFinishedCacheJobs ||
+                                finished_bytes_ + bytes > kFinishedCacheBytes)) {
+    if (job.id < finished_.begin()->first) return;
+    finished_bytes_ -= finished_.begin()->second.bytes;
+    finished_.erase(finished_.begin());
+  }
+  finished_bytes_ += bytes;
+  finished_.emplace(job.id, CachedJob{job, bytes});
 }
 
 Result<std::map<std::string, int64_t>> JobStore::count_by_state() {
@@ -322,15 +356,43 @@ Result<bool> JobStore::start(int64_t id) {
   return changed == 1;
 }
 
+Status JobStore::write_progress(int64_t id, LiveProgress& live) {
+  int changed;
+  CAMLAB_ASSIGN(changed, execute("update progress",
+                                 "UPDATE jobs SET frames_done = ?, frames_total = ?, "
+                                 "frames_discarded = ? WHERE id = ? AND state = 'running'",
+                                 live.frames_done, live.frames_total, live.frames_discarded, id));
+  live.written_frames_done = live.frames_done;
+  live.written_ms = unix_time_ms();
+  live.dirty = false;
+  // Not running (finished meanwhile, or never started): nothing live to show.
+  if (changed == 0) live_.erase(id);
+  return {};
+}
+
+Status JobStore::flush_progress(int64_t id) {
+  auto live = live_.find(id);
+  if (live == live_.end()) return {};
+  Status status = live->second.dirty ? write_progress(id, live->second) : Status{};
+  live_.erase(id);
+  return status;
+}
+
 Status JobStore::progress(int64_t id, int frames_done, int frames_total, int frames_discarded) {
   std::lock_guard lock(mutex_);
-  if (auto updated = execute("update progress",
-                             "UPDATE jobs SET frames_done = ?, frames_total = ?, "
-                             "frames_discarded = ? WHERE id = ? AND state = 'running'",
-                             frames_done, frames_total, frames_discarded, id);
-      !updated)
-    return updated.error();
-  return {};
+  LiveProgress& live = live_[id];
+  live.frames_done = frames_done;
+  live.frames_total = frames_total;
+  live.frames_discarded = frames_discarded;
+  live.dirty = true;
+  // The first report, the last frame, every kProgressRowFrames frames and every
+  // kProgressRowMs go to the database; the rest only to memory (one SQLite write a frame
+  // was the store mutex's largest holder during a capture).
+  const bool due = live.written_frames_done < 0 || frames_done >= frames_total ||
+                   frames_done - live.written_frames_done >= kProgressRowFrames ||
+                   unix_time_ms() - live.written_ms >= kProgressRowMs;
+  if (!due) return {};
+  return write_progress(id, live);
 }
 
 Result<bool> JobStore::finish(int64_t id, JobState state, const std::optional<Error>& error,
@@ -341,6 +403,8 @@ Result<bool> JobStore::finish(int64_t id, JobState state, const std::optional<Er
   // A job without a result stores NULL, which reads back as null.
   const std::optional<std::string> result_text =
       result.is_null() ? std::nullopt : std::optional<std::string>(dump(result));
+  // The last progress first, so the finished row holds it.
+  if (Status flushed = flush_progress(id); !flushed) return flushed.error();
   int changed;
   CAMLAB_ASSIGN(changed, execute("finish job",
                                  "UPDATE jobs SET state = ?, finished_ms = ?, error_code = ?, "
@@ -375,6 +439,8 @@ Result<bool> JobStore::cancel_queued(int64_t id) {
 
 Result<int> JobStore::interrupt_unfinished(const std::string& message) {
   std::lock_guard lock(mutex_);
+  while (!live_.empty())
+    if (Status flushed = flush_progress(live_.begin()->first); !flushed) return flushed.error();
   return execute("interrupt jobs",
                  "UPDATE jobs SET state = 'interrupted', finished_ms = ?, "
                  "error_code = 'interrupted', error_message = ? "

@@ -13,6 +13,14 @@
 // Thread-safe: one connection behind a mutex; every statement is short (no capture work
 // is done under it, and each is reset after use so no read stays open), so status
 // requests never wait on a capture.
+//
+// Status reads are served from memory where they can (docs/service.md, "Threading
+// model"): a running job's progress is kept in memory on every call and written to the
+// database at most every kProgressRowFrames frames or kProgressRowMs (and always when it
+// finishes or is interrupted), and get()/list() show the in-memory progress, so a reader is
+// never behind the last progress() call; a finished job never changes, so the last
+// finished records read (kFinishedCacheJobs, kFinishedCacheBytes) are kept and served
+// without SQLite or JSON parsing.
 #pragma once
 
 #include <cstdint>
@@ -36,6 +44,15 @@ namespace camlab::service {
 // 1: the first schema. 2: jobs.state may be 'device_lost' (a version-1 database is
 // migrated when opened).
 inline constexpr int kSchemaVersion = 2;
+
+// A running job's progress row is written after this many frames or this long (ms).
+inline constexpr int kProgressRowFrames = 30;
+inline constexpr int64_t kProgressRowMs = 1000;
+// Finished job records kept in memory for status reads: at most this many, and at most
+// this many bytes of stored request + result JSON in all (a calibration's report can be
+// large; one larger than the whole budget is read from the database each time).
+inline constexpr size_t kFinishedCacheJobs = 1024;
+inline constexpr size_t kFinishedCacheBytes = 16 << 20;
 
 enum class JobState {
   kQueued,
@@ -95,6 +112,7 @@ class JobStore {
 
   // queued -> running; false when the job is no longer queued (cancelled meanwhile).
   Result<bool> start(int64_t id);
+  // Progress of a running job: at once in memory, in the database as said above.
   Status progress(int64_t id, int frames_done, int frames_total, int frames_discarded);
   // queued|running -> a final state; false when it had already finished.
   Result<bool> finish(int64_t id, JobState state, const std::optional<Error>& error,
@@ -132,9 +150,29 @@ class JobStore {
   // The kind of job `id`, after a change of its state (callers hold mutex_).
   void notify_finished(int64_t id, JobState state);
 
+  // A running job's progress as last reported, and what the database holds of it.
+  struct LiveProgress {
+    int frames_done = 0, frames_total = 0, frames_discarded = 0;
+    int written_frames_done = -1;  // -1: no row written yet
+    int64_t written_ms = 0;
+    bool dirty = false;  // memory is ahead of the database
+  };
+  // Callers hold mutex_.
+  Status write_progress(int64_t id, LiveProgress& live);
+  Status flush_progress(int64_t id);
+  void show_live(JobRecord& job) const;
+  void remember_finished(const JobRecord& job);
+
   sqlite::Connection db_;
   std::mutex mutex_;
   FinishObserver finish_observer_;
+  std::map<int64_t, LiveProgress> live_;
+  struct CachedJob {
+    JobRecord job;
+    size_t bytes = 0;  // its request and result as stored
+  };
+  std::map<int64_t, CachedJob> finished_;  // the newest ids within the bounds above
+  size_t finished_bytes_ = 0;
   // Declared after db_, so finalized before the connection closes.
   std::map<std::string, sqlite::Statement, std::less<>> statements_;
 };

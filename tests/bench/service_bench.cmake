@@ -24,3 +24,11 @@ target_link_libraries(sensor_rate_bench PRIVATE nlohmann_json::nlohmann_json Thr
 target_compile_definitions(sensor_rate_bench PRIVATE CAMLABD_PATH="$<TARGET_FILE:camlabd>"
                                                      CAMLAB_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
 add_dependencies(sensor_rate_bench camlabd)
+# status_load_bench: keep-alive status GETs from 16/64/256 connections, idle and during a
+# 300-frame capture, and that capture's kept frames/s against the capture alone. Prints only.
+add_executable(status_load_bench ${CMAKE_CURRENT_SOURCE_DIR}/status_load_bench.cpp)
+target_include_directories(status_load_bench PRIVATE ${PROJECT_SOURCE_DIR}/tests/integration/service)
+target_link_libraries(status_load_bench PRIVATE nlohmann_json::nlohmann_json Threads::Threads)
+target_compile_definitions(status_load_bench PRIVATE CAMLABD_PATH="$<TARGET_FILE:camlabd>"
+                                                     CAMLAB_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+add_dependencies(status_load_bench camlabd)

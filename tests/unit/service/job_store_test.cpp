@@ -6,11 +6,13 @@
 #include <gtest/gtest.h>
 #include <stdlib.h>
 
+#include <atomic>
 #include <cstdio>
 #include <filesystem>
 #include <map>
 #include <memory>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -150,6 +152,106 @@ TEST_F(JobStoreTest, TransitionsGoOnlyTheDocumentedWays) {
   EXPECT_EQ(cancelled.state, JobState::kCancelled);
   EXPECT_EQ(cancelled.error_code, "cancelled");
   EXPECT_TRUE(cancelled.result.is_null());
+}
+
+// Progress is kept in memory and written to the database only now and then: a reader racing
+// the writer never sees less than what progress() had returned from before the read began,
+// nor a count going back; list() agrees; the database row lags by fewer than
+// kProgressRowFrames + 1 frames; and the finished row (read after a reopen) holds the last
+// count.
+TEST_F(JobStoreTest, ProgressReadDuringACaptureIsNeverBehindTheLastReport) {
+  constexpr int kFrames = 300;
+  // In turn first: each read shows the report just made, through get() and list().
+  const int64_t in_turn = store_->create("capture", "vcam0", {{"n", 0}}, "", kFrames)->id;
+  ASSERT_TRUE(*store_->start(in_turn));
+  for (int k = 1; k <= kFrames; ++k) {
+    ASSERT_TRUE(store_->progress(in_turn, k, kFrames, k / 10).ok());
+    const JobRecord job = **store_->get(in_turn);
+    ASSERT_EQ(job.frames_done, k);
+    ASSERT_EQ(job.frames_discarded, k / 10);
+    ASSERT_EQ((*store_->list(JobState::kRunning, 1, 0))[0].frames_done, k);
+  }
+  ASSERT_TRUE(*store_->finish(in_turn, JobState::kSucceeded, std::nullopt, nullptr));
+
+  // Then racing: the camera's thread reports while this one reads.
+  const int64_t id = store_->create("capture", "vcam0", {{"n", 1}}, "", kFrames)->id;
+  ASSERT_TRUE(*store_->start(id));
+  std::atomic<int> reported{0};
+  std::atomic<bool> done{false};
+  std::thread camera([&] {
+    for (int k = 1; k <= kFrames; ++k) {
+      EXPECT_TRUE(store_->progress(id, k, kFrames, k / 10).ok());
+      reported.store(k);
+    }
+    done.store(true);
+  });
+  int last_seen = 0, reads = 0, behind = 0, backwards = 0;
+  while (!done.load() || reads < 10) {
+    const int before = reported.load();
+    auto job = store_->get(id);
+    ASSERT_TRUE(job.ok() && job->has_value());
+    const int seen = (*job)->frames_done;
+    if (seen < before) ++behind;
+    if (seen < last_seen) ++backwards;
+    EXPECT_EQ((*job)->frames_discarded, seen / 10);  // one report, never mixed
+    last_seen = seen;
+    ++reads;
+  }
+  camera.join();
+  EXPECT_EQ(behind, 0);
+  EXPECT_EQ(backwards, 0);
+  auto listed = store_->list(JobState::kRunning, 10, 0);
+  ASSERT_TRUE(listed.ok());
+  ASSERT_EQ(listed->size(), 1u);
+  EXPECT_EQ((*listed)[0].frames_done, kFrames);
+
+  // A second connection reads the row as the database holds it.
+  ASSERT_TRUE(store_->progress(id, kFrames - 1, kFrames, 0).ok());  // not due: memory only
+  {
+    auto other = JobStore::open(database());
+    ASSERT_TRUE(other.ok());
+    const JobRecord row = **(*other)->get(id);
+    EXPECT_GE(row.frames_done, kFrames - 1 - kProgressRowFrames);
+    EXPECT_LE(row.frames_done, kFrames);
+  }
+  ASSERT_TRUE(store_->progress(id, kFrames - 2, kFrames, 2).ok());
+  ASSERT_TRUE(*store_->finish(id, JobState::kSucceeded, std::nullopt, {{"ok", true}}));
+  reopen();
+  const JobRecord finished = **store_->get(id);
+  EXPECT_EQ(finished.frames_done, kFrames - 2);
+  EXPECT_EQ(finished.frames_discarded, 2);
+}
+
+// Finished jobs are served from memory once read: more of them than the cache holds, read
+// twice each, all read back as written, the first of them too (from the database again).
+TEST_F(JobStoreTest, FinishedJobsReadBackTheSameBeyondTheCache) {
+  const int count = static_cast<int>(kFinishedCacheJobs) + 10;
+  std::vector<int64_t> ids;
+  for (int i = 0; i < count; ++i) {
+    const int64_t id = store_->create("capture", "vcam0", {{"i", i}}, "", 1)->id;
+    ASSERT_TRUE(*store_->finish(id, JobState::kSucceeded, std::nullopt, {{"twice", 2 * i}}));
+    ids.push_back(id);
+  }
+  for (int pass = 0; pass < 2; ++pass)
+    for (int i = 0; i < count; ++i) {
+      const JobRecord job = **store_->get(ids[i]);
+      ASSERT_EQ(job.id, ids[i]);
+      ASSERT_EQ(job.state, JobState::kSucceeded);
+      ASSERT_EQ(job.request, nlohmann::json({{"i", i}}));
+      ASSERT_EQ(job.result, nlohmann::json({{"twice", 2 * i}}));
+    }
+}
+
+// A crash-restart's interruption writes the progress that only memory held.
+TEST_F(JobStoreTest, InterruptingWritesTheProgressHeldInMemory) {
+  const int64_t id = store_->create("capture", "vcam0", {{"n", 1}}, "", 100)->id;
+  ASSERT_TRUE(*store_->start(id));
+  for (int k = 1; k <= 7; ++k) ASSERT_TRUE(store_->progress(id, k, 100, 0).ok());
+  EXPECT_EQ(*store_->interrupt_unfinished("camlabd stopped"), 1);
+  reopen();
+  const JobRecord job = **store_->get(id);
+  EXPECT_EQ(job.state, JobState::kInterrupted);
+  EXPECT_EQ(job.frames_done, 7);
 }
 
 TEST_F(JobStoreTest, ListsCountsAndInterrupts) {
