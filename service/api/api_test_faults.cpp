@@ -20,6 +20,21 @@ Result<int> bounded_count(const nlohmann::json& body, const char* name) {
   return static_cast<int>(v.get<int64_t>());
 }
 
+// The in-process virtual device of the camera in the path, or null once the reply says
+// why not (no such camera: 404; another kind of camera: `unsupported`).
+mock::VirtualV4l2Device* virtual_device_or_reply(const ServiceContext& context,
+                                                 const PathParams& params,
+                                                 const std::string& unsupported,
+                                                 const Reply& reply) {
+  if (!context.cameras->find(params.at("id"))) {
+    reply(error_response("not_found", "no camera '" + params.at("id").substr(0, 100) + "'"));
+    return nullptr;
+  }
+  mock::VirtualV4l2Device* device = context.cameras->virtual_device(params.at("id"));
+  if (!device) reply(error_response("unsupported", unsupported));
+  return device;
+}
+
 }  // namespace
 
 void add_test_routes(Router& router, const ServiceContext& context) {
@@ -27,13 +42,9 @@ void add_test_routes(Router& router, const ServiceContext& context) {
       "POST", "/v1/test/cameras/{id}/faults",
       "TEST ONLY (--test-faults): inject faults into an in-process virtual camera",
       [context](const ApiRequest& request, const PathParams& params, Reply reply) {
-        mock::VirtualV4l2Device* device = context.cameras->virtual_device(params.at("id"));
-        if (!context.cameras->find(params.at("id")))
-          return reply(
-              error_response("not_found", "no camera '" + params.at("id").substr(0, 100) + "'"));
-        if (!device)
-          return reply(error_response(
-              "unsupported", "faults can be injected only into in-process virtual cameras"));
+        mock::VirtualV4l2Device* device = virtual_device_or_reply(
+            context, params, "faults can be injected only into in-process virtual cameras", reply);
+        if (!device) return;
         auto body = parse_json_object(request.body);
         if (!body) return reply(error_response(body.error()));
         for (const auto& [key, value] : body->items())
@@ -70,13 +81,9 @@ void add_test_routes(Router& router, const ServiceContext& context) {
       "POST", "/v1/test/cameras/{id}/scene",
       "TEST ONLY (--test-faults): move a target of an in-process virtual camera's scene",
       [context](const ApiRequest& request, const PathParams& params, Reply reply) {
-        mock::VirtualV4l2Device* device = context.cameras->virtual_device(params.at("id"));
-        if (!context.cameras->find(params.at("id")))
-          return reply(
-              error_response("not_found", "no camera '" + params.at("id").substr(0, 100) + "'"));
-        if (!device)
-          return reply(error_response("unsupported",
-                                      "only an in-process virtual camera's scene can be moved"));
+        mock::VirtualV4l2Device* device = virtual_device_or_reply(
+            context, params, "only an in-process virtual camera's scene can be moved", reply);
+        if (!device) return;
         auto body = parse_json_object(request.body);
         if (!body) return reply(error_response(body.error()));
         for (const auto& [key, value] : body->items())
