@@ -29,6 +29,14 @@
 #include "optics/optics.h"
 
 namespace camlab::calib {
+
+bool is_calibration_image(const std::filesystem::path& path) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
+  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" ||
+         ext == ".pgm" || ext == ".bmp";
+}
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -40,34 +48,30 @@ struct ImageSource {
   std::function<Result<cv::Mat>()> load;
 };
 
+// An image file as grey levels at its own depth (8 or 16 bit); colour is converted.
+Result<cv::Mat> read_grey_image(const fs::path& f) {
+  cv::Mat m;
+  try {
+    m = cv::imread(f.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+  } catch (const cv::Exception& e) {
+    return make_error("io_error", "cannot read image '" + f.string() + "': " + e.what());
+  }
+  if (m.empty()) return make_error("io_error", "cannot read image '" + f.string() + "'");
+  return m;
+}
+
 Result<std::vector<ImageSource>> images_dir_sources(const fs::path& dir) {
   std::vector<fs::path> files;
   std::error_code ec;
-  for (const auto& e : fs::directory_iterator(dir, ec)) {
-    std::string ext = e.path().extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
-    if (ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" ||
-        ext == ".pgm" || ext == ".bmp")
-      files.push_back(e.path());
-  }
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (is_calibration_image(e.path())) files.push_back(e.path());
   if (ec) return make_error("io_error", "cannot list '" + dir.string() + "': " + ec.message());
   std::sort(files.begin(), files.end());
   if (files.empty())
     return make_error("io_error", "no images (png, jpg, tif, pgm, bmp) in '" + dir.string() + "'");
   std::vector<ImageSource> out;
   for (const auto& f : files)
-    out.push_back({f.filename().string(), [f]() -> Result<cv::Mat> {
-                     cv::Mat m;
-                     try {
-                       m = cv::imread(f.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
-                     } catch (const cv::Exception& e) {
-                       return make_error("io_error",
-                                         "cannot read image '" + f.string() + "': " + e.what());
-                     }
-                     if (m.empty())
-                       return make_error("io_error", "cannot read image '" + f.string() + "'");
-                     return m;
-                   }});
+    out.push_back({f.filename().string(), [f] { return read_grey_image(f); }});
   return out;
 }
 
@@ -391,12 +395,7 @@ Result<std::optional<BoardView>> detect_image_view(const fs::path& image,
                                                    int* height_px) {
   if (Status s = check_detector(options); !s) return s.error();
   cv::Mat m;
-  try {
-    m = cv::imread(image.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
-  } catch (const cv::Exception& e) {
-    return make_error("io_error", "cannot read image '" + image.string() + "': " + e.what());
-  }
-  if (m.empty()) return make_error("io_error", "cannot read image '" + image.string() + "'");
+  CAMLAB_ASSIGN(m, read_grey_image(image));
   *width_px = m.cols;
   *height_px = m.rows;
   auto view = detect_board_view(m, options);

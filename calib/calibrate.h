@@ -61,6 +61,9 @@ struct CalibrationRun {
   std::optional<std::string> opencv_yaml_text;  // when the model has an OpenCV equivalent
 };
 
+// Whether a file is an image the calibration reads (png, jpg, tif, pgm, bmp, by extension).
+bool is_calibration_image(const std::filesystem::path& path);
+
 // Whether `detector` keeps boards cut by the frame (charuco, markers): the guided
 // calibration may then suggest poses that show part of the board.
 bool detector_keeps_partial_boards(const std::string& detector);

@@ -15,17 +15,6 @@ namespace camlab::calib {
 
 namespace fs = std::filesystem;
 
-namespace {
-
-bool is_image(const fs::path& p) {
-  std::string ext = p.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), ::tolower);
-  return ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" || ext == ".tiff" ||
-         ext == ".pgm" || ext == ".bmp";
-}
-
-}  // namespace
-
 nlohmann::json to_json(const ViewSuggestion& s) {
   return {{"rt_cam_board", s.rt_cam_board},
           {"centre_x_px", s.centre_x_px},
@@ -85,7 +74,7 @@ Result<FolderPoll> FolderSession::poll() {
   std::vector<fs::path> ready;
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(options_.images_dir, ec)) {
-    if (!e.is_regular_file(ec) || !is_image(e.path())) continue;
+    if (!e.is_regular_file(ec) || !is_calibration_image(e.path())) continue;
     const std::string name = e.path().filename().string();
     if (seen_.count(name)) continue;
     const long long size = static_cast<long long>(e.file_size(ec));

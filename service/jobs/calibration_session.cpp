@@ -5,6 +5,7 @@
 
 #include "base/atomic_file.h"
 #include "calib/corners/corners_vnl.h"
+#include "calib/guided_session.h"
 #include "calib/lens_model.h"
 
 namespace camlab::service {
@@ -18,20 +19,6 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 // A number for JSON: NaN and infinities (a grid point the model cannot unproject) as null.
 nlohmann::json finite_or_null(double value) {
   return std::isfinite(value) ? nlohmann::json(value) : nlohmann::json(nullptr);
-}
-
-nlohmann::json suggestion_json(const calib::ViewSuggestion& s) {
-  return {{"description", s.description},
-          {"region", s.region},
-          {"opening", s.opening},
-          {"centre_px", {s.centre_x_px, s.centre_y_px}},
-          {"bounds_px", s.bounds_px},
-          {"distance_m", s.distance_m},
-          {"tilt_about_x_deg", s.tilt_about_x_deg},
-          {"tilt_about_y_deg", s.tilt_about_y_deg},
-          {"rt_cam_board", s.rt_cam_board},
-          {"worst_now_px", s.worst_now_px},
-          {"predicted_worst_px", s.predicted_worst_px}};
 }
 
 }  // namespace
@@ -175,7 +162,7 @@ nlohmann::json CalibrationSession::to_json() const {
     json["target_reached"] = std::isfinite(coverage_->worst_of_grid_px) &&
                              coverage_->worst_of_grid_px <= target_uncertainty_px_;
   }
-  json["suggestion"] = suggestion_ ? suggestion_json(*suggestion_) : nlohmann::json(nullptr);
+  json["suggestion"] = suggestion_ ? calib::to_json(*suggestion_) : nlohmann::json(nullptr);
   json["last_error"] = last_error_ ? nlohmann::json{{"code", name_of(last_error_->code)},
                                                     {"message", last_error_->message}}
                                    : nlohmann::json(nullptr);
