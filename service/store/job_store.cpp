@@ -277,6 +277,7 @@ Result<JobRecord> JobStore::create(const std::string& kind, const std::string& c
     if (auto updated = execute("set job folder", kSetFolder, job.folder, job.id); !updated)
       return updated.error();
   }
+  notify_change({job.id, JobState::kQueued, 0, frames_total, 0});
   return job;
 }
 
@@ -353,6 +354,10 @@ Result<bool> JobStore::start(int64_t id) {
                                  "UPDATE jobs SET state = 'running', started_ms = ? "
                                  "WHERE id = ? AND state = 'queued'",
                                  unix_time_ms(), id));
+  if (changed == 1) {
+    started_here_.insert(id);
+    notify_change({id, JobState::kRunning});
+  }
   return changed == 1;
 }
 
@@ -385,6 +390,10 @@ Status JobStore::progress(int64_t id, int frames_done, int frames_total, int fra
   live.frames_total = frames_total;
   live.frames_discarded = frames_discarded;
   live.dirty = true;
+  // Only a job this store started is shown running (a report for a job not running is
+  // ignored, as the database ignores it).
+  if (started_here_.contains(id))
+    notify_change({id, JobState::kRunning, frames_done, frames_total, frames_discarded});
   // The first report, the last frame, every kProgressRowFrames frames and every
   // kProgressRowMs go to the database; the rest only to memory (one SQLite write a frame
   // was the store mutex's largest holder during a capture).
@@ -412,11 +421,25 @@ Result<bool> JobStore::finish(int64_t id, JobState state, const std::optional<Er
                                  "WHERE id = ? AND state IN ('queued', 'running')",
                                  job_state_name(state), unix_time_ms(), error_code, error_message,
                                  result_text, id));
+  started_here_.erase(id);
   if (changed == 1) notify_finished(id, state);
   return changed == 1;
 }
 
 void JobStore::notify_finished(int64_t id, JobState state) {
+  if (change_observer_) {
+    JobChange change{id, state};
+    (void)query(
+        "read job progress",
+        "SELECT frames_done, frames_total, frames_discarded FROM jobs WHERE id = ?",
+        [&](const Statement& row) {
+          change.frames_done = static_cast<int>(row.column_int64(0));
+          change.frames_total = static_cast<int>(row.column_int64(1));
+          change.frames_discarded = static_cast<int>(row.column_int64(2));
+        },
+        id);
+    notify_change(change);
+  }
   if (!finish_observer_) return;
   std::string kind;
   (void)query(
@@ -441,6 +464,7 @@ Result<int> JobStore::interrupt_unfinished(const std::string& message) {
   std::lock_guard lock(mutex_);
   while (!live_.empty())
     if (Status flushed = flush_progress(live_.begin()->first); !flushed) return flushed.error();
+  started_here_.clear();
   return execute("interrupt jobs",
                  "UPDATE jobs SET state = 'interrupted', finished_ms = ?, "
                  "error_code = 'interrupted', error_message = ? "

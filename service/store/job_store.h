@@ -30,6 +30,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -83,6 +84,14 @@ struct JobRecord {
 // The job as the API shows it (times as ISO 8601 UTC, progress as a fraction).
 nlohmann::json to_json(const JobRecord& job);
 
+// What changed about one job, as the change observer sees it; a client that wants more
+// reads the job.
+struct JobChange {
+  int64_t id = 0;
+  JobState state = JobState::kQueued;
+  int frames_done = 0, frames_total = 0, frames_discarded = 0;
+};
+
 struct LatencyRecord {
   std::string camera_id;
   int latency_frames = 0;
@@ -129,6 +138,14 @@ class JobStore {
   using FinishObserver = std::function<void(const std::string& kind, JobState state)>;
   void set_finish_observer(FinishObserver observer) { finish_observer_ = std::move(observer); }
 
+  // Told of every change a client may want to see at once (server-sent events,
+  // docs/service.md): a job created (queued), started (running), a progress report (each
+  // call, in memory), a final state through finish() or cancel_queued(). Set before any
+  // job runs; called with the store's lock held, so it must be quick and must not call
+  // the store (the event hub copies the change into its own queue).
+  using ChangeObserver = std::function<void(const JobChange& change)>;
+  void set_change_observer(ChangeObserver observer) { change_observer_ = std::move(observer); }
+
   Status put_latency(const LatencyRecord& record);
   Result<std::optional<LatencyRecord>> latency(const std::string& camera_id);
 
@@ -149,6 +166,10 @@ class JobStore {
 
   // The kind of job `id`, after a change of its state (callers hold mutex_).
   void notify_finished(int64_t id, JobState state);
+  // Tells the change observer (callers hold mutex_).
+  void notify_change(const JobChange& change) const {
+    if (change_observer_) change_observer_(change);
+  }
 
   // A running job's progress as last reported, and what the database holds of it.
   struct LiveProgress {
@@ -166,7 +187,9 @@ class JobStore {
   sqlite::Connection db_;
   std::mutex mutex_;
   FinishObserver finish_observer_;
+  ChangeObserver change_observer_;
   std::map<int64_t, LiveProgress> live_;
+  std::set<int64_t> started_here_;  // jobs start() moved to running and not finished since
   struct CachedJob {
     JobRecord job;
     size_t bytes = 0;  // its request and result as stored

@@ -154,6 +154,45 @@ TEST_F(JobStoreTest, TransitionsGoOnlyTheDocumentedWays) {
   EXPECT_TRUE(cancelled.result.is_null());
 }
 
+// The change observer (server-sent events) sees every step of a job in order, with the
+// progress as reported, and nothing for a report on a job that is not running or for a
+// transition the store refused.
+TEST_F(JobStoreTest, TheChangeObserverSeesEveryStepInOrder) {
+  std::vector<JobChange> seen;
+  store_->set_change_observer([&seen](const JobChange& change) { seen.push_back(change); });
+  const int64_t id = store_->create("capture", "vcam0", {{"n", 1}}, "captures/job-", 4)->id;
+  ASSERT_TRUE(store_->progress(id, 1, 4, 0).ok());  // not running: not shown
+  ASSERT_TRUE(*store_->start(id));
+  ASSERT_FALSE(*store_->start(id));
+  ASSERT_TRUE(store_->progress(id, 2, 4, 1).ok());
+  ASSERT_TRUE(store_->progress(id, 4, 4, 3).ok());
+  ASSERT_TRUE(*store_->finish(id, JobState::kSucceeded, std::nullopt, {{"frames", 4}}));
+  ASSERT_FALSE(*store_->finish(id, JobState::kFailed, std::nullopt, nullptr));
+  ASSERT_TRUE(store_->progress(id, 5, 4, 3).ok());  // finished: not shown
+  const int64_t queued = store_->create("analysis", "", nlohmann::json::object(), "", 0)->id;
+  ASSERT_TRUE(*store_->cancel_queued(queued));
+
+  struct Expected {
+    int64_t id;
+    JobState state;
+    int done, total, discarded;
+  };
+  const std::vector<Expected> expected = {
+      {id, JobState::kQueued, 0, 4, 0},       {id, JobState::kRunning, 0, 0, 0},
+      {id, JobState::kRunning, 2, 4, 1},      {id, JobState::kRunning, 4, 4, 3},
+      {id, JobState::kSucceeded, 4, 4, 3},    {queued, JobState::kQueued, 0, 0, 0},
+      {queued, JobState::kCancelled, 0, 0, 0}};
+  ASSERT_EQ(seen.size(), expected.size());
+  for (size_t i = 0; i < expected.size(); ++i) {
+    SCOPED_TRACE("change " + std::to_string(i));
+    EXPECT_EQ(seen[i].id, expected[i].id);
+    EXPECT_EQ(seen[i].state, expected[i].state);
+    EXPECT_EQ(seen[i].frames_done, expected[i].done);
+    EXPECT_EQ(seen[i].frames_total, expected[i].total);
+    EXPECT_EQ(seen[i].frames_discarded, expected[i].discarded);
+  }
+}
+
 // Progress is kept in memory and written to the database only now and then: a reader racing
 // the writer never sees less than what progress() had returned from before the read began,
 // nor a count going back; list() agrees; the database row lags by fewer than
