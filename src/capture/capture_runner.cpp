@@ -242,6 +242,9 @@ Status Runner::process(const device::Frame& frame) {
     }
     converted = std::move(*c);
   }
+  // After the controls went out and the kept frame was copied: a viewer's copy is the
+  // last thing that holds the buffer.
+  if (options_.frame_tap) options_.frame_tap->offer(frame, format_);
   Status requeued = camera_.requeue(frame);
   drops_.on_requeue(monotonic_ns());
   register_deferred_change();

@@ -45,6 +45,7 @@
 
 #include "base/result.h"
 #include "capture/capture_plan.h"
+#include "capture/frame_tap.h"
 #include "capture/frame_writer.h"
 #include "device/camera.h"
 #include "image/capture_folder.h"
@@ -76,6 +77,9 @@ struct CaptureOptions {
   nlohmann::json source = nlohmann::json::object();  // camera description for the manifest
   FrameWriter::Limits writer_limits;                 // frames waiting for the disk, in memory
   image::CommitPolicy commit_policy;                 // how often frames are synced and listed
+  // Offered every frame dequeued, before it is requeued (a live view beside the capture);
+  // may be null. Borrowed for the run.
+  FrameTap* frame_tap = nullptr;
 };
 
 struct CaptureSummary {

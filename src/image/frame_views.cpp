@@ -17,7 +17,7 @@ int demosaic_to_bgr_code(const std::string& cfa) {
 
 }  // namespace
 
-Result<cv::Mat> luminance_view(const cv::Mat& stored, const FrameSidecar& sidecar) {
+Result<cv::Mat> picture_view(const cv::Mat& stored, const FrameSidecar& sidecar) {
   if (stored.empty()) return make_error("bad_image", "the frame is empty");
   switch (sidecar.layout) {
     case FrameLayout::kMono:
@@ -30,21 +30,25 @@ Result<cv::Mat> luminance_view(const cv::Mat& stored, const FrameSidecar& sideca
         return make_error("bad_image", "a mosaic frame must be one channel with a Bayer pattern");
       if (stored.rows < 2 || stored.cols < 2)
         return make_error("bad_image", "a mosaic frame needs at least 2x2 samples");
-      cv::Mat bgr, grey;
+      cv::Mat bgr;
       cv::cvtColor(stored, bgr, demosaic_to_bgr_code(sidecar.cfa_pattern));
-      cv::cvtColor(bgr, grey, cv::COLOR_BGR2GRAY);
-      return grey;
+      return bgr;
     }
-    case FrameLayout::kRgb: {
+    case FrameLayout::kRgb:
       if (stored.channels() != 3)
         return make_error("bad_image",
                           "an rgb frame with " + std::to_string(stored.channels()) + " channels");
-      cv::Mat grey;
-      cv::cvtColor(stored, grey, cv::COLOR_BGR2GRAY);
-      return grey;
-    }
+      return stored;
   }
   return make_error("bad_image", "unknown frame layout");
+}
+
+Result<cv::Mat> luminance_view(const cv::Mat& stored, const FrameSidecar& sidecar) {
+  auto picture = picture_view(stored, sidecar);
+  if (!picture || picture->channels() == 1) return picture;
+  cv::Mat grey;
+  cv::cvtColor(*picture, grey, cv::COLOR_BGR2GRAY);
+  return grey;
 }
 
 Result<CfaPlanes> cfa_planes(const cv::Mat& stored, const FrameSidecar& sidecar) {

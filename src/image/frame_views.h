@@ -19,6 +19,11 @@ namespace camlab::image {
 // rgb frames weighted the same. For corners and edge geometry, not for radiometry.
 Result<cv::Mat> luminance_view(const cv::Mat& stored, const FrameSidecar& sidecar);
 
+// The frame as a picture, with the stored depth: mono frames as they are (one channel),
+// mosaics demosaiced (bilinear, OpenCV) to B, G, R, rgb frames as they are (B, G, R).
+// For display, not for radiometry.
+Result<cv::Mat> picture_view(const cv::Mat& stored, const FrameSidecar& sidecar);
+
 // A mosaic's four sample planes in the order the pattern names them (RGGB: R, G, G, B),
 // each (rows/2) x (cols/2), the samples unchanged. Plane k holds the samples at
 // (2 y + k / 2, 2 x + k % 2).
