@@ -26,7 +26,14 @@ packages=(
   gstreamer1.0-plugins-base-apps   # gst-device-monitor-1.0
   libcamera-dev libcamera-tools   # the libcamera backend (0.0.3), and cam to test it against the virtual camera
   wrk curl               # camlabd: status-request load benchmark (tests/bench/service_bench), README's curl session
+  chromium               # the dashboard's browser test (tests/browser), headless
 )
+# node and npm run the browser test's driver (playwright-core, installed by the build with npm
+# ci). A machine that has them already (e.g. NodeSource's nodejs, which brings its own npm)
+# keeps them: Debian's npm package would pull Debian's nodejs over it.
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for p in "${packages[@]}"; do

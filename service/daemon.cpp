@@ -25,8 +25,10 @@
 #include "service/http/listener.h"
 #include "service/jobs/calibration_sessions.h"
 #include "service/jobs/compute_jobs.h"
+#include "service/jobs/job_events.h"
 #include "service/jobs/job_recovery.h"
 #include "service/jobs/job_waiters.h"
+#include "service/live/live_hub.h"
 #include "service/metrics.h"
 #include "service/store/job_store.h"
 
@@ -62,7 +64,7 @@ Result<fs::path> prepare_data_dir(const fs::path& dir) {
   if (ec)
     return make_error("io_error",
                       "cannot resolve the data folder " + dir.string() + ": " + ec.message());
-  for (const char* sub : {"captures", "calibrations"}) {
+  for (const char* sub : {"captures", "calibrations", "analyses"}) {
     fs::create_directories(canonical / sub, ec);
     if (ec)
       return make_error("io_error",
@@ -127,6 +129,11 @@ int run_daemon(const DaemonConfig& config) {
   (*store)->set_finish_observer([&metrics](const std::string& kind, JobState state) {
     metrics.count_job_finished(kind, job_state_name(state));
   });
+  // Job changes go to the event streams (GET /v1/events) as they are stored.
+  JobEvents events;
+  (*store)->set_change_observer([&events](const JobChange& change) { events.publish(change); });
+  // The live view's rendering gives way to captures, as the HTTP threads do.
+  LiveHub live([io_nice = config.io_nice] { lower_this_thread_priority(io_nice); });
   CameraSetOptions camera_options = config.cameras;
   camera_options.worker.data_dir = *data_dir;
   auto cameras = CameraSet::create(camera_options, **store, metrics);
@@ -143,6 +150,8 @@ int run_daemon(const DaemonConfig& config) {
   router.hide_data_dir(*data_dir);
   ServiceContext context{*data_dir, store->get(),       cameras->get(), &compute,
                          &metrics,  config.test_faults, &sessions,      &waiters};
+  context.live = &live;
+  context.events = &events;
   add_all_routes(router, context);
 
   net::io_context ioc(config.io_threads);
@@ -156,6 +165,8 @@ int run_daemon(const DaemonConfig& config) {
   compute.start();
   sessions.start();
   waiters.start();
+  events.start();
+  live.start();
   const auto workers = (*cameras)->workers();
   for (const auto& worker : workers) {
     const CameraSnapshot s = worker->snapshot();
@@ -198,6 +209,9 @@ int run_daemon(const DaemonConfig& config) {
            "%s received: stopping (no new connections; running jobs are interrupted, frames kept)",
            signal_number == SIGTERM ? "SIGTERM" : "SIGINT");
   (*listener)->stop();
+  // The streams end first (their connections close), then what feeds them.
+  live.stop();
+  events.stop();
   waiters.stop();
   sessions.stop();
   (*cameras)->stop();

@@ -5,6 +5,7 @@
 
 #include "capture/capture_plan.h"
 #include "device/camera_json.h"
+#include "service/api/api_lookup.h"
 #include "service/api/service_context.h"
 #include "service/jobs/camera_set.h"
 #include "service/store/job_store.h"
@@ -12,19 +13,6 @@
 namespace camlab::service {
 
 namespace {
-
-std::string clip(const std::string& s) { return s.size() > 100 ? s.substr(0, 100) + "..." : s; }
-
-// The worker of camera `id` (a retired one while the camera is gone), or a 404 reply.
-std::shared_ptr<CameraWorker> find_camera(const ServiceContext& context, const std::string& id,
-                                          const Reply& reply) {
-  if (auto worker = context.cameras->find(id)) return worker;
-  std::string known;
-  for (const auto& w : context.cameras->workers()) known += (known.empty() ? "" : ", ") + w->id();
-  reply(error_response("not_found", "no camera '" + clip(id) +
-                                        "' (cameras: " + (known.empty() ? "none" : known) + ")"));
-  return nullptr;
-}
 
 nlohmann::json latency_json(const ServiceContext& context, const std::string& id) {
   auto stored = context.store->latency(id);

@@ -79,8 +79,9 @@ void queue_compute_job(const ServiceContext& context, const std::string& kind,
                        const nlohmann::json& request, const Reply& reply) {
   if (!context.compute->can_accept_job())
     return reply(error_response("too_many_jobs", "the compute queue is full; retry later"));
-  auto job =
-      context.store->create(kind, "", request, kind == "calibration" ? "calibrations/job-" : "", 0);
+  // Each gets a folder for its outputs (the model, the plots).
+  auto job = context.store->create(
+      kind, "", request, kind == "calibration" ? "calibrations/job-" : "analyses/job-", 0);
   if (!job) return reply(error_response(job.error()));
   if (auto s = context.compute->enqueue_job(job->id); !s) {
     (void)context.store->finish(job->id, JobState::kCancelled, s.error(), nullptr);

@@ -6,15 +6,18 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "base/unique_fd.h"
 #include "image/capture_folder.h"
+#include "service/api/api_lookup.h"
 #include "service/api/service_context.h"
 #include "service/jobs/camera_set.h"
 #include "service/jobs/job_waiters.h"
@@ -25,26 +28,6 @@ namespace camlab::service {
 namespace {
 
 constexpr int kMaxListLimit = 1000;
-
-// The job named by the {id} parameter, or a 400/404/500 reply.
-std::optional<JobRecord> find_job(const ServiceContext& context, const PathParams& params,
-                                  const Reply& reply) {
-  auto id = parse_id(params.at("id"), "the job id");
-  if (!id) {
-    reply(error_response(id.error()));
-    return std::nullopt;
-  }
-  auto job = context.store->get(*id);
-  if (!job) {
-    reply(error_response(job.error()));
-    return std::nullopt;
-  }
-  if (!job->has_value()) {
-    reply(error_response("not_found", "no job " + std::to_string(*id)));
-    return std::nullopt;
-  }
-  return std::move(**job);
-}
 
 // The capture folder of a capture job, or a reply saying why there is none.
 std::optional<image::CaptureFolder> job_folder(const ServiceContext& context, const JobRecord& job,
@@ -125,21 +108,6 @@ std::optional<ApiResponse> read_frame_file(const ServiceContext& context, const 
     return std::nullopt;
   }
   return response;
-}
-
-// "state=running&limit=10&offset=0"
-std::map<std::string, std::string> parse_query(const std::string& query) {
-  std::map<std::string, std::string> out;
-  size_t start = 0;
-  while (start < query.size() && out.size() < 16) {
-    size_t end = query.find('&', start);
-    if (end == std::string::npos) end = query.size();
-    const std::string pair = query.substr(start, end - start);
-    const size_t eq = pair.find('=');
-    out[pair.substr(0, eq)] = eq == std::string::npos ? "" : pair.substr(eq + 1);
-    start = end + 1;
-  }
-  return out;
 }
 
 // GET /v1/jobs/{id}[?wait=S]: with wait, the answer comes once the job has finished or
@@ -237,9 +205,66 @@ void cancel_job(const ServiceContext& context, const PathParams& params, Reply r
                                        job_state_name(job->state) + ")"));
 }
 
+// The plots a calibration or analysis job wrote (its folder's plots/), as PNG files.
+std::vector<std::string> plot_names(const std::filesystem::path& dir) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.is_regular_file(ec) && entry.path().extension() == ".png" &&
+        image::is_plain_file_name(name))
+      names.push_back(name);
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+void list_plots(const ServiceContext& context, const PathParams& params, Reply reply) {
+  auto job = find_job(context, params, reply);
+  if (!job) return;
+  nlohmann::json plots = nlohmann::json::array();
+  if (!job->folder.empty() && job->kind != "capture") {
+    const std::string base = "/v1/jobs/" + std::to_string(job->id) + "/plots/";
+    for (const auto& name : plot_names(context.data_dir / job->folder / "plots"))
+      plots.push_back({{"name", name}, {"image", base + name}});
+  }
+  reply(json_response(200, {{"job_id", job->id},
+                            {"kind", job->kind},
+                            {"state", job_state_name(job->state)},
+                            {"plots", plots}}));
+}
+
+void get_plot(const ServiceContext& context, const PathParams& params, Reply reply) {
+  auto job = find_job(context, params, reply);
+  if (!job) return;
+  const std::string& name = params.at("name");
+  const std::filesystem::path dir = context.data_dir / job->folder / "plots";
+  if (job->folder.empty() || job->kind == "capture" || !image::is_plain_file_name(name) ||
+      std::filesystem::path(name).extension() != ".png")
+    return reply(error_response("not_found", "job " + std::to_string(job->id) + " has no plot '" +
+                                                 clip(name) + "' (GET /v1/jobs/" +
+                                                 std::to_string(job->id) + "/plots lists them)"));
+  ApiResponse response;
+  if (!read_bytes(dir / name, &response.body))
+    return reply(error_response(
+        "not_found", "job " + std::to_string(job->id) + " has no plot '" + clip(name) + "'"));
+  response.content_type = "image/png";
+  reply(std::move(response));
+}
+
 }  // namespace
 
 void add_job_routes(Router& router, const ServiceContext& context) {
+  router.add({"GET", "/v1/jobs/{id}/plots",
+              "The plots a calibration or analysis job drew (PNG): linearity, photon transfer, "
+              "CoC against f-number, V-curve, depth map, residuals, uncertainty",
+              [context](const ApiRequest&, const PathParams& params, Reply reply) {
+                list_plots(context, params, std::move(reply));
+              }});
+  router.add({"GET", "/v1/jobs/{id}/plots/{name}", "One plot of a job, as PNG",
+              [context](const ApiRequest&, const PathParams& params, Reply reply) {
+                get_plot(context, params, std::move(reply));
+              }});
   router.add({"GET", "/v1/jobs", "Jobs, newest first (?state=, ?limit= up to 1000, ?offset=)",
               [context](const ApiRequest& request, const PathParams&, Reply reply) {
                 list_jobs(context, request, std::move(reply));

@@ -40,6 +40,9 @@ void add_all_routes(Router& router, const ServiceContext& context) {
   add_job_routes(router, context);
   add_compute_routes(router, context);
   add_session_routes(router, context);
+  add_live_routes(router, context);
+  add_event_routes(router, context);
+  add_web_routes(router, context);
   if (context.test_faults) add_test_routes(router, context);
 }
 

@@ -1,9 +1,13 @@
 #include "service/api/api_types.h"
 
 #include <cctype>
+#include <cmath>
+#include <cstdlib>
 #include <set>
 #include <string>
 #include <vector>
+
+#include "base/format.h"
 
 namespace camlab::service {
 
@@ -65,6 +69,44 @@ Result<int64_t> parse_id(const std::string& text, const std::string& what, int m
     value = value * 10 + (c - '0');
   }
   return value;
+}
+
+QueryParams parse_query(const std::string& query) {
+  QueryParams out;
+  size_t start = 0;
+  while (start < query.size() && out.size() < 16) {
+    size_t end = query.find('&', start);
+    if (end == std::string::npos) end = query.size();
+    const std::string pair = query.substr(start, end - start);
+    const size_t eq = pair.find('=');
+    out[pair.substr(0, eq)] = eq == std::string::npos ? "" : pair.substr(eq + 1);
+    start = end + 1;
+  }
+  return out;
+}
+
+Result<double> query_number(const QueryParams& query, const std::string& name, double min,
+                            double max, double fallback) {
+  auto it = query.find(name);
+  if (it == query.end()) return fallback;
+  char* end = nullptr;
+  const double value = std::strtod(it->second.c_str(), &end);
+  if (it->second.empty() || it->second.size() > 16 || *end != '\0' || !std::isfinite(value) ||
+      value < min || value > max)
+    return make_error("invalid_request", name + " must be a number in [" + format_significant(min) +
+                                             ", " + format_significant(max) + "], not '" +
+                                             it->second.substr(0, 16) + "'");
+  return value;
+}
+
+Result<bool> query_flag(const QueryParams& query, const std::string& name, bool fallback) {
+  auto it = query.find(name);
+  if (it == query.end()) return fallback;
+  if (it->second == "1" || it->second == "true" || it->second == "yes" || it->second.empty())
+    return true;
+  if (it->second == "0" || it->second == "false" || it->second == "no") return false;
+  return make_error("invalid_request", name + " must be 1 or 0 (true or false), not '" +
+                                           it->second.substr(0, 16) + "'");
 }
 
 }  // namespace camlab::service

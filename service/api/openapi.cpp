@@ -224,6 +224,86 @@ json schemas() {
           {"stall", {{"type", "boolean"}}}}}}}};
 }
 
+// The dashboard's page and files, and what it reads: the live view, the histogram, frame
+// thumbnails, plots and job events (docs/dashboard.md).
+void add_dashboard_paths(json& paths, const json& camera_id, const json& job_id,
+                         const json& frame_n) {
+  const json object = {{"type", "object"}};
+  const json binary = {{"type", "string"}, {"format", "binary"}};
+  auto query = [](const std::string& name, const std::string& description, json schema) {
+    return json{{"name", name}, {"in", "query"}, {"description", description}, {"schema", schema}};
+  };
+  auto number = [](double min, double max, double fallback) {
+    return json{{"type", "number"}, {"minimum", min}, {"maximum", max}, {"default", fallback}};
+  };
+  const json flag = {{"type", "integer"}, {"enum", {0, 1}}, {"default", 0}};
+  const json display = {
+      query("width", "width shown, px (scaled down, never up)", number(16, 4096, 640)),
+      query("peaking", "focus peaking overlay (green)", flag),
+      query("peaking_threshold", "Sobel gradient on 0-255 display values", number(1, 1000, 150)),
+      query("clipping", "clipping overlay: red at the white level, blue at the black level", flag),
+      query("quality", "JPEG quality", number(10, 100, 80))};
+  json live_parameters = {camera_id, query("fps", "frame-rate cap, frames/s", number(0.2, 30, 10))};
+  for (const auto& p : display) live_parameters.push_back(p);
+  json frame_parameters = {camera_id};
+  for (const auto& p : display) frame_parameters.push_back(p);
+  const json public_operation = {{"security", json::array()}};
+  paths["/"] = {
+      {"get", merge(operation("The dashboard (no token: the page asks for it)", "dashboard",
+                              json::array(), ok(200, "HTML", {{"type", "string"}}, "text/html")),
+                    public_operation)}};
+  paths["/ui/{name}"] = {
+      {"get",
+       merge(operation("The dashboard's scripts, style and icon", "dashboard",
+                       {path_param("name", "file name", {{"type", "string"}})},
+                       merge(ok(200, "the file", {{"type", "string"}}), error_responses({404}))),
+             public_operation)}};
+  paths["/v1/cameras/{id}/live"] = {
+      {"get", operation("Live view: multipart/x-mixed-replace of JPEG frames (each part has "
+                        "Content-Length, X-Frame-Sequence, X-Frame-Timestamp-Ns, X-Frame-Width, "
+                        "X-Frame-Height, X-Frame-Repeated), at most fps a second; runs beside "
+                        "captures without changing which frames they keep",
+                        "live", live_parameters,
+                        merge(ok(200, "the stream, until the client or the camera goes", binary,
+                                 "multipart/x-mixed-replace"),
+                              error_responses({400, 401, 404, 503})))}};
+  paths["/v1/cameras/{id}/live/frame"] = {
+      {"get", operation("The camera's next frame as one JPEG", "live", frame_parameters,
+                        merge(ok(200, "JPEG", binary, "image/jpeg"),
+                              error_responses({400, 401, 404, 503})))}};
+  paths["/v1/cameras/{id}/histogram"] = {
+      {"get",
+       operation("Histogram of the next frame's raw DN per channel (Y; R, Gr, Gb, B for a "
+                 "Bayer mosaic; R, G, B), with the black and white levels, mean, range "
+                 "and the shares clipped",
+                 "live",
+                 {camera_id, query("bins", "bins over [0, 2^bit_depth)", number(1, 4096, 256))},
+                 merge(ok(200, "histogram", object), error_responses({400, 401, 404, 503})))}};
+  paths["/v1/jobs/{id}/frames/{n}/thumbnail"] = {
+      {"get", operation("Frame n shown small (JPEG)", "jobs",
+                        {job_id, frame_n, query("width", "px", number(16, 640, 160)),
+                         query("clipping", "clipping overlay", flag)},
+                        merge(ok(200, "JPEG", binary, "image/jpeg"),
+                              error_responses({400, 401, 404, 422})))}};
+  paths["/v1/jobs/{id}/plots"] = {
+      {"get", operation("The plots an analysis or calibration job drew", "jobs", {job_id},
+                        merge(ok(200, "{plots: [{name, image}]}", object),
+                              error_responses({400, 401, 404})))}};
+  paths["/v1/jobs/{id}/plots/{name}"] = {
+      {"get",
+       operation("One plot (PNG)", "jobs",
+                 {job_id, path_param("name", "e.g. linearity.png", {{"type", "string"}})},
+                 merge(ok(200, "PNG", binary, "image/png"), error_responses({400, 401, 404})))}};
+  paths["/v1/events"] = {
+      {"get",
+       operation("Job changes as server-sent events: event \"job\" with data {id, state, "
+                 "frames_done, frames_total, frames_discarded}; \"resync\" when the client "
+                 "fell behind; a comment every 15 s",
+                 "jobs", json::array(),
+                 merge(ok(200, "the event stream", {{"type", "string"}}, "text/event-stream"),
+                       error_responses({401, 503})))}};
+}
+
 }  // namespace
 
 json openapi_document(bool include_test_routes) {
@@ -323,6 +403,7 @@ json openapi_document(bool include_test_routes) {
                            merge(ok(202, "the queued job; its result holds the report", ref("Job")),
                                  error_responses({400, 401, 404, 409, 413, 422, 429})),
                            ref("AnalysisRequest"))}}}};
+  add_dashboard_paths(paths, camera_id, job_id, frame_n);
   const json session_id =
       path_param("id", "calibration session id", {{"type", "integer"}, {"minimum", 1}});
   const std::string session_state =
@@ -376,7 +457,8 @@ json openapi_document(bool include_test_routes) {
             {"description",
              "REST capture of exposure brackets, focus stacks and aperture series with "
              "frame-accurate settings. "
-             "Every endpoint but GET /v1/health needs 'Authorization: Bearer TOKEN' (DATA/token). "
+             "Every endpoint but GET /v1/health and the dashboard's page and files needs "
+             "'Authorization: Bearer TOKEN' (DATA/token). "
              "Errors are "
              "{\"error\": {\"code\", \"message\"}}."}}},
           {"servers", {{{"url", "http://127.0.0.1:8080"}}}},

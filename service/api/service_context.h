@@ -14,7 +14,9 @@ class CalibrationSessions;
 class CameraSet;
 class ComputeWorker;
 class JobStore;
+class JobEvents;
 class JobWaiters;
+class LiveHub;
 class Metrics;
 
 struct ServiceContext {
@@ -26,6 +28,8 @@ struct ServiceContext {
   bool test_faults = false;                 // POST /v1/test/cameras/{id}/faults is registered
   CalibrationSessions* sessions = nullptr;  // null: /v1/calibration-sessions answers 503
   JobWaiters* waiters = nullptr;            // null: GET /v1/jobs/{id}?wait= answers at once
+  LiveHub* live = nullptr;      // null: live views, histograms and thumbnails answer 503
+  JobEvents* events = nullptr;  // null: GET /v1/events answers 503
 };
 
 // Registration of each group of routes (one file each).
@@ -35,6 +39,9 @@ void add_job_routes(Router& router, const ServiceContext& context);      // api_
 void add_compute_routes(Router& router, const ServiceContext& context);  // api_compute.cpp
 void add_test_routes(Router& router, const ServiceContext& context);     // api_test_faults.cpp
 void add_session_routes(Router& router, const ServiceContext& context);  // api_sessions.cpp
+void add_live_routes(Router& router, const ServiceContext& context);     // api_live.cpp
+void add_event_routes(Router& router, const ServiceContext& context);    // api_events.cpp
+void add_web_routes(Router& router, const ServiceContext& context);      // api_web.cpp
 
 // Every route of the daemon, in the order they are matched (test routes only with
 // context.test_faults).

@@ -2,6 +2,7 @@
 
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/post.hpp>
+#include <boost/asio/write.hpp>
 #include <boost/beast/core/bind_handler.hpp>
 #include <boost/beast/http/read.hpp>
 #include <boost/beast/http/write.hpp>
@@ -120,6 +121,7 @@ void HttpSession::on_read(beast::error_code ec, std::size_t) {
 }
 
 void HttpSession::send(ApiResponse api, bool close_after) {
+  if (api.stream) return start_stream(std::move(api));
   response_.emplace(static_cast<http::status>(api.status), http_version_);
   response_->set(http::field::server, "camlabd");
   response_->set(http::field::content_type, api.content_type);
@@ -144,6 +146,58 @@ void HttpSession::on_write(bool close_after, beast::error_code ec, std::size_t) 
     return do_close();
   }
   do_read();
+}
+
+void HttpSession::start_stream(ApiResponse api) {
+  body_stream_ = std::move(api.stream);
+  stream_head_.emplace(static_cast<http::status>(api.status), http_version_);
+  stream_head_->set(http::field::server, "camlabd");
+  stream_head_->set(http::field::content_type, api.content_type);
+  stream_head_->set(http::field::cache_control, "no-store");
+  for (const auto& [name, value] : api.headers) stream_head_->set(name, value);
+  // No length: the body ends when the connection does (RFC 9112 6.3), which every client
+  // of a stream reads that way.
+  stream_head_->keep_alive(false);
+  stream_.expires_after(limits_.write_timeout);
+  http::async_write(stream_, *stream_head_,
+                    beast::bind_front_handler(&HttpSession::on_stream_head, shared_from_this()));
+}
+
+void HttpSession::on_stream_head(beast::error_code ec, std::size_t) {
+  stream_head_.reset();
+  if (ec || head_request_) return end_stream();
+  ask_stream();
+}
+
+void HttpSession::ask_stream() {
+  stream_.expires_never();  // waiting for the next piece is not the client's fault
+  body_stream_->next([self = shared_from_this()](std::optional<std::string> piece) {
+    net::post(self->stream_.get_executor(), [self, piece = std::move(piece)]() mutable {
+      self->on_stream_piece(std::move(piece));
+    });
+  });
+}
+
+void HttpSession::on_stream_piece(std::optional<std::string> piece) {
+  if (!body_stream_) return;
+  if (!piece) return end_stream();
+  stream_piece_ = std::move(*piece);
+  stream_.expires_after(limits_.write_timeout);
+  net::async_write(stream_, net::buffer(stream_piece_),
+                   beast::bind_front_handler(&HttpSession::on_stream_written, shared_from_this()));
+}
+
+void HttpSession::on_stream_written(beast::error_code ec, std::size_t) {
+  if (ec) return end_stream();
+  ask_stream();
+}
+
+void HttpSession::end_stream() {
+  if (body_stream_) {
+    body_stream_->close();
+    body_stream_.reset();
+  }
+  do_close();
 }
 
 void HttpSession::drain_and_close() {

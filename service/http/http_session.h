@@ -6,6 +6,10 @@
 // thread: a camera worker answers control changes) is posted back onto the strand and
 // written; keep-alive connections then read the next request.
 //
+// A streamed answer (ApiResponse::stream: the live view, server-sent events) is written as
+// its head, then one piece at a time as the stream delivers them, each write under the
+// write timeout; the connection closes when the stream ends or a write fails.
+//
 // A request over a limit gets its 4xx (413, 431, 400) and the connection is closed after
 // draining what the client is still sending, so that it reads the answer, not a reset.
 #pragma once
@@ -14,10 +18,12 @@
 #include <atomic>
 #include <memory>
 #include <optional>
+#include <string>
 
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core/flat_buffer.hpp>
 #include <boost/beast/core/tcp_stream.hpp>
+#include <boost/beast/http/empty_body.hpp>
 #include <boost/beast/http/parser.hpp>
 #include <boost/beast/http/string_body.hpp>
 
@@ -54,6 +60,13 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   // Called on the strand with the handler's answer.
   void send(ApiResponse response, bool close_after);
   void on_write(bool close_after, boost::beast::error_code ec, std::size_t bytes);
+  // A streamed answer: the head, then each piece (see the header comment).
+  void start_stream(ApiResponse response);
+  void on_stream_head(boost::beast::error_code ec, std::size_t bytes);
+  void ask_stream();
+  void on_stream_piece(std::optional<std::string> piece);
+  void on_stream_written(boost::beast::error_code ec, std::size_t bytes);
+  void end_stream();
   // Half-closes, then reads and drops what the client still sends (bounded in bytes
   // and time) before closing, so the client sees the error response.
   void drain_and_close();
@@ -68,6 +81,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   uint64_t table_id_ = 0;  // in connections_->table, from run()
   std::optional<boost::beast::http::request_parser<boost::beast::http::string_body>> parser_;
   std::optional<boost::beast::http::response<boost::beast::http::string_body>> response_;
+  std::optional<boost::beast::http::response<boost::beast::http::empty_body>> stream_head_;
+  std::shared_ptr<BodyStream> body_stream_;
+  std::string stream_piece_;  // being written
   unsigned http_version_ = 11;
   bool keep_alive_ = false;
   bool head_request_ = false;

@@ -3,6 +3,7 @@
 #include "base/log.h"
 #include "device/camera_json.h"
 #include "service/jobs/capture_job.h"
+#include "service/jobs/live_preview.h"
 #include "service/metrics.h"
 #include "service/store/job_store.h"
 
@@ -14,7 +15,14 @@ CameraWorker::CameraWorker(device::DeviceEntry entry, OpenCamera open, CameraWor
       open_(std::move(open)),
       options_(std::move(options)),
       store_(store),
-      metrics_(metrics) {
+      metrics_(metrics),
+      live_(std::make_shared<LiveFeed>(entry_.identity.id, options_.traits)) {
+  // Someone started watching: wake the worker to preview (under the lock, so that the
+  // wake-up cannot fall between its check and its wait).
+  live_->set_demand_listener([this] {
+    { std::lock_guard lock(mutex_); }
+    wake_.notify_all();
+  });
   snapshot_.identity = entry_.identity;
   snapshot_.transport = entry_.transport;
   snapshot_.also_reachable_as = entry_.also_reachable_as;
@@ -66,6 +74,7 @@ void CameraWorker::retire(const std::string& reason) {
     snapshot_.available = false;
     snapshot_.unavailable_reason = reason;
   }
+  live_->close();
   wake_.notify_all();
 }
 
@@ -178,7 +187,7 @@ CaptureJobEnv CameraWorker::job_env() {
   CaptureJobEnv env{
       store_,          metrics_,         options_.data_dir,      options_.spec_latency_frames,
       options_.traits, nlohmann::json(), options_.frame_timeout, &cancel_,
-      &shutting_down_};
+      &shutting_down_, live_.get()};
   env.source = snapshot().description;
   env.source["transport"] = entry_.transport;
   for (const auto& [key, value] : options_.source_extra.items()) env.source[key] = value;
@@ -226,12 +235,14 @@ void CameraWorker::run() {
     int64_t job = 0;
     {
       std::unique_lock lock(mutex_);
-      wake_.wait(lock, [this] { return stopping_ || !tasks_.empty() || !jobs_.empty(); });
+      wake_.wait(lock, [this] {
+        return stopping_ || !tasks_.empty() || !jobs_.empty() || live_->wanted();
+      });
       if (stopping_) break;
       if (!tasks_.empty()) {
         task = std::move(tasks_.front());
         tasks_.pop_front();
-      } else {
+      } else if (!jobs_.empty()) {
         job = jobs_.front();
         jobs_.pop_front();
       }
@@ -240,10 +251,13 @@ void CameraWorker::run() {
       auto camera = ensure_open();
       task(camera ? *camera : nullptr, camera ? nullptr : &camera.error());
       refresh_snapshot();
-    } else {
+    } else if (job != 0) {
       run_job(job);
+    } else {
+      run_preview();
     }
   }
+  live_->close();
 
   // Shutting down: answer the tasks still waiting, and leave no job queued.
   std::deque<Task> tasks;
@@ -259,6 +273,50 @@ void CameraWorker::run() {
   for (int64_t id : jobs) end_unstarted(id);
   camera_.reset();  // stops streaming and closes the device on its own thread
   finished_ = true;
+}
+
+void CameraWorker::run_queued_tasks() {
+  for (;;) {
+    Task task;
+    {
+      std::lock_guard lock(mutex_);
+      if (tasks_.empty() || stopping_) return;
+      task = std::move(tasks_.front());
+      tasks_.pop_front();
+    }
+    auto camera = ensure_open();
+    task(camera ? *camera : nullptr, camera ? nullptr : &camera.error());
+    refresh_snapshot();
+  }
+}
+
+void CameraWorker::run_preview() {
+  auto camera = ensure_open();
+  Status previewed = camera ? Status{} : Status(camera.error());
+  if (camera) {
+    const CameraSnapshot now = snapshot();
+    auto format = preview_format(now.controls, now.formats, options_.traits);
+    if (!format) {
+      previewed = format.error();
+    } else {
+      previewed = run_live_preview(
+          **camera, *format, *live_,
+          [this] {
+            std::lock_guard lock(mutex_);
+            return !stopping_ && jobs_.empty() && live_->wanted();
+          },
+          [this] { run_queued_tasks(); }, options_.frame_timeout);
+    }
+  }
+  if (previewed.ok()) return;
+  // Logged once per preview; the viewers keep their last frame. A camera that failed is
+  // reopened on the next try, after a pause that keeps a broken one from spinning.
+  log_warning(log::Category::kCameras, "camera %s: live preview stopped: %s", id().c_str(),
+              previewed.error().message.c_str());
+  if (camera && is_device_error(previewed.error().code)) drop_camera(previewed.error());
+  std::unique_lock lock(mutex_);
+  wake_.wait_for(lock, std::chrono::seconds(1),
+                 [this] { return stopping_ || !tasks_.empty() || !jobs_.empty(); });
 }
 
 void CameraWorker::end_unstarted(int64_t job_id) {

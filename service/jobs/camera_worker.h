@@ -18,6 +18,12 @@
 // finish on its own; the set joins it once finished() (join()). A retired worker stays
 // listed as gone until a fresh worker for the same id replaces it.
 //
+// Live view (service/live/): the worker owns the camera's LiveFeed. Captures offer it their
+// frames as they dequeue them; with no job and no task queued, while the feed is wanted
+// (someone watches), the worker previews: it streams the camera and offers the frames,
+// running control changes between frames, and stops streaming as soon as a job is queued
+// or nobody watches any more.
+//
 // Owned by the camera set through shared_ptr; HTTP handlers hold a copy for the length of
 // a request, so a worker retired meanwhile stays valid (it refuses new work).
 // Thread-safe (every public member); the camera itself is touched only on the worker.
@@ -44,6 +50,7 @@
 #include "device/camera.h"
 #include "device/device_registry.h"
 #include "service/jobs/capture_job.h"
+#include "service/live/live_feed.h"
 
 namespace camlab::service {
 
@@ -112,6 +119,8 @@ class CameraWorker {
   const std::string& id() const { return entry_.identity.id; }
   const device::DeviceEntry& entry() const { return entry_; }
   CameraSnapshot snapshot() const;
+  // The camera's live feed; closed once the worker is retired or stopped.
+  const std::shared_ptr<LiveFeed>& live_feed() const { return live_; }
 
   // Queues a task ahead of queued jobs; "shutting_down" once stopping.
   Status post_task(Task task);
@@ -132,6 +141,10 @@ class CameraWorker {
  private:
   void run();
   void run_job(int64_t id);
+  // Streams for the live feed while it is wanted and nothing else is queued.
+  void run_preview();
+  // Runs the queued tasks (between preview frames).
+  void run_queued_tasks();
   // A camera with no control latency in the database is probed as soon as it opens, before
   // any job (which queue meanwhile, as do control changes), so that the first capture
   // does not carry the probe's seconds as a surprise.
@@ -153,6 +166,7 @@ class CameraWorker {
   Metrics& metrics_;
 
   std::unique_ptr<device::Camera> camera_;  // worker thread only
+  const std::shared_ptr<LiveFeed> live_;
 
   mutable std::mutex mutex_;
   std::condition_variable wake_;

@@ -191,6 +191,7 @@ JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const C
   options.control_latency_min_frames = latency->min_frames;
   options.frame_timeout = env.frame_timeout;
   options.cancel = env.cancel;
+  options.frame_tap = env.frame_tap;
   options.source = env.source;
   options.source["job_id"] = job.id;
   options.source["control_latency"] = {{"frames", latency->frames}, {"source", latency->source}};

@@ -15,6 +15,7 @@
 
 #include "base/result.h"
 #include "capture/capture_plan.h"
+#include "capture/frame_tap.h"
 #include "device/camera.h"
 #include "service/store/job_store.h"
 
@@ -44,6 +45,7 @@ struct CaptureJobEnv {
   std::chrono::milliseconds frame_timeout{5000};
   const std::atomic<bool>* cancel = nullptr;         // user cancel or shutdown
   const std::atomic<bool>* shutting_down = nullptr;  // a cancel from shutdown ends "interrupted"
+  capture::FrameTap* frame_tap = nullptr;            // the live view's feed; may be null
 };
 
 JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const CaptureJobEnv& env);

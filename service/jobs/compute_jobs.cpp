@@ -2,9 +2,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "analysis/defocus_report.h"
-#include "analysis/exposure_report.h"
-#include "analysis/focus_report.h"
+#include "analysis/analyze_folder.h"
 #include "base/atomic_file.h"
 #include "base/log.h"
 #include "calib/calibrate.h"
@@ -60,6 +58,7 @@ JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path
     return failure(make_error("io_error", "cannot create " + out.string() + ": " + ec.message()));
   options.out_cameramodel = out / "camera.cameramodel";
   options.out_report_json = out / "report.json";
+  options.plots_dir = out / "plots";  // GET /v1/jobs/{id}/plots
 
   auto run = calib::calibrate(options);
   if (!run) return failure(run.error());
@@ -83,25 +82,24 @@ JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path
 JobOutcome execute_analysis(const JobRecord& job, const std::filesystem::path& data_dir) {
   const std::filesystem::path dir = data_dir / job.request.at("source_folder").get<std::string>();
   const std::string kind = job.request.at("analysis").get<std::string>();
+  // The same run as `camlab analyze KIND DIR --plots` (analysis/analyze_folder.h): the
+  // report, its warnings, and the plots in the job's folder (GET /v1/jobs/{id}/plots).
+  analysis::AnalyzeOptions options;
+  options.defocus.threads = 1;  // the compute thread; cameras and HTTP keep the other core
+  if (!job.folder.empty()) options.plots_dir = data_dir / job.folder / "plots";
+  auto run = analysis::analyze(kind, dir, options);
+  std::optional<Error> plots_failed;
+  if (!run && !options.plots_dir.empty() && run.error().code == ErrorCode::kEmptyPlot) {
+    // A measurement with nothing to draw still has its numbers.
+    plots_failed = run.error();
+    options.plots_dir.clear();
+    run = analysis::analyze(kind, dir, options);
+  }
+  if (!run) return failure(run.error());
   JobOutcome outcome;
   outcome.state = JobState::kSucceeded;
-  if (kind == "defocus") {
-    analysis::DefocusOptions options;
-    options.threads = 1;  // the compute thread; cameras and HTTP keep the other core
-    auto report = analysis::analyze_defocus(dir, options);
-    if (!report) return failure(report.error());
-    outcome.result = {{"report", analysis::to_json(*report)}};
-  } else if (kind == "exposure") {
-    auto report = analysis::analyze_exposure(dir, analysis::ExposureOptions{});
-    if (!report) return failure(report.error());
-    outcome.result = {{"report", analysis::to_json(*report)}};
-  } else if (kind == "focus") {
-    auto report = analysis::analyze_focus(dir, analysis::FocusStackOptions{});
-    if (!report) return failure(report.error());
-    outcome.result = {{"report", analysis::to_json(*report)}};
-  } else {
-    return failure(make_error("invalid_request", "unknown analysis '" + kind + "'"));
-  }
+  outcome.result = {{"report", run->report}};
+  if (plots_failed) outcome.result["plots_skipped"] = plots_failed->message;
   return outcome;
 }
 

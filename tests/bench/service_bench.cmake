@@ -32,3 +32,11 @@ target_link_libraries(status_load_bench PRIVATE nlohmann_json::nlohmann_json Thr
 target_compile_definitions(status_load_bench PRIVATE CAMLABD_PATH="$<TARGET_FILE:camlabd>"
                                                      CAMLAB_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
 add_dependencies(status_load_bench camlabd)
+# live_view_bench: the dashboard's live view at its cap while 300-frame captures run on the
+# same camera, and those captures' kept frames against the captures alone. Prints only.
+add_executable(live_view_bench ${CMAKE_CURRENT_SOURCE_DIR}/live_view_bench.cpp)
+target_include_directories(live_view_bench PRIVATE ${PROJECT_SOURCE_DIR}/tests/integration/service)
+target_link_libraries(live_view_bench PRIVATE nlohmann_json::nlohmann_json Threads::Threads)
+target_compile_definitions(live_view_bench PRIVATE CAMLABD_PATH="$<TARGET_FILE:camlabd>"
+                                                   CAMLAB_SOURCE_DIR="${PROJECT_SOURCE_DIR}")
+add_dependencies(live_view_bench camlabd)

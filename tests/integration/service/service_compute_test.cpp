@@ -2,7 +2,9 @@
 // libraries on capture folders (a daemon capture, and a rendered calibration set placed
 // under the data folder), with their sources validated.
 #include <gtest/gtest.h>
+
 #include <fstream>
+#include <set>
 
 #include "daemon_harness.h"
 #include "tests/integration/cli_runner.h"
@@ -141,6 +143,16 @@ TEST_F(ServiceCompute, CalibrationOfARenderedChessboardSetRecoversTheFocalLength
                                std::istreambuf_iterator<char>());
   EXPECT_NE(model_text.find("'optimization_inputs'"), std::string::npos);
   EXPECT_EQ(job["result"]["report"]["detector"]["requested"], "auto");
+  // The plots the dashboard shows: residuals and the projection uncertainty, as PNG.
+  std::set<std::string> plots;
+  const std::string plots_path = "/v1/jobs/" + std::to_string(job["id"].get<int64_t>()) + "/plots";
+  const json listed = daemon.get(plots_path).json();
+  for (const auto& p : listed["plots"]) plots.insert(p["name"].get<std::string>());
+  EXPECT_TRUE(plots.count("residuals.png")) << daemon.get(plots_path).body;
+  EXPECT_TRUE(plots.count("uncertainty.png")) << daemon.get(plots_path).body;
+  auto png = daemon.get(plots_path + "/residuals.png");
+  EXPECT_EQ(png.status, 200);
+  EXPECT_EQ(png.body.substr(1, 3), "PNG");
 }
 
 // A ChArUco board through POST /v1/calibrations: views cut by the frame's edge kept

@@ -1,0 +1,29 @@
+// What several groups of routes look up by path parameter: a camera's worker by {id}, a
+// job by {id}. Each answers the request itself (404, 400) when there is none.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "service/api/api_types.h"
+#include "service/store/job_store.h"
+
+namespace camlab::service {
+
+class CameraWorker;
+struct ServiceContext;
+
+// `s` cut to 100 characters for an error message (an id or name a client sent).
+std::string clip(const std::string& s);
+
+// The worker of camera `id` (a retired one while the camera is gone), or nullptr after a
+// 404 reply that lists the cameras.
+std::shared_ptr<CameraWorker> find_camera(const ServiceContext& context, const std::string& id,
+                                          const Reply& reply);
+
+// The job named by the {id} parameter, or nullopt after a 400/404/500 reply.
+std::optional<JobRecord> find_job(const ServiceContext& context, const PathParams& params,
+                                  const Reply& reply);
+
+}  // namespace camlab::service

@@ -1,0 +1,57 @@
+// The capture form: single frames, exposure brackets, focus stacks and aperture series, as
+// POST /v1/cameras/{id}/captures takes them (docs/capture-api.md). camlabd checks every value
+// against the camera's ranges and says what is allowed; the page only parses lists.
+
+import { api, enc } from './api.js';
+
+function numbers(text, what) {
+  const values = text.split(/[\s,;]+/).filter((s) => s.length).map(Number);
+  if (!values.length || values.some((v) => !Number.isFinite(v)))
+    throw new Error(`${what}: give numbers separated by commas`);
+  return values;
+}
+
+export function captureRequest(form) {
+  const kind = form.querySelector('#capture-kind').value;
+  const repeats = Number(form.querySelector('#capture-repeats').value);
+  const request = { kind, repeats };
+  const label = form.querySelector('#capture-label').value.trim();
+  if (label) request.label = label;
+  if (kind === 'bracket') {
+    request.exposures_us = numbers(form.querySelector('#bracket-exposures').value, 'Exposures');
+  } else if (kind === 'focus_stack') {
+    request.start = Number(form.querySelector('#focus-start').value);
+    request.stop = Number(form.querySelector('#focus-stop').value);
+    request.step = Number(form.querySelector('#focus-step').value);
+  } else if (kind === 'aperture_series') {
+    request.f_numbers = numbers(form.querySelector('#aperture-f-numbers').value, 'f-numbers');
+  }
+  return request;
+}
+
+// Wires the form; `cameraId()` gives the selected camera, `onQueued(job)` is told of the job.
+export function setUpCaptureForm(form, errorLine, cameraId, onQueued) {
+  const kind = form.querySelector('#capture-kind');
+  const showFields = () => {
+    for (const fields of form.querySelectorAll('.kind-fields'))
+      fields.hidden = fields.dataset.kind !== kind.value;
+  };
+  kind.addEventListener('change', showFields);
+  showFields();
+  form.addEventListener('submit', async (event) => {
+    event.preventDefault();
+    errorLine.textContent = '';
+    const button = form.querySelector('#capture-start');
+    button.disabled = true;
+    try {
+      const job = await api(`/v1/cameras/${enc(cameraId())}/captures`, {
+        method: 'POST', body: captureRequest(form),
+      });
+      onQueued(job);
+    } catch (error) {
+      errorLine.textContent = error.message;
+    } finally {
+      button.disabled = false;
+    }
+  });
+}

@@ -1,0 +1,290 @@
+// Jobs: the list with live progress (server-sent events from GET /v1/events, read with
+// fetch so they carry the token), and a job's page: its frames as thumbnails with the
+// settings in effect, the analyses that fit it, and the plots of analysis and calibration
+// jobs (linearity, photon transfer, CoC against f-number, V-curve, depth map, residuals,
+// uncertainty).
+
+import { api, esc, imageUrl, readEvents, sleep } from './api.js';
+
+const FINAL = new Set(['succeeded', 'failed', 'cancelled', 'interrupted', 'device_lost']);
+// What each capture kind can be analysed for (POST /v1/analyses).
+const ANALYSES = {
+  bracket: [['exposure', 'Analyse exposure: linearity, photon transfer, HDR']],
+  focus_stack: [['focus', 'Analyse the focus stack: depth from focus'],
+    ['defocus', 'Analyse defocus: V-curve of blur against focus']],
+  aperture_series: [['defocus', 'Analyse defocus: CoC against f-number']],
+  single: [],
+};
+const MAX_THUMBNAILS = 24;
+
+function source(job) {
+  if (job.camera_id) return job.camera_id;
+  const r = job.request || {};
+  return r.source_job ? `job ${r.source_job}` : r.source_folder || '';
+}
+
+function progressText(job) {
+  const p = job.progress || {};
+  if (!p.frames_total) return job.state === 'running' ? 'working...' : '';
+  return `${p.frames_done} / ${p.frames_total} frames`;
+}
+
+// A few numbers worth seeing at a glance, from a finished job's result.
+function resultSummary(job) {
+  const r = job.result || {};
+  const lines = [];
+  if (job.kind === 'capture') {
+    lines.push(`${r.frames_kept} frames kept of ${r.frames_total}; ${r.frames_discarded} discarded while ` +
+      `settings settled, ${r.frames_dropped} dropped; ${Number(r.wall_seconds).toFixed(2)} s; ` +
+      `control latency ${r.control_latency_frames} frames (${r.control_latency_source})`);
+  } else if (job.kind === 'analysis' && r.report) {
+    const report = r.report;
+    const lin = report.linearity;
+    if (lin && lin.max_abs_error_pct !== undefined)
+      lines.push(`linearity: max error ${Number(lin.max_abs_error_pct).toFixed(2)} % of the fit`);
+    const ptc = report.photon_transfer;
+    if (ptc && ptc.system_gain_dn_per_e !== undefined)
+      lines.push(`photon transfer: ${Number(ptc.system_gain_dn_per_e).toFixed(4)} DN/e-, dark noise ` +
+        `${Number(ptc.dark_noise_e).toFixed(2)} e-, full well ${Number(ptc.saturation_capacity_e).toFixed(0)} e-`);
+    else if (ptc && ptc.error) lines.push(`photon transfer: ${ptc.error}`);
+    for (const w of report.warnings || []) lines.push(`warning: ${w}`);
+  } else if (job.kind === 'calibration' && r.report) {
+    const report = r.report;
+    if (report.residuals)
+      lines.push(`RMS reprojection error ${Number(report.residuals.rms_px).toFixed(3)} px over ` +
+        `${report.views ? report.views.used : '?'} views`);
+    if (report.fov_deg && report.fov_deg.horizontal !== undefined)
+      lines.push(`field of view ${Number(report.fov_deg.horizontal).toFixed(2)} x ` +
+        `${Number(report.fov_deg.vertical).toFixed(2)} deg`);
+  }
+  if (job.error) lines.push(`${job.error.code}: ${job.error.message}`);
+  return lines;
+}
+
+export class JobsPanel {
+  constructor(elements) {
+    // {tbody, panel, title, summary, actions, error, plots, frames, onStateChange(change)}
+    this.e = elements;
+    this.jobs = new Map();
+    this.openJob = null;
+    this.urls = [];  // object URLs of the open job's images
+    this.controller = null;
+  }
+
+  async start() {
+    this.stop();
+    this.controller = new AbortController();
+    await this.reload();
+    this.listen(this.controller.signal);
+  }
+
+  stop() {
+    if (this.controller) this.controller.abort();
+    this.controller = null;
+  }
+
+  async reload() {
+    const { jobs } = await api('/v1/jobs?limit=50');
+    this.jobs = new Map(jobs.map((j) => [j.id, j]));
+    this.render();
+  }
+
+  async listen(signal) {
+    while (!signal.aborted) {
+      try {
+        await readEvents('/v1/events', signal, (type, data) => this.onEvent(type, data));
+      } catch (error) {
+        if (signal.aborted) return;
+      }
+      await sleep(2000);
+      if (!signal.aborted) await this.reload().catch(() => {});
+    }
+  }
+
+  async onEvent(type, change) {
+    if (type === 'resync') return this.reload();
+    if (type !== 'job') return;
+    const known = this.jobs.get(change.id);
+    if (!known || known.state !== change.state) this.e.onStateChange(change);
+    if (!known || FINAL.has(change.state) || known.state !== change.state) {
+      // A new job, or one that changed state: read it whole (its result, its error).
+      const job = await api(`/v1/jobs/${change.id}`).catch(() => null);
+      if (job) this.jobs.set(job.id, job);
+    } else {
+      // A progress report: the event carries the counts the job record nests in "progress".
+      known.progress = {
+        frames_done: change.frames_done, frames_total: change.frames_total,
+        frames_discarded: change.frames_discarded,
+        fraction: change.frames_total ? change.frames_done / change.frames_total : 0,
+      };
+    }
+    this.render();
+    if (this.openJob === change.id && (FINAL.has(change.state) || !known)) this.show(change.id);
+    else if (this.openJob === change.id) this.renderSummary(this.jobs.get(change.id));
+  }
+
+  added(job) {
+    this.jobs.set(job.id, job);
+    this.render();
+  }
+
+  render() {
+    const rows = [...this.jobs.values()].sort((a, b) => b.id - a.id).slice(0, 50);
+    this.e.tbody.replaceChildren(...rows.map((job) => {
+      const tr = document.createElement('tr');
+      tr.dataset.jobId = job.id;
+      tr.dataset.state = job.state;
+      tr.className = `state-${job.state}${job.id === this.openJob ? ' open' : ''}`;
+      const kind = job.kind === 'capture' ? `capture: ${(job.request || {}).kind}`
+        : job.kind === 'analysis' ? `analysis: ${(job.request || {}).analysis}` : job.kind;
+      const fraction = Math.min(1, (job.progress || {}).fraction || 0);
+      tr.innerHTML = `<td>${job.id}</td><td>${esc(kind)}</td><td>${esc(source(job))}</td>` +
+        `<td>${esc(job.state)}</td><td><progress max="1" value="${fraction}"></progress> ` +
+        `${esc(progressText(job))}</td><td>${esc((job.created_at || '').replace('T', ' ').slice(0, 19))}</td>`;
+      tr.addEventListener('click', () => this.show(job.id));
+      return tr;
+    }));
+  }
+
+  renderSummary(job) {
+    if (!job) return;
+    this.e.title.textContent = `Job ${job.id}: ${job.kind}` +
+      `${job.request && job.request.kind ? ` (${job.request.kind})` : ''} · ${job.state}`;
+    this.e.panel.dataset.state = job.state;
+    const lines = [`${progressText(job)}`, ...(FINAL.has(job.state) ? resultSummary(job) : [])];
+    this.e.summary.innerHTML = lines.filter((l) => l).map((l) => `<p>${esc(l)}</p>`).join('');
+  }
+
+  clearImages() {
+    for (const url of this.urls) URL.revokeObjectURL(url);
+    this.urls = [];
+  }
+
+  async show(id) {
+    this.openJob = id;
+    this.render();
+    const job = await api(`/v1/jobs/${id}`);
+    this.jobs.set(id, job);
+    if (this.openJob !== id) return;
+    this.e.panel.hidden = false;
+    this.e.panel.dataset.jobId = id;
+    this.e.error.textContent = '';
+    this.renderSummary(job);
+    this.clearImages();
+    this.e.actions.replaceChildren();
+    this.e.plots.replaceChildren();
+    this.e.frames.replaceChildren();
+    if (job.kind === 'capture' && FINAL.has(job.state)) {
+      this.offerAnalyses(job);
+      this.offerCalibration(job);
+    }
+    if (job.kind !== 'capture' && FINAL.has(job.state)) await this.showPlots(job);
+    if (job.kind === 'capture' && job.state !== 'queued') await this.showFrames(job);
+  }
+
+  // A calibration of a capture's frames (views of a chessboard or ChArUco board): the
+  // board's inner corners and square size, as POST /v1/calibrations takes them.
+  offerCalibration(job) {
+    const form = document.createElement('form');
+    form.className = 'inline';
+    form.innerHTML =
+      '<label>Calibrate: inner corners <input name="corners" value="14x10" size="6"></label> ' +
+      '<label>square <input name="spacing" value="0.04" size="6"> m</label> ' +
+      '<label>detector <select name="detector"><option>auto</option>' +
+      '<option>markers</option><option>opencv</option><option>mrgingham</option></select></label> ' +
+      '<button type="submit">Calibrate</button>';
+    form.addEventListener('submit', async (event) => {
+      event.preventDefault();
+      this.e.error.textContent = '';
+      const corners = form.corners.value.split(/[x, ]+/).map(Number);
+      try {
+        const queued = await api('/v1/calibrations', {
+          method: 'POST',
+          body: { job: job.id, inner_corners: corners, spacing_m: Number(form.spacing.value),
+            detector: form.detector.value },
+        });
+        this.added(queued);
+        await this.show(queued.id);
+      } catch (error) {
+        this.e.error.textContent = error.message;
+      }
+    });
+    this.e.actions.append(form);
+  }
+
+  offerAnalyses(job) {
+    for (const [analysis, label] of ANALYSES[(job.request || {}).kind] || []) {
+      const button = document.createElement('button');
+      button.type = 'button';
+      button.textContent = label;
+      button.dataset.analysis = analysis;
+      button.addEventListener('click', async () => {
+        button.disabled = true;
+        this.e.error.textContent = '';
+        try {
+          const queued = await api('/v1/analyses', { method: 'POST', body: { kind: analysis, job: job.id } });
+          this.added(queued);
+          await this.show(queued.id);
+        } catch (error) {
+          this.e.error.textContent = error.message;
+          button.disabled = false;
+        }
+      });
+      this.e.actions.append(button);
+    }
+  }
+
+  async showPlots(job) {
+    const { plots } = await api(`/v1/jobs/${job.id}/plots`);
+    for (const plot of plots) {
+      const figure = document.createElement('figure');
+      const img = document.createElement('img');
+      img.className = 'plot';
+      img.alt = plot.name;
+      img.dataset.name = plot.name;
+      const url = await imageUrl(plot.image);
+      this.urls.push(url);
+      img.src = url;
+      const caption = document.createElement('figcaption');
+      caption.textContent = plot.name.replace(/\.png$/, '').replaceAll('_', ' ');
+      figure.append(img, caption);
+      this.e.plots.append(figure);
+    }
+    if (!plots.length && job.state === 'succeeded')
+      this.e.plots.textContent = 'This job drew no plots.';
+  }
+
+  async showFrames(job) {
+    const { frames } = await api(`/v1/jobs/${job.id}/frames`);
+    const shown = frames.slice(0, MAX_THUMBNAILS);
+    for (const frame of shown) {
+      const figure = document.createElement('figure');
+      const img = document.createElement('img');
+      img.className = 'thumbnail';
+      img.alt = `frame ${frame.index}`;
+      const caption = document.createElement('figcaption');
+      figure.append(img, caption);
+      this.e.frames.append(figure);
+      const [url, meta] = await Promise.all([
+        imageUrl(`/v1/jobs/${job.id}/frames/${frame.index}/thumbnail?width=160&clipping=1`),
+        api(frame.meta)]);
+      this.urls.push(url);
+      img.src = url;
+      const s = meta.settings || {};
+      const parts = [`#${frame.index}`];
+      if (s.exposure_us !== undefined) parts.push(`${(s.exposure_us / 1000).toFixed(2)} ms`);
+      if (s.gain !== undefined) parts.push(`gain ${Number(s.gain).toFixed(2)}`);
+      if (s.f_number !== undefined) parts.push(`f/${s.f_number}`);
+      if (s.focus_position !== undefined) parts.push(`focus ${s.focus_position}`);
+      caption.textContent = parts.join(' · ');
+      caption.title = JSON.stringify(s);
+    }
+    if (frames.length > shown.length) {
+      const more = document.createElement('p');
+      more.className = 'muted';
+      more.textContent = `${frames.length - shown.length} more frames (GET /v1/jobs/${job.id}/frames)`;
+      this.e.frames.append(more);
+    }
+  }
+}
+
