@@ -4,14 +4,16 @@
 //
 //   live_view_bench [--seconds S] [--frames N] [--runs R] [--caps 10,30]
 //
-// On camlabd with the 640x480 example camera (30 frames/s, noise on, slanted edges):
-//   1. R captures of N frames alone (kept, dropped, wall time);
-//   2. for each cap: one viewer (GET /v1/cameras/{id}/live?fps=CAP, 640 px wide) for S
-//      seconds, while N-frame captures run back to back; the viewer's frames/s over the
-//      whole run, during the captures, and per 1-s window during them (minimum, median),
-//      and each capture's kept and dropped frames against the captures alone;
-//   3. the viewer alone (the idle preview) for 10 s.
-// The viewer and the daemon share the machine's cores. Prints; never passes or fails.
+// On camlabd with the 640x480 example camera (30 frames/s, noise on, slanted edges), for
+// each cap:
+//   1. one viewer (GET /v1/cameras/{id}/live?fps=CAP, 640 px wide) for S seconds, while
+//      N-frame captures run back to back: the viewer's frames/s over the whole run, during
+//      the captures, and per 1-s window during them (minimum, median);
+//   2. as many N-frame captures again with no viewer, at once after, so both see the
+//      same machine: each capture's frames kept, dropped by the camera and by camlabd
+//      (taken again, so they cost time, not frames), and wall time, with and without.
+// Then the viewer alone (the idle preview) for 10 s. --runs R repeats it all. The viewer
+// and the daemon share the machine's cores. Prints; never passes or fails.
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
@@ -44,7 +46,7 @@ double iso_seconds(const std::string& iso) {
 
 struct Capture {
   std::string state;
-  int kept = 0, dropped = 0;
+  int kept = 0, dropped = 0, dropped_by_camlabd = 0, dropped_by_device = 0;
   double wall_s = 0, started = 0, finished = 0;
 };
 
@@ -62,6 +64,8 @@ Capture capture(const Daemon& daemon, const std::string& camera, int frames) {
   if (job["result"].is_object()) {
     out.kept = job["result"].value("frames_kept", 0);
     out.dropped = job["result"].value("frames_dropped", 0);
+    out.dropped_by_camlabd = job["result"].value("frames_dropped_by_camlabd", 0);
+    out.dropped_by_device = job["result"].value("frames_dropped_by_device", 0);
     out.wall_s = job["result"].value("wall_seconds", 0.0);
   }
   return out;
@@ -110,16 +114,26 @@ class Viewer {
 };
 
 void print_capture(const char* condition, const Capture& c) {
-  std::printf("| %s | %s | %d | %d | %.2f | %.1f |\n", condition, c.state.c_str(), c.kept,
-              c.dropped, c.wall_s, c.wall_s > 0 ? c.kept / c.wall_s : 0.0);
+  std::printf("| %s | %s | %d | %d | %d | %.2f | %.1f |\n", condition, c.state.c_str(), c.kept,
+              c.dropped_by_device, c.dropped_by_camlabd, c.wall_s,
+              c.wall_s > 0 ? c.kept / c.wall_s : 0.0);
   std::fflush(stdout);
+}
+
+template <class Get>
+double median_of(const std::vector<Capture>& captures, Get get) {
+  std::vector<double> v;
+  for (const Capture& c : captures) v.push_back(get(c));
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   double seconds = 60;
-  int frames = 300, runs = 2;
+  int frames = 300, runs = 1;
   std::vector<double> caps = {10, 30};
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -155,69 +169,84 @@ int main(int argc, char** argv) {
 
   std::printf("%d-frame single captures on the 640x480 example camera at 30 frames/s\n\n", frames);
   std::printf(
-      "| condition | state | kept | dropped | wall s | kept/s |\n|---|---|---|---|---|---|\n");
-  std::vector<Capture> alone;
-  for (int r = 0; r < runs; ++r) {
-    alone.push_back(capture(daemon, camera, frames));
-    print_capture("alone", alone.back());
-  }
+      "| condition | state | kept | dropped by camera | dropped by camlabd | wall s | kept/s |\n"
+      "|---|---|---|---|---|---|---|\n");
 
   struct Row {
     double cap, overall, during, window_min, window_median;
-    int captures, windows;
+    int windows;
+    std::vector<Capture> beside, alone;
   };
   std::vector<Row> rows;
-  for (double cap : caps) {
-    char label[64];
-    std::snprintf(label, sizeof label, "viewer at %.0f/s", cap);
-    char query[96];
-    std::snprintf(query, sizeof query, "/live?fps=%g&width=640", cap);
-    Viewer viewer(daemon.port(), camera + query, daemon.token());
-    const double start = now_s();
-    std::vector<Capture> beside;
-    while (now_s() - start < seconds) {
-      beside.push_back(capture(daemon, camera, frames));
-      print_capture(label, beside.back());
+  for (int run = 0; run < runs; ++run)
+    for (double cap : caps) {
+      char label[64];
+      std::snprintf(label, sizeof label, "viewer at %.0f/s", cap);
+      char query[96];
+      std::snprintf(query, sizeof query, "/live?fps=%g&width=640", cap);
+      Row row{cap, 0, 0, 0, 0, 0, {}, {}};
+      {
+        Viewer viewer(daemon.port(), camera + query, daemon.token());
+        const double start = now_s();
+        while (now_s() - start < seconds) {
+          row.beside.push_back(capture(daemon, camera, frames));
+          print_capture(label, row.beside.back());
+        }
+        const double end = now_s();
+        viewer.stop();
+        row.overall = viewer.frames_between(start, end) / (end - start);
+        double during_s = 0;
+        int during_frames = 0;
+        std::vector<int> windows;
+        for (const Capture& c : row.beside) {
+          if (c.finished <= c.started) continue;
+          during_s += c.finished - c.started;
+          during_frames += viewer.frames_between(c.started, c.finished);
+          for (double t = c.started; t + 1 <= c.finished; t += 1)
+            windows.push_back(viewer.frames_between(t, t + 1));
+        }
+        row.during = during_s > 0 ? during_frames / during_s : 0;
+        std::sort(windows.begin(), windows.end());
+        row.windows = static_cast<int>(windows.size());
+        row.window_min = windows.empty() ? 0 : windows.front();
+        row.window_median = windows.empty() ? 0 : windows[windows.size() / 2];
+      }
+      for (size_t i = 0; i < row.beside.size(); ++i) {
+        row.alone.push_back(capture(daemon, camera, frames));
+        print_capture("alone", row.alone.back());
+      }
+      rows.push_back(std::move(row));
     }
-    const double end = now_s();
-    viewer.stop();
-    Row row{cap, viewer.frames_between(start, end) / (end - start),
-            0,   1e9,
-            0,   static_cast<int>(beside.size()),
-            0};
-    double during_s = 0;
-    int during_frames = 0;
-    std::vector<int> windows;
-    for (const Capture& c : beside) {
-      if (c.finished <= c.started) continue;
-      during_s += c.finished - c.started;
-      during_frames += viewer.frames_between(c.started, c.finished);
-      for (double t = c.started; t + 1 <= c.finished; t += 1)
-        windows.push_back(viewer.frames_between(t, t + 1));
-    }
-    row.during = during_s > 0 ? during_frames / during_s : 0;
-    std::sort(windows.begin(), windows.end());
-    row.windows = static_cast<int>(windows.size());
-    row.window_min = windows.empty() ? 0 : windows.front();
-    row.window_median = windows.empty() ? 0 : windows[windows.size() / 2];
-    rows.push_back(row);
-  }
 
   Viewer idle(daemon.port(), camera + "/live?fps=10&width=640", daemon.token());
   const double idle_start = now_s();
   std::this_thread::sleep_for(std::chrono::seconds(10));
-  const double idle_rate =
-      idle.frames_between(idle_start + 2, now_s()) / (now_s() - idle_start - 2);
+  const double idle_rate = idle.frames_between(idle_start + 2, now_s()) / (now_s() - idle_start - 2);
   idle.stop();
 
   std::printf(
-      "\nThe viewer (640 px wide JPEG), %.0f s per cap, captures back to back meanwhile\n\n"
-      "| cap /s | captures | viewer frames/s overall | during captures | 1-s windows during "
-      "captures: min | median | windows |\n|---|---|---|---|---|---|---|\n",
+      "\nThe viewer (640 px wide JPEG), %.0f s per cap while captures run back to back\n\n"
+      "| cap /s | viewer frames/s overall | during captures | 1-s windows during captures: "
+      "min | median | windows |\n|---|---|---|---|---|---|\n",
       seconds);
   for (const Row& r : rows)
-    std::printf("| %.0f | %d | %.2f | %.2f | %.0f | %.0f | %d |\n", r.cap, r.captures, r.overall,
-                r.during, r.window_min, r.window_median, r.windows);
+    std::printf("| %.0f | %.2f | %.2f | %.0f | %.0f | %d |\n", r.cap, r.overall, r.during,
+                r.window_min, r.window_median, r.windows);
+  std::printf(
+      "\nThe captures beside the viewer and alone right after (medians)\n\n"
+      "| cap /s | captures | kept with / without | dropped by camlabd with / without | "
+      "dropped by camera with / without | wall s with / without |\n|---|---|---|---|---|---|\n");
+  for (const Row& r : rows)
+    std::printf("| %.0f | %zu + %zu | %.0f / %.0f | %.0f / %.0f | %.0f / %.0f | %.2f / %.2f |\n",
+                r.cap, r.beside.size(), r.alone.size(),
+                median_of(r.beside, [](const Capture& c) { return c.kept; }),
+                median_of(r.alone, [](const Capture& c) { return c.kept; }),
+                median_of(r.beside, [](const Capture& c) { return c.dropped_by_camlabd; }),
+                median_of(r.alone, [](const Capture& c) { return c.dropped_by_camlabd; }),
+                median_of(r.beside, [](const Capture& c) { return c.dropped_by_device; }),
+                median_of(r.alone, [](const Capture& c) { return c.dropped_by_device; }),
+                median_of(r.beside, [](const Capture& c) { return c.wall_s; }),
+                median_of(r.alone, [](const Capture& c) { return c.wall_s; }));
   std::printf("\nThe viewer alone (idle preview, cap 10/s): %.2f frames/s\n", idle_rate);
   daemon.stop();
   fs::remove_all(dir);
