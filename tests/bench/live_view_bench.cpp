@@ -221,7 +221,8 @@ int main(int argc, char** argv) {
   Viewer idle(daemon.port(), camera + "/live?fps=10&width=640", daemon.token());
   const double idle_start = now_s();
   std::this_thread::sleep_for(std::chrono::seconds(10));
-  const double idle_rate = idle.frames_between(idle_start + 2, now_s()) / (now_s() - idle_start - 2);
+  const double idle_rate =
+      idle.frames_between(idle_start + 2, now_s()) / (now_s() - idle_start - 2);
   idle.stop();
 
   std::printf(

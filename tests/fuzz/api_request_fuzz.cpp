@@ -1,4 +1,5 @@
-// camlabd's request bodies (service/api/api_types.h parse_json_object) and the capture
+// camlabd's request bodies (service/api/api_types.h parse_json_object), query strings
+// (parse_query, query_number, query_flag) and the capture
 // request's validation (src/capture/capture_plan.h plan_capture), which POST
 // /v1/cameras/{id}/captures runs before it queues a job. The handlers themselves need a
 // running daemon (a job store, camera workers); this is the layer under them that reads
@@ -6,6 +7,7 @@
 // against: exposure, gain, iris with an f-number table, focus.
 #include <linux/videodev2.h>
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -74,6 +76,20 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string body(reinterpret_cast<const char*>(data), size);
   // Path parameters ({id}) come from the same client: the parser of job and frame ids.
   if (auto id = camlab::service::parse_id(body, "job"); id) check(*id >= 0, "a negative id");
+  // And the query string (the live view's fps and width, the histogram's bins): a number
+  // accepted is finite and inside its range; a flag is 0 or 1; both else say why.
+  const auto query = camlab::service::parse_query(body);
+  check(query.size() <= 16, "more query parameters kept than the bound");
+  for (const char* name : {"fps", "width", "bins", "wait"}) {
+    auto number = camlab::service::query_number(query, name, 0.2, 30, 10);
+    if (number)
+      check(std::isfinite(*number) && *number >= 0.2 && *number <= 30, "a number out of range");
+    else
+      camlab::fuzz::check_error(number.error());
+  }
+  for (const char* name : {"peaking", "clipping"})
+    if (auto flag = camlab::service::query_flag(query, name, false); !flag)
+      camlab::fuzz::check_error(flag.error());
 
   auto json = camlab::service::parse_json_object(body);
   if (!json) {
