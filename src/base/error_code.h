@@ -48,6 +48,8 @@ enum class ErrorCode : uint8_t {
   kInterrupted,
   kShuttingDown,
   kTooManyConnections,
+  kDatabaseUnavailable,
+  kHostUnavailable,
   // Cameras.
   kNoDevice,
   kDeviceLost,
@@ -148,12 +150,19 @@ inline constexpr std::array kErrorCodes = {
     ErrorCodeInfo{ErrorCode::kCancelled, "cancelled", 409,
                   "The job was cancelled by request; the frames taken are kept."},
     ErrorCodeInfo{ErrorCode::kInterrupted, "interrupted", 503,
-                  "The job was stopped because camlabd stopped; the frames taken are kept."},
+                  "The job was stopped because camlabd stopped (in a fleet: its host lost its "
+                  "lease); the frames taken are kept."},
     ErrorCodeInfo{ErrorCode::kShuttingDown, "shutting_down", 503,
                   "camlabd is stopping and takes no new work."},
     ErrorCodeInfo{ErrorCode::kTooManyConnections, "too_many_connections", 503,
                   "Every connection camlabd accepts is busy answering a request; retry shortly "
                   "(Retry-After)."},
+    ErrorCodeInfo{ErrorCode::kDatabaseUnavailable, "database_unavailable", 503,
+                  "The job store's database (PostgreSQL, for a fleet) cannot be reached, or "
+                  "this host has lost its lease; retry shortly."},
+    ErrorCodeInfo{ErrorCode::kHostUnavailable, "host_unavailable", 503,
+                  "The fleet host that owns the camera, or keeps the job's frames, is not "
+                  "serving (its lease expired or it left); its frames stay on its disk."},
     ErrorCodeInfo{ErrorCode::kNoDevice, "no_device", 503,
                   "The camera is not there: never found, or unplugged."},
     ErrorCodeInfo{ErrorCode::kDeviceLost, "device_lost", 503,
