@@ -5,62 +5,11 @@
 #include <ctime>
 #include <utility>
 
+#include "service/store/store_retry.h"
+
 namespace camlab::service {
 
 namespace {
-
-using sqlite::Statement;
-
-const char* kSchema = R"sql(
-CREATE TABLE IF NOT EXISTS jobs (
-  id               INTEGER PRIMARY KEY AUTOINCREMENT,
-  kind             TEXT NOT NULL,
-  camera_id        TEXT NOT NULL DEFAULT '',
-  state            TEXT NOT NULL CHECK (state IN ('queued', 'running', 'succeeded', 'failed',
-                                                  'cancelled', 'interrupted', 'device_lost')),
-  request          TEXT NOT NULL,
-  folder           TEXT NOT NULL DEFAULT '',
-  created_ms       INTEGER NOT NULL,
-  started_ms       INTEGER NOT NULL DEFAULT 0,
-  finished_ms      INTEGER NOT NULL DEFAULT 0,
-  frames_done      INTEGER NOT NULL DEFAULT 0,
-  frames_total     INTEGER NOT NULL DEFAULT 0,
-  frames_discarded INTEGER NOT NULL DEFAULT 0,
-  error_code       TEXT NOT NULL DEFAULT '',
-  error_message    TEXT NOT NULL DEFAULT '',
-  result           TEXT
-);
-CREATE INDEX IF NOT EXISTS jobs_by_state ON jobs (state);
-CREATE TABLE IF NOT EXISTS devices (
-  camera_id      TEXT PRIMARY KEY,
-  latency_frames INTEGER NOT NULL,
-  latency_source TEXT NOT NULL,
-  measured_ms    INTEGER NOT NULL,
-  details        TEXT NOT NULL
-);
-)sql";
-
-// Version 1 -> 2: SQLite cannot change a CHECK constraint in place, so the jobs table is
-// copied into one made by kSchema (which runs next, in the same transaction). The index
-// goes with the old table and kSchema makes it again.
-const char* kMigrateFrom1 = R"sql(
-ALTER TABLE jobs RENAME TO jobs_v1;
-DROP INDEX IF EXISTS jobs_by_state;
-)sql";
-const char* kMigrateFrom1Copy = R"sql(
-INSERT INTO jobs SELECT * FROM jobs_v1;
-DROP TABLE jobs_v1;
-)sql";
-
-const char* kJobColumns =
-    "id, kind, camera_id, state, request, folder, created_ms, started_ms, finished_ms, "
-    "frames_done, frames_total, frames_discarded, error_code, error_message, result";
-
-nlohmann::json parse_or_null(const std::string& text) {
-  if (text.empty()) return nullptr;
-  nlohmann::json json = nlohmann::json::parse(text, nullptr, false);
-  return json.is_discarded() ? nlohmann::json(nullptr) : json;
-}
 
 std::string iso_time(int64_t ms) {
   if (ms <= 0) return "";
@@ -74,41 +23,29 @@ std::string iso_time(int64_t ms) {
   return buffer;
 }
 
-std::string dump(const nlohmann::json& json) {
-  return json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-}
-
-// A row of SELECT kJobColumns.
-JobRecord job_from_row(const Statement& row) {
-  JobRecord job;
-  job.id = row.column_int64(0);
-  job.kind = row.column_text(1);
-  job.camera_id = row.column_text(2);
-  job.state = parse_job_state(row.column_text(3)).value_or(JobState::kFailed);
-  job.request = parse_or_null(row.column_text(4));
-  job.folder = row.column_text(5);
-  job.created_ms = row.column_int64(6);
-  job.started_ms = row.column_int64(7);
-  job.finished_ms = row.column_int64(8);
-  job.frames_done = row.column_int(9);
-  job.frames_total = row.column_int(10);
-  job.frames_discarded = row.column_int(11);
-  job.error_code = row.column_text(12);
-  job.error_message = row.column_text(13);
-  job.result = parse_or_null(row.column_text(14));
-  return job;
-}
-
-Error in_database(const Error& error, const char* what) {
-  return error.with_context(std::string("database: ") + what + ": ");
-}
-
 }  // namespace
 
 int64_t unix_time_ms() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(
              std::chrono::system_clock::now().time_since_epoch())
       .count();
+}
+
+std::string dump_json(const nlohmann::json& json) {
+  return json.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+}
+
+nlohmann::json parse_stored_json(const std::string& text) {
+  if (text.empty()) return nullptr;
+  nlohmann::json json = nlohmann::json::parse(text, nullptr, false);
+  return json.is_discarded() ? nlohmann::json(nullptr) : json;
+}
+
+std::string job_folder_name(const std::string& prefix, int64_t id) {
+  if (prefix.empty()) return "";
+  char number[32];
+  std::snprintf(number, sizeof number, "%06lld", static_cast<long long>(id));
+  return prefix + number;
 }
 
 const char* job_state_name(JobState state) {
@@ -152,6 +89,7 @@ nlohmann::json to_json(const JobRecord& job) {
         {"fraction", job.frames_total > 0 ? static_cast<double>(job.frames_done) / job.frames_total
                                           : (is_finished(job.state) ? 1.0 : 0.0)}}}};
   if (!job.camera_id.empty()) json["camera_id"] = job.camera_id;
+  if (!job.host.empty()) json["host"] = job.host;
   if (!job.folder.empty()) json["folder"] = job.folder;
   json["started_at"] =
       job.started_ms ? nlohmann::json(iso_time(job.started_ms)) : nlohmann::json(nullptr);
@@ -163,154 +101,64 @@ nlohmann::json to_json(const JobRecord& job) {
   return json;
 }
 
-Result<std::unique_ptr<JobStore>> JobStore::open(const std::filesystem::path& path) {
-  sqlite::Connection db;
-  CAMLAB_ASSIGN(db, sqlite::Connection::open(path));
-  db.set_busy_timeout(5000);
-  // WAL: readers never block the writer and a crash leaves the database consistent;
-  // synchronous=NORMAL is durable across a process crash (kill -9), which is the case
-  // that matters here.
-  for (const char* pragma : {"PRAGMA journal_mode=WAL", "PRAGMA synchronous=NORMAL"})
-    if (auto s = db.execute_script(pragma); !s) return in_database(s.error(), pragma);
-  int version = 0;
-  {
-    Statement read_version;
-    CAMLAB_ASSIGN(read_version, Statement::prepare(db, "PRAGMA user_version"));
-    sqlite::Step step;
-    CAMLAB_ASSIGN(step, read_version.step());
-    if (step == sqlite::Step::kRow) version = read_version.column_int(0);
-  }
-  if (version > kSchemaVersion)
-    return make_error("unsupported", "the database " + path.string() + " has schema version " +
-                                         std::to_string(version) + ", newer than this camlabd's " +
-                                         std::to_string(kSchemaVersion));
-  // The schema and its version in one transaction; a failure before COMMIT rolls back
-  // (explicitly, or when the connection closes).
-  if (auto s = db.execute_script("BEGIN IMMEDIATE"); !s) return in_database(s.error(), "begin");
-  const bool migrate = version == 1;
-  if (migrate)
-    if (auto s = db.execute_script(kMigrateFrom1); !s) {
-      (void)db.execute_script("ROLLBACK");
-      return in_database(s.error(), "migrate the schema from version 1");
-    }
-  if (auto s = db.execute_script(kSchema); !s) {
-    (void)db.execute_script("ROLLBACK");
-    return in_database(s.error(), "create the schema");
-  }
-  if (migrate)
-    if (auto s = db.execute_script(kMigrateFrom1Copy); !s) {
-      (void)db.execute_script("ROLLBACK");
-      return in_database(s.error(), "copy the jobs of schema version 1");
-    }
-  if (auto s = db.execute_script("PRAGMA user_version=" + std::to_string(kSchemaVersion)); !s)
-    return in_database(s.error(), "set the schema version");
-  if (auto s = db.execute_script("COMMIT"); !s) return in_database(s.error(), "commit");
-  return std::unique_ptr<JobStore>(new JobStore(std::move(db)));
+JobStore::JobStore(std::string local_host, StoreRetry retry)
+    : local_host_(std::move(local_host)), retry_(retry), op_prefix_(new_operation_prefix()) {}
+
+JobStore::~JobStore() = default;
+
+std::string JobStore::next_op() {
+  std::lock_guard lock(mutex_);
+  return op_prefix_ + "-" + std::to_string(++op_counter_);
 }
 
-JobStore::JobStore(sqlite::Connection db) : db_(std::move(db)) {}
-
-JobStore::~JobStore() = default;  // statements_ go first, then the connection
-
-Result<Statement*> JobStore::statement(std::string_view sql) {
-  auto it = statements_.find(sql);
-  if (it == statements_.end()) {
-    Statement prepared;
-    CAMLAB_ASSIGN(prepared, Statement::prepare(db_, sql, Statement::Lifetime::kPersistent));
-    it = statements_.emplace(std::string(sql), std::move(prepared)).first;
-  }
-  return &it->second;
-}
-
-template <class... Args>
-Result<int> JobStore::execute(const char* what, const char* sql, const Args&... args) {
-  Result<Statement*> stmt = statement(sql);
-  if (!stmt) return in_database(stmt.error(), what);
-  Result<int> changed = (*stmt)->execute(args...);
-  if (!changed) return in_database(changed.error(), what);
-  return changed;
-}
-
-template <class OnRow, class... Args>
-Status JobStore::query(const char* what, const char* sql, OnRow&& on_row, const Args&... args) {
-  Result<Statement*> stmt = statement(sql);
-  if (!stmt) return in_database(stmt.error(), what);
-  if (Status read = (*stmt)->query(std::forward<OnRow>(on_row), args...); !read)
-    return in_database(read.error(), what);
-  return {};
-}
-
-template <class... Args>
-Result<std::vector<JobRecord>> JobStore::query_jobs(const char* sql, const Args&... args) {
-  std::vector<JobRecord> jobs;
-  if (Status read = query(
-          "read jobs", sql, [&](const Statement& row) { jobs.push_back(job_from_row(row)); },
-          args...);
-      !read)
-    return read.error();
-  return jobs;
+template <class Attempt>
+auto JobStore::with_retry(Patience patience, Attempt&& attempt) -> decltype(attempt()) {
+  const std::chrono::milliseconds budget = patience == Patience::kWorker ? retry_.worker_patience
+                                           : patience == Patience::kRequest
+                                               ? retry_.request_patience
+                                               : std::chrono::milliseconds(0);
+  return retry_while_unavailable(budget, mutex_, std::forward<Attempt>(attempt));
 }
 
 Result<JobRecord> JobStore::create(const std::string& kind, const std::string& camera_id,
                                    const nlohmann::json& request, const std::string& folder_prefix,
                                    int frames_total) {
-  std::lock_guard lock(mutex_);
-  static const char* kInsert =
-      "INSERT INTO jobs (kind, camera_id, state, request, created_ms, frames_total) "
-      "VALUES (?, ?, 'queued', ?, ?, ?)";
-  static const char* kSetFolder = "UPDATE jobs SET folder = ? WHERE id = ?";
-  JobRecord job;
-  job.kind = kind;
-  job.camera_id = camera_id;
-  job.request = request;
-  job.created_ms = unix_time_ms();
-  job.frames_total = frames_total;
-  if (auto inserted = execute("insert job", kInsert, kind, camera_id, dump(request), job.created_ms,
-                              frames_total);
-      !inserted)
-    return inserted.error();
-  job.id = db_.last_insert_rowid();
-  if (!folder_prefix.empty()) {
-    char number[32];
-    std::snprintf(number, sizeof number, "%06lld", static_cast<long long>(job.id));
-    job.folder = folder_prefix + number;
-    if (auto updated = execute("set job folder", kSetFolder, job.folder, job.id); !updated)
-      return updated.error();
-  }
-  notify_change({job.id, JobState::kQueued, 0, frames_total, 0});
-  return job;
+  NewJob job{kind, camera_id, dump_json(request), folder_prefix, frames_total, unix_time_ms()};
+  const std::string op = next_op();
+  return with_retry(Patience::kRequest, [&]() -> Result<JobRecord> {
+    Result<JobRecord> created = db_insert_job(job, op);
+    if (!created) return created;
+    created->request = request;
+    notify_change({created->id, JobState::kQueued, 0, frames_total, 0});
+    return created;
+  });
 }
 
 Result<std::optional<JobRecord>> JobStore::get(int64_t id) {
-  std::lock_guard lock(mutex_);
-  if (auto cached = finished_.find(id); cached != finished_.end())
-    return std::optional<JobRecord>(cached->second.job);
-  static const std::string sql = std::string("SELECT ") + kJobColumns + " FROM jobs WHERE id = ?";
-  std::vector<JobRecord> jobs;
-  CAMLAB_ASSIGN(jobs, query_jobs(sql.c_str(), id));
-  if (jobs.empty()) return std::optional<JobRecord>();
-  JobRecord& job = jobs.front();
-  if (is_finished(job.state)) remember_finished(job);
-  show_live(job);
-  return std::optional<JobRecord>(std::move(job));
+  return with_retry(Patience::kNone, [&]() -> Result<std::optional<JobRecord>> {
+    if (auto cached = finished_.find(id); cached != finished_.end())
+      return std::optional<JobRecord>(cached->second.job);
+    Result<std::optional<JobRecord>> read = db_get_job(id);
+    if (!read || !read->has_value()) return read;
+    JobRecord& job = **read;
+    if (is_finished(job.state)) remember_finished(job);
+    show_live(job);
+    return read;
+  });
 }
 
 Result<std::vector<JobRecord>> JobStore::list(std::optional<JobState> state, int limit,
                                               int offset) {
-  std::lock_guard lock(mutex_);
-  static const std::string all =
-      std::string("SELECT ") + kJobColumns + " FROM jobs ORDER BY id DESC LIMIT ? OFFSET ?";
-  static const std::string by_state =
-      std::string("SELECT ") + kJobColumns +
-      " FROM jobs WHERE state = ? ORDER BY id DESC LIMIT ? OFFSET ?";
-  std::vector<JobRecord> jobs;
-  if (state) {
-    CAMLAB_ASSIGN(jobs, query_jobs(by_state.c_str(), job_state_name(*state), limit, offset));
-  } else {
-    CAMLAB_ASSIGN(jobs, query_jobs(all.c_str(), limit, offset));
-  }
-  for (JobRecord& job : jobs) show_live(job);
-  return jobs;
+  return with_retry(Patience::kNone, [&]() -> Result<std::vector<JobRecord>> {
+    Result<std::vector<JobRecord>> jobs = db_list_jobs(state, limit, offset);
+    if (jobs)
+      for (JobRecord& job : *jobs) show_live(job);
+    return jobs;
+  });
+}
+
+Result<std::map<std::string, int64_t>> JobStore::count_by_state() {
+  return with_retry(Patience::kNone, [&] { return db_count_by_state(); });
 }
 
 void JobStore::show_live(JobRecord& job) const {
@@ -323,7 +171,7 @@ void JobStore::show_live(JobRecord& job) const {
 }
 
 void JobStore::remember_finished(const JobRecord& job) {
-  const size_t bytes = dump(job.request).size() + dump(job.result).size();
+  const size_t bytes = dump_json(job.request).size() + dump_json(job.result).size();
   if (bytes > kFinishedCacheBytes) return;
   // Bounded: the oldest ids give way (status polling is of recent jobs).
   while (!finished_.empty() && (finished_.size() >= kFinishedCacheJobs ||
@@ -336,51 +184,38 @@ void JobStore::remember_finished(const JobRecord& job) {
   finished_.emplace(job.id, CachedJob{job, bytes});
 }
 
-Result<std::map<std::string, int64_t>> JobStore::count_by_state() {
-  std::lock_guard lock(mutex_);
-  std::map<std::string, int64_t> counts;
-  if (Status read =
-          query("count jobs", "SELECT state, COUNT(*) FROM jobs GROUP BY state",
-                [&](const Statement& row) { counts[row.column_text(0)] = row.column_int64(1); });
-      !read)
-    return read.error();
-  return counts;
-}
-
 Result<bool> JobStore::start(int64_t id) {
-  std::lock_guard lock(mutex_);
-  int changed;
-  CAMLAB_ASSIGN(changed, execute("start job",
-                                 "UPDATE jobs SET state = 'running', started_ms = ? "
-                                 "WHERE id = ? AND state = 'queued'",
-                                 unix_time_ms(), id));
-  if (changed == 1) {
-    started_here_.insert(id);
-    notify_change({id, JobState::kRunning});
-  }
-  return changed == 1;
+  const int64_t now_ms = unix_time_ms();
+  const std::string op = next_op();
+  return with_retry(Patience::kWorker, [&]() -> Result<bool> {
+    Result<bool> started = db_start_job(id, now_ms, op);
+    if (started && *started) {
+      started_here_.insert(id);
+      notify_change({id, JobState::kRunning});
+    }
+    return started;
+  });
 }
 
 Status JobStore::write_progress(int64_t id, LiveProgress& live) {
-  int changed;
-  CAMLAB_ASSIGN(changed, execute("update progress",
-                                 "UPDATE jobs SET frames_done = ?, frames_total = ?, "
-                                 "frames_discarded = ? WHERE id = ? AND state = 'running'",
-                                 live.frames_done, live.frames_total, live.frames_discarded, id));
+  bool running;
+  CAMLAB_ASSIGN(running,
+                db_write_progress(id, live.frames_done, live.frames_total, live.frames_discarded));
   live.written_frames_done = live.frames_done;
   live.written_ms = unix_time_ms();
   live.dirty = false;
   // Not running (finished meanwhile, or never started): nothing live to show.
-  if (changed == 0) live_.erase(id);
+  if (!running) live_.erase(id);
   return {};
 }
 
 Status JobStore::flush_progress(int64_t id) {
   auto live = live_.find(id);
   if (live == live_.end()) return {};
-  Status status = live->second.dirty ? write_progress(id, live->second) : Status{};
+  if (live->second.dirty)
+    if (Status written = write_progress(id, live->second); !written) return written;
   live_.erase(id);
-  return status;
+  return {};
 }
 
 Status JobStore::progress(int64_t id, int frames_done, int frames_total, int frames_discarded) {
@@ -395,8 +230,9 @@ Status JobStore::progress(int64_t id, int frames_done, int frames_total, int fra
   if (started_here_.contains(id))
     notify_change({id, JobState::kRunning, frames_done, frames_total, frames_discarded});
   // The first report, the last frame, every kProgressRowFrames frames and every
-  // kProgressRowMs go to the database; the rest only to memory (one SQLite write a frame
-  // was the store mutex's largest holder during a capture).
+  // kProgressRowMs go to the database; the rest only to memory (one write a frame was the
+  // store mutex's largest holder during a capture). A report that cannot be written
+  // stays in memory (dirty) for the next one, or the finish.
   const bool due = live.written_frames_done < 0 || frames_done >= frames_total ||
                    frames_done - live.written_frames_done >= kProgressRowFrames ||
                    unix_time_ms() - live.written_ms >= kProgressRowMs;
@@ -406,107 +242,63 @@ Status JobStore::progress(int64_t id, int frames_done, int frames_total, int fra
 
 Result<bool> JobStore::finish(int64_t id, JobState state, const std::optional<Error>& error,
                               const nlohmann::json& result) {
-  std::lock_guard lock(mutex_);
   const std::string error_code = error ? std::string(name_of(error->code)) : "";
   const std::string error_message = error ? error->message : "";
   // A job without a result stores NULL, which reads back as null.
   const std::optional<std::string> result_text =
-      result.is_null() ? std::nullopt : std::optional<std::string>(dump(result));
-  // The last progress first, so the finished row holds it.
-  if (Status flushed = flush_progress(id); !flushed) return flushed.error();
-  int changed;
-  CAMLAB_ASSIGN(changed, execute("finish job",
-                                 "UPDATE jobs SET state = ?, finished_ms = ?, error_code = ?, "
-                                 "error_message = ?, result = ? "
-                                 "WHERE id = ? AND state IN ('queued', 'running')",
-                                 job_state_name(state), unix_time_ms(), error_code, error_message,
-                                 result_text, id));
-  started_here_.erase(id);
-  if (changed == 1) notify_finished(id, state);
-  return changed == 1;
+      result.is_null() ? std::nullopt : std::optional<std::string>(dump_json(result));
+  const int64_t now_ms = unix_time_ms();
+  const std::string op = next_op();
+  return with_retry(Patience::kWorker, [&]() -> Result<bool> {
+    // The last progress first, so the finished row holds it.
+    if (Status flushed = flush_progress(id); !flushed) return flushed.error();
+    Result<bool> finished =
+        db_finish_job(id, state, now_ms, error_code, error_message, result_text, op);
+    if (!finished) return finished;
+    started_here_.erase(id);
+    if (*finished) notify_finished(id, state);
+    return finished;
+  });
 }
 
 void JobStore::notify_finished(int64_t id, JobState state) {
-  if (change_observer_) {
-    JobChange change{id, state};
-    (void)query(
-        "read job progress",
-        "SELECT frames_done, frames_total, frames_discarded FROM jobs WHERE id = ?",
-        [&](const Statement& row) {
-          change.frames_done = static_cast<int>(row.column_int64(0));
-          change.frames_total = static_cast<int>(row.column_int64(1));
-          change.frames_discarded = static_cast<int>(row.column_int64(2));
-        },
-        id);
-    notify_change(change);
-  }
-  if (!finish_observer_) return;
-  std::string kind;
-  (void)query(
-      "read job kind", "SELECT kind FROM jobs WHERE id = ?",
-      [&](const Statement& row) { kind = row.column_text(0); }, id);
-  finish_observer_(kind, state);
+  if (!change_observer_ && !finish_observer_) return;
+  Result<FinishedSummary> summary = db_finished_summary(id);
+  const FinishedSummary stored = summary ? *summary : FinishedSummary{};
+  notify_change({id, state, stored.frames_done, stored.frames_total, stored.frames_discarded});
+  if (finish_observer_) finish_observer_(stored.kind, state);
 }
 
 Result<bool> JobStore::cancel_queued(int64_t id) {
-  std::lock_guard lock(mutex_);
-  int changed;
-  CAMLAB_ASSIGN(changed, execute("cancel job",
-                                 "UPDATE jobs SET state = 'cancelled', finished_ms = ?, "
-                                 "error_code = 'cancelled', error_message = "
-                                 "'cancelled before it started' WHERE id = ? AND state = 'queued'",
-                                 unix_time_ms(), id));
-  if (changed == 1) notify_finished(id, JobState::kCancelled);
-  return changed == 1;
+  const int64_t now_ms = unix_time_ms();
+  const std::string op = next_op();
+  return with_retry(Patience::kRequest, [&]() -> Result<bool> {
+    Result<bool> cancelled = db_cancel_queued(id, now_ms, op);
+    if (cancelled && *cancelled) notify_finished(id, JobState::kCancelled);
+    return cancelled;
+  });
 }
 
 Result<int> JobStore::interrupt_unfinished(const std::string& message) {
+  return with_retry(Patience::kWorker, [&]() -> Result<int> {
+    while (!live_.empty())
+      if (Status flushed = flush_progress(live_.begin()->first); !flushed) return flushed.error();
+    started_here_.clear();
+    return db_interrupt_unfinished(message, unix_time_ms());
+  });
+}
+
+void JobStore::relay_change(const JobChange& change) {
   std::lock_guard lock(mutex_);
-  while (!live_.empty())
-    if (Status flushed = flush_progress(live_.begin()->first); !flushed) return flushed.error();
-  started_here_.clear();
-  return execute("interrupt jobs",
-                 "UPDATE jobs SET state = 'interrupted', finished_ms = ?, "
-                 "error_code = 'interrupted', error_message = ? "
-                 "WHERE state IN ('queued', 'running')",
-                 unix_time_ms(), message);
+  notify_change(change);
 }
 
 Status JobStore::put_latency(const LatencyRecord& record) {
-  std::lock_guard lock(mutex_);
-  if (auto stored = execute(
-          "store latency",
-          "INSERT INTO devices (camera_id, latency_frames, latency_source, measured_ms, details) "
-          "VALUES (?, ?, ?, ?, ?) "
-          "ON CONFLICT (camera_id) DO UPDATE SET latency_frames = excluded.latency_frames, "
-          "latency_source = excluded.latency_source, measured_ms = excluded.measured_ms, "
-          "details = excluded.details",
-          record.camera_id, record.latency_frames, record.source, record.measured_ms,
-          dump(record.details));
-      !stored)
-    return stored.error();
-  return {};
+  return with_retry(Patience::kWorker, [&] { return db_put_latency(record); });
 }
 
 Result<std::optional<LatencyRecord>> JobStore::latency(const std::string& camera_id) {
-  std::lock_guard lock(mutex_);
-  std::optional<LatencyRecord> found;
-  if (Status read = query(
-          "read latency",
-          "SELECT latency_frames, latency_source, measured_ms, details FROM devices "
-          "WHERE camera_id = ?",
-          [&](const Statement& row) {
-            LatencyRecord& r = found.emplace();
-            r.camera_id = camera_id;
-            r.latency_frames = row.column_int(0);
-            r.source = row.column_text(1);
-            r.measured_ms = row.column_int64(2);
-            r.details = parse_or_null(row.column_text(3));
-          },
-          camera_id);
-      !read)
-    return read.error();
-  return found;
+  return with_retry(Patience::kNone, [&] { return db_latency(camera_id); });
 }
 
 }  // namespace camlab::service

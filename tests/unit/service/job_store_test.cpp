@@ -1,6 +1,7 @@
-// The job store (service/store/job_store.h) on a database in a temporary folder: what is
-// written reads back the same, across a reopen too, and the state transitions only go the
-// documented ways.
+// The job store (service/store/job_store.h) on its databases, with the same tests: SQLite
+// in a temporary folder. What is written
+// reads back the same, across a reopen too, and the state transitions only go the
+// documented ways. SQLite's own file handling is tested at the end.
 #include "service/store/job_store.h"
 
 #include <gtest/gtest.h>
@@ -18,7 +19,22 @@
 
 #include <nlohmann/json.hpp>
 
+#include "service/store/sqlite_job_store.h"
 #include "service/store/sqlite_statement.h"
+
+// Each database as the typed tests see it (at global scope, so that the tests' names read
+// JobStoreTest.Name<JobStoreOnSqlite>): prepare() gives a fresh, empty store's place (or
+// why there can be none here), open() opens it (again).
+struct JobStoreOnSqlite {
+  std::string prepare(const std::filesystem::path& folder) {
+    path_ = folder / "camlabd.sqlite";
+    return "";
+  }
+  camlab::Result<std::unique_ptr<camlab::service::JobStore>> open() {
+    return camlab::service::JobStore::open(path_);
+  }
+  std::filesystem::path path_;
+};
 
 namespace camlab::service {
 namespace {
@@ -42,32 +58,45 @@ class TempFolder {
   fs::path path_;
 };
 
+template <class Database>
 class JobStoreTest : public ::testing::Test {
  protected:
   void SetUp() override {
     ASSERT_FALSE(folder_.path().empty());
+    const std::string why = database_.prepare(folder_.path());
+    if (why.rfind("FAIL ", 0) == 0) FAIL() << why;
+    if (!why.empty()) GTEST_SKIP() << why;
     reopen();
   }
   void reopen() {
     store_.reset();
-    auto opened = JobStore::open(database());
+    auto opened = database_.open();
     ASSERT_TRUE(opened.ok()) << opened.error().message;
     store_ = std::move(*opened);
   }
-  fs::path database() const { return folder_.path() / "camlabd.sqlite"; }
+  // A second store on the same database (another connection).
+  std::unique_ptr<JobStore> open_another() {
+    auto opened = database_.open();
+    EXPECT_TRUE(opened.ok()) << opened.error().message;
+    return opened ? std::move(*opened) : nullptr;
+  }
 
   TempFolder folder_;
+  Database database_;
   std::unique_ptr<JobStore> store_;
 };
 
-TEST_F(JobStoreTest, AJobReadsBackAsWritten) {
+using Databases = ::testing::Types<JobStoreOnSqlite>;
+TYPED_TEST_SUITE(JobStoreTest, Databases);
+
+TYPED_TEST(JobStoreTest, AJobReadsBackAsWritten) {
   const nlohmann::json request = {{"kind", "single"},
                                   {"note", "it's \"quoted\"; DROP TABLE jobs; --"},
                                   {"unicode", "\xc3\xa9t\xc3\xa9"},
                                   {"frames", 3},
                                   {"gain", 1.25}};
   const int64_t before_ms = unix_time_ms();
-  auto created = store_->create("capture", "vcam0", request, "captures/job-", 3);
+  auto created = this->store_->create("capture", "vcam0", request, "captures/job-", 3);
   ASSERT_TRUE(created.ok()) << created.error().message;
   const JobRecord& job = *created;
   EXPECT_GT(job.id, 0);
@@ -76,7 +105,7 @@ TEST_F(JobStoreTest, AJobReadsBackAsWritten) {
   EXPECT_GE(job.created_ms, before_ms);
   EXPECT_LE(job.created_ms, unix_time_ms());
 
-  auto read = store_->get(job.id);
+  auto read = this->store_->get(job.id);
   ASSERT_TRUE(read.ok()) << read.error().message;
   ASSERT_TRUE(read->has_value());
   const JobRecord& stored = **read;
@@ -96,59 +125,59 @@ TEST_F(JobStoreTest, AJobReadsBackAsWritten) {
   EXPECT_EQ(to_json(stored), to_json(job));
 
   // The same after the daemon restarts.
-  reopen();
-  auto again = store_->get(job.id);
+  this->reopen();
+  auto again = this->store_->get(job.id);
   ASSERT_TRUE(again.ok() && again->has_value());
   EXPECT_EQ(to_json(**again), to_json(stored));
 }
 
-TEST_F(JobStoreTest, AJobWithoutAFolderPrefixHasNoFolder) {
-  auto created = store_->create("analysis", "", nlohmann::json::object(), "", 0);
+TYPED_TEST(JobStoreTest, AJobWithoutAFolderPrefixHasNoFolder) {
+  auto created = this->store_->create("analysis", "", nlohmann::json::object(), "", 0);
   ASSERT_TRUE(created.ok());
   EXPECT_TRUE(created->folder.empty());
-  auto read = store_->get(created->id);
+  auto read = this->store_->get(created->id);
   ASSERT_TRUE(read.ok() && read->has_value());
   EXPECT_TRUE((*read)->folder.empty());
   EXPECT_TRUE((*read)->camera_id.empty());
 }
 
-TEST_F(JobStoreTest, AMissingJobIsNoJob) {
-  auto read = store_->get(12345);
+TYPED_TEST(JobStoreTest, AMissingJobIsNoJob) {
+  auto read = this->store_->get(12345);
   ASSERT_TRUE(read.ok());
   EXPECT_FALSE(read->has_value());
 }
 
-TEST_F(JobStoreTest, TransitionsGoOnlyTheDocumentedWays) {
-  const int64_t id = store_->create("capture", "vcam0", {{"n", 1}}, "captures/job-", 4)->id;
-  EXPECT_TRUE(store_->progress(id, 1, 4, 0).ok());  // not running yet: ignored
-  EXPECT_EQ((*store_->get(id))->frames_done, 0);
+TYPED_TEST(JobStoreTest, TransitionsGoOnlyTheDocumentedWays) {
+  const int64_t id = this->store_->create("capture", "vcam0", {{"n", 1}}, "captures/job-", 4)->id;
+  EXPECT_TRUE(this->store_->progress(id, 1, 4, 0).ok());  // not running yet: ignored
+  EXPECT_EQ((*this->store_->get(id))->frames_done, 0);
 
-  EXPECT_TRUE(*store_->start(id));
-  EXPECT_FALSE(*store_->start(id));  // already running
-  EXPECT_FALSE(*store_->cancel_queued(id));
-  ASSERT_TRUE(store_->progress(id, 3, 4, 1).ok());
-  JobRecord running = **store_->get(id);
+  EXPECT_TRUE(*this->store_->start(id));
+  EXPECT_FALSE(*this->store_->start(id));  // already running
+  EXPECT_FALSE(*this->store_->cancel_queued(id));
+  ASSERT_TRUE(this->store_->progress(id, 3, 4, 1).ok());
+  JobRecord running = **this->store_->get(id);
   EXPECT_EQ(running.state, JobState::kRunning);
   EXPECT_GT(running.started_ms, 0);
   EXPECT_EQ(running.frames_done, 3);
   EXPECT_EQ(running.frames_discarded, 1);
 
   const nlohmann::json result = {{"frames", 3}, {"mean", 0.5}};
-  EXPECT_TRUE(
-      *store_->finish(id, JobState::kFailed, make_error("timeout", "no frame in 2 s"), result));
+  EXPECT_TRUE(*this->store_->finish(id, JobState::kFailed, make_error("timeout", "no frame in 2 s"),
+                                    result));
   // A finished job is never overwritten.
-  EXPECT_FALSE(*store_->finish(id, JobState::kSucceeded, std::nullopt, nullptr));
-  const JobRecord finished = **store_->get(id);
+  EXPECT_FALSE(*this->store_->finish(id, JobState::kSucceeded, std::nullopt, nullptr));
+  const JobRecord finished = **this->store_->get(id);
   EXPECT_EQ(finished.state, JobState::kFailed);
   EXPECT_EQ(finished.error_code, "timeout");
   EXPECT_EQ(finished.error_message, "no frame in 2 s");
   EXPECT_EQ(finished.result, result);
   EXPECT_GE(finished.finished_ms, finished.started_ms);
 
-  const int64_t queued = store_->create("capture", "vcam0", {{"n", 2}}, "", 1)->id;
-  EXPECT_TRUE(*store_->cancel_queued(queued));
-  EXPECT_FALSE(*store_->start(queued));
-  const JobRecord cancelled = **store_->get(queued);
+  const int64_t queued = this->store_->create("capture", "vcam0", {{"n", 2}}, "", 1)->id;
+  EXPECT_TRUE(*this->store_->cancel_queued(queued));
+  EXPECT_FALSE(*this->store_->start(queued));
+  const JobRecord cancelled = **this->store_->get(queued);
   EXPECT_EQ(cancelled.state, JobState::kCancelled);
   EXPECT_EQ(cancelled.error_code, "cancelled");
   EXPECT_TRUE(cancelled.result.is_null());
@@ -157,20 +186,20 @@ TEST_F(JobStoreTest, TransitionsGoOnlyTheDocumentedWays) {
 // The change observer (server-sent events) sees every step of a job in order, with the
 // progress as reported, and nothing for a report on a job that is not running or for a
 // transition the store refused.
-TEST_F(JobStoreTest, TheChangeObserverSeesEveryStepInOrder) {
+TYPED_TEST(JobStoreTest, TheChangeObserverSeesEveryStepInOrder) {
   std::vector<JobChange> seen;
-  store_->set_change_observer([&seen](const JobChange& change) { seen.push_back(change); });
-  const int64_t id = store_->create("capture", "vcam0", {{"n", 1}}, "captures/job-", 4)->id;
-  ASSERT_TRUE(store_->progress(id, 1, 4, 0).ok());  // not running: not shown
-  ASSERT_TRUE(*store_->start(id));
-  ASSERT_FALSE(*store_->start(id));
-  ASSERT_TRUE(store_->progress(id, 2, 4, 1).ok());
-  ASSERT_TRUE(store_->progress(id, 4, 4, 3).ok());
-  ASSERT_TRUE(*store_->finish(id, JobState::kSucceeded, std::nullopt, {{"frames", 4}}));
-  ASSERT_FALSE(*store_->finish(id, JobState::kFailed, std::nullopt, nullptr));
-  ASSERT_TRUE(store_->progress(id, 5, 4, 3).ok());  // finished: not shown
-  const int64_t queued = store_->create("analysis", "", nlohmann::json::object(), "", 0)->id;
-  ASSERT_TRUE(*store_->cancel_queued(queued));
+  this->store_->set_change_observer([&seen](const JobChange& change) { seen.push_back(change); });
+  const int64_t id = this->store_->create("capture", "vcam0", {{"n", 1}}, "captures/job-", 4)->id;
+  ASSERT_TRUE(this->store_->progress(id, 1, 4, 0).ok());  // not running: not shown
+  ASSERT_TRUE(*this->store_->start(id));
+  ASSERT_FALSE(*this->store_->start(id));
+  ASSERT_TRUE(this->store_->progress(id, 2, 4, 1).ok());
+  ASSERT_TRUE(this->store_->progress(id, 4, 4, 3).ok());
+  ASSERT_TRUE(*this->store_->finish(id, JobState::kSucceeded, std::nullopt, {{"frames", 4}}));
+  ASSERT_FALSE(*this->store_->finish(id, JobState::kFailed, std::nullopt, nullptr));
+  ASSERT_TRUE(this->store_->progress(id, 5, 4, 3).ok());  // finished: not shown
+  const int64_t queued = this->store_->create("analysis", "", nlohmann::json::object(), "", 0)->id;
+  ASSERT_TRUE(*this->store_->cancel_queued(queued));
 
   struct Expected {
     int64_t id;
@@ -198,28 +227,28 @@ TEST_F(JobStoreTest, TheChangeObserverSeesEveryStepInOrder) {
 // nor a count going back; list() agrees; the database row lags by fewer than
 // kProgressRowFrames + 1 frames; and the finished row (read after a reopen) holds the last
 // count.
-TEST_F(JobStoreTest, ProgressReadDuringACaptureIsNeverBehindTheLastReport) {
+TYPED_TEST(JobStoreTest, ProgressReadDuringACaptureIsNeverBehindTheLastReport) {
   constexpr int kFrames = 300;
   // In turn first: each read shows the report just made, through get() and list().
-  const int64_t in_turn = store_->create("capture", "vcam0", {{"n", 0}}, "", kFrames)->id;
-  ASSERT_TRUE(*store_->start(in_turn));
+  const int64_t in_turn = this->store_->create("capture", "vcam0", {{"n", 0}}, "", kFrames)->id;
+  ASSERT_TRUE(*this->store_->start(in_turn));
   for (int k = 1; k <= kFrames; ++k) {
-    ASSERT_TRUE(store_->progress(in_turn, k, kFrames, k / 10).ok());
-    const JobRecord job = **store_->get(in_turn);
+    ASSERT_TRUE(this->store_->progress(in_turn, k, kFrames, k / 10).ok());
+    const JobRecord job = **this->store_->get(in_turn);
     ASSERT_EQ(job.frames_done, k);
     ASSERT_EQ(job.frames_discarded, k / 10);
-    ASSERT_EQ((*store_->list(JobState::kRunning, 1, 0))[0].frames_done, k);
+    ASSERT_EQ((*this->store_->list(JobState::kRunning, 1, 0))[0].frames_done, k);
   }
-  ASSERT_TRUE(*store_->finish(in_turn, JobState::kSucceeded, std::nullopt, nullptr));
+  ASSERT_TRUE(*this->store_->finish(in_turn, JobState::kSucceeded, std::nullopt, nullptr));
 
   // Then racing: the camera's thread reports while this one reads.
-  const int64_t id = store_->create("capture", "vcam0", {{"n", 1}}, "", kFrames)->id;
-  ASSERT_TRUE(*store_->start(id));
+  const int64_t id = this->store_->create("capture", "vcam0", {{"n", 1}}, "", kFrames)->id;
+  ASSERT_TRUE(*this->store_->start(id));
   std::atomic<int> reported{0};
   std::atomic<bool> done{false};
   std::thread camera([&] {
     for (int k = 1; k <= kFrames; ++k) {
-      EXPECT_TRUE(store_->progress(id, k, kFrames, k / 10).ok());
+      EXPECT_TRUE(this->store_->progress(id, k, kFrames, k / 10).ok());
       reported.store(k);
     }
     done.store(true);
@@ -227,7 +256,7 @@ TEST_F(JobStoreTest, ProgressReadDuringACaptureIsNeverBehindTheLastReport) {
   int last_seen = 0, reads = 0, behind = 0, backwards = 0;
   while (!done.load() || reads < 10) {
     const int before = reported.load();
-    auto job = store_->get(id);
+    auto job = this->store_->get(id);
     ASSERT_TRUE(job.ok() && job->has_value());
     const int seen = (*job)->frames_done;
     if (seen < before) ++behind;
@@ -239,41 +268,41 @@ TEST_F(JobStoreTest, ProgressReadDuringACaptureIsNeverBehindTheLastReport) {
   camera.join();
   EXPECT_EQ(behind, 0);
   EXPECT_EQ(backwards, 0);
-  auto listed = store_->list(JobState::kRunning, 10, 0);
+  auto listed = this->store_->list(JobState::kRunning, 10, 0);
   ASSERT_TRUE(listed.ok());
   ASSERT_EQ(listed->size(), 1u);
   EXPECT_EQ((*listed)[0].frames_done, kFrames);
 
   // A second connection reads the row as the database holds it.
-  ASSERT_TRUE(store_->progress(id, kFrames - 1, kFrames, 0).ok());  // not due: memory only
+  ASSERT_TRUE(this->store_->progress(id, kFrames - 1, kFrames, 0).ok());  // not due: memory only
   {
-    auto other = JobStore::open(database());
-    ASSERT_TRUE(other.ok());
-    const JobRecord row = **(*other)->get(id);
+    auto other = this->open_another();
+    ASSERT_TRUE(other);
+    const JobRecord row = **other->get(id);
     EXPECT_GE(row.frames_done, kFrames - 1 - kProgressRowFrames);
     EXPECT_LE(row.frames_done, kFrames);
   }
-  ASSERT_TRUE(store_->progress(id, kFrames - 2, kFrames, 2).ok());
-  ASSERT_TRUE(*store_->finish(id, JobState::kSucceeded, std::nullopt, {{"ok", true}}));
-  reopen();
-  const JobRecord finished = **store_->get(id);
+  ASSERT_TRUE(this->store_->progress(id, kFrames - 2, kFrames, 2).ok());
+  ASSERT_TRUE(*this->store_->finish(id, JobState::kSucceeded, std::nullopt, {{"ok", true}}));
+  this->reopen();
+  const JobRecord finished = **this->store_->get(id);
   EXPECT_EQ(finished.frames_done, kFrames - 2);
   EXPECT_EQ(finished.frames_discarded, 2);
 }
 
 // Finished jobs are served from memory once read: more of them than the cache holds, read
 // twice each, all read back as written, the first of them too (from the database again).
-TEST_F(JobStoreTest, FinishedJobsReadBackTheSameBeyondTheCache) {
+TYPED_TEST(JobStoreTest, FinishedJobsReadBackTheSameBeyondTheCache) {
   const int count = static_cast<int>(kFinishedCacheJobs) + 10;
   std::vector<int64_t> ids;
   for (int i = 0; i < count; ++i) {
-    const int64_t id = store_->create("capture", "vcam0", {{"i", i}}, "", 1)->id;
-    ASSERT_TRUE(*store_->finish(id, JobState::kSucceeded, std::nullopt, {{"twice", 2 * i}}));
+    const int64_t id = this->store_->create("capture", "vcam0", {{"i", i}}, "", 1)->id;
+    ASSERT_TRUE(*this->store_->finish(id, JobState::kSucceeded, std::nullopt, {{"twice", 2 * i}}));
     ids.push_back(id);
   }
   for (int pass = 0; pass < 2; ++pass)
     for (int i = 0; i < count; ++i) {
-      const JobRecord job = **store_->get(ids[i]);
+      const JobRecord job = **this->store_->get(ids[i]);
       ASSERT_EQ(job.id, ids[i]);
       ASSERT_EQ(job.state, JobState::kSucceeded);
       ASSERT_EQ(job.request, nlohmann::json({{"i", i}}));
@@ -282,63 +311,63 @@ TEST_F(JobStoreTest, FinishedJobsReadBackTheSameBeyondTheCache) {
 }
 
 // A crash-restart's interruption writes the progress that only memory held.
-TEST_F(JobStoreTest, InterruptingWritesTheProgressHeldInMemory) {
-  const int64_t id = store_->create("capture", "vcam0", {{"n", 1}}, "", 100)->id;
-  ASSERT_TRUE(*store_->start(id));
-  for (int k = 1; k <= 7; ++k) ASSERT_TRUE(store_->progress(id, k, 100, 0).ok());
-  EXPECT_EQ(*store_->interrupt_unfinished("camlabd stopped"), 1);
-  reopen();
-  const JobRecord job = **store_->get(id);
+TYPED_TEST(JobStoreTest, InterruptingWritesTheProgressHeldInMemory) {
+  const int64_t id = this->store_->create("capture", "vcam0", {{"n", 1}}, "", 100)->id;
+  ASSERT_TRUE(*this->store_->start(id));
+  for (int k = 1; k <= 7; ++k) ASSERT_TRUE(this->store_->progress(id, k, 100, 0).ok());
+  EXPECT_EQ(*this->store_->interrupt_unfinished("camlabd stopped"), 1);
+  this->reopen();
+  const JobRecord job = **this->store_->get(id);
   EXPECT_EQ(job.state, JobState::kInterrupted);
   EXPECT_EQ(job.frames_done, 7);
 }
 
-TEST_F(JobStoreTest, ListsCountsAndInterrupts) {
+TYPED_TEST(JobStoreTest, ListsCountsAndInterrupts) {
   std::vector<int64_t> ids;
   for (int i = 0; i < 5; ++i)
-    ids.push_back(store_->create("capture", "vcam0", {{"i", i}}, "", 1)->id);
-  ASSERT_TRUE(*store_->start(ids[1]));
-  ASSERT_TRUE(*store_->finish(ids[2], JobState::kSucceeded, std::nullopt, {{"ok", true}}));
+    ids.push_back(this->store_->create("capture", "vcam0", {{"i", i}}, "", 1)->id);
+  ASSERT_TRUE(*this->store_->start(ids[1]));
+  ASSERT_TRUE(*this->store_->finish(ids[2], JobState::kSucceeded, std::nullopt, {{"ok", true}}));
 
-  auto all = store_->list(std::nullopt, 10, 0);
+  auto all = this->store_->list(std::nullopt, 10, 0);
   ASSERT_TRUE(all.ok());
   ASSERT_EQ(all->size(), 5u);
   for (size_t i = 0; i < 5; ++i) EXPECT_EQ((*all)[i].id, ids[4 - i]);  // newest first
-  auto page = store_->list(std::nullopt, 2, 1);
+  auto page = this->store_->list(std::nullopt, 2, 1);
   ASSERT_TRUE(page.ok());
   ASSERT_EQ(page->size(), 2u);
   EXPECT_EQ((*page)[0].id, ids[3]);
   EXPECT_EQ((*page)[1].id, ids[2]);
-  auto queued = store_->list(JobState::kQueued, 10, 0);
+  auto queued = this->store_->list(JobState::kQueued, 10, 0);
   ASSERT_TRUE(queued.ok());
   EXPECT_EQ(queued->size(), 3u);
   for (const JobRecord& job : *queued) EXPECT_EQ(job.state, JobState::kQueued);
 
-  auto counts = store_->count_by_state();
+  auto counts = this->store_->count_by_state();
   ASSERT_TRUE(counts.ok());
   EXPECT_EQ(*counts,
             (std::map<std::string, int64_t>{{"queued", 3}, {"running", 1}, {"succeeded", 1}}));
 
   // A restart after a crash: every unfinished job becomes interrupted, once.
-  reopen();
-  auto interrupted = store_->interrupt_unfinished("camlabd stopped");
+  this->reopen();
+  auto interrupted = this->store_->interrupt_unfinished("camlabd stopped");
   ASSERT_TRUE(interrupted.ok());
   EXPECT_EQ(*interrupted, 4);
-  EXPECT_EQ(*store_->interrupt_unfinished("again"), 0);
-  const JobRecord was_running = **store_->get(ids[1]);
+  EXPECT_EQ(*this->store_->interrupt_unfinished("again"), 0);
+  const JobRecord was_running = **this->store_->get(ids[1]);
   EXPECT_EQ(was_running.state, JobState::kInterrupted);
   EXPECT_EQ(was_running.error_message, "camlabd stopped");
-  EXPECT_EQ((**store_->get(ids[2])).state, JobState::kSucceeded);
+  EXPECT_EQ((**this->store_->get(ids[2])).state, JobState::kSucceeded);
 }
 
-TEST_F(JobStoreTest, LatencyReadsBackAndIsReplaced) {
-  auto none = store_->latency("vcam0");
+TYPED_TEST(JobStoreTest, LatencyReadsBackAndIsReplaced) {
+  auto none = this->store_->latency("vcam0");
   ASSERT_TRUE(none.ok());
   EXPECT_FALSE(none->has_value());
 
   LatencyRecord probe{"vcam0", 2, "probe", 1700000000123, {{"trace", {1, 2, 3}}}};
-  ASSERT_TRUE(store_->put_latency(probe).ok());
-  auto read = store_->latency("vcam0");
+  ASSERT_TRUE(this->store_->put_latency(probe).ok());
+  auto read = this->store_->latency("vcam0");
   ASSERT_TRUE(read.ok() && read->has_value());
   EXPECT_EQ((*read)->camera_id, "vcam0");
   EXPECT_EQ((*read)->latency_frames, 2);
@@ -347,17 +376,23 @@ TEST_F(JobStoreTest, LatencyReadsBackAndIsReplaced) {
   EXPECT_EQ((*read)->details, probe.details);
 
   LatencyRecord spec{"vcam0", 1, "spec", 1700000000999, nlohmann::json::object()};
-  ASSERT_TRUE(store_->put_latency(spec).ok());
-  reopen();
-  read = store_->latency("vcam0");
+  ASSERT_TRUE(this->store_->put_latency(spec).ok());
+  this->reopen();
+  read = this->store_->latency("vcam0");
   ASSERT_TRUE(read.ok() && read->has_value());
   EXPECT_EQ((*read)->latency_frames, 1);
   EXPECT_EQ((*read)->source, "spec");
   EXPECT_EQ((*read)->details, nlohmann::json::object());
-  EXPECT_FALSE(store_->latency("vcam1")->has_value());
+  EXPECT_FALSE(this->store_->latency("vcam1")->has_value());
 }
 
-TEST_F(JobStoreTest, TheDatabaseIsInWalModeWithTheSchemaVersion) {
+// SQLite's own file: its mode, its schema version, migration, and a file that is none.
+class SqliteJobStoreTest : public JobStoreTest<JobStoreOnSqlite> {
+ protected:
+  fs::path database() const { return database_.path_; }
+};
+
+TEST_F(SqliteJobStoreTest, TheDatabaseIsInWalModeWithTheSchemaVersion) {
   auto db = sqlite::Connection::open(database());
   ASSERT_TRUE(db.ok());
   for (const auto& [sql, expected] :
@@ -371,7 +406,7 @@ TEST_F(JobStoreTest, TheDatabaseIsInWalModeWithTheSchemaVersion) {
   }
 }
 
-TEST_F(JobStoreTest, ANewerSchemaIsRefused) {
+TEST_F(SqliteJobStoreTest, ANewerSchemaIsRefused) {
   store_.reset();
   {
     auto db = sqlite::Connection::open(database());
@@ -383,7 +418,7 @@ TEST_F(JobStoreTest, ANewerSchemaIsRefused) {
   EXPECT_EQ(opened.error().code, ErrorCode::kUnsupported);
 }
 
-TEST_F(JobStoreTest, AVersion1DatabaseIsMigratedKeepingItsJobs) {
+TEST_F(SqliteJobStoreTest, AVersion1DatabaseIsMigratedKeepingItsJobs) {
   store_.reset();
   fs::remove(database());
   {
@@ -430,7 +465,7 @@ TEST_F(JobStoreTest, AVersion1DatabaseIsMigratedKeepingItsJobs) {
   EXPECT_EQ(listed->size(), 1u);
 }
 
-TEST_F(JobStoreTest, AFileThatIsNoDatabaseIsAnErrorValue) {
+TEST_F(SqliteJobStoreTest, AFileThatIsNoDatabaseIsAnErrorValue) {
   const fs::path junk = folder_.path() / "junk.sqlite";
   {
     std::FILE* file = std::fopen(junk.c_str(), "wb");
