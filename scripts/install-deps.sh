@@ -27,6 +27,11 @@ packages=(
   libcamera-dev libcamera-tools   # the libcamera backend (0.0.3), and cam to test it against the virtual camera
   wrk curl               # camlabd: status-request load benchmark (tests/bench/service_bench), README's curl session
   chromium               # the dashboard's browser test (tests/browser), headless
+  # Fleets of camlabd hosts on a shared PostgreSQL job store (docs/fleet.md): libpqxx for
+  # camlabd's PostgreSQL store, and the server (initdb, pg_ctl, postgres, psql under
+  # /usr/lib/postgresql/15/bin) for the tests and benchmarks, which start throwaway
+  # clusters of their own (Debian also makes its own "main" cluster; camlab never uses it).
+  libpqxx-dev postgresql-15
 )
 # node and npm run the browser test's driver (playwright-core, installed by the build with npm
 # ci). A machine that has them already (e.g. NodeSource's nodejs, which brings its own npm)

@@ -4,7 +4,8 @@
 The link arrows are target_link_libraries; this check covers what linking cannot see: a
 header included against the arrows (every target has the whole tree on its include path),
 a third-party header in a room that must not see it (Beast outside service/http, SQLite
-outside service/store, anything but the standard library in src/optics).
+outside service/store, libpqxx and libpq outside service/store/postgres_*, anything but the
+standard library in src/optics).
 
 Usage: check_layers.py SOURCE_DIR. Prints every violation as FILE:LINE: what, and exits 1
 when there is one; exits 0 and prints a one-line summary otherwise.
@@ -57,6 +58,8 @@ RESTRICTED_SYSTEM = [
     # (header prefix, rooms that may include it, why)
     ("boost/", ["service/http/", "service/daemon.cpp"], "Beast stays in service/http"),
     ("sqlite3.h", ["service/store/"], "SQLite stays in service/store"),
+    ("pqxx/", ["service/store/postgres_"], "libpqxx stays in service/store/postgres_*"),
+    ("libpq-fe.h", ["service/store/postgres_"], "libpq stays in service/store/postgres_*"),
     ("mrcal", ["calib/", "mock_device/spec/", "mock_device/render/"], "src/ links no mrcal"),
     ("libcamera/", ["src/device/libcamera/"], "libcamera types stay in its backend"),
 ]

@@ -1,5 +1,6 @@
-// The job store (service/store/job_store.h) on its databases, with the same tests: SQLite
-// in a temporary folder. What is written
+// The job store (service/store/job_store.h) on both of its databases, with the same tests:
+// SQLite in a temporary folder always, and PostgreSQL in a throwaway cluster of its own
+// (tests/support/pg_cluster.h) when the server binaries are installed. What is written
 // reads back the same, across a reopen too, and the state transitions only go the
 // documented ways. SQLite's own file handling is tested at the end.
 #include "service/store/job_store.h"
@@ -19,11 +20,13 @@
 
 #include <nlohmann/json.hpp>
 
+#include "service/store/open_job_store.h"
 #include "service/store/sqlite_job_store.h"
 #include "service/store/sqlite_statement.h"
+#include "tests/support/pg_cluster.h"
 
 // Each database as the typed tests see it (at global scope, so that the tests' names read
-// JobStoreTest.Name<JobStoreOnSqlite>): prepare() gives a fresh, empty store's place (or
+// JobStoreTest.Name<JobStoreOnPostgres>): prepare() gives a fresh, empty store's place (or
 // why there can be none here), open() opens it (again).
 struct JobStoreOnSqlite {
   std::string prepare(const std::filesystem::path& folder) {
@@ -34,6 +37,24 @@ struct JobStoreOnSqlite {
     return camlab::service::JobStore::open(path_);
   }
   std::filesystem::path path_;
+};
+
+struct JobStoreOnPostgres {
+  std::string prepare(const std::filesystem::path&) {
+    if (std::string missing = camlab::testing::PgCluster::missing(); !missing.empty())
+      return missing;
+    std::string error;
+    if (!cluster_.start(&error)) return "FAIL " + error;
+    if (!cluster_.create_database("jobs")) return "FAIL cannot create the database";
+    return "";
+  }
+  camlab::Result<std::unique_ptr<camlab::service::JobStore>> open() {
+    camlab::service::StoreConfig config;
+    config.db = cluster_.url("jobs");
+    config.host_name = "host-a";
+    return camlab::service::open_job_store(config);
+  }
+  camlab::testing::PgCluster cluster_;
 };
 
 namespace camlab::service {
@@ -86,7 +107,7 @@ class JobStoreTest : public ::testing::Test {
   std::unique_ptr<JobStore> store_;
 };
 
-using Databases = ::testing::Types<JobStoreOnSqlite>;
+using Databases = ::testing::Types<JobStoreOnSqlite, JobStoreOnPostgres>;
 TYPED_TEST_SUITE(JobStoreTest, Databases);
 
 TYPED_TEST(JobStoreTest, AJobReadsBackAsWritten) {
