@@ -6,6 +6,7 @@
 #include "capture/capture_plan.h"
 #include "capture/capture_runner.h"
 #include "capture/latency_probe.h"
+#include "service/jobs/sync_schedule.h"
 #include "service/metrics.h"
 
 namespace camlab::service {
@@ -102,13 +103,16 @@ Result<LatencyChoice> latency_for(device::Camera& camera, const CaptureJobEnv& e
   return measure_latency(camera, env, frames_consumed);
 }
 
-// Writes progress to the store and counts frames, on each frame the runner keeps.
+// Writes progress to the store and counts frames, on each frame the runner keeps (and
+// notes its start time for a synchronised capture).
 class ProgressObserver final : public capture::CaptureObserver {
  public:
-  ProgressObserver(int64_t job_id, const CaptureJobEnv& env) : job_id_(job_id), env_(env) {}
-  void on_frame(const image::CaptureFrameEntry&, const image::FrameSidecar& sidecar,
+  ProgressObserver(int64_t job_id, const CaptureJobEnv& env, FrameStartLog* starts)
+      : job_id_(job_id), env_(env), starts_(starts) {}
+  void on_frame(const image::CaptureFrameEntry& entry, const image::FrameSidecar& sidecar,
                 const capture::CaptureProgress& progress) override {
     env_.metrics.count_frames(1, sidecar.frames_discarded);
+    if (starts_) starts_->add(entry.index, sidecar);
     (void)env_.store.progress(job_id_, progress.frames_kept, progress.frames_total,
                               progress.frames_discarded);
   }
@@ -116,6 +120,7 @@ class ProgressObserver final : public capture::CaptureObserver {
  private:
   int64_t job_id_;
   const CaptureJobEnv& env_;
+  FrameStartLog* starts_;
 };
 
 // Frames lost by the camera and by camlabd, apart, and a warning when camlabd could not
@@ -151,16 +156,17 @@ JobOutcome failed(Error error, bool device_failed = false) {
   return outcome;
 }
 
-// A cancel before any frame was taken (during the latency probe): cancelled by the user,
-// or interrupted by shutdown (the worker makes it device_lost when the camera is gone).
-JobOutcome stopped_early(const CaptureJobEnv& env) {
+// A cancel before any frame was taken (during the latency probe, or waiting for a
+// synchronised start): cancelled by the user, or interrupted by shutdown (the worker makes
+// it device_lost when the camera is gone).
+JobOutcome stopped_early(const CaptureJobEnv& env,
+                         const std::string& during = "the latency probe") {
   const bool shutdown = env.shutting_down && env.shutting_down->load();
   JobOutcome outcome;
   outcome.state = shutdown ? JobState::kInterrupted : JobState::kCancelled;
-  outcome.error = shutdown
-                      ? make_error("interrupted", "camlabd stopped during the latency probe")
-                      : make_error("cancelled", "cancelled by request during the latency probe");
-  outcome.failure_detail = "cancelled during the latency probe";
+  outcome.error = shutdown ? make_error("interrupted", "camlabd stopped during " + during)
+                           : make_error("cancelled", "cancelled by request during " + during);
+  outcome.failure_detail = "cancelled during " + during;
   return outcome;
 }
 
@@ -178,13 +184,27 @@ JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const C
   if (!controls) return failed(controls.error());
   auto formats = camera.formats();
   if (!formats) return failed(formats.error());
-  auto plan = capture::plan_capture(job.request, *controls, *formats, env.traits);
+  // A synchronised capture's schedule is the job's, not the plan's.
+  nlohmann::json request = job.request;
+  auto schedule = take_schedule(&request);
+  if (!schedule) return failed(schedule.error());
+  auto plan = capture::plan_capture(request, *controls, *formats, env.traits);
   if (!plan) return failed(plan.error());
 
   int probe_frames = 0;
   auto latency = latency_for(camera, env, &probe_frames);
   if (!latency && latency.error().code == ErrorCode::kCancelled) return stopped_early(env);
   if (!latency) return failed(latency.error(), true);
+  // Everything that takes time is done: wait for the common start.
+  int64_t late_us = 0;
+  if (*schedule) {
+    auto waited = wait_for_start(**schedule, env.cancel);
+    if (!waited && waited.error().code == ErrorCode::kCancelled)
+      return stopped_early(env, "the wait for the synchronised start");
+    if (!waited) return failed(waited.error());
+    late_us = *waited;
+  }
+  FrameStartLog starts;
 
   capture::CaptureOptions options;
   options.control_latency_frames = latency->frames;
@@ -195,7 +215,7 @@ JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const C
   options.source = env.source;
   options.source["job_id"] = job.id;
   options.source["control_latency"] = {{"frames", latency->frames}, {"source", latency->source}};
-  ProgressObserver observer(job.id, env);
+  ProgressObserver observer(job.id, env, *schedule ? &starts : nullptr);
   auto summary = capture::run_capture(camera, *plan, env.data_dir / job.folder, options, &observer);
   if (!summary) return failed(summary.error());
 
@@ -208,6 +228,7 @@ JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const C
       {"wall_seconds", summary->wall_seconds},     {"control_latency_frames", latency->frames},
       {"control_latency_source", latency->source}, {"folder", job.folder}};
   add_frame_loss(*summary, &outcome.result);
+  if (*schedule) outcome.result["synchronised"] = starts.to_json(**schedule, late_us);
   if (summary->restore_error)
     outcome.result["restore_error"] = {{"code", summary->restore_error->code},
                                        {"message", summary->restore_error->message}};
