@@ -22,6 +22,7 @@
 #include "service/api/auth.h"
 #include "service/api/router.h"
 #include "service/api/service_context.h"
+#include "service/fleet/fleet.h"
 #include "service/http/listener.h"
 #include "service/jobs/calibration_sessions.h"
 #include "service/jobs/compute_jobs.h"
@@ -31,6 +32,7 @@
 #include "service/live/live_hub.h"
 #include "service/metrics.h"
 #include "service/store/job_store.h"
+#include "service/store/open_job_store.h"
 
 namespace camlab::service {
 namespace {
@@ -105,7 +107,15 @@ int run_daemon(const DaemonConfig& config) {
     std::fflush(stdout);
   }
 
-  auto store = JobStore::open(*data_dir / "camlabd.sqlite");
+  StoreConfig store_config;
+  store_config.db = config.db;
+  store_config.data_dir = *data_dir;
+  store_config.host_name = config.host_name;
+  // A statement longer than half the lease is of no use to a fleet host (its lease would
+  // pass meanwhile): that long, then the connection is taken for dead.
+  store_config.statement_timeout = std::clamp(config.lease / 2, std::chrono::milliseconds(1000),
+                                              std::chrono::milliseconds(10000));
+  auto store = open_job_store(store_config);
   if (!store) {
     log_error(log::Category::kDaemon, "%s", store.error().message.c_str());
     return 1;
@@ -148,10 +158,17 @@ int run_daemon(const DaemonConfig& config) {
   TokenAuth auth(token->token);
   Router router(&auth, &metrics);
   router.hide_data_dir(*data_dir);
+  // A fleet host (PostgreSQL): joins once it serves, below.
+  std::unique_ptr<Fleet> fleet;
+  if (FleetStore* shared = (*store)->fleet())
+    fleet = std::make_unique<Fleet>(*shared, **store, **cameras,
+                                    FleetOptions{config.host_name, "", config.lease},
+                                    config.cameras.worker.max_queued_jobs);
   ServiceContext context{*data_dir, store->get(),       cameras->get(), &compute,
                          &metrics,  config.test_faults, &sessions,      &waiters};
   context.live = &live;
   context.events = &events;
+  context.fleet = fleet.get();
   add_all_routes(router, context);
 
   net::io_context ioc(config.io_threads);
@@ -204,10 +221,27 @@ int run_daemon(const DaemonConfig& config) {
       ioc.run();
     });
 
+  // A fleet host joins once it serves (its URL has the port bound). A host that cannot
+  // join stops at once, exit status 1.
+  int exit_code = 0;
+  if (fleet) {
+    const auto at = (*listener)->local_endpoint();
+    const std::string url = !config.advertise_url.empty() ? config.advertise_url
+                                                          : "http://" + at.address().to_string() +
+                                                                ":" + std::to_string(at.port());
+    if (Status joined = fleet->start(url); !joined) {
+      log_error(log::Category::kDaemon, "cannot join the fleet: %s",
+                joined.error().message.c_str());
+      exit_code = 1;
+      std::raise(SIGTERM);
+    }
+  }
+
   const int signal_number = stop_signal.get_future().get();
   log_info(log::Category::kDaemon,
            "%s received: stopping (no new connections; running jobs are interrupted, frames kept)",
            signal_number == SIGTERM ? "SIGTERM" : "SIGINT");
+  if (fleet) fleet->stop_taking_jobs();
   (*listener)->stop();
   // The streams end first (their connections close), then what feeds them.
   live.stop();
@@ -216,10 +250,14 @@ int run_daemon(const DaemonConfig& config) {
   sessions.stop();
   (*cameras)->stop();
   compute.stop();
+  if (fleet)
+    fleet->leave("camlabd on host " + config.host_name +
+                 " stopped while this job was queued or running; the frames written "
+                 "are kept on it");
   ioc.stop();
   for (auto& t : pool) t.join();
   log_info(log::Category::kDaemon, "stopped");
-  return 0;
+  return exit_code;
 }
 
 }  // namespace camlab::service

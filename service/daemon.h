@@ -6,6 +6,7 @@
 // and run_daemon returns 0.
 #pragma once
 
+#include <chrono>
 #include <filesystem>
 #include <string>
 
@@ -26,6 +27,13 @@ struct DaemonConfig {
   int io_nice = 5;
   int max_compute_jobs = 16;
   bool test_faults = false;
+  // The job store: empty for SQLite in the data folder; a PostgreSQL URL for a fleet
+  // (docs/fleet.md), with this host's name, the URL clients reach it at (empty: its listen
+  // address) and its lease.
+  std::string db;
+  std::string host_name;
+  std::string advertise_url;
+  std::chrono::milliseconds lease{10000};
 };
 
 // Serves until SIGTERM or SIGINT; returns the process exit code (0 after a clean stop,

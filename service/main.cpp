@@ -1,5 +1,7 @@
 // camlabd: the REST capture daemon. Parses flags (and an optional config file), then
 // serves (service/daemon.h).
+#include <unistd.h>
+
 #include <cstdio>
 #include <string>
 
@@ -118,6 +120,23 @@ int main(int argc, char** argv) {
                  "octal mode of the files camlabd writes (frames, sidecars, manifests, "
                  "reports), 0600..0666, e.g. 0640; default: 0666 less the umask, as for any "
                  "new file. The token stays 0600");
+  app.add_option("--db", config.db,
+                 "the job store: a PostgreSQL URL (postgresql://USER@HOST:PORT/DATABASE) shared "
+                 "by a fleet of\n"
+                 "camlabd hosts (docs/fleet.md); without it, SQLite in the data folder");
+  std::string host_name;
+  app.add_option("--host-name", host_name,
+                 "this host's name in the fleet (with --db; default: the system's host name)");
+  app.add_option("--advertise-url", config.advertise_url,
+                 "where clients reach this host's API, for redirects to its frames (with --db; "
+                 "default: http://LISTEN_ADDRESS:PORT)");
+  int lease_ms = static_cast<int>(config.lease.count());
+  app.add_option("--lease-ms", lease_ms,
+                 "this host's lease in the fleet: renewed every third of it; a host that has not "
+                 "renewed it\n"
+                 "for this long is taken for dead and its jobs end interrupted (with --db)")
+      ->check(CLI::Range(1000, 600000))
+      ->capture_default_str();
   app.add_flag("--test-faults", config.test_faults,
                "TESTS ONLY: enable POST /v1/test/cameras/{id}/faults (fault injection into "
                "in-process virtual cameras)");
@@ -141,6 +160,12 @@ int main(int argc, char** argv) {
   else if (!config.cameras.camera_spec.empty())
     config.cameras.virtual_cameras = camlab::service::VirtualCameras::kAlways;
   config.limits.read_timeout = std::chrono::seconds(read_timeout_s);
+  config.lease = std::chrono::milliseconds(lease_ms);
+  if (host_name.empty()) {
+    char name[256] = {};
+    if (::gethostname(name, sizeof name - 1) == 0) host_name = name;
+  }
+  config.host_name = host_name;
   config.cameras.worker.frame_timeout = std::chrono::milliseconds(frame_timeout_ms);
   return camlab::service::run_daemon(config);
 }

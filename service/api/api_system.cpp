@@ -43,6 +43,7 @@ void add_all_routes(Router& router, const ServiceContext& context) {
   add_live_routes(router, context);
   add_event_routes(router, context);
   add_web_routes(router, context);
+  add_fleet_routes(router, context);
   if (context.test_faults) add_test_routes(router, context);
 }
 

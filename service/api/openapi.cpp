@@ -74,13 +74,17 @@ json schemas() {
         {"properties",
          {{"id", {{"type", "integer"}}},
           {"kind",
-           {{"type", "string"}, {"enum", {"capture", "latency_probe", "calibration", "analysis"}}}},
+           {{"type", "string"},
+            {"enum", {"capture", "latency_probe", "calibration", "analysis", "sync_capture"}}}},
           {"state",
            {{"type", "string"},
             {"enum",
              {"queued", "running", "succeeded", "failed", "cancelled", "interrupted",
               "device_lost"}}}},
           {"camera_id", {{"type", "string"}}},
+          {"host",
+           {{"type", "string"},
+            {"description", "fleet only: the host that runs the job and keeps its frames"}}},
           {"request", {{"type", "object"}}},
           {"folder", {{"type", "string"}, {"description", "relative to the data folder"}}},
           {"created_at", {{"type", "string"}, {"format", "date-time"}}},
@@ -214,6 +218,28 @@ json schemas() {
           {"running_job", {{"type", "integer"}, {"nullable", true}}},
           {"queued_jobs", {{"type", "integer"}}},
           {"control_latency", {{"type", "object"}, {"nullable", true}}}}}}},
+      {"SyncCaptureRequest",
+       {{"type", "object"},
+        {"required", {"cameras", "capture"}},
+        {"properties",
+         {{"cameras",
+           {{"type", "array"},
+            {"items", {{"type", "string"}, {"description", "CAMERA@HOST (GET /v1/fleet)"}}},
+            {"minItems", 1},
+            {"maxItems", 32}}},
+          {"capture", ref("CaptureRequest")},
+          {"start_in_ms",
+           {{"type", "integer"},
+            {"minimum", 100},
+            {"maximum", 60000},
+            {"default", 1000},
+            {"description", "the common start, this long after the request (host clocks)"}}},
+          {"max_late_ms",
+           {{"type", "integer"},
+            {"minimum", 0},
+            {"maximum", 10000},
+            {"default", 100},
+            {"description", "a camera that can begin only later than this fails busy"}}}}}}},
       {"Faults",
        {{"type", "object"},
         {"properties",
@@ -404,6 +430,28 @@ json openapi_document(bool include_test_routes) {
                                  error_responses({400, 401, 404, 409, 413, 422, 429})),
                            ref("AnalysisRequest"))}}}};
   add_dashboard_paths(paths, camera_id, job_id, frame_n);
+  // The fleet (docs/fleet.md): on one camlabd (SQLite) both answer unsupported (422).
+  paths["/v1/fleet"] = {
+      {"get", operation("The fleet: hosts with their leases, clock offsets and cameras "
+                        "(CAMERA@HOST)",
+                        "fleet", json::array(),
+                        merge(ok(200, "{host, hosts: [{name, url, state, cameras}]}", object),
+                              error_responses({401, 422, 503})))}};
+  paths["/v1/sync-captures"] = {
+      {"post", operation("A synchronised capture: cameras on several hosts start at a common time",
+                         "fleet", json::array(),
+                         merge(ok(202,
+                                  "the parent job (kind sync_capture); its result compares the "
+                                  "frames' start times",
+                                  ref("Job")),
+                               error_responses({400, 401, 404, 413, 422, 429, 503})),
+                         ref("SyncCaptureRequest"))}};
+  // A job's files stay on the host that ran it: another fleet host redirects there.
+  for (const char* files :
+       {"/v1/jobs/{id}/frames", "/v1/jobs/{id}/frames/{n}", "/v1/jobs/{id}/frames/{n}/meta",
+        "/v1/jobs/{id}/frames/{n}/thumbnail", "/v1/jobs/{id}/plots", "/v1/jobs/{id}/plots/{name}"})
+    paths[files]["get"]["responses"]["307"] = {
+        {"description", "fleet: the job's files are on another host (Location, same token)"}};
   const json session_id =
       path_param("id", "calibration session id", {{"type", "integer"}, {"minimum", 1}});
   const std::string session_state =

@@ -75,6 +75,18 @@ std::vector<std::string> split_path(const std::string& path) {
 
 void Router::add(Route route) { routes_.push_back(std::move(route)); }
 
+bool Router::wrap(const std::string& method, const std::string& pattern, Wrapper wrapper) {
+  for (Route& route : routes_) {
+    if (route.method != method || route.pattern != pattern) continue;
+    route.handler = [next = std::move(route.handler), wrapper = std::move(wrapper)](
+                        const ApiRequest& request, const PathParams& params, Reply reply) {
+      wrapper(request, params, std::move(reply), next);
+    };
+    return true;
+  }
+  return false;
+}
+
 void Router::hide_data_dir(const std::filesystem::path& data_dir) {
   hidden_prefix_ = (data_dir / "").string();
 }

@@ -34,6 +34,13 @@ class Router {
   Router(const TokenAuth* auth, Metrics* metrics) : auth_(auth), metrics_(metrics) {}
 
   void add(Route route);
+  // Puts `wrapper` around the handler of the route `method` `pattern` added before: the
+  // wrapper answers itself or passes the request on to the handler it is given (a fleet
+  // host answers for the cameras and jobs of other hosts, service/api/api_fleet.cpp).
+  // False when there is no such route.
+  using Wrapper =
+      std::function<void(const ApiRequest&, const PathParams&, Reply, const Handler& next)>;
+  bool wrap(const std::string& method, const std::string& pattern, Wrapper wrapper);
   const std::vector<Route>& routes() const { return routes_; }
 
   // The data folder's absolute path, hidden from JSON answers: error messages name files

@@ -13,6 +13,7 @@ namespace camlab::service {
 class CalibrationSessions;
 class CameraSet;
 class ComputeWorker;
+class Fleet;
 class JobStore;
 class JobEvents;
 class JobWaiters;
@@ -30,6 +31,7 @@ struct ServiceContext {
   JobWaiters* waiters = nullptr;            // null: GET /v1/jobs/{id}?wait= answers at once
   LiveHub* live = nullptr;      // null: live views, histograms and thumbnails answer 503
   JobEvents* events = nullptr;  // null: GET /v1/events answers 503
+  Fleet* fleet = nullptr;       // null: one camlabd (SQLite); /v1/fleet answers unsupported
 };
 
 // Registration of each group of routes (one file each).
@@ -42,6 +44,8 @@ void add_session_routes(Router& router, const ServiceContext& context);  // api_
 void add_live_routes(Router& router, const ServiceContext& context);     // api_live.cpp
 void add_event_routes(Router& router, const ServiceContext& context);    // api_events.cpp
 void add_web_routes(Router& router, const ServiceContext& context);      // api_web.cpp
+// The fleet's routes; on a fleet host also wraps the camera and job routes added before.
+void add_fleet_routes(Router& router, const ServiceContext& context);  // api_fleet.cpp
 
 // Every route of the daemon, in the order they are matched (test routes only with
 // context.test_faults).

@@ -5,6 +5,7 @@
 #include "base/atomic_file.h"
 #include "base/log.h"
 #include "image/capture_folder_recovery.h"
+#include "service/store/fleet_store.h"
 #include "service/store/job_store.h"
 
 namespace camlab::service {
@@ -21,10 +22,16 @@ constexpr int kMaxUnfinishedJobs = 100000;
 Result<std::vector<RecoveredJob>> recover_unfinished_jobs(JobStore& store,
                                                           const fs::path& data_dir) {
   std::vector<JobRecord> unfinished;
-  for (JobState state : {JobState::kRunning, JobState::kQueued}) {
-    auto jobs = store.list(state, kMaxUnfinishedJobs, 0);
+  if (FleetStore* fleet = store.fleet()) {
+    auto jobs = fleet->jobs_to_recover();
     if (!jobs) return jobs.error();
-    unfinished.insert(unfinished.end(), jobs->begin(), jobs->end());
+    unfinished = std::move(*jobs);
+  } else {
+    for (JobState state : {JobState::kRunning, JobState::kQueued}) {
+      auto jobs = store.list(state, kMaxUnfinishedJobs, 0);
+      if (!jobs) return jobs.error();
+      unfinished.insert(unfinished.end(), jobs->begin(), jobs->end());
+    }
   }
   std::vector<RecoveredJob> recovered;
   for (const JobRecord& job : unfinished) {
@@ -47,10 +54,13 @@ Result<std::vector<RecoveredJob>> recover_unfinished_jobs(JobStore& store,
                     static_cast<long long>(job.id),
                     static_cast<unsigned long long>(folder->journal_bytes_cut), dir.c_str(),
                     folder->journal_problem.c_str());
-      // Only a running job's count is stored (a queued one has none).
+      // Only a running job's count is stored (a queued one has none); on a fleet host, a
+      // job interrupted while it was away gets the frames its folder lists.
       if (job.state == JobState::kRunning)
         if (Status s = store.progress(job.id, r.frames, job.frames_total, job.frames_discarded); !s)
           return s.error();
+      if (job.state == JobState::kInterrupted && store.fleet())
+        if (Status s = store.fleet()->set_recovered_frames(job.id, r.frames); !s) return s.error();
     } else {
       auto removed = remove_atomic_write_temporaries(dir);
       if (!removed) {

@@ -8,6 +8,10 @@
 //   (a frame listed, the process killed before its count was stored), never ahead.
 // - Any other job's folder (a calibration's) loses the temporaries of atomic writes.
 //
+// On a fleet host (PostgreSQL) the jobs are this host's: those it left unfinished, and
+// those the fleet interrupted while it was away (killed: its lease passed meanwhile), whose
+// frame count becomes what the recovered folder lists when that is more.
+//
 // Thread-compatible: run once at start, before any worker writes.
 #pragma once
 
@@ -28,8 +32,9 @@ struct RecoveredJob {
   int files_removed = 0;
 };
 
-// Recovers every queued or running job's folder; a folder that cannot be recovered is
-// logged and left as it is (the job is still marked interrupted afterwards).
+// Recovers every queued or running job's folder (and, on a fleet host, those said above);
+// a folder that cannot be recovered is logged and left as it is (the job is still marked
+// interrupted afterwards).
 Result<std::vector<RecoveredJob>> recover_unfinished_jobs(JobStore& store,
                                                           const std::filesystem::path& data_dir);
 

@@ -1,0 +1,90 @@
+// A camlabd host in a fleet (`--db postgresql://...`, docs/fleet.md): its membership
+// (fleet_member.h), the dispatcher that hands it its jobs (fleet_dispatcher.h), the view of
+// the other hosts (fleet_registry.h), synchronised captures (sync_captures.h), and what
+// the API asks of the fleet: a camera by its fleet id, and a job submitted for it,
+// whichever host has it.
+//
+// Thread-safe: start() and stop() from the daemon's thread, the rest from any.
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "base/result.h"
+#include "capture/capture_plan.h"
+#include "service/fleet/camera_description.h"
+#include "service/fleet/fleet_dispatcher.h"
+#include "service/fleet/fleet_member.h"
+#include "service/fleet/fleet_registry.h"
+#include "service/store/fleet_store.h"
+
+namespace camlab::service {
+
+class CameraSet;
+class CameraWorker;
+class JobStore;
+class SyncCaptures;
+
+// A camera of the fleet, found by its id.
+struct CameraTarget {
+  std::string host;                      // its host
+  std::string camera_id;                 // its id on that host
+  std::shared_ptr<CameraWorker> worker;  // this host's camera; null for another host's
+  PublishedCamera camera;                // what a capture request is checked against
+  nlohmann::json description;            // as its host published it
+  bool available = false;
+  std::string unavailable_reason;
+
+  std::string fleet_id() const { return fleet_camera_id(camera_id, host); }
+};
+
+class Fleet {
+ public:
+  Fleet(FleetStore& fleet, JobStore& store, CameraSet& cameras, FleetOptions options,
+        int max_queued_jobs);
+  ~Fleet();
+  Fleet(const Fleet&) = delete;
+  Fleet& operator=(const Fleet&) = delete;
+
+  // Joins the fleet as reachable at `url` and starts taking jobs (FleetMember::start).
+  Status start(const std::string& url);
+  // Takes no more jobs (before the workers stop) ...
+  void stop_taking_jobs();
+  // ... and leaves the fleet once they have: what is left of this host's ends interrupted.
+  void leave(const std::string& message);
+
+  const std::string& host() const { return options_.host; }
+  FleetStore& store() { return fleet_; }
+  JobStore& jobs() { return store_; }
+  FleetRegistry& registry() { return registry_; }
+  SyncCaptures& sync() { return *sync_; }
+
+  // The camera `id` names: "CAMERA@HOST", or "CAMERA" for one of this host's. Errors:
+  // "not_found" (listing the cameras), "host_unavailable" (its host is not serving).
+  Result<CameraTarget> resolve(const std::string& id);
+  // `request` checked as a capture for the camera, as its host would check it.
+  Result<capture::CapturePlan> plan(const CameraTarget& target,
+                                    const nlohmann::json& request) const;
+  // A job for the camera, waiting for its host to claim it. Errors: "no_device" (the
+  // camera is not available), "too_many_jobs" (more than max_queued_jobs wait for it),
+  // "host_unavailable", "database_unavailable".
+  Result<JobRecord> submit(const CameraTarget& target, const std::string& kind,
+                           const nlohmann::json& request, int frames_total);
+  // Where host `name`'s API is reached, or "host_unavailable" when it is not live.
+  Result<std::string> url_of(const std::string& name);
+
+ private:
+  FleetStore& fleet_;
+  JobStore& store_;
+  CameraSet& cameras_;
+  const FleetOptions options_;
+  const int max_queued_jobs_;
+  FleetRegistry registry_;
+  FleetMember member_;
+  FleetDispatcher dispatcher_;
+  std::unique_ptr<SyncCaptures> sync_;
+};
+
+}  // namespace camlab::service
