@@ -1,0 +1,296 @@
+// camlabd hosts in a fleet on one machine (tests/integration/service/fleet_harness.h): a
+// throwaway PostgreSQL cluster and three hosts with two virtual cameras each.
+//
+// - 200 captures submitted through random hosts for random cameras, while one host is
+//   killed with SIGKILL and PostgreSQL restarts: every job ends exactly once (its history
+//   in job_events holds one final state, and ran at most once), only the killed host's
+//   jobs are interrupted, and every frame recorded downloads whole through any host.
+// - A synchronised capture over the six cameras reports each frame's start, none before
+//   the common start, with the skew worked out from those starts.
+// - A host cut off from the database stops its capture, the fleet interrupts the job once,
+//   and the host joins again and captures.
+//
+// Skipped, saying why, only when PostgreSQL's server binaries are not installed.
+#include <gtest/gtest.h>
+
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <set>
+
+#include "fleet_harness.h"
+#include "tests/support/job_history.h"
+#include "tests/support/tcp_proxy.h"
+
+namespace {
+
+using namespace camlab::testing;
+using nlohmann::json;
+
+// The test camera at 10 ms frames: captures are short, so 200 of them fit in seconds.
+std::string fast_camera_spec() {
+  json camera = json::parse(kTestCameraSpec);
+  camera["name"] = "camlabd fleet test camera 160x120";
+  camera["timing"]["frame_interval_us"] = 10000;
+  camera["controls"]["exposure_time_absolute"]["max"] = 100;
+  return camera.dump();
+}
+
+bool finished(const json& job) {
+  const std::string state = job.value("state", "");
+  return !state.empty() && state != "queued" && state != "running";
+}
+
+class ServiceFleet : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (std::string missing = PgCluster::missing(); !missing.empty()) GTEST_SKIP() << missing;
+    dir_ = fresh_test_dir("fleet");
+    fleet_ = std::make_unique<FleetHarness>(dir_, fast_camera_spec());
+    std::string error;
+    ASSERT_TRUE(fleet_->start_database(&error)) << error;
+  }
+  void TearDown() override {
+    if (HasFailure() && fleet_) std::printf("%s\n", fleet_->logs().c_str());
+    fleet_.reset();
+    fs::remove_all(dir_);
+  }
+
+  // Each job's states in the order its history (job_events) holds them.
+  std::map<int64_t, std::vector<std::string>> history() {
+    bool ok = false;
+    auto states = job_histories(fleet_->cluster(), "camlab", &ok);
+    EXPECT_TRUE(ok);
+    return states;
+  }
+
+  // Every frame job `id` lists, fetched through `via` (redirected to its host), decodes
+  // and says its index; returns how many it lists.
+  int check_frames(const Daemon& via, const json& job) {
+    const std::string base = "/v1/jobs/" + std::to_string(job["id"].get<int64_t>());
+    auto listing = fleet_->get_following(via, base + "/frames");
+    if (listing.status == 404) return 0;  // never began: no folder
+    EXPECT_EQ(listing.status, 200) << base << ": " << listing.body;
+    const json frames = listing.json()["frames"];
+    for (size_t i = 0; i < frames.size(); ++i) {
+      auto png = fleet_->get_following(via, base + "/frames/" + std::to_string(i));
+      EXPECT_EQ(png.status, 200) << base << " frame " << i;
+      const cv::Mat image =
+          cv::imdecode(std::vector<uchar>(png.body.begin(), png.body.end()), cv::IMREAD_UNCHANGED);
+      EXPECT_EQ(image.size(), cv::Size(160, 120)) << base << " frame " << i;
+      const json meta =
+          fleet_->get_following(via, base + "/frames/" + std::to_string(i) + "/meta").json();
+      EXPECT_EQ(meta.value("index", -1), static_cast<int>(i)) << base;
+    }
+    return static_cast<int>(frames.size());
+  }
+
+  fs::path dir_;
+  std::unique_ptr<FleetHarness> fleet_;
+};
+
+TEST_F(ServiceFleet, TwoHundredJobsEndOnceThroughAKilledHostAndADatabaseRestart) {
+  const std::vector<std::string> names = {"host-0", "host-1", "host-2"};
+  // A lease of 4 s: a host that died is found within seconds, and a database restart
+  // (well under a second here) is waited out without fencing anyone.
+  for (const auto& name : names) ASSERT_NE(fleet_->start_host(name, 4000), nullptr) << name;
+  const json ready = fleet_->wait_live(*fleet_->host("host-0"), 3);
+  ASSERT_TRUE(ready.is_object()) << fleet_->host("host-0")->log();
+  const std::vector<std::string> cameras = FleetHarness::camera_ids(ready);
+  ASSERT_EQ(cameras.size(), 6u);
+
+  std::mt19937 rng(17);
+  std::set<std::string> alive(names.begin(), names.end());
+  std::map<int64_t, std::string> accepted;  // job -> the camera's host
+  int refused_gone = 0, retried = 0;
+  const auto started = std::chrono::steady_clock::now();
+  for (int i = 0; i < 200; ++i) {
+    if (i == 50) {  // mid-run: host-1 dies without a word
+      EXPECT_EQ(fleet_->host("host-1")->stop(SIGKILL), 128 + SIGKILL);
+      alive.erase("host-1");
+    }
+    if (i == 150) {  // and PostgreSQL restarts under the fleet
+      EXPECT_TRUE(fleet_->cluster().restart()) << fleet_->cluster().server_log();
+    }
+    const std::string camera = cameras[rng() % cameras.size()];
+    const std::string camera_host = camera.substr(camera.rfind('@') + 1);
+    const json request = {{"kind", "single"}, {"repeats", 1 + static_cast<int>(rng() % 3)}};
+    bool done = false;
+    for (int attempt = 0; attempt < 300 && !done; ++attempt) {
+      std::vector<std::string> via(alive.begin(), alive.end());
+      const Daemon& api = *fleet_->host(via[rng() % via.size()]);
+      auto r = api.post("/v1/cameras/" + url_segment(camera) + "/captures", request);
+      if (r.status == 202) {
+        accepted[r.json()["id"].get<int64_t>()] = camera_host;
+        done = true;
+      } else if (r.error_code() == "host_unavailable" || r.error_code() == "no_device") {
+        EXPECT_FALSE(alive.count(camera_host)) << r.body;  // only the dead host's cameras
+        ++refused_gone;
+        done = true;
+      } else if (r.status == 0 || r.error_code() == "database_unavailable" ||
+                 r.error_code() == "too_many_jobs") {
+        ++retried;  // the database restarting, a full queue: try again shortly
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      } else {
+        ADD_FAILURE() << "submission " << i << ": " << r.status << " " << r.body;
+        done = true;
+      }
+    }
+    EXPECT_TRUE(done) << "submission " << i << " never got an answer";
+    // 200 submissions over about 10 s: the dead host's lease (4 s) passes mid-run, so its
+    // cameras' jobs are first accepted (and ended by the fleet), then refused.
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  // The killed host comes back: the frames it captured are served again.
+  ASSERT_NE(fleet_->start_host("host-1", 4000), nullptr);
+  alive.insert("host-1");
+  ASSERT_TRUE(fleet_->wait_live(*fleet_->host("host-0"), 3).is_object());
+
+  std::map<int64_t, json> jobs;
+  for (const auto& [id, host] : accepted) {
+    const json job = fleet_->host("host-2")->wait_job(id, finished, std::chrono::seconds(60));
+    ASSERT_TRUE(finished(job)) << id << ": " << job.dump();
+    jobs[id] = job;
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+
+  // Exactly once: one final state per job in its history, and at most one run.
+  const auto states = history();
+  int interrupted = 0, frames = 0;
+  for (const auto& [id, job] : jobs) {
+    SCOPED_TRACE("job " + std::to_string(id) + " " + job.dump());
+    const auto& h = states.at(id);
+    EXPECT_EQ(std::count_if(h.begin(), h.end(),
+                            [](const std::string& s) { return s != "queued" && s != "running"; }),
+              1);
+    EXPECT_LE(std::count(h.begin(), h.end(), "running"), 1);
+    EXPECT_EQ(h.back(), job["state"]);
+    EXPECT_EQ(job["host"], accepted[id]);
+    if (job["state"] == "interrupted") {
+      EXPECT_EQ(accepted[id], "host-1") << "only the killed host's jobs are interrupted";
+      ++interrupted;
+    } else {
+      EXPECT_EQ(job["state"], "succeeded");
+    }
+    // Every frame recorded is there and whole, through any host.
+    const int listed = check_frames(*fleet_->host(names[id % names.size()]), job);
+    EXPECT_GE(listed, job["progress"]["frames_done"].get<int>());
+    frames += listed;
+    // Run once: its folder is on its own host only.
+    for (const auto& name : names) {
+      if (name == accepted[id]) continue;
+      EXPECT_FALSE(fs::exists(dir_ / name / "data" / job.value("folder", "none"))) << name;
+    }
+  }
+  // Every job the database holds ended (a submission retried during the restart may have
+  // been stored once before its answer was lost: it ran like the rest).
+  bool ok = false;
+  EXPECT_EQ(fleet_->cluster().sql(
+                "camlab", "SELECT count(*) FROM jobs WHERE state IN ('queued', 'running')", &ok),
+            "0\n");
+  std::printf(
+      "fleet run: %zu jobs accepted (%d refused: camera's host dead, %d retries), %d "
+      "interrupted with host-1, %d frames read back, %.1f s\n",
+      accepted.size(), refused_gone, retried, interrupted, frames, seconds);
+}
+
+TEST_F(ServiceFleet, ASynchronisedCaptureReportsEachFramesStartOnEveryHost) {
+  for (const char* name : {"host-0", "host-1", "host-2"})
+    ASSERT_NE(fleet_->start_host(name, 3000), nullptr) << name;
+  const json ready = fleet_->wait_live(*fleet_->host("host-0"), 3);
+  ASSERT_TRUE(ready.is_object());
+  const std::vector<std::string> cameras = FleetHarness::camera_ids(ready);
+  ASSERT_EQ(cameras.size(), 6u);
+  const Daemon& api = *fleet_->host("host-1");
+  auto posted = api.post("/v1/sync-captures", {{"cameras", cameras},
+                                               {"capture", {{"kind", "single"}, {"repeats", 5}}},
+                                               {"start_in_ms", 1500}});
+  ASSERT_EQ(posted.status, 202) << posted.body;
+  const int64_t id = posted.json()["id"];
+  const json job = api.wait_job(id, finished, std::chrono::seconds(60));
+  ASSERT_EQ(job["state"], "succeeded") << job.dump(1);
+  const json& result = job["result"];
+  const int64_t start_us = result["start_at_unix_ms"].get<int64_t>() * 1000;
+  ASSERT_EQ(result["cameras"].size(), cameras.size());
+  std::vector<std::vector<int64_t>> starts(5);
+  for (const json& camera : result["cameras"]) {
+    SCOPED_TRACE(camera.dump());
+    ASSERT_EQ(camera["frames"].size(), 5u);
+    const json child = api.get("/v1/jobs/" + std::to_string(camera["job"].get<int64_t>())).json();
+    EXPECT_EQ(child["host"], camera["host"]);
+    for (size_t k = 0; k < 5; ++k) {
+      const json& frame = camera["frames"][k];
+      const int64_t at = frame["start_unix_us"].get<int64_t>();
+      EXPECT_GE(at, start_us) << "a frame began before the common start";
+      starts[k].push_back(at);
+      // The frame reported is the frame stored: its sidecar (on its host) has its sequence.
+      const json meta =
+          fleet_
+              ->get_following(api, "/v1/jobs/" + std::to_string(camera["job"].get<int64_t>()) +
+                                       "/frames/" + std::to_string(k) + "/meta")
+              .json();
+      EXPECT_EQ(meta["sequence"], frame["sequence"]);
+    }
+  }
+  int64_t worst = 0;
+  for (size_t k = 0; k < 5; ++k) {
+    const auto [low, high] = std::minmax_element(starts[k].begin(), starts[k].end());
+    EXPECT_EQ(result["skew_us"]["per_frame"][k], *high - *low) << "frame " << k;
+    worst = std::max(worst, *high - *low);
+  }
+  EXPECT_EQ(result["skew_us"]["max"], worst);
+  // One machine, one clock: each host's measured offset lies within its uncertainty.
+  ASSERT_EQ(result["host_clocks"].size(), 3u);
+  for (const json& clock : result["host_clocks"])
+    EXPECT_LE(std::abs(clock["offset_to_database_us"].get<int64_t>()),
+              clock["uncertainty_us"].get<int64_t>() + 2)
+        << clock.dump();
+  std::printf(
+      "synchronised capture: 6 cameras on 3 hosts, skew %lld us at most (frame interval "
+      "%lld us)\n",
+      static_cast<long long>(worst),
+      static_cast<long long>(result["frame_interval_us"].get<int64_t>()));
+}
+
+TEST_F(ServiceFleet, AHostCutOffFromTheDatabaseEndsItsJobOnceAndRejoins) {
+  TcpProxy link(fleet_->cluster().port());
+  const std::string via_link =
+      "postgresql://postgres@127.0.0.1:" + std::to_string(link.port()) + "/camlab";
+  ASSERT_NE(fleet_->start_host("steady", 2000), nullptr);
+  Daemon* cut = fleet_->start_host("cut", 2000, via_link);
+  ASSERT_NE(cut, nullptr);
+  ASSERT_TRUE(fleet_->wait_live(*fleet_->host("steady"), 2).is_object()) << cut->log();
+  const std::string camera = "/v1/cameras/" + url_segment(cut->camera_id() + "@cut");
+  // A long capture on the host about to be cut off (20 s of frames).
+  auto posted =
+      fleet_->host("steady")->post(camera + "/captures", {{"kind", "single"}, {"repeats", 2000}});
+  ASSERT_EQ(posted.status, 202) << posted.body;
+  const int64_t id = posted.json()["id"];
+  ASSERT_GT(cut->wait_job(id,
+                          [](const json& j) {
+                            return j["progress"]["frames_done"].get<int>() >= 20 || finished(j);
+                          })["progress"]["frames_done"],
+            0);
+  link.cut();
+  // The steady host expires the silent one's lease and interrupts its job; the cut-off host
+  // fenced itself first and stopped capturing.
+  const json ended = fleet_->host("steady")->wait_job(id, finished, std::chrono::seconds(30));
+  EXPECT_EQ(ended["state"], "interrupted") << ended.dump();
+  EXPECT_NE(ended["error"]["message"].get<std::string>().find("lease"), std::string::npos);
+  link.restore();
+  // It joins again and takes work again.
+  ASSERT_TRUE(fleet_->wait_live(*fleet_->host("steady"), 2).is_object()) << cut->log();
+  auto again = fleet_->host("steady")->post(camera + "/captures", {{"kind", "single"}});
+  ASSERT_EQ(again.status, 202) << again.body;
+  const json second = cut->wait_job(again.json()["id"], finished, std::chrono::seconds(30));
+  EXPECT_EQ(second["state"], "succeeded") << second.dump();
+  const auto h = history().at(id);
+  EXPECT_EQ(h, (std::vector<std::string>{"queued", "running", "interrupted"}));
+  // The frames written before the cut are whole, and the log says why it stopped.
+  const json job = cut->get("/v1/jobs/" + std::to_string(id)).json();
+  EXPECT_GE(check_frames(*fleet_->host("steady"), job), job["progress"]["frames_done"].get<int>());
+  EXPECT_NE(cut->log().find("fenced itself"), std::string::npos);
+}
+
+}  // namespace
