@@ -32,6 +32,7 @@ packages=(
   # /usr/lib/postgresql/15/bin) for the tests and benchmarks, which start throwaway
   # clusters of their own (Debian also makes its own "main" cluster; camlab never uses it).
   libpqxx-dev postgresql-15
+  systemd python3-yaml   # tests/architecture/check_deploy.py: systemd-analyze verify of deploy/systemd/camlabd.service, the DaemonSet's YAML
 )
 # node and npm run the browser test's driver (playwright-core, installed by the build with npm
 # ci). A machine that has them already (e.g. NodeSource's nodejs, which brings its own npm)
