@@ -14,7 +14,7 @@ import sys
 MARKDOWN_LINK = re.compile(r"\]\(([^)#\s]+)(?:#[^)]*)?\)")
 # `path/like/this.cpp` in backquotes, under one of the project's top-level folders.
 SOURCE_PATH = re.compile(
-    r"`((?:src|calib|cli|service|mock_device|tests|scripts|docs|cmake)/[A-Za-z0-9_./-]+)`")
+    r"`((?:src|calib|cli|service|mock_device|tests|scripts|docs|cmake|deploy)/[A-Za-z0-9_./-]+)`")
 # Paths that leave the repository: a parent-directory hop, or an absolute path into a
 # developer's machine.
 OUTSIDE = re.compile(r"\.\./shared|(?<![\w.])/work/|/home/\w+/")
