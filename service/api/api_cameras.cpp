@@ -111,17 +111,27 @@ void put_controls(const ServiceContext& context, const ApiRequest& request,
     if (!checked) return reply(error_response(checked.error()));
     values.emplace_back(name, *checked);
   }
-  auto status =
-      worker->post_task([values, reply](device::Camera* camera, const Error* unavailable) {
-        if (!camera) return reply(error_response(*unavailable));
+  // The answer goes once the camera's snapshot holds the new values, so that a GET right
+  // after it reads them back.
+  auto answer = std::make_shared<ApiResponse>();
+  auto status = worker->post_task(
+      [values, answer](device::Camera* camera, const Error* unavailable) {
+        if (!camera) {
+          *answer = error_response(*unavailable);
+          return;
+        }
         nlohmann::json applied = nlohmann::json::object();
         for (const auto& [name, value] : values) {
           auto result = camera->set_control(name, value);
-          if (!result) return reply(error_response(result.error()));
+          if (!result) {
+            *answer = error_response(result.error());
+            return;
+          }
           applied[name] = {{"requested", value}, {"applied", *result}};
         }
-        reply(json_response(200, {{"controls", applied}}));
-      });
+        *answer = json_response(200, {{"controls", applied}});
+      },
+      [answer, reply] { reply(std::move(*answer)); });
   if (!status) reply(error_response(status.error()));
 }
 

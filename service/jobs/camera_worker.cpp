@@ -108,6 +108,15 @@ Status CameraWorker::post_task(Task task) {
   return {};
 }
 
+Status CameraWorker::post_task(Task task, std::function<void()> then) {
+  return post_task([this, task = std::move(task), then = std::move(then)](
+                       device::Camera* camera, const Error* unavailable) {
+    task(camera, unavailable);
+    if (camera) refresh_snapshot();
+    then();
+  });
+}
+
 Status CameraWorker::can_accept_job() const {
   std::lock_guard lock(mutex_);
   if (lost_)

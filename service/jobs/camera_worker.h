@@ -124,6 +124,9 @@ class CameraWorker {
 
   // Queues a task ahead of queued jobs; "shutting_down" once stopping.
   Status post_task(Task task);
+  // post_task, then `then` on the worker once the snapshot holds what the task changed: a
+  // reply sent from `then` is never ahead of GET /v1/cameras/{id} (controls read back).
+  Status post_task(Task task, std::function<void()> then);
   // The camera set found the device present: if the camera is unavailable (it failed to
   // open, or a job lost it), try opening it again, unless a try is already queued.
   void reopen_if_unavailable();
