@@ -107,6 +107,37 @@ double sample_pixel(const IntegratorSetup& s, int x, int y, const ChannelSetup& 
   return sum / n;
 }
 
+// sample_pixel for each cell of a light field (IntegratorSetup::cells): grid x grid
+// lens samples inside the cell, each paired with a pixel-area stratum in a random order,
+// weighted so that the mean is the cell's (aperture_region.h); dst[k] is cell k's value.
+template <class Trace>
+void sample_pixel_cells(const IntegratorSetup& s, int x, int y, const ChannelSetup& c, int grid,
+                        int* strata, Trace&& trace, float* dst) {
+  const ChiefRayTable& rays = *s.rays;
+  const PixelCorners corners(rays, x, y);
+  const int n = grid * grid;
+  SplitMix64 rng(mix_seed(s.seed, static_cast<uint64_t>(y) * rays.width_px() + x));
+  const std::vector<ApertureRegion>& cells = *s.cells;
+  for (size_t cell = 0; cell < cells.size(); ++cell) {
+    std::iota(strata, strata + n, 0);
+    for (int i = n - 1; i > 0; --i) std::swap(strata[i], strata[rng.next() % (i + 1)]);
+    double sum = 0;
+    for (int k = 0; k < n; ++k) {
+      const double a = ((strata[k] % grid) + rng.uniform()) / grid;
+      const double b = ((strata[k] / grid) + rng.uniform()) / grid;
+      double lx, ly, weight;
+      cells[cell].sample(((k % grid) + rng.uniform()) / grid, ((k / grid) + rng.uniform()) / grid,
+                         &lx, &ly, &weight);
+      if (weight == 0) continue;
+      double xn, yn, o[3], d[3];
+      corners.at(a, b, &xn, &yn);
+      lens_ray(s, c, xn, yn, lx, ly, true, o, d);
+      sum += weight * trace(o, d);
+    }
+    dst[cell] = static_cast<float>(sum / n);
+  }
+}
+
 // Gauss-Legendre nodes and weights on [0, 1], orders 1 to 4.
 struct GaussRule {
   int n;
@@ -180,6 +211,32 @@ double smooth_pixel(const IntegratorSetup& s, const PixelCorners& corners, const
       sum += area.w[i] * area.w[j] * inner;
     }
   return sum;
+}
+
+// smooth_pixel for each cell of a light field: the area rule times the cell's own
+// cubature rule of `order` (aperture_region.h); dst[k] is cell k's value.
+template <class Trace>
+void smooth_pixel_cells(const IntegratorSetup& s, const PixelCorners& corners,
+                        const ChannelSetup& c, const GaussRule& area, int order, Trace&& trace,
+                        float* dst) {
+  const std::vector<ApertureRegion>& cells = *s.cells;
+  for (size_t cell = 0; cell < cells.size(); ++cell) {
+    const std::vector<ApertureRegion::Point>& rule = cells[cell].rule(order);
+    double sum = 0;
+    for (int j = 0; j < area.n; ++j)
+      for (int i = 0; i < area.n; ++i) {
+        double xn, yn;
+        corners.at(area.x[i], area.x[j], &xn, &yn);
+        double inner = 0;
+        for (const ApertureRegion::Point& p : rule) {
+          double o[3], d[3];
+          lens_ray(s, c, xn, yn, p.x, p.y, true, o, d);
+          inner += p.w * trace(o, d);
+        }
+        sum += area.w[i] * area.w[j] * inner;
+      }
+    dst[cell] = static_cast<float>(sum);
+  }
 }
 
 // Reflectance in `channel` along one ray: the nearest hit among `surfaces[hits[i]]`
