@@ -115,7 +115,7 @@ Result<std::vector<ApertureCell>> aperture_cells(int views_u, int views_v) {
       c.y0 = -1 + 2.0 * j / views_v;
       c.y1 = -1 + 2.0 * (j + 1) / views_v;
       const RegionMoments m = disk_rect_moments(c.x0, c.x1, c.y0, c.y1);
-      c.area_share = m.area / disk_area;
+      c.area_share = std::min(1.0, m.area / disk_area);  // the whole disk: 1, not 1 + 2e-16
       c.lit_share = std::min(1.0, m.area / ((c.x1 - c.x0) * (c.y1 - c.y0)));
       if (m.area > 0) {
         c.centroid_x = m.sum_x / m.area;
