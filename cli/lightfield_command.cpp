@@ -228,16 +228,7 @@ void run_decode(const LightFieldArgs& args) {
                 {"views", decoded.light_field.views.size()},
                 {"views_per_side", decoded.views_per_side},
                 {"cells_left_out", decoded.cells_left_out},
-                {"lattice",
-                 {{"layout", m.staggered ? "hex" : "square"},
-                  {"pitch_px", m.pitch_px()},
-                  {"origin_px", m.origin_px},
-                  {"e1_px", m.e1_px},
-                  {"e2_px", m.e2_px},
-                  {"columns", m.columns},
-                  {"rows", m.rows},
-                  {"centres_found", m.centres_found},
-                  {"fit_rms_px", m.fit_rms_px}}},
+                {"lattice", lf::to_json(m)},
                 {"full_white_dn", decoded.full_white_dn},
                 {"warnings", decoded.warnings}};
     std::printf("%s\n", out.dump(2).c_str());

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "mock_device/render/edge_coverage.h"
+#include "mock_device/render/gauss_legendre.h"
 #include "optics/aperture_cells.h"
 
 namespace camlab::mock {
@@ -52,21 +53,6 @@ int clip(const Vec* in, int n, double h, double dir_x, double dir_y, Vec* out) {
   }
   return m;
 }
-
-// Gauss-Legendre nodes and weights on [0, 1], orders 1 to 4.
-struct Gauss01 {
-  int n;
-  double x[4], w[4];
-};
-constexpr Gauss01 kGauss01[5] = {
-    {0, {}, {}},
-    {1, {0.5}, {1.0}},
-    {2, {0.21132486540518713, 0.7886751345948129}, {0.5, 0.5}},
-    {3, {0.1127016653792583, 0.5, 0.8872983346207417}, {5.0 / 18, 8.0 / 18, 5.0 / 18}},
-    {4,
-     {0.06943184420297371, 0.33000947820757187, 0.6699905217924281, 0.9305681557970262},
-     {0.17392742256872692, 0.32607257743127307, 0.32607257743127307, 0.17392742256872692}},
-};
 
 // The density of h over a pixel on which h is linear (h - centre is the sum of two
 // uniform variables of widths a >= b): a trapezoid with corners t1 .. t4.
@@ -125,7 +111,7 @@ ApertureRegion::ApertureRegion(double x0, double x1, double y0, double y1)
         if (x > xa_ && x < xb_) cuts.push_back(x);
   std::sort(cuts.begin(), cuts.end());
   for (int order = 1; order <= 4; ++order) {
-    const Gauss01& g = kGauss01[order];
+    const GaussRule& g = kGauss[order];
     std::vector<Point>& rule = rules_[static_cast<size_t>(order)];
     for (size_t k = 0; k + 1 < cuts.size(); ++k) {
       const double a = cuts[k], b = cuts[k + 1];
@@ -228,7 +214,7 @@ double ApertureRegion::pixel_mean_coverage(double h_centre, double slope_a, doub
                     0.5 * (breaks[k] + breaks[k + 1]));
       --k;
     }
-  const Gauss01& g = kGauss01[4];
+  const GaussRule& g = kGauss[4];
   double sum = 0;
   for (size_t k = 0; k + 1 < breaks.size(); ++k) {
     const double p = std::max(breaks[k], from), q = std::min(breaks[k + 1], to);

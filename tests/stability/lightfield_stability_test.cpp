@@ -14,6 +14,7 @@
 
 #include "analysis/lightfield/depth.h"
 #include "analysis/lightfield/refocus.h"
+#include "lightfield_specs.h"
 #include "mock_device/render/lightfield_render.h"
 
 namespace camlab::analysis::lightfield {
@@ -22,38 +23,15 @@ namespace {
 using nlohmann::json;
 namespace fs = std::filesystem;
 
-json camera(int views, int size = 48) {
-  return {{"name", "light-field stability"},
-          {"sensor",
-           {{"width_px", size},
-            {"height_px", size},
-            {"pixel_pitch_um", 4.0},
-            {"bit_depth", 12},
-            {"black_level_dn", 64},
-            {"full_well_e", 20000},
-            {"read_noise_e", 2.0},
-            {"quantum_efficiency", 0.6}}},
-          {"lens",
-           {{"focal_mm", 8.0},
-            {"f_number_min", 2.0},
-            {"f_number_max", 16.0},
-            {"focus",
-             {{"position_min", 0}, {"position_max", 1000}, {"extension_mm_per_step", 0.001}}}}},
-          {"controls",
-           {{"exposure_time_absolute", {{"min", 1}, {"max", 333}, {"default", 80}}},
-            {"focus_absolute", {{"default", 65}}}}},
-          {"lightfield", {{"views", {views, views}}}}};
-}
+// The example light-field camera's optics at 48 x 48 px, a perfect lens.
+json camera(int views) { return testing::lightfield_camera_json(48, 48, views, "none", 0.0); }
 
+// One target filling the view at z_m, before a background of 0.3.
 json scene(const char* type, double z_m) {
-  json t = {{"type", type},
-            {"size_m", {0.5, 0.5}},
-            {"dark_reflectance", 0.1},
-            {"light_reflectance", 0.8},
-            {"pose", {{"position_m", {0.0, 0.0, z_m}}}}};
-  if (std::string(type) == "texture") t["feature_m"] = 0.0015 * z_m, t["seed"] = 2;
-  return {
-      {"illuminance_lux", 1000}, {"background_reflectance", 0.3}, {"targets", json::array({t})}};
+  json s = testing::lightfield_scene(
+      json::array({testing::lightfield_target(type, "target", 0.5, 0.0, 0.0, z_m)}));
+  s["background_reflectance"] = 0.3;
+  return s;
 }
 
 struct Rendered {

@@ -180,18 +180,9 @@ Result<DecodedLightField> decode_lenslet_folder(const std::filesystem::path& dir
   lf.settings = in.lenslet->settings;
   lf.source = folder->capture().manifest().value("source", nlohmann::json::object());
 
-  const MicrolensLattice& m = decoded.lattice;
   const nlohmann::json parameters = {{"decoded_from", dir.string()},
                                      {"min_lit_share", options.min_lit_share},
-                                     {"microlens_lattice",
-                                      {{"origin_px", m.origin_px},
-                                       {"e1_px", m.e1_px},
-                                       {"e2_px", m.e2_px},
-                                       {"staggered", m.staggered},
-                                       {"columns", m.columns},
-                                       {"rows", m.rows},
-                                       {"centres_found", m.centres_found},
-                                       {"fit_rms_px", m.fit_rms_px}}},
+                                     {"microlens_lattice", to_json(decoded.lattice)},
                                      {"full_white_dn", decoded.full_white_dn}};
   auto writer = image::LightFieldFolderWriter::create(out_dir, lf.source, parameters);
   if (!writer) return writer.error();

@@ -149,6 +149,19 @@ std::array<double, 2> MicrolensLattice::centre(int k, int l) const {
           origin_px[1] + k * e1_px[1] + pairs * pair_px[1] + odd * e2_px[1]};
 }
 
+nlohmann::json to_json(const MicrolensLattice& m) {
+  return {{"layout", m.staggered ? "hex" : "square"},
+          {"pitch_px", m.pitch_px()},
+          {"origin_px", m.origin_px},
+          {"e1_px", m.e1_px},
+          {"e2_px", m.e2_px},
+          {"pair_px", m.pair_px},
+          {"columns", m.columns},
+          {"rows", m.rows},
+          {"centres_found", m.centres_found},
+          {"fit_rms_px", m.fit_rms_px}};
+}
+
 Result<MicrolensLattice> find_microlens_lattice(const cv::Mat& white, int black_level_dn) {
   cv::Mat w;
   white.convertTo(w, CV_32F, 1.0, -black_level_dn);

@@ -24,6 +24,7 @@
 
 #include <array>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include "base/result.h"
@@ -49,6 +50,10 @@ struct MicrolensLattice {
   double pitch_px() const;    // |e1|
   std::array<double, 2> centre(int k, int l) const;
 };
+
+// The lattice as JSON: layout ("square" or "hex"), pitch_px, origin_px, e1_px, e2_px,
+// pair_px, columns, rows, centres_found, fit_rms_px.
+nlohmann::json to_json(const MicrolensLattice& lattice);
 
 // Errors: "no_signal" (a white image without light above black), "no_contrast" (no
 // lattice in it), "too_few_samples" (fewer than 4 microlens images found).

@@ -19,6 +19,7 @@
 #include "analysis/lightfield/refocus_capture.h"
 #include "capture_fixture.h"
 #include "lightfield_measures.h"
+#include "lightfield_specs.h"
 #include "mock_device/render/lightfield_render.h"
 #include "optics/optics.h"
 
@@ -28,48 +29,9 @@ namespace {
 using nlohmann::json;
 namespace fs = std::filesystem;
 
-// The example light-field camera's optics (mock_device/examples/camera_lightfield_9x9.json)
-// at a test's size: 8 mm f/2, 4 um pixels, 12 bits, a 0.8 px lens blur.
-json lightfield_camera(int width, int height, int views, const char* grid = "none",
-                       double sigma_px = 0.8) {
-  return {{"name", "light-field test"},
-          {"sensor",
-           {{"width_px", width},
-            {"height_px", height},
-            {"pixel_pitch_um", 4.0},
-            {"bit_depth", 12},
-            {"black_level_dn", 64},
-            {"full_well_e", 20000},
-            {"read_noise_e", 2.0},
-            {"quantum_efficiency", 0.6}}},
-          {"lens",
-           {{"focal_mm", 8.0},
-            {"baseline_blur_sigma_px", sigma_px},
-            {"f_number_min", 2.0},
-            {"f_number_max", 16.0},
-            {"focus",
-             {{"position_min", 0}, {"position_max", 1000}, {"extension_mm_per_step", 0.001}}}}},
-          {"controls",
-           {{"exposure_time_absolute", {{"min", 1}, {"max", 333}, {"default", 80}}},
-            {"focus_absolute", {{"default", 65}}}}},
-          {"lightfield", {{"views", {views, views}}, {"microlens_grid", grid}}}};
-}
-
-json target(const char* type, const char* name, double size_m, double x_m, double y_m, double z_m) {
-  json t = {{"type", type},
-            {"name", name},
-            {"size_m", {size_m, size_m}},
-            {"dark_reflectance", 0.1},
-            {"light_reflectance", 0.8},
-            {"pose", {{"position_m", {x_m, y_m, z_m}}}}};
-  if (std::string(type) == "slanted_edge") t["angle_deg"] = 5;
-  if (std::string(type) == "texture") t["feature_m"] = 0.0015 * z_m, t["seed"] = 7;
-  return t;
-}
-
-json scene(const json& targets) {
-  return {{"illuminance_lux", 1000}, {"background_reflectance", 0.18}, {"targets", targets}};
-}
+using testing::lightfield_camera_json;
+using testing::lightfield_scene;
+using testing::lightfield_target;
 
 // Renders the light field into a fresh folder and loads it.
 lightfield::LightField render_light_field(mock::Renderer& renderer, const fs::path& dir,
@@ -89,8 +51,9 @@ TEST(LightFieldCapture, RefocusedEdgesMatchTheThinLensRenderFocusedThere) {
   // Two edges, at 0.8 and 1.3 m, the light field focused at 0.99 m: refocused at each
   // edge's distance (a focus position of the lens), against the thin lens focused there.
   mock::Renderer renderer = testing::make_renderer(
-      lightfield_camera(128, 64, 9), scene({target("slanted_edge", "near", 0.018, -0.013, 0.0, 0.8),
-                                            target("slanted_edge", "far", 0.03, 0.021, 0.0, 1.3)}));
+      lightfield_camera_json(128, 64, 9),
+      lightfield_scene({lightfield_target("slanted_edge", "near", 0.018, -0.013, 0.0, 0.8),
+                        lightfield_target("slanted_edge", "far", 0.03, 0.021, 0.0, 1.3)}));
   const fs::path dir = testing::fresh_dir("lf_refocus");
   const auto lf = render_light_field(renderer, dir, renderer.default_settings());
   for (auto [name, position] : {std::pair{"near", 81}, std::pair{"far", 50}}) {
@@ -121,8 +84,9 @@ TEST(LightFieldCapture, DefocusOfRefocusedImagesFollowsTheSyntheticAperture) {
   // and 1.6 m through f/2 (every view), f/2.8 and f/4 (synthetic apertures), measured by
   // camlab analyze defocus (edges found, no truth in the frames).
   mock::Renderer renderer = testing::make_renderer(
-      lightfield_camera(160, 120, 9, "none", 0.0),
-      scene(json::array({target("slanted_edge", "edge", 1.0, 0.0, 0.0, 0.8)})));
+      lightfield_camera_json(160, 120, 9, "none", 0.0),
+      lightfield_scene(
+          json::array({lightfield_target("slanted_edge", "edge", 1.0, 0.0, 0.0, 0.8)})));
   mock::RenderSettings settings = renderer.default_settings();
   settings.focus_position = 81;  // 0.7926 m
   const fs::path dir = testing::fresh_dir("lf_defocus");
@@ -152,9 +116,10 @@ TEST(LightFieldCapture, DepthOfTexturedPlanesWithinAPercent) {
   // Three textured planes side by side, 40 px wide each, the light field focused at
   // 0.99 m, with noise.
   mock::Renderer renderer = testing::make_renderer(
-      lightfield_camera(144, 64, 9), scene({target("texture", "near", 0.0119, -0.0134, 0.0, 0.6),
-                                            target("texture", "mid", 0.0198, 0.0, 0.0, 1.0),
-                                            target("texture", "far", 0.0317, 0.0357, 0.0, 1.6)}));
+      lightfield_camera_json(144, 64, 9),
+      lightfield_scene({lightfield_target("texture", "near", 0.0119, -0.0134, 0.0, 0.6),
+                        lightfield_target("texture", "mid", 0.0198, 0.0, 0.0, 1.0),
+                        lightfield_target("texture", "far", 0.0317, 0.0357, 0.0, 1.6)}));
   const fs::path dir = testing::fresh_dir("lf_depth");
   const auto lf = render_light_field(renderer, dir, renderer.default_settings(), true);
   auto depth = lightfield::estimate_depth(lf, {});
@@ -193,11 +158,12 @@ TEST(LightFieldCapture, DepthOfTexturedPlanesWithinAPercent) {
 
 TEST(LightFieldCapture, DecodedLensletImagesAreTheViewsWithinADn) {
   for (auto [grid, views] : {std::pair{"square", 9}, std::pair{"hex", 10}}) {
-    json camera = lightfield_camera(48, 32, views, grid);
+    json camera = lightfield_camera_json(48, 32, views, grid);
     camera["lightfield"]["lenslet_margin_px"] = 2;
     mock::Renderer renderer = testing::make_renderer(
-        camera, scene({target("texture", "t", 0.03, 0.0, 0.0, 0.7),
-                       target("slanted_edge", "e", 0.02, 0.004, 0.003, 1.2)}));
+        camera,
+        lightfield_scene({lightfield_target("texture", "t", 0.03, 0.0, 0.0, 0.7),
+                          lightfield_target("slanted_edge", "e", 0.02, 0.004, 0.003, 1.2)}));
     const fs::path dir = testing::fresh_dir("lf_decode"), out = testing::fresh_dir("lf_decoded");
     render_light_field(renderer, dir, renderer.default_settings());
     auto decoded = lightfield::decode_lenslet_folder(dir, out, {});
@@ -230,9 +196,9 @@ TEST(LightFieldCapture, DecodedLensletImagesAreTheViewsWithinADn) {
 }
 
 TEST(LightFieldCapture, RefocusedStackIsAFocusStack) {
-  mock::Renderer renderer =
-      testing::make_renderer(lightfield_camera(96, 64, 9),
-                             scene(json::array({target("texture", "t", 0.1, 0.0, 0.0, 0.75)})));
+  mock::Renderer renderer = testing::make_renderer(
+      lightfield_camera_json(96, 64, 9),
+      lightfield_scene(json::array({lightfield_target("texture", "t", 0.1, 0.0, 0.0, 0.75)})));
   const fs::path dir = testing::fresh_dir("lf_stack"), out = testing::fresh_dir("lf_stack_out");
   const auto lf = render_light_field(renderer, dir, renderer.default_settings(), true);
   auto sweep = lightfield::focus_sweep_m(0.5, 2.0, 13);
