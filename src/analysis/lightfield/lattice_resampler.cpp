@@ -79,25 +79,57 @@ void LatticeResampler::accumulate(const cv::Mat& view, double scale, double offs
     row_hi = std::max(row_hi, t.index[kTaps - 1]);
   }
   rows_.create(height, out_size_.width, CV_32F);
-  for (int l = row_lo; l <= row_hi; ++l) {
-    const std::vector<Taps>& taps = columns[staggered ? l % 2 : 0];
-    const float* in = view.ptr<float>(l);
-    float* dst = rows_.ptr<float>(l);
-    for (int i = 0; i < out_size_.width; ++i) {
-      const Taps& t = taps[static_cast<size_t>(i)];
-      float v = 0;
-      for (int k = 0; k < kTaps; ++k) v += t.weight[k] * in[t.index[k]];
-      dst[i] = v;
+  for (int parity = 0; parity < (staggered ? 2 : 1); ++parity) {
+    const std::vector<Taps>& taps = columns[parity];
+    // Without magnification every column has the same weights at consecutive taps: the
+    // columns whose taps are not clamped are one FIR (contiguous, vectorised), the ends
+    // the general gather. The result is the same, term for term.
+    int fir_lo = out_size_.width, fir_hi = -1;
+    if (scale == 1.0) {
+      for (int i = 0; i < out_size_.width; ++i) {
+        const Taps& t = taps[static_cast<size_t>(i)];
+        if (t.index[kTaps - 1] - t.index[0] == kTaps - 1 && (fir_hi < 0 || i == fir_hi + 1)) {
+          fir_lo = std::min(fir_lo, i);
+          fir_hi = i;
+        }
+      }
+    }
+    for (int l = row_lo + ((row_lo % 2 != parity) && staggered ? 1 : 0); l <= row_hi;
+         l += staggered ? 2 : 1) {
+      const float* __restrict in = view.ptr<float>(l);
+      float* __restrict dst = rows_.ptr<float>(l);
+      for (int i = 0; i < out_size_.width; ++i) {
+        if (i == fir_lo) {
+          const Taps& t = taps[static_cast<size_t>(fir_lo)];
+          const float* __restrict src = in + t.index[0] - fir_lo;
+          const float w0 = t.weight[0], w1 = t.weight[1], w2 = t.weight[2], w3 = t.weight[3],
+                      w4 = t.weight[4], w5 = t.weight[5];
+          for (int j = fir_lo; j <= fir_hi; ++j)
+            dst[j] = w0 * src[j] + w1 * src[j + 1] + w2 * src[j + 2] + w3 * src[j + 3] +
+                     w4 * src[j + 4] + w5 * src[j + 5];
+          i = fir_hi;
+          continue;
+        }
+        const Taps& t = taps[static_cast<size_t>(i)];
+        float v = 0;
+        for (int k = 0; k < kTaps; ++k) v += t.weight[k] * in[t.index[k]];
+        dst[i] = v;
+      }
     }
   }
   for (int j = 0; j < out_size_.height; ++j) {
     const Taps& t = rows[static_cast<size_t>(j)];
-    float* dst = out.ptr<float>(j);
-    for (int k = 0; k < kTaps; ++k) {
-      const float* r = rows_.ptr<float>(t.index[k]);
-      const float w = weight * t.weight[k];
-      for (int i = 0; i < out_size_.width; ++i) dst[i] += w * r[i];
-    }
+    float* __restrict dst = out.ptr<float>(j);
+    const float* __restrict r0 = rows_.ptr<float>(t.index[0]);
+    const float* __restrict r1 = rows_.ptr<float>(t.index[1]);
+    const float* __restrict r2 = rows_.ptr<float>(t.index[2]);
+    const float* __restrict r3 = rows_.ptr<float>(t.index[3]);
+    const float* __restrict r4 = rows_.ptr<float>(t.index[4]);
+    const float* __restrict r5 = rows_.ptr<float>(t.index[5]);
+    const float w0 = weight * t.weight[0], w1 = weight * t.weight[1], w2 = weight * t.weight[2],
+                w3 = weight * t.weight[3], w4 = weight * t.weight[4], w5 = weight * t.weight[5];
+    for (int i = 0; i < out_size_.width; ++i)
+      dst[i] += w0 * r0[i] + w1 * r1[i] + w2 * r2[i] + w3 * r3[i] + w4 * r4[i] + w5 * r5[i];
   }
 }
 
