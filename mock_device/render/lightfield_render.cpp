@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <thread>
 
 #include "image/pixel_format.h"
 #include "mock_device/render/aperture_region.h"
@@ -132,7 +133,9 @@ Result<LightFieldFrame> render_light_field(Renderer& renderer, const RenderSetti
   }
 
   const std::vector<cv::Mat> planes = split_values(integral.values, n);
-  const int threads = options.threads > 0 ? options.threads : 1;
+  const int threads = options.threads > 0
+                          ? options.threads
+                          : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   for (int k = 0; k < n; ++k)
     frame.views.push_back(
         expose(planes[static_cast<size_t>(k)], camera, integral.electrons_per_unit_reflectance,
