@@ -13,9 +13,9 @@
 //
 // No interpolation is exact for an edge sharper than a pixel: averaged over views whose
 // fractional shifts spread over a pixel, a pixel-integrated step comes out blurred by
-// the kernel (by up to 12% of the contrast at the edge's pixels, 3.7% RMS over 7 px, for
-// Lanczos-3; 13% and 3.9% for Keys' cubic, 17% and 5.1% for linear interpolation).
-// Edges blurred by a lens's own sigma of 0.5 px are within 1.8% (0.8% RMS).
+// the kernel. Refocused at its own distance, a perfect lens's edge reads up to 11.6% of
+// its contrast off at its pixels (2.4% RMS over 17 px), one blurred by the lens's own
+// sigma of 0.8 px 2.3% (0.58% RMS) (9 x 9 views; docs/BENCHMARKS.md, "Light fields").
 //
 // Thread-compatible: one resampler per thread (it keeps scratch between views).
 #pragma once
