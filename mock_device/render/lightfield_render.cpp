@@ -161,13 +161,8 @@ Result<LightFieldFrame> render_light_field(Renderer& renderer, const RenderSetti
               {camera.lens.principal_point_px[0] + (hex ? 0.25 : 0.0),
                camera.lens.principal_point_px[1] * row_pitch}};
   for (const optics::ApertureCell& c : cells) {
-    image::LightFieldView v;
-    v.u_index = c.u_index;
-    v.v_index = c.v_index;
-    v.centroid_m = {c.centroid_x * radius_m, c.centroid_y * radius_m};
-    v.cell_m = {c.x0 * radius_m, c.x1 * radius_m, c.y0 * radius_m, c.y1 * radius_m};
-    v.area_share = c.area_share;
-    d.views.push_back(v);
+    d.views.push_back(image::view_of_cell(c.u_index, c.v_index, {c.x0, c.x1, c.y0, c.y1},
+                                          {c.centroid_x, c.centroid_y}, c.area_share, radius_m));
   }
   d.truth = {{"microlens_grid", lf.microlens_grid}};
 

@@ -59,6 +59,18 @@ Result<std::array<double, N>> numbers_at(const json& j, const char* key) {
 
 }  // namespace
 
+LightFieldView view_of_cell(int u_index, int v_index, const std::array<double, 4>& cell,
+                            const std::array<double, 2>& centroid, double area_share,
+                            double radius_m) {
+  LightFieldView v;
+  v.u_index = u_index;
+  v.v_index = v_index;
+  v.centroid_m = {centroid[0] * radius_m, centroid[1] * radius_m};
+  v.cell_m = {cell[0] * radius_m, cell[1] * radius_m, cell[2] * radius_m, cell[3] * radius_m};
+  v.area_share = area_share;
+  return v;
+}
+
 json to_json(const LightFieldDescription& d) {
   json views = json::array();
   for (const LightFieldView& v : d.views)

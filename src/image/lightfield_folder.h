@@ -48,6 +48,13 @@ struct LightFieldView {
   double area_share = 0;                     // of the aperture's area, 0..1
 };
 
+// The view of cell (u_index, v_index) from its geometry in units of the aperture radius
+// (src/optics/aperture_cells.h): the cell's x0, x1, y0, y1, the centroid of its part
+// inside the disk and its share of the disk, with lengths scaled to metres by radius_m.
+LightFieldView view_of_cell(int u_index, int v_index, const std::array<double, 4>& cell,
+                            const std::array<double, 2>& centroid, double area_share,
+                            double radius_m);
+
 // Where the view pixels sit, in view pixels (one microlens pitch): row r at
 // y = r row_pitch, pixel k of it at x = k + (r odd ? odd_row_shift : 0). A square grid is
 // row_pitch 1, shift 0; a hexagonal one staggers its rows.

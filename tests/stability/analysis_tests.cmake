@@ -8,4 +8,4 @@ camlab_add_test(lightfield_stability_test
   SOURCES ${CMAKE_CURRENT_SOURCE_DIR}/lightfield_stability_test.cpp
   LIBS camlab camlab_mock_device LABELS stability)
 target_include_directories(lightfield_stability_test PRIVATE
-  ${PROJECT_SOURCE_DIR}/tests/unit/analysis)
+  ${PROJECT_SOURCE_DIR}/tests/unit/analysis ${PROJECT_SOURCE_DIR}/tests/unit/mock_device)

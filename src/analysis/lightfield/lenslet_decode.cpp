@@ -133,13 +133,9 @@ Result<DecodedLightField> decode_lenslet(const cv::Mat& raw, const cv::Mat& whit
       ++out.cells_left_out;
       continue;
     }
-    image::LightFieldView v;
-    v.u_index = cell.u_index;
-    v.v_index = cell.v_index;
-    v.centroid_m = {cell.centroid_x * radius_m, cell.centroid_y * radius_m};
-    v.cell_m = {cell.x0 * radius_m, cell.x1 * radius_m, cell.y0 * radius_m, cell.y1 * radius_m};
-    v.area_share = cell.area_share;
-    d.views.push_back(v);
+    d.views.push_back(
+        image::view_of_cell(cell.u_index, cell.v_index, {cell.x0, cell.x1, cell.y0, cell.y1},
+                            {cell.centroid_x, cell.centroid_y}, cell.area_share, radius_m));
     out.light_field.views.push_back(view);
     out.lit_share.push_back(lit_share);
   }

@@ -1,38 +1,29 @@
 // Specs of small light-field cameras and scenes for the tests, built in code so each test
 // states the optics it depends on: the example light-field camera's
 // (mock_device/examples/camera_lightfield_9x9.json: 8 mm f/2, 4 um pixels, 12 bits, a focus
-// motor of 1 um per step, focused at 0.99 m by default) at a test's size.
+// motor of 1 um per step, focused at 0.99 m by default) at a test's size: the mock_device
+// tests' pinhole camera with the example's aperture range and defaults.
 #pragma once
 
 #include <string>
 
 #include <nlohmann/json.hpp>
 
+#include "test_specs.h"  // tests/unit/mock_device: the pinhole test camera
+
 namespace camlab::analysis::testing {
 
 inline nlohmann::json lightfield_camera_json(int width, int height, int views,
                                              const char* grid = "none", double sigma_px = 0.8) {
-  return {{"name", "light-field test"},
-          {"sensor",
-           {{"width_px", width},
-            {"height_px", height},
-            {"pixel_pitch_um", 4.0},
-            {"bit_depth", 12},
-            {"black_level_dn", 64},
-            {"full_well_e", 20000},
-            {"read_noise_e", 2.0},
-            {"quantum_efficiency", 0.6}}},
-          {"lens",
-           {{"focal_mm", 8.0},
-            {"baseline_blur_sigma_px", sigma_px},
-            {"f_number_min", 2.0},
-            {"f_number_max", 16.0},
-            {"focus",
-             {{"position_min", 0}, {"position_max", 1000}, {"extension_mm_per_step", 0.001}}}}},
-          {"controls",
-           {{"exposure_time_absolute", {{"min", 1}, {"max", 333}, {"default", 80}}},
-            {"focus_absolute", {{"default", 65}}}}},
-          {"lightfield", {{"views", {views, views}}, {"microlens_grid", grid}}}};
+  nlohmann::json camera = mock::testing::pinhole_camera_json(width, height);
+  camera["name"] = "light-field test";
+  camera["lens"]["baseline_blur_sigma_px"] = sigma_px;
+  camera["lens"]["f_number_min"] = 2.0;  // the iris's default: its widest, f/2
+  camera["lens"]["f_number_max"] = 16.0;
+  camera["controls"]["exposure_time_absolute"]["default"] = 80;
+  camera["controls"]["focus_absolute"] = {{"default", 65}};
+  camera["lightfield"] = {{"views", {views, views}}, {"microlens_grid", grid}};
+  return camera;
 }
 
 // A square target of `type` (slanted_edge, texture, uniform) of side size_m, facing the

@@ -37,13 +37,8 @@ inline image::LightFieldDescription synthetic_description(int views, cv::Size si
   const auto cells = optics::aperture_cells(views, views);
   for (const optics::ApertureCell& c : *cells) {
     if (c.area_share <= 0) continue;
-    image::LightFieldView v;
-    v.u_index = c.u_index;
-    v.v_index = c.v_index;
-    v.centroid_m = {c.centroid_x * r, c.centroid_y * r};
-    v.cell_m = {c.x0 * r, c.x1 * r, c.y0 * r, c.y1 * r};
-    v.area_share = c.area_share;
-    d.views.push_back(v);
+    d.views.push_back(image::view_of_cell(c.u_index, c.v_index, {c.x0, c.x1, c.y0, c.y1},
+                                          {c.centroid_x, c.centroid_y}, c.area_share, r));
   }
   return d;
 }
