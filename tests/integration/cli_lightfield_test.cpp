@@ -95,6 +95,11 @@ TEST_F(CliLightField, DepthAndDecode) {
 }
 
 TEST_F(CliLightField, ErrorsNameTheValueAndTheRange) {
+  // A capture folder that is not a light field: one refocused frame (each test is a
+  // process of its own: nothing of the other tests' folders is here).
+  ASSERT_EQ(
+      run_cli("lightfield refocus " + at("lf") + " --focus-m 1 --out " + at("not_lf")).exit_code,
+      0);
   struct Case {
     std::string args, code, says;
   };
@@ -109,7 +114,7 @@ TEST_F(CliLightField, ErrorsNameTheValueAndTheRange) {
        "near below far"},
       {"lightfield stack " + at("lf") + " --near-m 1 --far-m 2 --frames 1 --out " + at("e4"),
        "invalid_argument", "frames"},
-      {"lightfield decode " + at("refocused") + " --out " + at("e5"), "not_found",
+      {"lightfield decode " + at("not_lf") + " --out " + at("e5"), "not_found",
        "not a light field"},
   };
   for (const Case& c : cases) {
