@@ -25,4 +25,7 @@ void register_calibrate_command(CLI::App& app);
 // `camlab analyze defocus|exposure|focus` (cli/analyze_command.cpp).
 void register_analyze_command(CLI::App& app);
 
+// `camlab lightfield render|refocus|stack|depth|decode` (cli/lightfield_command.cpp).
+void register_lightfield_command(CLI::App& app);
+
 }  // namespace camlab::cli

@@ -11,7 +11,8 @@
 int main(int argc, char** argv) {
   CLI::App app{
       "camlab: camera optics, a physically based virtual camera, the cameras present, intrinsics\n"
-      "calibration with mrcal, and measurements of blur, exposure and focus from captures.\n"
+      "calibration with mrcal, measurements of blur, exposure and focus from captures, and\n"
+      "light fields (refocusing after capture, depth, lenslet decoding).\n"
       "Every subcommand explains itself with --help; most print JSON with --json. An error is\n"
       "one line on stderr ending in its code (docs/errors.md) and exit status 2; with --json\n"
       "the error is also printed as JSON on stdout."};
@@ -23,6 +24,7 @@ int main(int argc, char** argv) {
   camlab::cli::register_vcam_command(app);
   camlab::cli::register_calibrate_command(app);
   camlab::cli::register_analyze_command(app);
+  camlab::cli::register_lightfield_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {

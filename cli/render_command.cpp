@@ -12,6 +12,7 @@
 #include "command_errors.h"
 #include "commands.h"
 #include "mock_device/render/render_capture.h"
+#include "render_settings.h"
 
 namespace camlab::cli {
 
@@ -46,22 +47,7 @@ void run_render(const RenderArgs& args) {
 
   mock::RenderCaptureRequest request;
   request.out_dir = args.out_dir;
-  request.base = renderer->default_settings();
-  for (const auto& set : args.sets) {
-    const auto eq = set.find('=');
-    if (eq == std::string::npos)
-      errors.fail("invalid_argument", "--set '" + set + "' must be name=value");
-    double value = 0;
-    try {
-      size_t used = 0;
-      value = std::stod(set.substr(eq + 1), &used);
-      if (used != set.size() - eq - 1) throw std::invalid_argument(set);
-    } catch (const std::exception&) {
-      errors.fail("invalid_argument", "--set '" + set + "': the value is not a number");
-    }
-    if (Status ok = mock::apply_setting(*renderer, set.substr(0, eq), value, &request.base); !ok)
-      errors.fail(ok.error().with_context("--set " + set + ": "));
-  }
+  request.base = settings_from_sets(errors, *renderer, args.sets);
   if (!args.sweep.empty()) {
     request.sweep = errors.take(mock::parse_sweep(args.sweep));
   }

@@ -104,7 +104,14 @@ EdgeTerms aperture_edge_terms(const EdgeInCamera& edge, double xn, double yn,
   const double wx = f * e[0] + g * n[0];
   const double wy = f * e[1] + g * n[1];
   const double w0 = edge.c * ec - edge.k * d0;
-  return {edge.c > 0 ? w0 : -w0, std::sqrt(wx * wx + wy * wy) * aperture_radius_m};
+  const double w = std::sqrt(wx * wx + wy * wy);
+  EdgeTerms t{edge.c > 0 ? w0 : -w0, w * aperture_radius_m};
+  if (w > 0) {
+    const double s = edge.c > 0 ? 1 / w : -1 / w;
+    t.dir_x = wx * s;
+    t.dir_y = wy * s;
+  }
+  return t;
 }
 
 double aperture_edge_distance(const EdgeInCamera& edge, double xn, double yn,
@@ -115,7 +122,8 @@ double aperture_edge_distance(const EdgeInCamera& edge, double xn, double yn,
   return t.signed_w0 / t.w_norm;
 }
 
-double pixel_edge_coverage(const EdgeTerms corners[4], double tolerance) {
+PixelH pixel_h(const EdgeTerms corners[4]) {
+  PixelH p;
   // Inside the pixel w0 and w are bilinear in the corners' (convex weights), so
   // sign(c) w0 >= its smallest corner value and |w| R <= its largest: a pixel whose every
   // point has h >= 1 (or <= -1) is on one side entirely, exactly.
@@ -126,8 +134,14 @@ double pixel_edge_coverage(const EdgeTerms corners[4], double tolerance) {
     w_mean += 0.25 * corners[i].w_norm;
     w_max = std::max(w_max, corners[i].w_norm);
   }
-  if (s_min >= w_max && s_min > 0) return 1;
-  if (s_max <= -w_max && s_max < 0) return 0;
+  if (s_min >= w_max && s_min > 0) {
+    p.side = PixelH::kPositive;
+    return p;
+  }
+  if (s_max <= -w_max && s_max < 0) {
+    p.side = PixelH::kNegative;
+    return p;
+  }
   // h over the pixel as h_centre + a (alpha - 1/2) + b (beta - 1/2) + t (alpha - 1/2)
   // (beta - 1/2) from the corners; the linear part is integrated exactly, the twist t and
   // the change of |w| over the pixel are the approximation.
@@ -135,29 +149,60 @@ double pixel_edge_coverage(const EdgeTerms corners[4], double tolerance) {
                s11 = corners[3].signed_w0;
   if (w_max <= 1e-12 * std::max(std::fabs(s_min), std::fabs(s_max))) {
     // In focus: the edge's own line, w0 = 0, splits the pixel's area.
-    const double a = 0.5 * ((s10 - s00) + (s11 - s01)), b = 0.5 * ((s01 - s00) + (s11 - s10));
+    p.side = PixelH::kInFocus;
+    p.slope_a = 0.5 * ((s10 - s00) + (s11 - s01));
+    p.slope_b = 0.5 * ((s01 - s00) + (s11 - s10));
+    p.centre = 0.25 * (s00 + s10 + s01 + s11);
     const double twist = s00 - s10 - s01 + s11;
-    const double grad = std::max(std::fabs(a), std::fabs(b));
-    if (std::fabs(twist) > 4 * tolerance * grad) return NAN;
-    return pixel_positive_share(0.25 * (s00 + s10 + s01 + s11), a, b);
+    const double grad = std::max(std::fabs(p.slope_a), std::fabs(p.slope_b));
+    p.error_h = grad > 0 ? std::fabs(twist) / (4 * grad) : (twist == 0 ? 0 : INFINITY);
+    return p;
   }
-  double h[4], w_change = 0;
+  double h[4], w_change = 0, dx = 0, dy = 0;
   for (int i = 0; i < 4; ++i) {
     h[i] = corners[i].signed_w0 / w_mean;
     // The exact h is signed_w0 / w_norm: using the mean |w| moves it by h (w/mean - 1),
     // which matters only where |h| < 1 (elsewhere the coverage is 0 or 1 either way).
     w_change = std::max(w_change, std::fabs(corners[i].w_norm / w_mean - 1));
+    dx += corners[i].dir_x;
+    dy += corners[i].dir_y;
   }
-  const double a = 0.5 * ((h[1] - h[0]) + (h[3] - h[2]));
-  const double b = 0.5 * ((h[2] - h[0]) + (h[3] - h[1]));
-  const double twist = h[0] - h[1] - h[2] + h[3];
-  const double centre = 0.25 * (h[0] + h[1] + h[2] + h[3]);
+  p.side = PixelH::kLinear;
+  p.slope_a = 0.5 * ((h[1] - h[0]) + (h[3] - h[2]));
+  p.slope_b = 0.5 * ((h[2] - h[0]) + (h[3] - h[1]));
+  p.centre = 0.25 * (h[0] + h[1] + h[2] + h[3]);
+  p.error_h = 0.25 * std::fabs(h[0] - h[1] - h[2] + h[3]) + w_change;
+  const double norm = std::hypot(dx, dy);
+  if (norm > 0) {
+    p.dir_x = dx / norm;
+    p.dir_y = dy / norm;
+    for (int i = 0; i < 4; ++i)
+      p.dir_error =
+          std::max(p.dir_error, std::hypot(corners[i].dir_x - p.dir_x, corners[i].dir_y - p.dir_y));
+  }
+  return p;
+}
+
+double pixel_edge_coverage(const EdgeTerms corners[4], double tolerance) {
+  const PixelH p = pixel_h(corners);
+  switch (p.side) {
+    case PixelH::kNegative:
+      return 0;
+    case PixelH::kPositive:
+      return 1;
+    case PixelH::kInFocus:
+      if (p.error_h > tolerance) return NAN;
+      return pixel_positive_share(p.centre, p.slope_a, p.slope_b);
+    case PixelH::kLinear:
+      break;
+  }
   // Coverage changes by at most 2/pi per unit of h, over the share of the pixel where
   // |h| < 1 (at most 2 / the larger slope).
-  const double near_edge = std::min(1.0, 2 / std::max({std::fabs(a), std::fabs(b), 1e-300}));
-  const double error = 2 * kInvPi * (0.25 * std::fabs(twist) + w_change) * near_edge;
+  const double near_edge =
+      std::min(1.0, 2 / std::max({std::fabs(p.slope_a), std::fabs(p.slope_b), 1e-300}));
+  const double error = 2 * kInvPi * p.error_h * near_edge;
   if (!(error <= tolerance)) return NAN;
-  return pixel_mean_coverage(centre, a, b);
+  return pixel_mean_coverage(p.centre, p.slope_a, p.slope_b);
 }
 
 }  // namespace camlab::mock

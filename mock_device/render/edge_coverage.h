@@ -67,9 +67,34 @@ double pixel_positive_share(double centre, double slope_a, double slope_b);
 struct EdgeTerms {
   double signed_w0 = 0;  // sign(c) w0
   double w_norm = 0;     // |w| R
+  // sign(c) w / |w|: the aperture line's unit normal towards the positive side (0, 0 in
+  // focus). The whole disk needs only h; a part of it (a light field's sub-aperture,
+  // aperture_region.h) needs the line's direction too.
+  double dir_x = 0, dir_y = 0;
 };
 EdgeTerms aperture_edge_terms(const EdgeInCamera& edge, double xn, double yn,
                               double aperture_radius_m, double inverse_focus_m);
 double pixel_edge_coverage(const EdgeTerms corners[4], double tolerance);
+
+// h over one pixel from its corners' terms, linearised: what pixel_edge_coverage
+// integrates over the disk, and a light field's sub-apertures over their own regions.
+struct PixelH {
+  enum Side {
+    kNegative,  // every point of the pixel and of the aperture on the negative side
+    kPositive,  // ... on the positive side
+    kInFocus,   // |w| = 0: centre, slopes are sign(c) w0's (the edge's own line)
+    kLinear,    // centre, slopes are h's
+  };
+  Side side = kNegative;
+  double centre = 0, slope_a = 0, slope_b = 0;
+  // kLinear: a bound on how far the linear h is from the exact one where |h| <= 1 (the
+  // bilinear twist and the change of |w| over the pixel); kInFocus: the twist relative
+  // to the gradient.
+  double error_h = 0;
+  // kLinear: the mean unit normal of the aperture line, and how far the corners' normals
+  // stray from it (a shift of dir . p, |p| <= 1).
+  double dir_x = 0, dir_y = 0, dir_error = 0;
+};
+PixelH pixel_h(const EdgeTerms corners[4]);
 
 }  // namespace camlab::mock

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "mock_device/render/chief_ray_table.h"
+#include "mock_device/render/gauss_legendre.h"
 #include "mock_device/render/radiance_integrator.h"
 #include "mock_device/render/sampling.h"
 #include "mock_device/render/target_surface.h"
@@ -107,20 +108,36 @@ double sample_pixel(const IntegratorSetup& s, int x, int y, const ChannelSetup& 
   return sum / n;
 }
 
-// Gauss-Legendre nodes and weights on [0, 1], orders 1 to 4.
-struct GaussRule {
-  int n;
-  double x[4], w[4];
-};
-constexpr GaussRule kGauss[5] = {
-    {0, {}, {}},
-    {1, {0.5}, {1.0}},
-    {2, {0.21132486540518713, 0.7886751345948129}, {0.5, 0.5}},
-    {3, {0.1127016653792583, 0.5, 0.8872983346207417}, {5.0 / 18, 8.0 / 18, 5.0 / 18}},
-    {4,
-     {0.06943184420297371, 0.33000947820757187, 0.6699905217924281, 0.9305681557970262},
-     {0.17392742256872692, 0.32607257743127307, 0.32607257743127307, 0.17392742256872692}},
-};
+// sample_pixel for each cell of a light field (IntegratorSetup::cells): grid x grid
+// lens samples inside the cell, each paired with a pixel-area stratum in a random order,
+// weighted so that the mean is the cell's (aperture_region.h); dst[k] is cell k's value.
+template <class Trace>
+void sample_pixel_cells(const IntegratorSetup& s, int x, int y, const ChannelSetup& c, int grid,
+                        int* strata, Trace&& trace, float* dst) {
+  const ChiefRayTable& rays = *s.rays;
+  const PixelCorners corners(rays, x, y);
+  const int n = grid * grid;
+  SplitMix64 rng(mix_seed(s.seed, static_cast<uint64_t>(y) * rays.width_px() + x));
+  const std::vector<ApertureRegion>& cells = *s.cells;
+  for (size_t cell = 0; cell < cells.size(); ++cell) {
+    std::iota(strata, strata + n, 0);
+    for (int i = n - 1; i > 0; --i) std::swap(strata[i], strata[rng.next() % (i + 1)]);
+    double sum = 0;
+    for (int k = 0; k < n; ++k) {
+      const double a = ((strata[k] % grid) + rng.uniform()) / grid;
+      const double b = ((strata[k] / grid) + rng.uniform()) / grid;
+      double lx, ly, weight;
+      cells[cell].sample(((k % grid) + rng.uniform()) / grid, ((k / grid) + rng.uniform()) / grid,
+                         &lx, &ly, &weight);
+      if (weight == 0) continue;
+      double xn, yn, o[3], d[3];
+      corners.at(a, b, &xn, &yn);
+      lens_ray(s, c, xn, yn, lx, ly, true, o, d);
+      sum += weight * trace(o, d);
+    }
+    dst[cell] = static_cast<float>(sum / n);
+  }
+}
 
 // Points and weights of a cubature rule on the unit disk: the centre alone (rings = 0), or
 // `rings` rings at the Gauss-Legendre nodes of r^2 on [0, 1] with 4 rings equally spaced
@@ -159,27 +176,63 @@ inline const DiskRule& disk_rule(int rings) {
   return rules[static_cast<size_t>(std::clamp(rings, 0, kMaxDiskRings))];
 }
 
-// A pixel whose rays see one smooth pattern: a product of Gauss-Legendre points over the
-// pixel's area and a cubature rule over the aperture. No randomness: for a smooth
-// integrand its error falls far faster with the number of points than a random one's.
-template <class Trace>
-double smooth_pixel(const IntegratorSetup& s, const PixelCorners& corners, const ChannelSetup& c,
-                    const GaussRule& area, const DiskRule& disk, Trace&& trace) {
-  const bool lens = disk.n > 1;
+// The integral over a pixel and an aperture rule: Gauss-Legendre points over the pixel's
+// area times `count` weighted aperture points (`point(k, &x, &y, &w)`, unit disk). No
+// randomness: for a smooth integrand its error falls far faster with the number of
+// points than a random one's.
+template <class Point, class Trace>
+double rule_over_pixel(const IntegratorSetup& s, const PixelCorners& corners, const ChannelSetup& c,
+                       const GaussRule& area, int count, bool lens, Point&& point, Trace&& trace) {
   double sum = 0;
   for (int j = 0; j < area.n; ++j)
     for (int i = 0; i < area.n; ++i) {
       double xn, yn;
       corners.at(area.x[i], area.x[j], &xn, &yn);
       double inner = 0;
-      for (int k = 0; k < disk.n; ++k) {
-        double o[3], d[3];
-        lens_ray(s, c, xn, yn, disk.x[k], disk.y[k], lens, o, d);
-        inner += disk.w[k] * trace(o, d);
+      for (int k = 0; k < count; ++k) {
+        double x, y, w, o[3], d[3];
+        point(k, &x, &y, &w);
+        lens_ray(s, c, xn, yn, x, y, lens, o, d);
+        inner += w * trace(o, d);
       }
       sum += area.w[i] * area.w[j] * inner;
     }
   return sum;
+}
+
+// A pixel whose rays see one smooth pattern: the area rule times a disk rule.
+template <class Trace>
+double smooth_pixel(const IntegratorSetup& s, const PixelCorners& corners, const ChannelSetup& c,
+                    const GaussRule& area, const DiskRule& disk, Trace&& trace) {
+  return rule_over_pixel(
+      s, corners, c, area, disk.n, disk.n > 1,
+      [&](int k, double* x, double* y, double* w) {
+        *x = disk.x[k];
+        *y = disk.y[k];
+        *w = disk.w[k];
+      },
+      trace);
+}
+
+// smooth_pixel for each cell of a light field: the area rule times the cell's own
+// cubature rule of `order` (aperture_region.h); dst[k] is cell k's value.
+template <class Trace>
+void smooth_pixel_cells(const IntegratorSetup& s, const PixelCorners& corners,
+                        const ChannelSetup& c, const GaussRule& area, int order, Trace&& trace,
+                        float* dst) {
+  const std::vector<ApertureRegion>& cells = *s.cells;
+  for (size_t cell = 0; cell < cells.size(); ++cell) {
+    const std::vector<ApertureRegion::Point>& rule = cells[cell].rule(order);
+    dst[cell] = static_cast<float>(rule_over_pixel(
+        s, corners, c, area, static_cast<int>(rule.size()), true,
+        [&](int k, double* x, double* y, double* w) {
+          const ApertureRegion::Point& p = rule[static_cast<size_t>(k)];
+          *x = p.x;
+          *y = p.y;
+          *w = p.w;
+        },
+        trace));
+  }
 }
 
 // Reflectance in `channel` along one ray: the nearest hit among `surfaces[hits[i]]`

@@ -31,6 +31,8 @@ constexpr int kEdgeAreaGrid = 4;
 constexpr int kMaxSmoothPoints = 256;
 // Least grid (per side) of a sampled pixel that sees steps: 64 samples.
 constexpr int kStepGrid = 8;
+// The most cells a light field may have (the edge path's scratch).
+constexpr int kMaxCells = 1024;
 
 // The channel of each pixel of a 2x2 cell, indexed 2 (y & 1) + (x & 1).
 std::array<int, 4> channels_of_cell(const IntegratorSetup& s) {
@@ -55,22 +57,28 @@ int largest_grid(const IntegratorSetup& s) {
 void integrate_rows_uniform(const IntegratorSetup& s, int first_row, int row_step, cv::Mat& out) {
   const ChiefRayTable& rays = *s.rays;
   const int width = rays.width_px(), height = rays.height_px();
+  const int n = values_per_pixel(s);
   const std::array<int, 4> cell = channels_of_cell(s);
   std::vector<int> strata(static_cast<size_t>(largest_grid(s)));
   for (int y = first_row; y < height; y += row_step) {
     float* row = out.ptr<float>(y);
     for (int x = 0; x < width; ++x) {
+      float* dst = row + static_cast<ptrdiff_t>(x) * n;
       if (!pixel_valid(rays, x, y)) {
-        row[x] = 0.f;
+        std::fill(dst, dst + n, 0.f);
         continue;
       }
       const int channel = cell[static_cast<size_t>(2 * (y & 1) + (x & 1))];
       const ChannelSetup& c = s.channels[static_cast<size_t>(channel)];
-      row[x] = static_cast<float>(sample_pixel(
-          s, x, y, c, c.lens_grid, s.pixel_grid, strata.data(),
-          [&](const double* o, const double* d) {
-            return trace_ray(*s.surfaces, nullptr, 0, c.background_reflectance, o, d, channel);
-          }));
+      const auto trace = [&](const double* o, const double* d) {
+        return trace_ray(*s.surfaces, nullptr, 0, c.background_reflectance, o, d, channel);
+      };
+      if (s.cells)
+        sample_pixel_cells(s, x, y, c, std::max(c.lens_grid, s.pixel_grid), strata.data(), trace,
+                           dst);
+      else
+        dst[0] = static_cast<float>(
+            sample_pixel(s, x, y, c, c.lens_grid, s.pixel_grid, strata.data(), trace));
     }
   }
 }
@@ -118,6 +126,81 @@ double edge_coverage_of_pixel(const AdaptiveContext& ctx, const EdgeTerms corner
   return sum / (grid * grid);
 }
 
+// The same for each cell of a light field, into cov[k]: each cell's exact coverage of the
+// linearised h (aperture_region.h), unless a cell's error bound (its steepest coverage
+// slope times the linearisation's error, over the share of the pixel where h crosses
+// the cell) exceeds the tolerance: then the pixel's area is sampled, each cell's coverage
+// exact at each sample.
+void edge_coverage_of_pixel_cells(const AdaptiveContext& ctx, const EdgeTerms corners_terms[4],
+                                  const ChiefRayTable& rays, int x, int y, double q,
+                                  const EdgeInCamera& edge, double* cov, IntegratorStats& st) {
+  const IntegratorSetup& s = *ctx.setup;
+  const std::vector<ApertureRegion>& cells = *s.cells;
+  const size_t n = cells.size();
+  const PixelH p = pixel_h(corners_terms);
+  if (p.side == PixelH::kNegative || p.side == PixelH::kPositive) {
+    std::fill(cov, cov + n, p.side == PixelH::kPositive ? 1.0 : 0.0);
+    ++st.flat_pixels;
+    ++st.evaluations;
+    return;
+  }
+  bool exact = true;
+  if (p.side == PixelH::kInFocus) {
+    // Every lens point sees the edge's own line: the cells agree.
+    exact = p.error_h <= kEdgeTolerance;
+    if (exact) std::fill(cov, cov + n, pixel_positive_share(p.centre, p.slope_a, p.slope_b));
+  } else {
+    const double slope = std::max({std::fabs(p.slope_a), std::fabs(p.slope_b), 1e-300});
+    for (size_t k = 0; k < n && exact; ++k) {
+      const ApertureRegion& cell = cells[k];
+      const double error = cell.max_coverage_slope() * (p.error_h + p.dir_error) *
+                           std::min(1.0, cell.coverage_span() / slope);
+      exact = error <= kEdgeTolerance;
+      if (exact)
+        cov[k] = cell.pixel_mean_coverage(p.centre, p.slope_a, p.slope_b, p.dir_x, p.dir_y);
+    }
+  }
+  if (exact) {
+    ++st.edge_pixels;
+    st.evaluations += static_cast<long>(4 * n);
+    return;
+  }
+  ++st.edge_sampled_pixels;
+  const int grid = kEdgeAreaGrid;
+  st.evaluations += static_cast<long>(grid * grid * n);
+  const PixelCorners corners(rays, x, y);
+  SplitMix64 rng(mix_seed(s.seed, static_cast<uint64_t>(y) * rays.width_px() + x));
+  std::fill(cov, cov + n, 0.0);
+  for (int k = 0; k < grid * grid; ++k) {
+    double xn, yn;
+    corners.at(((k % grid) + rng.uniform()) / grid, ((k / grid) + rng.uniform()) / grid, &xn, &yn);
+    const EdgeTerms t = aperture_edge_terms(edge, xn, yn, s.aperture_radius_m, q);
+    for (size_t c = 0; c < n; ++c) {
+      if (t.w_norm == 0)
+        cov[c] += t.signed_w0 > 0 ? 1 : 0;
+      else
+        cov[c] += cells[c].coverage(t.signed_w0 / t.w_norm, t.dir_x, t.dir_y);
+    }
+  }
+  for (size_t c = 0; c < n; ++c) cov[c] /= grid * grid;
+}
+
+// Pixel (x, y)'s values (one, or one per cell) where its rays see one straight edge
+// between the values lo and hi.
+void fill_edge_pixel(const AdaptiveContext& ctx, const EdgeTerms corners_terms[4],
+                     const ChiefRayTable& rays, int x, int y, double q, const EdgeInCamera& edge,
+                     double lo, double hi, float* dst, IntegratorStats& st) {
+  if (!ctx.setup->cells) {
+    const double coverage = edge_coverage_of_pixel(ctx, corners_terms, rays, x, y, q, edge, st);
+    dst[0] = static_cast<float>(lo + (hi - lo) * coverage);
+    return;
+  }
+  const size_t n = ctx.setup->cells->size();
+  double cov[kMaxCells];
+  edge_coverage_of_pixel_cells(ctx, corners_terms, rays, x, y, q, edge, cov, st);
+  for (size_t k = 0; k < n; ++k) dst[k] = static_cast<float>(lo + (hi - lo) * cov[k]);
+}
+
 int channel_at(const AdaptiveContext& ctx, int x, int y) {
   return ctx.cell[static_cast<size_t>(2 * (y & 1) + (x & 1))];
 }
@@ -128,6 +211,7 @@ void fill_edge_region(const AdaptiveContext& ctx, const Footprint& fp, int x0, i
                       int y1, cv::Mat& out, IntegratorStats& st) {
   const IntegratorSetup& s = *ctx.setup;
   const ChiefRayTable& rays = *s.rays;
+  const int n = values_per_pixel(s);
   constexpr int kSide = kBlock + 1;
   EdgeTerms terms[4][kSide * kSide];  // by channel, corner (i - x0) + kSide (j - y0)
   bool done[4] = {false, false, false, false};
@@ -146,29 +230,35 @@ void fill_edge_region(const AdaptiveContext& ctx, const Footprint& fp, int x0, i
       }
       const int k = (x - x0) + kSide * (y - y0);
       const EdgeTerms corners[4] = {t[k], t[k + 1], t[k + kSide], t[k + kSide + 1]};
-      const double coverage = edge_coverage_of_pixel(ctx, corners, rays, x, y, q, fp.edge, st);
-      const double lo = fp.negative.by_channel[channel], hi = fp.positive.by_channel[channel];
-      row[x] = static_cast<float>(lo + (hi - lo) * coverage);
+      fill_edge_pixel(ctx, corners, rays, x, y, q, fp.edge, fp.negative.by_channel[channel],
+                      fp.positive.by_channel[channel], row + static_cast<ptrdiff_t>(x) * n, st);
     }
   }
 }
 
 void fill_flat_region(const AdaptiveContext& ctx, const RegionValues& value, int x0, int x1, int y0,
                       int y1, cv::Mat& out, IntegratorStats& st) {
+  const int n = values_per_pixel(*ctx.setup);
   for (int y = y0; y < y1; ++y) {
     float* row = out.ptr<float>(y);
     for (int x = x0; x < x1; ++x)
-      row[x] = static_cast<float>(value.by_channel[channel_at(ctx, x, y)]);
+      std::fill(row + static_cast<ptrdiff_t>(x) * n, row + static_cast<ptrdiff_t>(x + 1) * n,
+                static_cast<float>(value.by_channel[channel_at(ctx, x, y)]));
   }
   st.flat_pixels += (y1 - y0) * (x1 - x0);
   st.evaluations += (y1 - y0) * (x1 - x0);
 }
 
-float integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candidates,
-                      int candidate_count, int* hits, int* strata, IntegratorStats& st) {
+// Pixel (x, y)'s values (one, or one per cell of a light field) into dst.
+void integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candidates,
+                     int candidate_count, int* hits, int* strata, float* dst, IntegratorStats& st) {
   const IntegratorSetup& s = *ctx.setup;
   const ChiefRayTable& rays = *s.rays;
-  if (!pixel_valid(rays, x, y)) return 0.f;
+  const int n = values_per_pixel(s);
+  if (!pixel_valid(rays, x, y)) {
+    std::fill(dst, dst + n, 0.f);
+    return;
+  }
   const int channel = channel_at(ctx, x, y);
   const ChannelSetup& c = s.channels[static_cast<size_t>(channel)];
   const double q = ctx.q[static_cast<size_t>(channel)];
@@ -186,15 +276,16 @@ float integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candi
   if (fp.kind == Footprint::kFlat) {
     ++st.flat_pixels;
     ++st.evaluations;
-    return static_cast<float>(fp.flat.by_channel[channel]);
+    std::fill(dst, dst + n, static_cast<float>(fp.flat.by_channel[channel]));
+    return;
   }
   if (fp.kind == Footprint::kOneLine) {
     EdgeTerms terms[4];
     for (int i = 0; i < 4; ++i)
       terms[i] = aperture_edge_terms(fp.edge, corners.x[i], corners.y[i], s.aperture_radius_m, q);
-    const double coverage = edge_coverage_of_pixel(ctx, terms, rays, x, y, q, fp.edge, st);
-    const double lo = fp.negative.by_channel[channel], hi = fp.positive.by_channel[channel];
-    return static_cast<float>(lo + (hi - lo) * coverage);
+    fill_edge_pixel(ctx, terms, rays, x, y, q, fp.edge, fp.negative.by_channel[channel],
+                    fp.positive.by_channel[channel], dst, st);
+    return;
   }
   // The blur of what this pixel can see: the footprint's diameter over the pixel's size
   // (both normalised).
@@ -219,7 +310,6 @@ float integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candi
     const DiskRule& disk = disk_rule(rings);
     const GaussRule& area = kGauss[gauss];
     ++st.smooth_pixels;
-    st.evaluations += area.n * area.n * disk.n;
     // Every ray meets this one target inside its extent: the plane's hit and the texel
     // lookup, nothing else.
     const PlaneTarget& t = ctx.targets[static_cast<size_t>(fp.target)];
@@ -232,7 +322,21 @@ float integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candi
       const double v = t.av[0] * X[0] + t.av[1] * X[1] + t.av[2] * X[2] - t.av_t;
       return surface.texture_at(u, v, channel);
     };
-    return static_cast<float>(smooth_pixel(s, corners, c, area, disk, on_texture));
+    if (s.cells) {
+      // A cell's blur is the disk's over the cells per side: its rule spans that share of
+      // the disk's features (its centroid alone where the cell's blur is negligible).
+      const double cell_features = disk_features / s.cells_per_side;
+      const int order = coc_px / s.cells_per_side < kNegligibleCocPx
+                            ? 1
+                            : std::min(4, 1 + static_cast<int>(std::ceil(cell_features)));
+      for (const ApertureRegion& cell : *s.cells)
+        st.evaluations += static_cast<long>(area.n * area.n * cell.rule(order).size());
+      smooth_pixel_cells(s, corners, c, area, order, on_texture, dst);
+      return;
+    }
+    st.evaluations += area.n * area.n * disk.n;
+    dst[0] = static_cast<float>(smooth_pixel(s, corners, c, area, disk, on_texture));
+    return;
   }
   // Sampled at random, with the lens grid the rule gives for that blur; where the pixel
   // sees steps (corners, several targets) at least kStepGrid^2 samples, since a step
@@ -244,9 +348,18 @@ float integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candi
     area_grid = std::max(area_grid, kStepGrid);
   }
   ++st.sampled_pixels;
+  if (s.cells) {
+    // Each cell's blur is the disk's over the cells per side; its samples pair lens
+    // points inside the cell with as many area strata, at least the area grid's.
+    const int cell_grid = std::max(lens_grid_for_coc(coc_px / s.cells_per_side), area_grid);
+    st.evaluations += static_cast<long>(cell_grid * cell_grid * n);
+    st.max_lens_grid = std::max(st.max_lens_grid, cell_grid);
+    sample_pixel_cells(s, x, y, c, cell_grid, strata, trace, dst);
+    return;
+  }
   st.evaluations += grid > 0 ? grid * grid : area_grid * area_grid;
   st.max_lens_grid = std::max(st.max_lens_grid, grid);
-  return static_cast<float>(sample_pixel(s, x, y, c, grid, area_grid, strata, trace));
+  dst[0] = static_cast<float>(sample_pixel(s, x, y, c, grid, area_grid, strata, trace));
 }
 
 // Per-thread scratch of the adaptive path.
@@ -307,11 +420,12 @@ void integrate_region(const AdaptiveContext& ctx, int x0, int x1, int y0, int y1
                          out, st);
     return;
   }
+  const int n = values_per_pixel(s);
   for (int y = y0; y < y1; ++y) {
     float* row = out.ptr<float>(y);
     for (int x = x0; x < x1; ++x)
-      row[x] = integrate_pixel(ctx, x, y, candidates, hit_count, scratch.hits[2].data(),
-                               scratch.strata.data(), st);
+      integrate_pixel(ctx, x, y, candidates, hit_count, scratch.hits[2].data(),
+                      scratch.strata.data(), row + static_cast<ptrdiff_t>(x) * n, st);
   }
 }
 
@@ -332,7 +446,7 @@ void integrate_blocks(const AdaptiveContext& ctx, int first_block_row, int block
 }  // namespace
 
 cv::Mat integrate_reflectance(const IntegratorSetup& setup, IntegratorStats* stats) {
-  cv::Mat out(setup.rays->height_px(), setup.rays->width_px(), CV_32F);
+  cv::Mat out(setup.rays->height_px(), setup.rays->width_px() * values_per_pixel(setup), CV_32F);
   const int threads = std::max(1, setup.threads);
   std::vector<std::thread> workers;
   if (!setup.adaptive) {

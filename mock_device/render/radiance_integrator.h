@@ -18,6 +18,14 @@
 // sensor, so a colour frame costs what a grey one does. Each channel has its own plane of
 // focus (longitudinal chromatic aberration) and its own lens sample count.
 //
+// A light field (setup.cells): every pixel is integrated once per sub-aperture, with the
+// aperture disk replaced by that cell of it (aperture_region.h). The classification of
+// blocks and pixels is the whole disk's, which bounds every cell's, so a pixel that sees
+// one flat patch through the disk sees it through every cell; a straight edge takes each
+// cell's exact coverage, a texture each cell's cubature rule, the rest stratified samples
+// inside each cell. The cells' values are weighted means over the cells, so their
+// area-weighted sum is the whole disk's value.
+//
 // Reentrant: reads only its arguments.
 #pragma once
 
@@ -28,6 +36,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "mock_device/render/aperture_region.h"
 #include "mock_device/render/chief_ray_table.h"
 #include "mock_device/render/target_surface.h"
 
@@ -57,7 +66,18 @@ struct IntegratorSetup {
   uint64_t seed = 0;
   int threads = 1;
   bool adaptive = false;  // the automatic rule (above); false: uniform sampling
+  // A light field's sub-apertures (none empty), in units of the aperture radius; null:
+  // the whole disk, one value per pixel.
+  const std::vector<ApertureRegion>* cells = nullptr;
+  // Sub-apertures per side of the grid the cells come from (their blur is the disk's
+  // over this); 1 without cells.
+  int cells_per_side = 1;
 };
+
+// Values per pixel: one per cell of a light field, else 1.
+inline int values_per_pixel(const IntegratorSetup& s) {
+  return s.cells ? static_cast<int>(s.cells->size()) : 1;
+}
 
 // Where the adaptive path spent its work (pixels by path, and the samples taken).
 struct IntegratorStats {
@@ -82,9 +102,11 @@ struct IntegratorStats {
   }
 };
 
-// Returns a CV_32F image (height x width of the ray table) of mean reflectance, each
-// pixel in its own channel. Pixels whose chief rays fall outside the lens model's domain
-// are 0 (black), as a real lens with a mechanical vignette would show them.
+// Returns a CV_32F image of mean reflectance, each pixel in its own channel: height x
+// width of the ray table, or height x (width x n) for a light field of n cells (pixel x's
+// n values side by side, in the cells' order). Pixels whose chief rays fall outside the
+// lens model's domain are 0 (black), as a real lens with a mechanical vignette would show
+// them.
 cv::Mat integrate_reflectance(const IntegratorSetup& setup, IntegratorStats* stats = nullptr);
 
 }  // namespace camlab::mock

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "image/capture_folder.h"
+#include "image/pixel_format.h"
 #include "mock_device/render/frame_truth.h"
 #include "optics/optics.h"
 
@@ -22,21 +23,6 @@ Result<double> parse_number(const std::string& text, const std::string& context)
     return value;
   } catch (const std::exception&) {
     return make_error("invalid_argument", context + ": '" + text + "' is not a number");
-  }
-}
-
-const char* pixel_format_for(int bit_depth) {
-  switch (bit_depth) {
-    case 8:
-      return "GREY";
-    case 10:
-      return "Y10";
-    case 12:
-      return "Y12";
-    case 14:
-      return "Y14";
-    default:
-      return "Y16";
   }
 }
 
@@ -191,7 +177,7 @@ Result<RenderCaptureSummary> render_capture(Renderer& renderer,
           sidecar.cfa_pattern = camera.sensor.cfa;
           sidecar.pixel_format = "S" + camera.sensor.cfa + std::to_string(camera.sensor.bit_depth);
         } else {
-          sidecar.pixel_format = pixel_format_for(camera.sensor.bit_depth);
+          sidecar.pixel_format = std::string(image::mono_pixel_format(camera.sensor.bit_depth));
         }
         sidecar.bit_depth = camera.sensor.bit_depth;
         sidecar.black_level_dn = camera.sensor.black_level_dn;

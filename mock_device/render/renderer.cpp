@@ -9,6 +9,7 @@
 
 #include "mock_device/render/channel_optics.h"
 #include "mock_device/render/frame_truth.h"
+#include "mock_device/render/pixel_quadrature.h"
 #include "mock_device/render/radiance_integrator.h"
 #include "mock_device/render/sampling.h"
 #include "mock_device/render/sensor_model.h"
@@ -31,6 +32,23 @@ cv::Mat scaled_by_channel(const cv::Mat& reflectance, const SensorSpec& sensor,
       row[x] = static_cast<float>(in[x] * ratio[static_cast<size_t>(sensor.channel_at(x, y))]);
   }
   return out;
+}
+
+// The lens's baseline blur over each of the n values per pixel (n planes interleaved in
+// one image: a light field's cells).
+void blur_each_value(cv::Mat& values, int n, double sigma_px) {
+  if (n == 1) {
+    cv::GaussianBlur(values, values, cv::Size(), sigma_px, sigma_px, cv::BORDER_REFLECT);
+    return;
+  }
+  cv::Mat interleaved = values.reshape(n);  // width x n channels
+  std::vector<cv::Mat> planes;
+  for (int k = 0; k < n; ++k) {
+    cv::Mat plane;
+    cv::extractChannel(interleaved, plane, k);
+    cv::GaussianBlur(plane, plane, cv::Size(), sigma_px, sigma_px, cv::BORDER_REFLECT);
+    cv::insertChannel(plane, interleaved, k);
+  }
 }
 
 std::string range_text(double lo, double hi, const char* unit) {
@@ -140,12 +158,12 @@ const ChiefRayTable& Renderer::rays_for(int focus_position, int threads) {
 
 cv::Mat Renderer::integrate(const IntegratorSetup& setup, RenderStats* stats) const {
   const double sigma_px = camera_.lens.baseline_blur_sigma_px;
+  const int n = values_per_pixel(setup);
   IntegratorStats counts;
   cv::Mat result;
   if (sigma_px <= 0 || setup.cfa.empty()) {
     result = integrate_reflectance(setup, &counts);
-    if (sigma_px > 0)
-      cv::GaussianBlur(result, result, cv::Size(), sigma_px, sigma_px, cv::BORDER_REFLECT);
+    if (sigma_px > 0) blur_each_value(result, n, sigma_px);
   } else {
     // The baseline blur spreads each colour over its neighbours, which a mosaic does not
     // hold: integrate R, G and B at every pixel (three times the cost), blur each plane
@@ -158,14 +176,13 @@ cv::Mat Renderer::integrate(const IntegratorSetup& setup, RenderStats* stats) co
       IntegratorStats plane_counts;
       planes[static_cast<size_t>(c)] = integrate_reflectance(one, &plane_counts);
       counts += plane_counts;
-      cv::GaussianBlur(planes[static_cast<size_t>(c)], planes[static_cast<size_t>(c)], cv::Size(),
-                       sigma_px, sigma_px, cv::BORDER_REFLECT);
+      blur_each_value(planes[static_cast<size_t>(c)], n, sigma_px);
     }
     result = cv::Mat(planes[0].size(), CV_32F);
     for (int y = 0; y < result.rows; ++y)
       for (int x = 0; x < result.cols; ++x)
         result.at<float>(y, x) =
-            planes[static_cast<size_t>(camera_.sensor.channel_at(x, y))].at<float>(y, x);
+            planes[static_cast<size_t>(camera_.sensor.channel_at(x / n, y))].at<float>(y, x);
   }
   const double pixels = counts.flat_pixels + counts.edge_pixels + counts.edge_sampled_pixels +
                         counts.smooth_pixels + counts.sampled_pixels;
@@ -331,6 +348,56 @@ Result<SceneIntegral> Renderer::integrate_scene(const RenderSettings& settings, 
   return out;
 }
 
+void Renderer::describe_frame(const FramePlan& plan, const RenderStats& stats,
+                              const RenderOptions& options, double electrons_per_reflectance,
+                              nlohmann::json* settings_json, nlohmann::json* truth_json) const {
+  const RenderSettings& settings = plan.settings;
+  const SensorSpec& sensor = camera_.sensor;
+  // A colour pixel collects its channel's QE where the sensor model counts the grey QE.
+  std::array<ChannelTruthInputs, 3> channels = plan.channels;
+  for (int c = 0; c < 3 && sensor.is_colour(); ++c)
+    channels[static_cast<size_t>(c)].electrons_per_unit_reflectance =
+        electrons_per_reflectance * sensor.quantum_efficiency_rgb[static_cast<size_t>(c)] /
+        sensor.quantum_efficiency;
+  TruthInputs truth;
+  truth.camera = &camera_;
+  truth.scene = &scene_;
+  truth.surfaces = &plan.surfaces;
+  truth.view = plan.view;
+  truth.intrinsics = intrinsics_at(camera_, plan.lens_to_sensor_mm);
+  truth.f_number = settings.f_number;
+  truth.focus_distance_mm = plan.focus_mm;
+  truth.lens_to_sensor_mm = plan.lens_to_sensor_mm;
+  truth.electrons_per_unit_reflectance = electrons_per_reflectance;
+  truth.gain = settings.gain;
+  truth.channels = channels;
+  *truth_json = make_frame_truth(truth);
+  (*truth_json)["render"] = {{"aperture_samples", stats.aperture_samples},
+                             {"samples_per_pixel", stats.pixel_samples},
+                             {"mean_samples_per_pixel", stats.mean_samples_per_pixel},
+                             {"max_coc_px", stats.max_coc_px},
+                             {"noise", options.noise},
+                             {"integral_reused", stats.cached},
+                             {"seed", options.seed},
+                             {"frame_number", options.frame_number}};
+  if (plan.setup.adaptive)
+    (*truth_json)["render"]["pixel_paths"] = {{"flat", stats.flat_share},
+                                              {"edge", stats.edge_share},
+                                              {"smooth", stats.smooth_share},
+                                              {"sampled", stats.sampled_share}};
+  const ControlsSpec& c = camera_.controls;
+  *settings_json = {
+      {"exposure_us", settings.exposure_us},
+      {"exposure_time_absolute", settings.exposure_us / 100.0},
+      {"gain", settings.gain},
+      {"gain_control", settings.gain * c.gain_unity},
+      {"f_number", settings.f_number},
+      {"focus_position", settings.focus_position},
+      {"focus_distance_m", plan.focus_mm * 1e-3},
+      {"lens_to_sensor_mm", plan.lens_to_sensor_mm},
+  };
+}
+
 Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
                                        const RenderOptions& options) {
   const auto start = std::chrono::steady_clock::now();
@@ -346,60 +413,64 @@ Result<RenderedFrame> Renderer::render(const RenderSettings& settings, int view,
                                      settings.f_number, plan.lens_to_sensor_mm);
   // A colour pixel collects its channel's QE where the sensor model counts the grey QE:
   // its reflectance is scaled by the ratio.
-  std::array<ChannelTruthInputs, 3> channels = plan.channels;
   std::array<double, 3> qe_ratio = {1, 1, 1};
-  for (int c = 0; c < 3 && sensor.is_colour(); ++c) {
+  for (int c = 0; c < 3 && sensor.is_colour(); ++c)
     qe_ratio[static_cast<size_t>(c)] =
         sensor.quantum_efficiency_rgb[static_cast<size_t>(c)] / sensor.quantum_efficiency;
-    channels[static_cast<size_t>(c)].electrons_per_unit_reflectance =
-        electrons_per_reflectance * qe_ratio[static_cast<size_t>(c)];
-  }
   RenderedFrame frame;
   frame.image = expose(scaled_by_channel(reflectance, sensor, qe_ratio), camera_,
                        electrons_per_reflectance, settings.gain, options.noise,
                        mix_seed(options.seed, options.frame_number * 2 + 2), plan.setup.threads);
-
-  TruthInputs truth;
-  truth.camera = &camera_;
-  truth.scene = &scene_;
-  truth.surfaces = &plan.surfaces;
-  truth.view = view;
-  truth.intrinsics = intrinsics_at(camera_, plan.lens_to_sensor_mm);
-  truth.f_number = settings.f_number;
-  truth.focus_distance_mm = plan.focus_mm;
-  truth.lens_to_sensor_mm = plan.lens_to_sensor_mm;
-  truth.electrons_per_unit_reflectance = electrons_per_reflectance;
-  truth.gain = settings.gain;
-  truth.channels = channels;
-  frame.truth = make_frame_truth(truth);
-  frame.truth["render"] = {{"aperture_samples", stats.aperture_samples},
-                           {"samples_per_pixel", stats.pixel_samples},
-                           {"mean_samples_per_pixel", stats.mean_samples_per_pixel},
-                           {"max_coc_px", stats.max_coc_px},
-                           {"noise", options.noise},
-                           {"integral_reused", stats.cached},
-                           {"seed", options.seed},
-                           {"frame_number", options.frame_number}};
-  if (plan.setup.adaptive)
-    frame.truth["render"]["pixel_paths"] = {{"flat", stats.flat_share},
-                                            {"edge", stats.edge_share},
-                                            {"smooth", stats.smooth_share},
-                                            {"sampled", stats.sampled_share}};
-
-  const ControlsSpec& c = camera_.controls;
-  frame.settings = {
-      {"exposure_us", settings.exposure_us},
-      {"exposure_time_absolute", settings.exposure_us / 100.0},
-      {"gain", settings.gain},
-      {"gain_control", settings.gain * c.gain_unity},
-      {"f_number", settings.f_number},
-      {"focus_position", settings.focus_position},
-      {"focus_distance_m", plan.focus_mm * 1e-3},
-      {"lens_to_sensor_mm", plan.lens_to_sensor_mm},
-  };
+  describe_frame(plan, stats, options, electrons_per_reflectance, &frame.settings, &frame.truth);
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   frame.stats = stats;
   return frame;
+}
+
+Result<LightFieldIntegral> Renderer::integrate_light_field(const RenderSettings& settings, int view,
+                                                           const RenderOptions& options,
+                                                           const LightFieldCells& cells) {
+  const auto start = std::chrono::steady_clock::now();
+  if (!cells.regions || cells.regions->empty())
+    return make_error("invalid_argument", "a light field needs at least one aperture cell");
+  auto planned = plan_frame(settings, view, options);
+  if (!planned) return planned.error();
+  FramePlan& plan = *planned;
+  IntegratorSetup setup = plan.setup;
+  setup.surfaces = &plan.surfaces;
+  setup.cells = cells.regions;
+  setup.cells_per_side = std::max(1, cells.per_side);
+  if (cells.rays) setup.rays = cells.rays;
+  LightFieldIntegral out;
+  out.stats = plan.stats;
+  out.values = integrate(setup, &out.stats);
+
+  // The truth's depth: the first surface along each pixel centre's chief ray.
+  const ChiefRayTable& rays = *setup.rays;
+  out.depth_m = cv::Mat(rays.height_px(), rays.width_px(), CV_32F, cv::Scalar(0));
+  for (int y = 0; y < rays.height_px(); ++y)
+    for (int x = 0; x < rays.width_px(); ++x) {
+      if (!pixel_valid(rays, x, y)) continue;
+      const double o[3] = {0, 0, 0};
+      double d[3] = {0, 0, 1};
+      PixelCorners(rays, x, y).at(0.5, 0.5, &d[0], &d[1]);
+      double nearest = 0;
+      for (const TargetSurface& surface : plan.surfaces) {
+        double unused;
+        const double lambda = surface.intersect(o, d, kGrey, &unused);
+        if (lambda > 0 && (nearest == 0 || lambda < nearest)) nearest = lambda;
+      }
+      out.depth_m.at<float>(y, x) = static_cast<float>(nearest);  // d_z = 1: lambda is z
+    }
+
+  out.electrons_per_unit_reflectance =
+      electrons_per_unit_reflectance(camera_, scene_.illuminance_lux, settings.exposure_us,
+                                     settings.f_number, plan.lens_to_sensor_mm);
+  describe_frame(plan, out.stats, options, out.electrons_per_unit_reflectance, &out.settings,
+                 &out.truth);
+  out.stats.seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return out;
 }
 
 }  // namespace camlab::mock

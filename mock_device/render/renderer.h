@@ -41,6 +41,7 @@
 namespace camlab::mock {
 
 struct IntegratorSetup;  // radiance_integrator.h
+class ApertureRegion;    // aperture_region.h
 
 // The settings a frame is rendered with, in physical units.
 struct RenderSettings {
@@ -97,6 +98,30 @@ struct RenderedFrame {
   RenderStats stats;
 };
 
+// The sub-apertures a light field is integrated over (docs/virtual-camera.md, "Light
+// fields").
+struct LightFieldCells {
+  const std::vector<ApertureRegion>* regions = nullptr;  // none empty; units of the radius
+  int per_side = 1;  // cells per side of their grid (a cell's blur is the disk's over it)
+  // The chief rays to integrate on instead of the camera's own at this focus (the rows of
+  // a hexagonal microlens lattice); null: the camera's.
+  const ChiefRayTable* rays = nullptr;
+};
+
+// A light field's scene integral and what a frame of it carries.
+struct LightFieldIntegral {
+  // CV_32F, height x (width x n): each pixel's mean reflectance through each of the n
+  // cells, side by side, each pixel in its own channel.
+  cv::Mat values;
+  // CV_32F, height x width: the depth (m, along the axis) of the surface the chief ray
+  // through each pixel's centre meets first; 0 where it meets none.
+  cv::Mat depth_m;
+  nlohmann::json settings;  // as render() gives them
+  nlohmann::json truth;     // as render() gives it (the whole lens's CoC, poses, ...)
+  double electrons_per_unit_reflectance = 0;
+  RenderStats stats;
+};
+
 class Renderer {
  public:
   // What the (expensive) scene integral depends on; exposure, gain and noise do not
@@ -124,6 +149,13 @@ class Renderer {
   Result<SceneIntegral> integrate_scene(const RenderSettings& settings, int view,
                                         const RenderOptions& options);
 
+  // A light field's scene integral: each pixel integrated through each of `cells` alone
+  // (radiance_integrator.h), with the lens's baseline blur; not cached. Errors: those of
+  // render().
+  Result<LightFieldIntegral> integrate_light_field(const RenderSettings& settings, int view,
+                                                   const RenderOptions& options,
+                                                   const LightFieldCells& cells);
+
   // The settings the camera's control defaults give.
   RenderSettings default_settings() const;
 
@@ -146,9 +178,13 @@ class Renderer {
                                const RenderOptions& options);
   // The integral for `plan`, from the cache or computed (and remembered).
   cv::Mat scene_integral(const FramePlan& plan, RenderStats* stats);
-  // The scene integral (mean reflectance per pixel, each in its own channel) for `setup`,
-  // with the lens's baseline blur.
+  // The scene integral (mean reflectance per pixel, each in its own channel; n values per
+  // pixel for a light field's cells) for `setup`, with the lens's baseline blur.
   cv::Mat integrate(const IntegratorSetup& setup, RenderStats* stats) const;
+  // The settings and truth render() attaches to a frame of `plan`.
+  void describe_frame(const FramePlan& plan, const RenderStats& stats, const RenderOptions& options,
+                      double electrons_per_unit_reflectance, nlohmann::json* settings,
+                      nlohmann::json* truth) const;
   const ChiefRayTable& rays_for(int focus_position, int threads);
   const SceneIntegral* cached_integral(const IntegrationKey& key) const;
   void remember_integral(const IntegrationKey& key, const SceneIntegral& integral);

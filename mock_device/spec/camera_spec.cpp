@@ -161,6 +161,53 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
   return lens;
 }
 
+Result<LightFieldSpec> parse_lightfield(const JsonFields& f, const SensorSpec& sensor,
+                                        const LensSpec& lens) {
+  LightFieldSpec lf;
+  if (!f.has("views")) {
+    if (!f.json().empty())
+      return make_error("invalid_argument", f.path_of("views") + " is required ([U, V])");
+    return lf;
+  }
+  // At most 16 x 16 cells: a frame's light field is held in memory as 4 bytes per cell
+  // and pixel (256 cells of 640 x 480: 315 MB).
+  std::vector<double> views;
+  CAMLAB_ASSIGN(views, f.numbers("views", 2, 2, 1, 16));
+  if (views[0] != std::floor(views[0]) || views[1] != std::floor(views[1]))
+    return make_error("invalid_argument", f.path_of("views") + " must be whole numbers of views");
+  lf.views_u = static_cast<int>(views[0]);
+  lf.views_v = static_cast<int>(views[1]);
+  CAMLAB_ASSIGN(lf.microlens_grid, f.string("microlens_grid", "none"));
+  if (lf.microlens_grid != "none" && lf.microlens_grid != "square" && lf.microlens_grid != "hex")
+    return make_error("invalid_argument", f.path_of("microlens_grid") + " = \"" +
+                                              lf.microlens_grid +
+                                              "\" is not one of none, square, hex");
+  if (lf.has_lenslet() && lf.views_u != lf.views_v)
+    return make_error("invalid_argument",
+                      f.path_of("views") + " = [" + std::to_string(lf.views_u) + ", " +
+                          std::to_string(lf.views_v) +
+                          "]: a microlens images the round aperture onto a square block of raw "
+                          "pixels, so U and V must be equal");
+  if (lf.microlens_grid == "hex" && lf.views_u % 2 != 0)
+    return make_error("invalid_argument",
+                      f.path_of("views") + " = " + std::to_string(lf.views_u) +
+                          " per side: a hexagonal grid staggers its rows by half a pitch, which "
+                          "falls on a whole raw pixel only for an even number of views per side");
+  CAMLAB_ASSIGN(lf.lenslet_margin_px, f.integer("lenslet_margin_px", 0, 64, 0));
+  if (sensor.is_colour())
+    return make_error("unsupported", f.path() +
+                                         ": light fields are rendered for monochrome sensors "
+                                         "(a raw lenslet image's colour filters do not follow "
+                                         "the views' pixels)");
+  if (lens.model != "LENSMODEL_PINHOLE")
+    return make_error("unsupported",
+                      f.path() + ": a light-field camera needs lens.model LENSMODEL_PINHOLE, not " +
+                          lens.model +
+                          " (refocusing and depth shift the views by whole-image "
+                          "disparities, which a distorted lens does not have)");
+  return lf;
+}
+
 }  // namespace
 
 Result<CameraSpec> parse_camera_spec(const nlohmann::json& json) {
@@ -171,6 +218,8 @@ Result<CameraSpec> parse_camera_spec(const nlohmann::json& json) {
   CAMLAB_ASSIGN(spec.name, root.string("name", "camlab virtual camera"));
   CAMLAB_ASSIGN(spec.sensor, parse_sensor(root.child("sensor")));
   CAMLAB_ASSIGN(spec.lens, parse_lens(root.child("lens"), spec.sensor));
+  CAMLAB_ASSIGN(spec.lightfield,
+                parse_lightfield(root.child("lightfield"), spec.sensor, spec.lens));
 
   JsonFields timing = root.child("timing");
   CAMLAB_ASSIGN(spec.timing.frame_interval_us,

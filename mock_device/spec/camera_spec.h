@@ -107,10 +107,27 @@ struct IspSpec {
   int jpeg_quality = 90;  // libjpeg quality of MJPEG frames, 1..100
 };
 
+// A light-field (plenoptic) camera (docs/virtual-camera.md, "Light fields"): its views
+// are the images through U x V square cells of the aperture, on the sensor's pixel grid;
+// with a microlens grid it also records the raw lenslet image, one U x U block of raw
+// pixels behind each microlens (one microlens per sensor pixel).
+struct LightFieldSpec {
+  int views_u = 0, views_v = 0;  // cells per side; 0: not a light-field camera
+  // "none" (views only), "square" (microlens images on a square grid, U = V), or "hex"
+  // (rows of microlens images staggered by half a pitch, U = V even, rows
+  // ceil(U sqrt(3) / 2) raw pixels apart).
+  std::string microlens_grid = "none";
+  int lenslet_margin_px = 0;  // dark raw pixels around the microlens images
+
+  bool enabled() const { return views_u > 0; }
+  bool has_lenslet() const { return microlens_grid != "none"; }
+};
+
 struct CameraSpec {
   std::string name;
   SensorSpec sensor;
   LensSpec lens;
+  LightFieldSpec lightfield;
   TimingSpec timing;
   IspSpec isp;
   ControlsSpec controls;

@@ -121,4 +121,19 @@ int cfa_colour_at(std::string_view cfa, int x, int y) {
   return c == 'R' ? 0 : c == 'G' ? 1 : 2;
 }
 
+std::string_view mono_pixel_format(int bit_depth) {
+  switch (bit_depth) {
+    case 8:
+      return "GREY";
+    case 10:
+      return "Y10";
+    case 12:
+      return "Y12";
+    case 14:
+      return "Y14";
+    default:
+      return "Y16";
+  }
+}
+
 }  // namespace camlab::image

@@ -71,6 +71,10 @@ uint64_t frame_bytes(const PixelFormatInfo& format, uint32_t width, uint32_t hei
 // The colour of the mosaic sample at (x, y): 0 = R, 1 = G, 2 = B; for cfa "RGGB" etc.
 int cfa_colour_at(std::string_view cfa, int x, int y);
 
+// What a capture folder calls the stored DN of a monochrome frame of `bit_depth` bits:
+// GREY, Y10, Y12, Y14, or Y16 for any other depth (docs/capture-folder.md).
+std::string_view mono_pixel_format(int bit_depth);
+
 // Whether `cfa` is one of the four Bayer orders.
 bool is_bayer_pattern(std::string_view cfa);
 
