@@ -10,13 +10,52 @@ namespace camlab::calib {
 
 namespace {
 
+// A splined model's size within the limits of lens_model.h: its knots set the solve's
+// state size, and mrcal keeps per-parameter arrays on the stack, so an unbounded grid is a
+// crash (2000 x 2000 knots) or minutes of solve (60 x 45) rather than a better fit.
+Status check_spline_limits(const std::string& name, const mrcal_lensmodel_t& m) {
+  const auto& c = m.LENSMODEL_SPLINED_STEREOGRAPHIC__config;
+  // mrcal reads each number into 16 bits, so Nx=65540 would read as 4: a name that does
+  // not come back unchanged from mrcal's own spelling was not read as written.
+  char canonical[256];
+  if (!mrcal_lensmodel_name(canonical, sizeof canonical, &m) || name != canonical)
+    return make_error("bad_lensmodel",
+                      "the splined model '" + name.substr(0, 120) +
+                          "' is not in mrcal's form LENSMODEL_SPLINED_STEREOGRAPHIC"
+                          "_order=3_Nx=16_Ny=10_fov_x_deg=120 (decimal "
+                          "integers, no leading zeros)");
+  if (c.order < kSplineOrderMin || c.order > kSplineOrderMax)
+    return make_error("out_of_range", "the spline's order = " + std::to_string(c.order) +
+                                          " is outside [" + std::to_string(kSplineOrderMin) + ", " +
+                                          std::to_string(kSplineOrderMax) + "]");
+  if (c.Nx < kSplineKnotsMin || c.Nx > kSplineKnotsMax || c.Ny < kSplineKnotsMin ||
+      c.Ny > kSplineKnotsMax || c.Nx * c.Ny > kSplineKnotsTotalMax)
+    return make_error("out_of_range",
+                      "the spline's grid Nx x Ny = " + std::to_string(c.Nx) + " x " +
+                          std::to_string(c.Ny) + " is outside the limits: each in [" +
+                          std::to_string(kSplineKnotsMin) + ", " + std::to_string(kSplineKnotsMax) +
+                          "] knots and at most " + std::to_string(kSplineKnotsTotalMax) +
+                          " knots in all (mrcal's fisheye examples use 30 x 20)");
+  if (c.fov_x_deg < kSplineFovXDegMin || c.fov_x_deg > kSplineFovXDegMax)
+    return make_error("out_of_range", "the spline's fov_x_deg = " + std::to_string(c.fov_x_deg) +
+                                          " is outside [" + std::to_string(kSplineFovXDegMin) +
+                                          ", " + std::to_string(kSplineFovXDegMax) + "] degrees");
+  return {};
+}
+
 Result<mrcal_lensmodel_t> parse_model(const std::string& name) {
+  if (name.size() > kLensmodelNameMaxChars)
+    return make_error("bad_lensmodel", "a lens model name has at most " +
+                                           std::to_string(kLensmodelNameMaxChars) + " characters");
   mrcal_lensmodel_t m;
   if (!mrcal_lensmodel_from_name(&m, name.c_str()) || m.type < 0)
-    return make_error("bad_lensmodel", "unknown or unconfigured mrcal lens model '" + name + "'");
+    return make_error("bad_lensmodel",
+                      "unknown or unconfigured mrcal lens model '" + name.substr(0, 120) + "'");
   if (m.type == MRCAL_LENSMODEL_CAHVORE || !mrcal_lensmodel_metadata(&m).has_core)
     return make_error("bad_lensmodel",
                       "lens model '" + name + "' is not supported (no intrinsics core)");
+  if (m.type == MRCAL_LENSMODEL_SPLINED_STEREOGRAPHIC)
+    if (Status s = check_spline_limits(name, m); !s) return s.error();
   return m;
 }
 
@@ -43,7 +82,8 @@ Result<std::string> configured_lensmodel(const std::string& name_in, int width_p
     if (width_px <= 0 || height_px <= 0)
       return make_error("invalid_argument", "a splined model needs the imager size");
     const int nx = 16;
-    const int ny = std::max(4, static_cast<int>(std::lround(nx * double(height_px) / width_px)));
+    const int ny = std::clamp(static_cast<int>(std::lround(nx * double(height_px) / width_px)),
+                              kSplineKnotsMin, kSplineKnotsMax);
     // The spline must span the whole field of view with some margin; mrcal requires an
     // integer number of degrees.
     const int fov = std::clamp(static_cast<int>(std::ceil(fov_x_deg_hint * 1.1 + 5)), 10, 200);

@@ -6,6 +6,8 @@
 // Reentrant: plain values.
 #pragma once
 
+#include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -28,11 +30,17 @@ struct MrcalProblem {
   mrcal_calobject_warp_t warp{};
   std::vector<double> x;  // measurements after the last solve
   int imagersize[2] = {0, 0};
+  const std::atomic<bool>* cancel = nullptr;  // set: optimize no more (SolveOptions::cancel)
 };
 
 // The problem of `views` (indices into data.views), poses zero, pool at the corners'
 // own weights.
 MrcalProblem make_mrcal_problem(const CalibrationData& data, const std::vector<int>& views);
+
+// The stack a thread needs to run mrcal_optimize or mrcal_optimizer_callback on `p`:
+// mrcal keeps arrays of the state's and the measurements' size on the stack, so the
+// calls run on a thread of this size (base/stack_thread.h), whatever thread asked.
+size_t solver_stack_bytes(const MrcalProblem& p);
 
 // What a stage optimises. The camera never moves (it is the reference frame).
 mrcal_problem_selections_t mrcal_selections(bool core, bool distortions, bool warp, bool regularize,

@@ -10,6 +10,7 @@
 
 #include "base/format.h"
 #include "base/log.h"
+#include "base/stack_thread.h"
 #include "calib/library_stderr.h"
 #include "calib/mrcal_api.h"
 #include "calib/mrcal_problem.h"
@@ -24,6 +25,7 @@ using Problem = MrcalProblem;
 
 // One mrcal_optimize call. Returns false when mrcal fails or leaves non-finite values.
 bool optimize(Problem* p, const BoardSpec& board, mrcal_problem_selections_t sel) {
+  if (p->cancel && p->cancel->load()) return false;  // solve() reports it as "cancelled"
   const int nobs = static_cast<int>(p->observations.size());
   const int nframes = static_cast<int>(p->frames.size());
   const int nx = mrcal_num_measurements(nobs, 0, board.cols, board.rows, 1, 0, nframes, 0, 0, sel,
@@ -31,11 +33,19 @@ bool optimize(Problem* p, const BoardSpec& board, mrcal_problem_selections_t sel
   p->x.assign(nx, 0.0);
   const mrcal_problem_constants_t constants = {-1.0, -1.0};
   const auto t0 = std::chrono::steady_clock::now();
-  const mrcal_stats_t stats = mrcal_optimize(
-      nullptr, 0, p->x.data(), nx * static_cast<int>(sizeof(double)), p->intrinsics.data(), nullptr,
-      p->frames.data(), nullptr, &p->warp, 1, 0, nframes, 0, 0, p->observations.data(), nullptr,
-      nobs, 0, p->pool.data(), &p->lensmodel, p->imagersize, sel, &constants, board.spacing_m,
-      board.cols, board.rows, false, false);
+  mrcal_stats_t stats{};
+  stats.rms_reproj_error__pixels = -1;
+  const Status ran = run_with_stack(solver_stack_bytes(*p), [&] {
+    stats = mrcal_optimize(nullptr, 0, p->x.data(), nx * static_cast<int>(sizeof(double)),
+                           p->intrinsics.data(), nullptr, p->frames.data(), nullptr, &p->warp, 1, 0,
+                           nframes, 0, 0, p->observations.data(), nullptr, nobs, 0, p->pool.data(),
+                           &p->lensmodel, p->imagersize, sel, &constants, board.spacing_m,
+                           board.cols, board.rows, false, false);
+  });
+  if (!ran) {
+    log_warning(log::Category::kCalib, "%s", ran.error().message.c_str());
+    return false;
+  }
   if (!(stats.rms_reproj_error__pixels >= 0) || !std::isfinite(stats.rms_reproj_error__pixels))
     return false;
   for (double v : p->intrinsics)
@@ -420,6 +430,7 @@ Result<Solution> solve_warm(const CalibrationData& data, const SolveOptions& opt
   std::vector<int> views;
   Problem p;
   CAMLAB_ASSIGN(p, posed_problem(data, warm.model, warm.rt_cam_board, &views));
+  p.cancel = options.cancel;
   p.warp.x2 = warm.calobject_warp[0];
   p.warp.y2 = warm.calobject_warp[1];
   ViewWeights weights;
@@ -438,6 +449,15 @@ Result<Solution> solve_warm(const CalibrationData& data, const SolveOptions& opt
 }
 
 }  // namespace
+
+size_t solver_stack_bytes(const MrcalProblem& p) {
+  // The state: every intrinsic and 6 per view (+ the warp); the measurements: 2 per corner.
+  // 64 bytes per state and 16 per measurement cover the stack arrays mrcal 2.2 keeps (a few
+  // of each), with 16 MiB for the rest of the call.
+  const size_t state = p.intrinsics.size() + 6 * p.frames.size() + 2;
+  const size_t measurements = 2 * p.pool.size();
+  return (size_t{16} << 20) + 64 * state + 16 * measurements;
+}
 
 MrcalProblem make_mrcal_problem(const CalibrationData& data, const std::vector<int>& views) {
   MrcalProblem p;
@@ -503,7 +523,9 @@ double trimmed_rms_px(const std::vector<CornerResidual>& residuals, double keep)
                    std::min(n, e2.size()));
 }
 
-Result<Solution> solve(const CalibrationData& data, const SolveOptions& options) {
+namespace {
+
+Result<Solution> solve_staged(const CalibrationData& data, const SolveOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   const LibraryStderrCapture quiet_mrcal;  // mrcal's chatter into the log (library_stderr.h)
   const BoardSpec& board = data.board;
@@ -512,13 +534,13 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
                       "the board needs 2 x 2 or more inner corners and a positive spacing");
   if (data.imager_width_px <= 0 || data.imager_height_px <= 0)
     return make_error("invalid_argument", "the imager size is unknown");
+  // Through lens_model.h's check, so a model beyond its limits never reaches mrcal.
+  int target_params = 0;
+  CAMLAB_ASSIGN(target_params, lensmodel_param_count(options.lensmodel));
   mrcal_lensmodel_t target;
-  if (!mrcal_lensmodel_from_name(&target, options.lensmodel.c_str()) || target.type < 0 ||
-      !mrcal_lensmodel_metadata(&target).has_core || target.type == MRCAL_LENSMODEL_CAHVORE)
-    return make_error("bad_lensmodel", "unsupported lens model '" + options.lensmodel + "'");
+  mrcal_lensmodel_from_name(&target, options.lensmodel.c_str());
   if (options.warm_start && options.warm_start->model.lensmodel == options.lensmodel &&
-      options.warm_start->model.intrinsics.size() ==
-          static_cast<size_t>(mrcal_lensmodel_num_params(&target)))
+      options.warm_start->model.intrinsics.size() == static_cast<size_t>(target_params))
     return solve_warm(data, options, t0);
 
   const std::optional<FocalSeed> seed = options.seed ? std::optional<FocalSeed>(*options.seed)
@@ -540,6 +562,7 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
   std::vector<int> views;
   Problem p;
   CAMLAB_ASSIGN(p, posed_problem(data, seed_model, {}, &views));
+  p.cancel = options.cancel;
   // Stage 1 (run_stage1), then stage 2: the requested model, reached through a chain of
   // models (model_chain). Stage 1 and every model of the chain but the last only bring the
   // state near the optimum: they run on every other corner when the board is large
@@ -559,6 +582,7 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
   };
   if (auto coarse = coarse_data(data, views)) {
     Problem pc = make_mrcal_problem(*coarse, views);
+    pc.cancel = options.cancel;
     pc.lensmodel = p.lensmodel;
     pc.intrinsics = p.intrinsics;
     pc.frames = p.frames;
@@ -575,6 +599,16 @@ Result<Solution> solve(const CalibrationData& data, const SolveOptions& options)
   if (Status s = fit_chain_model(&p, data, views, chain.back(), stereographic_core, &weights); !s)
     return s.error();
   return finish_solve(&p, data, views, weights.suspect, options, *seed, t0);
+}
+
+}  // namespace
+
+Result<Solution> solve(const CalibrationData& data, const SolveOptions& options) {
+  auto solved = solve_staged(data, options);
+  // A stage stopped by the flag fails as a stage would: say why instead.
+  if (options.cancel && options.cancel->load())
+    return make_error("cancelled", "the calibration was cancelled");
+  return solved;
 }
 
 Result<Solution> fit_poses(const CalibrationData& data, const LensModel& model,

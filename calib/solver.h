@@ -17,6 +17,7 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <memory>
 #include <optional>
 #include <string>
@@ -58,6 +59,9 @@ struct SolveOptions {
   // The seed of these data (seed_focal(data, focal_guess_px), seed.h) when the caller
   // already has it: model selection seeds once for all its candidates. Null: computed.
   std::shared_ptr<const FocalSeed> seed;
+  // Set (by another thread) to stop: no further mrcal_optimize call starts, and the solve
+  // returns "cancelled" once the one running returns. Null: not cancellable.
+  const std::atomic<bool>* cancel = nullptr;
 };
 
 struct StateCovariance;  // uncertainty.h
@@ -91,7 +95,8 @@ struct Solution {
 };
 
 // Calibrates one camera. Errors: "too_few_views" (fewer than 2 views with 8+ corners),
-// "seed_failed", "solve_failed" (mrcal did not converge to finite values).
+// "seed_failed", "solve_failed" (mrcal did not converge to finite values), "cancelled"
+// (options.cancel was set).
 Result<Solution> solve(const CalibrationData& data, const SolveOptions& options);
 
 // With `model` fixed, fits the poses of `views` (indices into data.views) and returns

@@ -9,6 +9,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "base/stack_thread.h"
 #include "calib/lens_model.h"
 #include "calib/mrcal_problem.h"
 
@@ -59,12 +60,20 @@ Result<PackedInformation> packed_information(const MrcalProblem& p, const BoardS
   jt.x = val.data();
   jt.sorted = jt.packed = 1;
   const mrcal_problem_constants_t constants = {-1.0, -1.0};
-  if (!mrcal_optimizer_callback(b_packed.data(), nstate * static_cast<int>(sizeof(double)),
-                                info.x.data(), nmeas * static_cast<int>(sizeof(double)), &jt,
-                                p.intrinsics.data(), nullptr, p.frames.data(), nullptr, &p.warp, 1,
-                                0, nframes, 0, 0, p.observations.data(), nullptr, nobs, 0,
-                                p.pool.data(), &p.lensmodel, p.imagersize, sel, &constants,
-                                board.spacing_m, W, H, false))
+  bool evaluated = false;
+  if (Status s = run_with_stack(solver_stack_bytes(p),
+                                [&] {
+                                  evaluated = mrcal_optimizer_callback(
+                                      b_packed.data(), nstate * static_cast<int>(sizeof(double)),
+                                      info.x.data(), nmeas * static_cast<int>(sizeof(double)), &jt,
+                                      p.intrinsics.data(), nullptr, p.frames.data(), nullptr,
+                                      &p.warp, 1, 0, nframes, 0, 0, p.observations.data(), nullptr,
+                                      nobs, 0, p.pool.data(), &p.lensmodel, p.imagersize, sel,
+                                      &constants, board.spacing_m, W, H, false);
+                                });
+      !s)
+    return s.error();
+  if (!evaluated)
     return make_error("solve_failed", "mrcal_optimizer_callback failed on the solved problem");
 
   // J^T J over all rows, and J_obs^T J_obs over the board observations' rows.
