@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "base/atomic_file.h"
+#include "calib/calibration_request.h"
 #include "calib/corners/charuco_corners.h"
 #include "calib/corners/chessboard_detector.h"
 #include "calib/corners/corners_vnl.h"
@@ -97,20 +98,16 @@ Result<std::vector<ImageSource>> job_sources(const fs::path& dir) {
 
 bool is_charuco(const CalibrateOptions& options) { return options.detector == "charuco"; }
 
+// Error "cancelled" once options.cancel is set: checked between images and after each solve.
+Status check_not_cancelled(const CalibrateOptions& options) {
+  if (options.cancel && options.cancel->load())
+    return make_error("cancelled", "the calibration was cancelled");
+  return {};
+}
+
 CharucoBoardSpec charuco_board(const CalibrateOptions& options) {
   return {options.board.cols + 1, options.board.rows + 1, options.board.spacing_m,
           options.charuco_marker_m, options.charuco_dictionary};
-}
-
-// The detector and the board it is asked for, before any image is read: a wrong choice is
-// the caller's to fix, not a lost view.
-Status check_detector(const CalibrateOptions& options) {
-  if (is_charuco(options)) return check_charuco_board(charuco_board(options));
-  if (options.charuco_marker_m != 0 || !options.charuco_dictionary.empty())
-    return make_error("invalid_argument",
-                      "a marker size and a dictionary describe a ChArUco board: use them with "
-                      "the charuco detector");
-  return check_chessboard_detector(options.detector, options.board.cols, options.board.rows);
 }
 
 }  // namespace
@@ -162,7 +159,7 @@ namespace {
 // and so is the first whose size differs from the first image's.
 Status detect(const std::vector<ImageSource>& images, const CalibrateOptions& options,
               CalibrationData* data) {
-  if (Status s = check_detector(options); !s) return s;
+  if (Status s = check_calibration_request(options, /*need_source=*/false); !s) return s;
   struct Outcome {
     std::optional<Error> load_error;
     cv::Size size;
@@ -174,7 +171,7 @@ Status detect(const std::vector<ImageSource>& images, const CalibrateOptions& op
   std::atomic<bool> failed{false};
   std::mutex progress_mutex;
   auto worker = [&] {
-    for (size_t i; !failed && (i = next++) < images.size();) {
+    for (size_t i; !failed && check_not_cancelled(options) && (i = next++) < images.size();) {
       Outcome& o = outcomes[i];
       auto image = images[i].load();
       if (!image) {
@@ -199,6 +196,7 @@ Status detect(const std::vector<ImageSource>& images, const CalibrateOptions& op
   for (unsigned t = 1; t < threads && t < images.size(); ++t) pool.emplace_back(worker);
   worker();
   for (auto& t : pool) t.join();
+  if (Status s = check_not_cancelled(options); !s) return s;
   for (const auto& o : outcomes)
     if (o.load_error) return *o.load_error;
   for (size_t i = 0; i < images.size(); ++i) {
@@ -251,32 +249,13 @@ Status write_text(const fs::path& path, const std::string& text) {
 }  // namespace
 
 Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
-  const int sources =
-      !options.images_dir.empty() + !options.job_dir.empty() + !options.corners_vnl.empty();
-  if (sources != 1)
-    return make_error(
-        "invalid_argument",
-        "give exactly one source: a folder of images, a capture folder, or corners.vnl");
-  if (options.board.cols < 2 || options.board.rows < 2)
-    return make_error("invalid_argument",
-                      "the board needs 2 x 2 or more inner corners (COLSxROWS)");
-  if (!(options.board.spacing_m > 0) || options.board.spacing_m > 10)
-    return make_error("invalid_argument", "the corner spacing must be in (0, 10] metres");
-  if (options.imager_width_px < 0 || options.imager_height_px < 0 ||
-      (options.imager_width_px > 0) != (options.imager_height_px > 0))
-    return make_error("invalid_argument",
-                      "the imager size must be given as both width and height in px");
-  if (!(options.pixel_pitch_um >= 0) || options.pixel_pitch_um > 100)
-    return make_error("invalid_argument", "the pixel pitch must be in (0, 100] um");
+  if (Status s = check_calibration_request(options); !s) return s.error();
 
   CalibrationRun run;
   CalibrationData& data = run.data;
   const auto t0 = std::chrono::steady_clock::now();
   data.board = options.board;
   if (!options.corners_vnl.empty()) {
-    if (options.imager_width_px == 0)
-      return make_error("invalid_argument",
-                        "corners.vnl needs the imager size (it does not record it)");
     CAMLAB_ASSIGN(data.views, read_corners_vnl(options.corners_vnl.string(), data.board));
   } else {
     std::vector<ImageSource> images;
@@ -323,13 +302,16 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
   SolveOptions solve_options;
   solve_options.focal_guess_px = options.focal_guess_px;
   solve_options.board_warp = options.board_warp;
+  solve_options.cancel = options.cancel;
   Solution solution;
   std::vector<ModelEvidence> evidence;
   std::string cross_validation;
   SplineCheck spline_check;
   if (options.model == "auto") {
+    auto selected = select_model(data, solve_options, default_candidate_models());
+    if (Status s = check_not_cancelled(options); !s) return s.error();
     ModelSelection sel;
-    CAMLAB_ASSIGN(sel, select_model(data, solve_options, default_candidate_models()));
+    CAMLAB_ASSIGN(sel, std::move(selected));
     solution = std::move(sel.chosen);
     evidence = std::move(sel.evidence);
     cross_validation = sel.cross_validation;
@@ -338,6 +320,7 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
     CAMLAB_ASSIGN(solve_options.lensmodel, model_name(options, data, solve_options));
     CAMLAB_ASSIGN(solution, solve(data, solve_options));
   }
+  if (Status s = check_not_cancelled(options); !s) return s.error();
   run.report = make_report(data, solution, pitch_um);
   run.report.evidence = std::move(evidence);
   run.report.cross_validation = cross_validation;
@@ -393,7 +376,7 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
 Result<std::optional<BoardView>> detect_image_view(const fs::path& image,
                                                    const CalibrateOptions& options, int* width_px,
                                                    int* height_px) {
-  if (Status s = check_detector(options); !s) return s.error();
+  if (Status s = check_calibration_request(options, /*need_source=*/false); !s) return s.error();
   cv::Mat m;
   CAMLAB_ASSIGN(m, read_grey_image(image));
   *width_px = m.cols;

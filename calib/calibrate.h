@@ -7,6 +7,7 @@
 // Reentrant; detection uses up to `detect_threads` threads per call.
 #pragma once
 
+#include <atomic>
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -50,6 +51,10 @@ struct CalibrateOptions {
   // Called after each image's detection (done, total, boards found so far), from the
   // detection threads one at a time. May be empty.
   std::function<void(size_t done, size_t total, int boards)> progress;
+  // Set by another thread to stop the run: no new image is read and no new solve stage
+  // starts; calibrate() then returns "cancelled" (within one mrcal_optimize call, which is
+  // bounded by the lens-model limits of lens_model.h). Null: runs to the end.
+  const std::atomic<bool>* cancel = nullptr;
 };
 
 struct CalibrationRun {

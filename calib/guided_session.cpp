@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <system_error>
 
+#include "calib/calibration_request.h"
 #include "calib/lens_model.h"
 #include "calib/library_stderr.h"
 #include "calib/model_io.h"
@@ -50,10 +51,7 @@ Result<FolderSession> FolderSession::open(CalibrateOptions options, SuggestionOp
   if (!fs::is_directory(options.images_dir, ec))
     return make_error("invalid_argument",
                       "'" + options.images_dir.string() + "' is not a folder to watch");
-  if (options.board.cols < 2 || options.board.rows < 2 || !(options.board.spacing_m > 0) ||
-      options.board.spacing_m > 10)
-    return make_error("invalid_argument",
-                      "the board needs 2 x 2 or more inner corners and a spacing in (0, 10] m");
+  if (Status checked = check_calibration_request(options); !checked) return checked.error();
   FolderSession s;
   s.options_ = std::move(options);
   s.suggestion_ = suggestion;

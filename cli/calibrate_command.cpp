@@ -6,8 +6,11 @@
 
 #include <algorithm>
 #include <atomic>
+#include <charconv>
 #include <chrono>
+#include <climits>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -17,8 +20,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/calibrate.h"
-#include "calib/corners/charuco_corners.h"
-#include "calib/corners/chessboard_detector.h"
+#include "calib/calibration_request.h"
 #include "calib/guided_session.h"
 #include "calib/report.h"
 #include "calib/view_suggestion.h"
@@ -128,9 +130,27 @@ void run_watch(const CalibrateArgs& a, const calib::CalibrateOptions& o,
   }
 }
 
-bool parse_wxh(const std::string& s, int* w, int* h) {
-  char extra = 0;
-  return std::sscanf(s.c_str(), "%dx%d%c", w, h, &extra) == 2 && *w > 0 && *h > 0;
+// "WxH" in decimal digits, each read as a 64-bit number: one past int's range is for the
+// caller to refuse as out of range, never wrapped (sscanf's %d reads 4294967310 as 14).
+bool parse_wxh(const std::string& s, long long* w, long long* h) {
+  const char* const end = s.data() + s.size();
+  auto [after_w, ew] = std::from_chars(s.data(), end, *w);
+  if (ew != std::errc() || after_w == end || *after_w != 'x') return false;
+  auto [after_h, eh] = std::from_chars(after_w + 1, end, *h);
+  return eh == std::errc() && after_h == end && *w > 0 && *h > 0;
+}
+
+// The board's inner corners, or the imager's size, from "WxH" into ints: a number past
+// int's range is out of range (check_calibration_request names the limits of the rest).
+void read_wxh(const CommandErrors& errors, const std::string& text, const std::string& what, int* w,
+              int* h) {
+  long long w64 = 0, h64 = 0;
+  if (!parse_wxh(text, &w64, &h64))
+    errors.fail("invalid_argument", what + " in decimal digits, e.g. 14x10");
+  if (w64 > INT32_MAX || h64 > INT32_MAX)
+    errors.fail("out_of_range", what + ": " + text + " is past any board or imager");
+  *w = static_cast<int>(w64);
+  *h = static_cast<int>(h64);
 }
 
 void run_calibrate(const CalibrateArgs& a) {
@@ -139,39 +159,34 @@ void run_calibrate(const CalibrateArgs& a) {
   o.images_dir = a.images_dir;
   o.job_dir = a.job_dir;
   o.corners_vnl = a.corners_path;
-  if (!parse_wxh(a.board, &o.board.cols, &o.board.rows) || o.board.cols < 2 || o.board.rows < 2)
-    errors.fail("invalid_argument", "--board must be COLSxROWS inner corners, e.g. 14x10");
+  read_wxh(errors, a.board, "--board must be COLSxROWS inner corners", &o.board.cols,
+           &o.board.rows);
   o.board.spacing_m = a.spacing_m;
-  // Checked here, before any image is read: an unknown name, mrgingham on a board it
-  // cannot find, a ChArUco board without its markers or with impossible ones.
   o.detector = a.detector;
   o.charuco_marker_m = a.marker_m;
   o.charuco_dictionary = a.dictionary;
-  if (a.detector == "charuco") {
-    if (a.marker_m == 0 || a.dictionary.empty())
-      errors.fail("invalid_argument",
-                  "--detector charuco needs the board's markers: --marker-m and --dictionary");
-    if (auto s = calib::check_charuco_board(
-            {o.board.cols + 1, o.board.rows + 1, o.board.spacing_m, a.marker_m, a.dictionary});
-        !s)
-      errors.fail(s.error().with_context("--board/--marker-m/--dictionary: "));
-  } else if (a.marker_m != 0 || !a.dictionary.empty()) {
-    errors.fail("invalid_argument",
-                "--marker-m and --dictionary describe a ChArUco board: add --detector charuco");
-  } else if (auto s = calib::check_chessboard_detector(a.detector, o.board.cols, o.board.rows);
-             !s) {
-    errors.fail(s.error().with_context("--detector: "));
-  }
-  if (!a.imager.empty() && !parse_wxh(a.imager, &o.imager_width_px, &o.imager_height_px))
-    errors.fail("invalid_argument", "--imager must be WxH pixels");
-  if (!a.corners_path.empty() && a.imager.empty())
-    errors.fail("invalid_argument",
-                "--corners needs --imager WxH (corners.vnl does not record the imager size)");
+  if (!a.imager.empty())
+    read_wxh(errors, a.imager, "--imager must be WxH pixels", &o.imager_width_px,
+             &o.imager_height_px);
   o.model = a.model;
   o.pixel_pitch_um = a.pixel_um;
   o.sensor = a.sensor;
   o.focal_guess_px = a.focal_guess_px;
   o.board_warp = !a.no_board_warp;
+  // Checked here, before any image is read, by the rules camlabd applies to the same
+  // request (calib/calibration_request.h): the board, the detector and its markers, the
+  // model, the sensor, the source. Where a rule is about flags, the message names them
+  // (the code is the rule's own).
+  if (!a.corners_path.empty() && a.imager.empty())
+    errors.fail("invalid_argument",
+                "--corners needs --imager WxH (corners.vnl does not record the imager size)");
+  if (a.detector == "charuco" && (a.marker_m == 0 || a.dictionary.empty()))
+    errors.fail("invalid_argument",
+                "--detector charuco needs the board's markers: --marker-m and --dictionary");
+  if (a.detector != "charuco" && (a.marker_m != 0 || !a.dictionary.empty()))
+    errors.fail("invalid_argument",
+                "--marker-m and --dictionary describe a ChArUco board: add --detector charuco");
+  if (Status s = calib::check_calibration_request(o); !s) errors.fail(s.error());
   o.out_cameramodel = a.out;
   o.out_report_json = a.report_path;
   o.out_opencv_yaml = a.yaml_path;

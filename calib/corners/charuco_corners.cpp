@@ -6,6 +6,7 @@
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "base/format.h"
 #include "calib/corners/image_8bit.h"
 #include "calib/corners/saddle_point.h"
 #include "image/aruco_dictionary.h"
@@ -52,13 +53,19 @@ Status check_charuco_board(const CharucoBoardSpec& board) {
     return make_error("out_of_range", "a ChArUco board needs 3 to 201 squares each way, not " +
                                           std::to_string(board.squares_cols) + "x" +
                                           std::to_string(board.squares_rows));
-  if (!(board.square_m > 0) || board.square_m > 10)
-    return make_error("out_of_range", "the ChArUco square must be in (0, 10] m");
-  if (!(board.marker_m > 0) || !(board.marker_m < board.square_m))
-    return make_error("out_of_range", "the ChArUco marker (" + std::to_string(board.marker_m) +
-                                          " m) must be larger than 0 and smaller than the "
-                                          "square (" +
-                                          std::to_string(board.square_m) + " m)");
+  if (!(board.square_m >= 1e-6) || board.square_m > 10)
+    return make_error("out_of_range", "the ChArUco square must be in [1e-06, 10] m");
+  // OpenCV builds the board in float and asserts marker < square there: a marker that is
+  // smaller in double but equal in float (0.03 against 0.0300000001) would pass here and
+  // fail inside OpenCV. A marker under a tenth of its square is too small to decode
+  // wherever the square is large enough to find.
+  const float square_f = static_cast<float>(board.square_m);
+  const float marker_f = static_cast<float>(board.marker_m);
+  if (!(board.marker_m >= 0.1 * board.square_m) || !(marker_f < square_f))
+    return make_error("out_of_range", "the ChArUco marker (" + format_significant(board.marker_m) +
+                                          " m) must be smaller than the square (" +
+                                          format_significant(board.square_m) +
+                                          " m) and at least a tenth of it");
   image::ArucoDictionary d;
   CAMLAB_ASSIGN(d, image::find_aruco_dictionary(board.dictionary));
   const int markers = board.squares_cols * board.squares_rows / 2;

@@ -13,11 +13,11 @@ Status check_chessboard_detector(const std::string& detector, int cols, int rows
                                               "for a chessboard with OpenCV's three circle "
                                               "markers (or charuco for a ChArUco board)");
   if (detector == "markers" && (cols < 3 || rows < 3))
-    return make_error("invalid_argument",
+    return make_error("unsupported",
                       "the markers detector needs a board of at least 3x3 inner corners, not " +
                           std::to_string(cols) + "x" + std::to_string(rows));
   if (detector == "mrgingham" && cols != rows)
-    return make_error("invalid_argument",
+    return make_error("unsupported",
                       "the mrgingham detector needs a square board (mrgingham 1.22 finds N x N "
                       "inner corners only), not " +
                           std::to_string(cols) + "x" + std::to_string(rows) +

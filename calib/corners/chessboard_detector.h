@@ -25,7 +25,8 @@
 namespace camlab::calib {
 
 // Checks a detector name against the board. Error "invalid_argument" for a name other
-// than auto, saddle, opencv, mrgingham, and for "mrgingham" with cols != rows, saying why.
+// than auto, saddle, opencv, mrgingham, markers; "unsupported", saying why, for
+// "mrgingham" with cols != rows and "markers" on a board under 3 x 3.
 Status check_chessboard_detector(const std::string& detector, int cols, int rows);
 
 // Finds a cols x rows inner-corner board with the named detector (checked as above).

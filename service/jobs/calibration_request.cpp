@@ -1,77 +1,82 @@
 #include "service/jobs/calibration_request.h"
 
-#include "calib/corners/charuco_corners.h"
-#include "calib/lens_model.h"
+#include <cstdint>
+
+#include "calib/calibration_request.h"
 
 namespace camlab::service {
 
+namespace {
+
+// An integer field within int's range. nlohmann reads 4294967310 as an unsigned integer
+// whose get<int>() is 14: the range is checked on the 64-bit value it holds.
+bool fits_int(const nlohmann::json& v) {
+  if (v.is_number_unsigned()) return v.get<uint64_t>() <= uint64_t{INT32_MAX};
+  return v.is_number_integer() && v.get<int64_t>() >= INT32_MIN && v.get<int64_t>() <= INT32_MAX;
+}
+
+}  // namespace
+
 Result<nlohmann::json> normalised_calibration_fields(const nlohmann::json& body) {
-  nlohmann::json normalised = nlohmann::json::object();
+  // The JSON's shape here (one code: invalid_request); every rule on the values once, in
+  // calib::check_calibration_request, as `camlab calibrate` checks them.
   const nlohmann::json& corners = body.value("inner_corners", nlohmann::json());
   if (!corners.is_array() || corners.size() != 2 || !corners[0].is_number_integer() ||
       !corners[1].is_number_integer())
     return make_error("invalid_request", "\"inner_corners\" must be [COLS, ROWS], e.g. [14, 10]");
-  const int cols = corners[0].get<int>(), rows = corners[1].get<int>();
-  if (cols < 2 || rows < 2 || cols > 100 || rows > 100)
-    return make_error("out_of_range", "inner corners must be in [2, 100] each");
+  if (!fits_int(corners[0]) || !fits_int(corners[1]))
+    return make_error("out_of_range",
+                      "the board's inner corners " + corners.dump() + " must be in [" +
+                          std::to_string(calib::kBoardInnerCornersMin) + ", " +
+                          std::to_string(calib::kBoardInnerCornersMax) + "] each way");
   const nlohmann::json& spacing = body.value("spacing_m", nlohmann::json());
   if (!spacing.is_number())
     return make_error("invalid_request", "\"spacing_m\" (corner spacing in metres) is required");
-  if (!(spacing.get<double>() > 0) || spacing.get<double>() > 10)
-    return make_error("out_of_range", "spacing_m must be in (0, 10] metres");
   const nlohmann::json& model = body.value("model", nlohmann::json("auto"));
-  if (!model.is_string() ||
-      !(model == "auto" || model.get<std::string>().rfind("LENSMODEL_", 0) == 0) ||
-      model.get<std::string>().size() > 200)
+  if (!model.is_string())
     return make_error("invalid_request",
                       "\"model\" must be \"auto\" or a mrcal LENSMODEL_... name");
-  // A name mrcal does not know is refused now, not when the job reaches the solve. The
-  // imager size only configures a bare splined model; any size checks the name.
-  if (model != "auto") {
-    std::string configured;
-    CAMLAB_ASSIGN(configured, calib::configured_lensmodel(model.get<std::string>(), 1280, 800, 90));
-    if (auto params = calib::lensmodel_param_count(configured); !params) return params.error();
-  }
   const nlohmann::json& detector = body.value("detector", nlohmann::json("auto"));
-  if (!detector.is_string() ||
-      !(detector == "auto" || detector == "saddle" || detector == "opencv" ||
-        detector == "mrgingham" || detector == "charuco" || detector == "markers"))
+  if (!detector.is_string() || detector.get<std::string>().size() > 40)
     return make_error(
         "invalid_request",
         "\"detector\" must be \"auto\" (camlab's saddle-point detector, with mrgingham on "
         "square boards where it misses), \"saddle\", \"opencv\", \"mrgingham\", \"markers\" "
         "(a chessboard with OpenCV's three circle markers: boards cut by the frame are kept) or "
         "\"charuco\" (a ChArUco board: give marker_m and dictionary too)");
-  if (detector == "mrgingham" && cols != rows)
-    return make_error("unsupported",
-                      "the mrgingham detector finds square boards only (N x N inner corners)");
-  if (detector == "charuco") {
-    const nlohmann::json& marker = body.value("marker_m", nlohmann::json());
-    const nlohmann::json& dictionary = body.value("dictionary", nlohmann::json());
-    if (!marker.is_number() || !dictionary.is_string() || dictionary.get<std::string>().size() > 40)
-      return make_error("invalid_request",
-                        "a ChArUco board needs \"marker_m\" (a marker's side in metres, its black "
-                        "border included) and \"dictionary\" (e.g. \"DICT_4X4_50\")");
-    calib::CharucoBoardSpec board{cols + 1, rows + 1, spacing.get<double>(), marker.get<double>(),
-                                  dictionary.get<std::string>()};
-    if (Status s = calib::check_charuco_board(board); !s) return s.error();
-    normalised["marker_m"] = marker;
-    normalised["dictionary"] = dictionary;
-  } else if (body.contains("marker_m") || body.contains("dictionary")) {
-    return make_error("invalid_request",
-                      "\"marker_m\" and \"dictionary\" describe a ChArUco board: use them with "
-                      "\"detector\": \"charuco\"");
-  }
-  if (body.contains("pixel_um")) {
-    const auto& pixel = body["pixel_um"];
-    if (!pixel.is_number() || !(pixel.get<double>() > 0) || pixel.get<double>() > 100)
-      return make_error("out_of_range", "pixel_um must be in (0, 100] micrometres");
-    normalised["pixel_um"] = pixel;
-  }
-  normalised["inner_corners"] = {cols, rows};
+  const nlohmann::json& marker = body.value("marker_m", nlohmann::json(0.0));
+  const nlohmann::json& dictionary = body.value("dictionary", nlohmann::json(""));
+  if (!marker.is_number() || !dictionary.is_string() || dictionary.get<std::string>().size() > 40)
+    return make_error(
+        "invalid_request",
+        "a ChArUco board's \"marker_m\" is a number (a marker's side in metres, its "
+        "black border included) and its \"dictionary\" a name (e.g. \"DICT_4X4_50\")");
+  const nlohmann::json& pixel = body.value("pixel_um", nlohmann::json(0.0));
+  if (!pixel.is_number())
+    return make_error("invalid_request", "\"pixel_um\" (pixel pitch in micrometres) is a number");
+  if (body.contains("pixel_um") && pixel.get<double>() == 0)
+    return make_error("out_of_range", "pixel_um must be positive (leave it out when unknown)");
+
+  calib::CalibrateOptions options;
+  options.board = {corners[0].get<int>(), corners[1].get<int>(), spacing.get<double>()};
+  options.model = model.get<std::string>();
+  options.detector = detector.get<std::string>();
+  options.charuco_marker_m = marker.get<double>();
+  options.charuco_dictionary = dictionary.get<std::string>();
+  options.pixel_pitch_um = pixel.get<double>();
+  if (Status s = calib::check_calibration_request(options, /*need_source=*/false); !s)
+    return s.error();
+
+  nlohmann::json normalised = nlohmann::json::object();
+  normalised["inner_corners"] = {options.board.cols, options.board.rows};
   normalised["spacing_m"] = spacing;
   normalised["model"] = model;
   normalised["detector"] = detector;
+  if (options.detector == "charuco") {
+    normalised["marker_m"] = marker;
+    normalised["dictionary"] = dictionary;
+  }
+  if (body.contains("pixel_um")) normalised["pixel_um"] = pixel;
   return normalised;
 }
 

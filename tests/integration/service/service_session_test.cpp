@@ -176,7 +176,7 @@ TEST_F(ServiceSession, BadRequestsAreRefusedWithSpecificErrors) {
   EXPECT_EQ(daemon.post("/v1/calibration-sessions", extra).status, 400);
   json charuco_without_markers = board_request();
   charuco_without_markers["detector"] = "charuco";
-  EXPECT_EQ(daemon.post("/v1/calibration-sessions", charuco_without_markers).status, 400);
+  EXPECT_EQ(daemon.post("/v1/calibration-sessions", charuco_without_markers).status, 422);
   EXPECT_EQ(daemon.get("/v1/calibration-sessions/999999").status, 404);
   EXPECT_EQ(daemon.get("/v1/calibration-sessions/abc").status, 400);
   // A capture job is not a session.

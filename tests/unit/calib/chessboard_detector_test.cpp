@@ -368,7 +368,7 @@ TEST(ChessboardDetector, NonSquareBoardsAndMrginghamIsRefusedWithTheReason) {
 
   auto refused = find_chessboard(r.image, 14, 10, "mrgingham");
   ASSERT_FALSE(refused.ok());
-  EXPECT_EQ(refused.error().code, "invalid_argument");
+  EXPECT_EQ(refused.error().code, "unsupported");
   EXPECT_NE(refused.error().message.find("square"), std::string::npos) << refused.error().message;
   EXPECT_NE(refused.error().message.find("14x10"), std::string::npos) << refused.error().message;
 
@@ -500,7 +500,7 @@ TEST_F(CalibrateDetector, RecordsEachViewsDetectorAndMrginghamWeights) {
   o.detector = "mrgingham";
   auto refused = calibrate(o);
   ASSERT_FALSE(refused.ok());
-  EXPECT_EQ(refused.error().code, "invalid_argument");
+  EXPECT_EQ(refused.error().code, "unsupported");
   EXPECT_NE(refused.error().message.find("square"), std::string::npos) << refused.error().message;
 }
 
