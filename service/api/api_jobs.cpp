@@ -20,6 +20,7 @@
 #include "service/api/api_lookup.h"
 #include "service/api/service_context.h"
 #include "service/jobs/camera_set.h"
+#include "service/jobs/compute_jobs.h"
 #include "service/jobs/job_waiters.h"
 #include "service/store/job_store.h"
 
@@ -117,10 +118,9 @@ void get_job(const ServiceContext& context, const ApiRequest& request, const Pat
   const auto query = parse_query(request.query);
   double wait_s = 0;
   if (auto it = query.find("wait"); it != query.end()) {
-    char* end = nullptr;
-    wait_s = std::strtod(it->second.c_str(), &end);
-    if (it->second.empty() || it->second.size() > 12 || *end != '\0' || !std::isfinite(wait_s) ||
-        wait_s < 0 || wait_s > 60)
+    const std::optional<double> parsed = parse_decimal(it->second);
+    wait_s = parsed.value_or(-1);
+    if (!parsed || !(wait_s >= 0) || wait_s > 60)
       return reply(error_response("invalid_request",
                                   "wait must be a number of seconds in [0, 60], e.g. ?wait=30"));
   }
@@ -192,7 +192,10 @@ void cancel_job(const ServiceContext& context, const PathParams& params, Reply r
   }
   if (job->state == JobState::kRunning) {
     auto worker = job->camera_id.empty() ? nullptr : context.cameras->find(job->camera_id);
-    if (worker && worker->cancel_running(job->id)) {
+    // A calibration stops between images and solve stages (service/jobs/compute_jobs.h).
+    const bool compute_cancelled =
+        job->camera_id.empty() && context.compute && context.compute->cancel_running(job->id);
+    if (compute_cancelled || (worker && worker->cancel_running(job->id))) {
       nlohmann::json json = to_json(*job);
       json["cancel_requested"] = true;
       return reply(json_response(202, json));

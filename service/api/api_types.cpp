@@ -85,14 +85,30 @@ QueryParams parse_query(const std::string& query) {
   return out;
 }
 
+std::optional<double> parse_decimal(const std::string& text) {
+  if (text.empty() || text.size() > 16) return std::nullopt;
+  const size_t start = text[0] == '-' || text[0] == '+' ? 1 : 0;
+  int digits = 0, dots = 0;
+  for (size_t k = start; k < text.size(); ++k) {
+    if (std::isdigit(static_cast<unsigned char>(text[k])))
+      ++digits;
+    else if (text[k] == '.' && ++dots == 1)
+      continue;
+    else
+      return std::nullopt;
+  }
+  if (digits == 0) return std::nullopt;
+  // Only digits, one point and a sign are left: strtod reads them as written.
+  return std::strtod(text.c_str(), nullptr);
+}
+
 Result<double> query_number(const QueryParams& query, const std::string& name, double min,
                             double max, double fallback) {
   auto it = query.find(name);
   if (it == query.end()) return fallback;
-  char* end = nullptr;
-  const double value = std::strtod(it->second.c_str(), &end);
-  if (it->second.empty() || it->second.size() > 16 || *end != '\0' || !std::isfinite(value) ||
-      value < min || value > max)
+  const std::optional<double> parsed = parse_decimal(it->second);
+  const double value = parsed.value_or(NAN);
+  if (!parsed || !(value >= min) || value > max)
     return make_error("invalid_request", name + " must be a number in [" + format_significant(min) +
                                              ", " + format_significant(max) + "], not '" +
                                              it->second.substr(0, 16) + "'");

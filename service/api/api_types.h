@@ -77,8 +77,13 @@ Result<nlohmann::json> parse_json_object(const std::string& body);
 using QueryParams = std::map<std::string, std::string>;
 QueryParams parse_query(const std::string& query);
 
-// The number `name` from the query, within [min, max]; `fallback` when absent. Errors
-// "invalid_request" naming the parameter and the range.
+// A plain decimal number as a person writes one in a URL: digits with an optional
+// fraction and sign ("30", "0.5", "-2", ".5"); not hexadecimal ("0x10", which strtod reads
+// as 16), exponents, "inf", "nan", spaces or more than 16 characters.
+std::optional<double> parse_decimal(const std::string& text);
+
+// The number `name` from the query (parse_decimal), within [min, max]; `fallback` when
+// absent. Errors "invalid_request" naming the parameter and the range.
 Result<double> query_number(const QueryParams& query, const std::string& name, double min,
                             double max, double fallback);
 // A flag: 1/true/yes or 0/false/no; `fallback` when absent. Errors "invalid_request".

@@ -6,6 +6,7 @@
 #include "base/atomic_file.h"
 #include "base/log.h"
 #include "calib/calibrate.h"
+#include "calib/calibration_request.h"
 #include "calib/model_io.h"
 #include "image/capture_folder.h"
 #include "service/jobs/calibration_request.h"
@@ -35,7 +36,8 @@ double manifest_pixel_pitch_um(const image::CaptureFolder& folder) {
   return 0;
 }
 
-JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path& data_dir) {
+JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path& data_dir,
+                               const std::atomic<bool>* cancel) {
   const nlohmann::json& request = job.request;
   const std::filesystem::path source = data_dir / request.at("source_folder").get<std::string>();
   auto folder = image::CaptureFolder::open(source);
@@ -49,7 +51,9 @@ JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path
   options.job_dir = source;
   const double pixel_um = request.contains("pixel_um") ? request["pixel_um"].get<double>()
                                                        : manifest_pixel_pitch_um(*folder);
-  options.pixel_pitch_um = pixel_um > 0 && pixel_um <= 100 ? pixel_um : 0;
+  options.pixel_pitch_um =
+      pixel_um >= calib::kPixelPitchMinUm && pixel_um <= calib::kPixelPitchMaxUm ? pixel_um : 0;
+  options.cancel = cancel;
   options.detect_threads = 1;  // the compute thread's one core; the others serve cameras and HTTP
   const std::filesystem::path out = data_dir / job.folder;
   std::error_code ec;
@@ -121,8 +125,15 @@ void ComputeWorker::stop() {
     std::lock_guard lock(mutex_);
     stopping_ = true;
   }
+  cancel_ = true;
   wake_.notify_all();
   if (thread_.joinable()) thread_.join();
+}
+
+bool ComputeWorker::cancel_running(int64_t id) {
+  if (id == 0 || running_calibration_.load() != id) return false;
+  cancel_ = true;
+  return true;
 }
 
 bool ComputeWorker::can_accept_job() const {
@@ -164,12 +175,24 @@ void ComputeWorker::run() {
     JobOutcome outcome;
     // The libraries return errors as values; an exception here is a bug in a library or
     // a request the handler let through malformed, and must not take the daemon down.
+    {
+      std::lock_guard lock(mutex_);
+      if (!stopping_) cancel_ = false;
+    }
+    if (job.kind == "calibration") running_calibration_ = id;
     try {
-      outcome = job.kind == "calibration" ? execute_calibration(job, data_dir_)
+      outcome = job.kind == "calibration" ? execute_calibration(job, data_dir_, &cancel_)
                                           : execute_analysis(job, data_dir_);
     } catch (const std::exception& e) {
       outcome =
           failure(make_error("internal", std::string("the job failed unexpectedly: ") + e.what()));
+    }
+    running_calibration_ = 0;
+    if (outcome.error && outcome.error->code == ErrorCode::kCancelled) {
+      std::lock_guard lock(mutex_);
+      // Stopped by camlabd's shutdown it is interrupted (as a capture is), by DELETE cancelled.
+      outcome.state = stopping_ ? JobState::kInterrupted : JobState::kCancelled;
+      if (stopping_) outcome.error = make_error("interrupted", "camlabd stopped while it ran");
     }
     (void)store_.finish(id, outcome.state, outcome.error, outcome.result);
     log_info(log::Category::kJobs, "job %lld %s%s%s", static_cast<long long>(id),

@@ -11,6 +11,7 @@
 // Reentrant functions; ComputeWorker is thread-safe.
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -31,7 +32,10 @@ class Metrics;
 // The pixel pitch (um) a capture folder's manifest knows (the virtual camera's spec), else 0.
 double manifest_pixel_pitch_um(const image::CaptureFolder& folder);
 
-JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path& data_dir);
+// `cancel`: set by another thread to stop the job between images and solve stages; the
+// outcome is then "cancelled" (the caller decides between cancelled and interrupted).
+JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path& data_dir,
+                               const std::atomic<bool>* cancel = nullptr);
 JobOutcome execute_analysis(const JobRecord& job, const std::filesystem::path& data_dir);
 
 class ComputeWorker {
@@ -40,9 +44,14 @@ class ComputeWorker {
                 int max_queued_jobs = 16);
   ~ComputeWorker();
   void start();
-  void stop();  // interrupts queued jobs; waits for the running one (it cannot be cut short)
+  // Interrupts queued jobs and the running calibration (it stops after the image or solve
+  // stage in hand, well within a service manager's stop timeout); waits for it.
+  void stop();
   Status enqueue_job(int64_t id);
   bool can_accept_job() const;
+  // Requests that job `id` stop if it is the running calibration (DELETE /v1/jobs/{id});
+  // false otherwise (an analysis runs to its end: seconds).
+  bool cancel_running(int64_t id);
 
  private:
   void run();
@@ -55,6 +64,8 @@ class ComputeWorker {
   std::condition_variable wake_;
   std::deque<int64_t> jobs_;
   bool stopping_ = false;
+  std::atomic<int64_t> running_calibration_{0};
+  std::atomic<bool> cancel_{false};  // the running job's stop request
   std::thread thread_;
 };
 

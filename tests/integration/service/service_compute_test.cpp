@@ -3,6 +3,8 @@
 // under the data folder), with their sources validated.
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <cstdio>
 #include <fstream>
 #include <set>
 
@@ -86,14 +88,142 @@ TEST_F(ServiceCompute, SourcesAreValidated) {
             400);
 }
 
+// One front door (calib/calibration_request.h): the same bad calibration request gets the
+// same code from `camlab calibrate` and from POST /v1/calibrations, and a model whose solve
+// would overflow mrcal's stack (it killed camlabd with SIGSEGV) is refused at submission,
+// never queued, with camlabd still serving.
+TEST_F(ServiceCompute, TheSameBadCalibrationRequestGetsTheSameCodeFromCamlabAndCamlabd) {
+  fs::create_directories(dir / "data" / "imports" / "empty-set");
+  struct Case {
+    json fields;       // merged over the good request
+    std::string args;  // the same, as camlab calibrate's flags
+    std::string code;
+  };
+  const std::string spline =
+      "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=2000_Ny=2000_fov_x_deg=170";
+  const std::vector<Case> cases = {
+      {{{"model", spline}}, "--model " + spline, "out_of_range"},
+      {{{"model", "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=60_Ny=45_fov_x_deg=170"}},
+       "--model LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=60_Ny=45_fov_x_deg=170",
+       "out_of_range"},
+      {{{"model", "LENSMODEL_NOPE"}}, "--model LENSMODEL_NOPE", "bad_lensmodel"},
+      // 2^32 + 14 read as 14 before.
+      {{{"inner_corners", {4294967310LL, 10}}}, "--board 4294967310x10", "out_of_range"},
+      {{{"inner_corners", {1, 10}}}, "--board 1x10", "out_of_range"},
+      {{{"spacing_m", 1e-300}}, "--spacing-m 1e-300", "out_of_range"},
+      {{{"spacing_m", 11}}, "--spacing-m 11", "out_of_range"},
+      {{{"pixel_um", 1e-300}}, "--pixel-um 1e-300", "out_of_range"},
+      {{{"detector", "harris"}}, "--detector harris", "invalid_argument"},
+      {{{"detector", "mrgingham"}}, "--detector mrgingham", "unsupported"},
+      {{{"detector", "charuco"}}, "--detector charuco", "invalid_argument"},
+      // Below the square in double, equal to it in float: OpenCV asserted ("internal").
+      {{{"detector", "charuco"}, {"marker_m", 0.04 * (1 - 1e-12)}, {"dictionary", "DICT_4X4_250"}},
+       "--detector charuco --marker-m 0.03999999999996 --dictionary DICT_4X4_250",
+       "out_of_range"},
+  };
+  for (const Case& c : cases) {
+    json body = {{"folder", "imports/empty-set"}, {"inner_corners", {14, 10}}, {"spacing_m", 0.04}};
+    for (const auto& [key, value] : c.fields.items()) body[key] = value;
+    auto answer = daemon.post("/v1/calibrations", body);
+    EXPECT_EQ(answer.status, 422) << body.dump() << "\n" << answer.body;
+    EXPECT_EQ(answer.error_code(), c.code) << body.dump() << "\n" << answer.body;
+
+    std::string args = "calibrate --json --images " +
+                       (dir / "data" / "imports" / "empty-set").string() + " --out " +
+                       (dir / "never.cameramodel").string();
+    if (c.args.find("--board") == std::string::npos) args += " --board 14x10";
+    if (c.args.find("--spacing-m") == std::string::npos) args += " --spacing-m 0.04";
+    const auto run = run_cli(args + " " + c.args);
+    EXPECT_EQ(run.exit_code, 2) << args << " " << c.args << "\n" << run.err;
+    const json cli = json::parse(run.out, nullptr, /*allow_exceptions=*/false);
+    ASSERT_TRUE(cli.is_object()) << run.out;
+    EXPECT_EQ(cli["error"].value("code", ""), c.code) << c.args << "\n" << run.out;
+  }
+  // Nothing was queued, and camlabd is still serving.
+  EXPECT_EQ(daemon.get("/v1/health").status, 200) << daemon.log();
+  auto jobs = daemon.get("/v1/jobs");
+  ASSERT_EQ(jobs.status, 200);
+  EXPECT_TRUE(jobs.json()["jobs"].empty()) << jobs.body;
+}
+
+// 7 views of the wide camera's calibration scene, rendered into the capture folder `set`.
+CliRun render_calibration_set(const fs::path& set) {
+  return run_cli("render --camera " CAMLAB_SOURCE_DIR
+                 "/mock_device/examples/camera_wide_1280x800.json --scene " CAMLAB_SOURCE_DIR
+                 "/mock_device/examples/scene_chessboard_calibration.json --quiet"
+                 " --view 0 --view 5 --view 10 --view 15 --view 20 --view 25 --view 30 --out " +
+                 set.string());
+}
+
+// A capture folder of the rendered 7-view calibration set, each frame listed `repeats`
+// times in its journal: a calibration that takes a while (detection alone runs at several
+// images a second on the compute thread), with the same answer as the 7 views.
+fs::path long_calibration_set(const fs::path& data_dir, int repeats) {
+  const fs::path set = data_dir / "imports" / "long-set";
+  EXPECT_EQ(render_calibration_set(set).exit_code, 0);
+  std::vector<json> lines;
+  {
+    std::ifstream in(set / "frames.jsonl");
+    for (std::string line; std::getline(in, line);)
+      if (!line.empty()) lines.push_back(json::parse(line));
+  }
+  EXPECT_FALSE(lines.empty());
+  std::ofstream out(set / "frames.jsonl", std::ios::trunc);
+  int index = 0;
+  for (int r = 0; r < repeats; ++r)
+    for (json line : lines) {
+      line["index"] = index++;
+      out << line.dump() << "\n";
+    }
+  out.close();
+  json manifest = json::parse(read_file(set / "manifest.json"));
+  manifest["frame_count"] = index;
+  std::ofstream(set / "manifest.json", std::ios::trunc) << manifest.dump(2);
+  return set;
+}
+
+// A running calibration stops on DELETE (it answered 409 before) and on SIGTERM (camlabd
+// ran on for minutes, past a service manager's 30 s stop timeout).
+TEST_F(ServiceCompute, ARunningCalibrationStopsOnDeleteAndOnSigterm) {
+  long_calibration_set(dir / "data", 40);  // 280 frames
+  const json request = {
+      {"folder", "imports/long-set"}, {"inner_corners", {14, 10}}, {"spacing_m", 0.04}};
+  auto first = daemon.post("/v1/calibrations", request);
+  ASSERT_EQ(first.status, 202) << first.body;
+  const int64_t first_id = first.json()["id"];
+  auto running = daemon.wait_job(first_id, [](const json& j) { return j["state"] != "queued"; });
+  ASSERT_EQ(running["state"], "running") << running.dump();
+  auto cancel = daemon.del("/v1/jobs/" + std::to_string(first_id));
+  EXPECT_EQ(cancel.status, 202) << cancel.body;
+  const auto cancelled_at = std::chrono::steady_clock::now();
+  auto cancelled = daemon.wait_finished(first_id, std::chrono::seconds(30));
+  EXPECT_EQ(cancelled["state"], "cancelled") << cancelled.dump();
+  const double stop_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - cancelled_at).count();
+  std::printf("calibration stopped %.2f s after DELETE\n", stop_s);
+
+  auto second = daemon.post("/v1/calibrations", request);
+  ASSERT_EQ(second.status, 202) << second.body;
+  const int64_t second_id = second.json()["id"];
+  running = daemon.wait_job(second_id, [](const json& j) { return j["state"] != "queued"; });
+  ASSERT_EQ(running["state"], "running") << running.dump();
+  const auto term_at = std::chrono::steady_clock::now();
+  // Exit status 0 within the 10 s bound (stop() kills and answers -1 past it).
+  EXPECT_EQ(daemon.stop(SIGTERM, std::chrono::seconds(10)), 0) << daemon.log();
+  const double exit_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - term_at).count();
+  std::printf("camlabd exited %.2f s after SIGTERM with a calibration running\n", exit_s);
+  ASSERT_TRUE(daemon.start(dir, {"--no-scan", "--camera-spec", (dir / "camera.json").string(),
+                                 "--scene", (dir / "scene.json").string()}))
+      << daemon.log();
+  auto after = daemon.get("/v1/jobs/" + std::to_string(second_id));
+  ASSERT_EQ(after.status, 200) << after.body;
+  EXPECT_EQ(after.json()["state"], "interrupted") << after.body;
+}
+
 TEST_F(ServiceCompute, CalibrationOfARenderedChessboardSetRecoversTheFocalLength) {
   const fs::path set = dir / "data" / "imports" / "calibration-set";
-  auto render =
-      run_cli("render --camera " CAMLAB_SOURCE_DIR
-              "/mock_device/examples/camera_wide_1280x800.json --scene " CAMLAB_SOURCE_DIR
-              "/mock_device/examples/scene_chessboard_calibration.json --quiet"
-              " --view 0 --view 5 --view 10 --view 15 --view 20 --view 25 --view 30 --out " +
-              set.string());
+  const auto render = render_calibration_set(set);
   ASSERT_EQ(render.exit_code, 0) << render.err;
   auto bad = daemon.post(
       "/v1/calibrations",
@@ -112,7 +242,7 @@ TEST_F(ServiceCompute, CalibrationOfARenderedChessboardSetRecoversTheFocalLength
                                            {"spacing_m", 0.04},
                                            {"detector", "harris"}})
                 .status,
-            400);
+            422);  // invalid_argument, as `camlab calibrate --detector harris` says
   // A board larger than the one in the frames is found in none: a failed job that says
   // so, not an empty model. (A smaller one can be found inside the real board.)
   auto wrong_board = daemon.post("/v1/calibrations", {{"folder", "imports/calibration-set"},
@@ -179,7 +309,8 @@ TEST_F(ServiceCompute, CalibrationOfARenderedCharucoSetKeepsCutViews) {
   EXPECT_GE(daemon.post("/v1/calibrations", unknown_dictionary).status, 400);
   json markers_without_charuco = board;
   markers_without_charuco["detector"] = "auto";
-  EXPECT_EQ(daemon.post("/v1/calibrations", markers_without_charuco).status, 400);
+  // invalid_argument, the code `camlab calibrate --marker-m` without charuco gives.
+  EXPECT_EQ(daemon.post("/v1/calibrations", markers_without_charuco).status, 422);
   auto r = daemon.post("/v1/calibrations", board);
   ASSERT_EQ(r.status, 202) << r.body;
   const json job = daemon.wait_finished(r.json()["id"], std::chrono::seconds(300));

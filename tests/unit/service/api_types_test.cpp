@@ -61,5 +61,20 @@ TEST(ApiTypes, IdsAreBoundedDecimalNumbers) {
   }
 }
 
+TEST(ApiTypes, QueryNumbersAreDecimalOnly) {
+  EXPECT_EQ(*parse_decimal("30"), 30);
+  EXPECT_EQ(*parse_decimal("0.5"), 0.5);
+  EXPECT_EQ(*parse_decimal(".5"), 0.5);
+  EXPECT_EQ(*parse_decimal("-2"), -2);
+  // strtod reads "0x10" as 16 s of wait and "1e1" as 10: not numbers a URL means.
+  for (const char* bad : {"", "0x10", "0X1p4", "1e1", "inf", "nan", " 5", "5 ", "1.2.3", ".", "-",
+                          "12345678901234567"})
+    EXPECT_FALSE(parse_decimal(bad).has_value()) << bad;
+  const auto hex = query_number(parse_query("wait=0x10"), "wait", 0, 60, 0);
+  ASSERT_FALSE(hex.ok());
+  EXPECT_EQ(hex.error().code, ErrorCode::kInvalidRequest);
+  EXPECT_EQ(*query_number(parse_query("wait=12.5"), "wait", 0, 60, 0), 12.5);
+}
+
 }  // namespace
 }  // namespace camlab::service
