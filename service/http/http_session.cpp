@@ -41,7 +41,9 @@ HttpSession::~HttpSession() {
 }
 
 void HttpSession::run() {
-  table_id_ = connections_->table.add(weak_from_this());
+  beast::error_code ec;
+  const auto peer = stream_.socket().remote_endpoint(ec);
+  table_id_ = connections_->table.add(weak_from_this(), ec ? "" : peer.address().to_string());
   // The socket's executor is this connection's strand (the acceptor made it so).
   net::dispatch(stream_.get_executor(),
                 beast::bind_front_handler(&HttpSession::do_read, shared_from_this()));
@@ -84,7 +86,7 @@ void HttpSession::on_read(beast::error_code ec, std::size_t) {
     return do_close();
   }
 
-  connections_->table.busy(table_id_);
+  connections_->table.answering(table_id_);
   http::request<http::string_body> request = parser_->release();
   http_version_ = request.version();
   keep_alive_ = request.keep_alive();
@@ -131,6 +133,8 @@ void HttpSession::send(ApiResponse api, bool close_after) {
   response_->body() = std::move(api.body);
   response_->prepare_payload();
   if (head_request_) response_->body().clear();  // Content-Length stays that of the GET
+  // A client that sends requests and reads no answers is the writer's to evict when full.
+  connections_->table.writing(table_id_);
   stream_.expires_after(limits_.write_timeout);
   http::async_write(
       stream_, *response_,
@@ -145,6 +149,11 @@ void HttpSession::on_write(bool close_after, beast::error_code ec, std::size_t) 
     if (parser_ && !parser_->is_done()) return drain_and_close();
     return do_close();
   }
+  // Requests that had all arrived before the one just answered was written (pipelined)
+  // are answered up to kMaxPipelinedRequests in a row; then the connection closes, and
+  // a client that reads its answers opens another.
+  pipelined_requests_ = buffer_.size() > 0 ? pipelined_requests_ + 1 : 0;
+  if (pipelined_requests_ >= kMaxPipelinedRequests) return do_close();
   do_read();
 }
 
@@ -158,6 +167,7 @@ void HttpSession::start_stream(ApiResponse api) {
   // No length: the body ends when the connection does (RFC 9112 6.3), which every client
   // of a stream reads that way.
   stream_head_->keep_alive(false);
+  connections_->table.writing(table_id_);
   stream_.expires_after(limits_.write_timeout);
   http::async_write(stream_, *stream_head_,
                     beast::bind_front_handler(&HttpSession::on_stream_head, shared_from_this()));
@@ -166,11 +176,26 @@ void HttpSession::start_stream(ApiResponse api) {
 void HttpSession::on_stream_head(beast::error_code ec, std::size_t) {
   stream_head_.reset();
   if (ec || head_request_) return end_stream();
+  watch_peer();
   ask_stream();
+}
+
+void HttpSession::watch_peer() {
+  // A stream's client sends nothing more; a read completes when it closes (or resets), so
+  // the stream's slot is freed then, not when the next heartbeat fails to be written (an
+  // event stream kept its slot 14.6 s after its client left). What it might send is
+  // dropped.
+  stream_.socket().async_read_some(net::buffer(drain_buffer_),
+                                   [self = shared_from_this()](beast::error_code ec, std::size_t) {
+                                     if (!self->body_stream_) return;
+                                     if (ec) return self->end_stream();
+                                     self->watch_peer();
+                                   });
 }
 
 void HttpSession::ask_stream() {
   stream_.expires_never();  // waiting for the next piece is not the client's fault
+  connections_->table.answering(table_id_);
   body_stream_->next([self = shared_from_this()](std::optional<std::string> piece) {
     net::post(self->stream_.get_executor(), [self, piece = std::move(piece)]() mutable {
       self->on_stream_piece(std::move(piece));
@@ -182,6 +207,7 @@ void HttpSession::on_stream_piece(std::optional<std::string> piece) {
   if (!body_stream_) return;
   if (!piece) return end_stream();
   stream_piece_ = std::move(*piece);
+  connections_->table.writing(table_id_);
   stream_.expires_after(limits_.write_timeout);
   net::async_write(stream_, net::buffer(stream_piece_),
                    beast::bind_front_handler(&HttpSession::on_stream_written, shared_from_this()));

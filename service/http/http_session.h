@@ -51,7 +51,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   // Starts reading on the session's strand.
   void run();
   // Closes the connection from any thread (on its strand): the server is full and this
-  // one was waiting longest for a request.
+  // one was waiting longest for a request, or blocked longest writing (connection_table.h).
   void evict();
 
  private:
@@ -63,6 +63,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   // A streamed answer: the head, then each piece (see the header comment).
   void start_stream(ApiResponse response);
   void on_stream_head(boost::beast::error_code ec, std::size_t bytes);
+  // Reads from a stream's client until it closes, then ends the stream.
+  void watch_peer();
   void ask_stream();
   void on_stream_piece(std::optional<std::string> piece);
   void on_stream_written(boost::beast::error_code ec, std::size_t bytes);
@@ -84,6 +86,9 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   std::optional<boost::beast::http::response<boost::beast::http::empty_body>> stream_head_;
   std::shared_ptr<BodyStream> body_stream_;
   std::string stream_piece_;  // being written
+  // Pipelined requests answered in a row (see on_write).
+  static constexpr int kMaxPipelinedRequests = 32;
+  int pipelined_requests_ = 0;
   unsigned http_version_ = 11;
   bool keep_alive_ = false;
   bool head_request_ = false;

@@ -1,5 +1,6 @@
 #include "service/http/listener.h"
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <string>
@@ -94,11 +95,20 @@ void Listener::on_accept(beast::error_code ec, tcp::socket socket) {
   if (ec) {
     log_warning(log::Category::kHttp, "accept: %s", ec.message().c_str());
   } else {
-    bool admit = connections_->open.load() < limits_.max_connections;
+    beast::error_code peer_ec;
+    const auto peer = socket.remote_endpoint(peer_ec);
+    const std::string address = peer_ec ? "" : peer.address().to_string();
+    // One address may hold half the connections: another client always finds room.
+    const int per_address = std::max(1, limits_.max_connections / 2);
+    const bool address_full = connections_->table.count_from(address) >= per_address;
+    bool admit = connections_->open.load() < limits_.max_connections && !address_full;
     if (!admit) {
-      // Full: make room by closing the connection that has waited longest for a request
-      // (at least a second: a client that just connected gets its chance to send).
-      if (auto longest = connections_->table.take_longest_waiting(std::chrono::seconds(1))) {
+      // Full: make room by closing the connection that has waited longest for a request,
+      // or failing that the one blocked longest writing to a client that reads nothing
+      // (at least a second either way: a client that just connected gets its chance).
+      // An address at its own limit gives way to itself.
+      if (auto longest = connections_->table.take_evictable(std::chrono::seconds(1),
+                                                            address_full ? &address : nullptr)) {
         longest->evict();
         admit = true;  // over the limit by one until it closes, a moment from now
       }

@@ -5,8 +5,11 @@
 // mean above black is exactly proportional to the exposure.
 #include <gtest/gtest.h>
 
+#include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
+#include <thread>
+#include <vector>
 
 #include "daemon_harness.h"
 #include "stream_client.h"
@@ -133,6 +136,34 @@ TEST_F(ServiceLive, TheHistogramOfRawDnFollowsTheExposureAsTheSensorIsLinear) {
 
   EXPECT_EQ(daemon_.get(camera_ + "/histogram?bins=0").error_code(), "invalid_request");
   EXPECT_EQ(daemon_.get(camera_ + "/histogram?bins=abc").error_code(), "invalid_request");
+}
+
+// The review: a closed event stream kept its slot until the next heartbeat failed to be
+// written (14.6 s); with the 64 slots taken and closed, a new client got 503 meanwhile.
+// Now a slot is freed when its client closes.
+TEST_F(ServiceLive, AClosedEventStreamFreesItsSlotAtOnce) {
+  constexpr int kSlots = 64;  // JobEvents::kMaxSubscribers
+  std::vector<std::unique_ptr<StreamClient>> streams;
+  for (int i = 0; i < kSlots; ++i) {
+    auto s = std::make_unique<StreamClient>();
+    ASSERT_TRUE(s->open(daemon_.port(), "/v1/events", daemon_.token())) << i;
+    ASSERT_EQ(s->status(), 200) << i;
+    ASSERT_TRUE(s->next_event(5s)) << i;  // the greeting: the stream is set up
+    streams.push_back(std::move(s));
+  }
+  StreamClient refused;
+  ASSERT_TRUE(refused.open(daemon_.port(), "/v1/events", daemon_.token()));
+  EXPECT_EQ(refused.status(), 503);
+  refused.close();
+  streams.clear();  // every client closes
+  // A new stream finds a slot within 2 s (the heartbeat is 15 s).
+  int status = 0;
+  for (int i = 0; i < 20 && status != 200; ++i) {
+    std::this_thread::sleep_for(100ms);
+    StreamClient again;
+    if (again.open(daemon_.port(), "/v1/events", daemon_.token())) status = again.status();
+  }
+  EXPECT_EQ(status, 200);
 }
 
 TEST_F(ServiceLive, EventsShowAJobFromItsStartToItsEndInOrder) {
