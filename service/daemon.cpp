@@ -23,6 +23,7 @@
 #include "service/api/router.h"
 #include "service/api/service_context.h"
 #include "service/fleet/fleet.h"
+#include "service/fleet/host_identity.h"
 #include "service/http/listener.h"
 #include "service/jobs/calibration_sessions.h"
 #include "service/jobs/compute_jobs.h"
@@ -111,6 +112,14 @@ int run_daemon(const DaemonConfig& config) {
   store_config.db = config.db;
   store_config.data_dir = *data_dir;
   store_config.host_name = config.host_name;
+  if (!config.db.empty()) {  // a fleet host: who it is besides its name
+    auto identity = load_host_identity(*data_dir);
+    if (!identity) {
+      log_error(log::Category::kDaemon, "%s", identity.error().message.c_str());
+      return 1;
+    }
+    store_config.host_identity = *identity;
+  }
   // A statement longer than half the lease is of no use to a fleet host (its lease would
   // pass meanwhile): that long, then the connection is taken for dead.
   store_config.statement_timeout = std::clamp(config.lease / 2, std::chrono::milliseconds(1000),
@@ -120,6 +129,15 @@ int run_daemon(const DaemonConfig& config) {
     log_error(log::Category::kDaemon, "%s", store.error().message.c_str());
     return 1;
   }
+  // A fleet host takes its name before it touches any job of that name: a second camlabd
+  // started with a live host's name (a cloned machine) stops here, and the live one's jobs
+  // are left alone (they were interrupted below, 0.3 s after the clone started).
+  if (FleetStore* shared = (*store)->fleet())
+    if (Status held = shared->hold_name(config.lease); !held) {
+      log_error(log::Category::kDaemon, "cannot start as a fleet host: %s",
+                held.error().message.c_str());
+      return 1;
+    }
   // The folders are the truth: the jobs the last run left unfinished get their folders
   // recovered and their frame counts from them, then are marked interrupted.
   if (auto recovered = recover_unfinished_jobs(**store, *data_dir); !recovered)
@@ -139,9 +157,15 @@ int run_daemon(const DaemonConfig& config) {
   (*store)->set_finish_observer([&metrics](const std::string& kind, JobState state) {
     metrics.count_job_finished(kind, job_state_name(state));
   });
-  // Job changes go to the event streams (GET /v1/events) as they are stored.
+  // Job changes go to the event streams (GET /v1/events) and the long-polls
+  // (GET /v1/jobs/{id}?wait=) as they are stored. Long-polls are capped at a quarter of the
+  // connections, so they cannot hold all of them.
   JobEvents events;
-  (*store)->set_change_observer([&events](const JobChange& change) { events.publish(change); });
+  JobWaiters waiters(**store, std::max(1, config.limits.max_connections / 4));
+  (*store)->set_change_observer([&events, &waiters](const JobChange& change) {
+    events.publish(change);
+    waiters.notify(change);
+  });
   // The live view's rendering gives way to captures, as the HTTP threads do.
   LiveHub live([io_nice = config.io_nice] { lower_this_thread_priority(io_nice); });
   CameraSetOptions camera_options = config.cameras;
@@ -153,7 +177,6 @@ int run_daemon(const DaemonConfig& config) {
   }
   ComputeWorker compute(*data_dir, **store, metrics, config.max_compute_jobs);
   CalibrationSessions sessions(*data_dir, **store, **cameras);
-  JobWaiters waiters(**store);
 
   TokenAuth auth(token->token);
   Router router(&auth, &metrics);
@@ -229,6 +252,13 @@ int run_daemon(const DaemonConfig& config) {
     const std::string url = !config.advertise_url.empty() ? config.advertise_url
                                                           : "http://" + at.address().to_string() +
                                                                 ":" + std::to_string(at.port());
+    if (config.advertise_url.empty() && at.address().is_loopback())
+      log_warning(log::Category::kDaemon,
+                  "fleet: this host advertises %s, a loopback address: hosts and clients on other "
+                  "machines cannot reach its frames there, and a client that follows a redirect "
+                  "with its token (curl --location-trusted) would send the token to its own "
+                  "loopback; give --advertise-url (docs/fleet.md)",
+                  url.c_str());
     if (Status joined = fleet->start(url); !joined) {
       log_error(log::Category::kDaemon, "cannot join the fleet: %s",
                 joined.error().message.c_str());

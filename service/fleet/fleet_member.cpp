@@ -169,6 +169,13 @@ void FleetMember::rejoin() {
   const std::string message =
       "host " + options_.host + " lost its lease (cut off from the database for " +
       std::to_string(ms_since(since)) + " ms or more); the frames written are kept on it";
+  // The name first: if another live camlabd took it meanwhile, its jobs are not this
+  // host's to interrupt, and this host stays fenced (it takes no work) until the name is
+  // free again.
+  if (Status held = fleet_.hold_name(options_.lease); !held) {
+    log_error(log::Category::kDaemon, "fleet: rejoin: %s", held.error().message.c_str());
+    return;
+  }
   auto interrupted = store_.interrupt_unfinished(message);
   if (!interrupted) {
     log_warning(log::Category::kDaemon, "fleet: rejoin: %s", interrupted.error().message.c_str());

@@ -91,8 +91,14 @@ class FleetStore {
   // This host's name in the fleet.
   virtual const std::string& host() const = 0;
 
+  // Takes this host's name for its identity (PostgresStoreOptions::host_identity) before
+  // the host touches any job of that name: a new incarnation, live for `lease`, its URL
+  // not yet known. Error "exists" when a live host of another identity holds the name
+  // (a clone started with the same --host-name): that one keeps it, and nothing of it is
+  // touched. The same identity (a restart after a crash) takes it over at once.
+  virtual Status hold_name(std::chrono::milliseconds lease) = 0;
   // Registers this host (again) with a fresh incarnation, reachable at `url`, with a lease
-  // of `lease` from now on the server's clock.
+  // of `lease` from now on the server's clock; "exists" as hold_name().
   virtual Status join(const std::string& url, std::chrono::milliseconds lease) = 0;
   // Extends the lease if it has not passed, and measures the clock offset.
   virtual Result<LeaseRenewal> renew() = 0;

@@ -290,6 +290,12 @@ Result<int> JobStore::interrupt_unfinished(const std::string& message) {
 
 void JobStore::relay_change(const JobChange& change) {
   std::lock_guard lock(mutex_);
+  // Another host changed the job: a copy cached here as finished is stale (a restarted
+  // host recovered its frames, 52 where the cache said 31); the next get() reads it anew.
+  if (auto cached = finished_.find(change.id); cached != finished_.end()) {
+    finished_bytes_ -= cached->second.bytes;
+    finished_.erase(cached);
+  }
   notify_change(change);
 }
 

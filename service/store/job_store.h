@@ -170,7 +170,8 @@ class JobStore {
   using ChangeObserver = std::function<void(const JobChange& change)>;
   void set_change_observer(ChangeObserver observer) { change_observer_ = std::move(observer); }
   // Hands the change observer a change another fleet host made (service/fleet/ reads them
-  // from the database's notifications), so that a host's live job list shows the fleet's.
+  // from the database's notifications), so that a host's live job list shows the fleet's,
+  // and drops this store's cached copy of the job if it has one.
   void relay_change(const JobChange& change);
 
   Status put_latency(const LatencyRecord& record);

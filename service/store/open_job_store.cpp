@@ -18,6 +18,7 @@ Result<std::unique_ptr<JobStore>> open_job_store(const StoreConfig& config) {
   PostgresStoreOptions options;
   options.url = config.db;
   options.host = config.host_name;
+  options.host_identity = config.host_identity;
   options.retry = config.retry;
   options.statement_timeout = config.statement_timeout;
   auto store = PostgresJobStore::open(options);

@@ -18,7 +18,8 @@ struct StoreConfig {
   // PostgreSQL, shared by a fleet.
   std::string db;
   std::filesystem::path data_dir;
-  std::string host_name;  // this host's name in a fleet
+  std::string host_name;      // this host's name in a fleet
+  std::string host_identity;  // and who it is (service/fleet/host_identity.h)
   StoreRetry retry;
   std::chrono::milliseconds statement_timeout{10000};
 };

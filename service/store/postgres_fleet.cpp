@@ -90,6 +90,7 @@ class PostgresListener final : public FleetListener {
 PostgresFleet::PostgresFleet(PostgresJobStore& store, const PostgresStoreOptions& options)
     : store_(store),
       host_(options.host),
+      host_identity_(options.host_identity),
       connect_{options.url, options.connect_timeout, options.statement_timeout},
       request_patience_(options.retry.request_patience),
       op_prefix_(new_operation_prefix()),
@@ -104,25 +105,56 @@ std::string PostgresFleet::next_op() {
 void PostgresFleet::set_fenced(bool fenced) { store_.set_fenced(fenced); }
 bool PostgresFleet::fenced() const { return store_.fenced(); }
 
-Status PostgresFleet::join(const std::string& url, std::chrono::milliseconds lease) {
-  std::lock_guard lock(mutex_);
+// The name's row for this host, as one guarded statement: a new row, or the existing one
+// taken over only when it is this identity's or its holder is not live (left, expired, or
+// its lease passed). RETURNING tells whether it was taken.
+Status PostgresFleet::take_name(const std::string& url, std::chrono::milliseconds lease,
+                                const char* what) {
   const std::string incarnation = new_operation_prefix();
-  auto joined = conn_.transact("join the fleet", [&](pqxx::work& tx) {
-    tx.exec_params(
+  auto taken = conn_.transact(what, [&](pqxx::work& tx) -> Result<bool> {
+    const pqxx::result row = tx.exec_params(
         "INSERT INTO hosts (name, url, incarnation, state, started_ms, lease_ms, lease_until, "
-        "renewed_at) VALUES ($1, $2, $3, 'live', $4, $5::integer, "
-        "clock_timestamp() + $5::integer * interval '1 millisecond', clock_timestamp()) "
+        "renewed_at, host_identity) VALUES ($1, $2, $3, 'live', $4, $5::integer, "
+        "clock_timestamp() + $5::integer * interval '1 millisecond', clock_timestamp(), $6) "
         "ON CONFLICT (name) DO UPDATE SET url = EXCLUDED.url, incarnation = EXCLUDED.incarnation, "
         "state = 'live', started_ms = EXCLUDED.started_ms, lease_ms = EXCLUDED.lease_ms, "
-        "lease_until = EXCLUDED.lease_until, renewed_at = EXCLUDED.renewed_at",
-        host_, url, incarnation, unix_time_ms(), static_cast<int>(lease.count()));
+        "lease_until = EXCLUDED.lease_until, renewed_at = EXCLUDED.renewed_at, "
+        "host_identity = EXCLUDED.host_identity "
+        "WHERE hosts.host_identity = EXCLUDED.host_identity OR hosts.host_identity = '' "
+        "OR hosts.state <> 'live' OR hosts.lease_until <= clock_timestamp() RETURNING 1",
+        host_, url, incarnation, unix_time_ms(), static_cast<int>(lease.count()), host_identity_);
+    if (row.empty()) {
+      const pqxx::result holder = tx.exec_params(
+          "SELECT url, host_identity, (extract(epoch FROM lease_until - clock_timestamp()) * "
+          "1000)::bigint FROM hosts WHERE name = $1",
+          host_);
+      std::string where = holder.empty() ? "" : holder[0][0].c_str();
+      return make_error(
+          "exists", "the host name '" + host_ + "' is held by another live camlabd (" +
+                        (where.empty() ? std::string("starting") : "at " + where) + ", identity " +
+                        (holder.empty() ? "" : holder[0][1].c_str()) + "; this one is " +
+                        host_identity_ +
+                        "): give each host its own --host-name (a cloned machine keeps the "
+                        "system's host name)");
+    }
     tx.exec_params("SELECT pg_notify('camlab_fleet', $1)",
                    dump_json({{"host", host_}, {"event", "joined"}}));
     return true;
   });
-  if (!joined) return joined.error();
+  if (!taken) return taken.error();
+  if (!*taken) return taken->error();
   incarnation_ = incarnation;
   return {};
+}
+
+Status PostgresFleet::hold_name(std::chrono::milliseconds lease) {
+  std::lock_guard lock(mutex_);
+  return take_name("", lease, "take the host name");
+}
+
+Status PostgresFleet::join(const std::string& url, std::chrono::milliseconds lease) {
+  std::lock_guard lock(mutex_);
+  return take_name(url, lease, "join the fleet");
 }
 
 Result<LeaseRenewal> PostgresFleet::renew() {

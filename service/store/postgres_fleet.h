@@ -27,6 +27,7 @@ class PostgresFleet final : public FleetStore {
   ~PostgresFleet() override;
 
   const std::string& host() const override { return host_; }
+  Status hold_name(std::chrono::milliseconds lease) override;
   Status join(const std::string& url, std::chrono::milliseconds lease) override;
   Result<LeaseRenewal> renew() override;
   Status leave(const std::string& message) override;
@@ -55,9 +56,13 @@ class PostgresFleet final : public FleetStore {
 
  private:
   std::string next_op();
+  // join() and hold_name(): the name's row, taken only from a holder that is not live or
+  // is this identity (callers hold mutex_).
+  Status take_name(const std::string& url, std::chrono::milliseconds lease, const char* what);
 
   PostgresJobStore& store_;
   const std::string host_;
+  const std::string host_identity_;
   const postgres::ConnectOptions connect_;
   const std::chrono::milliseconds request_patience_;
   const std::string op_prefix_;

@@ -34,6 +34,9 @@ class PostgresFleet;
 struct PostgresStoreOptions {
   std::string url;   // postgresql://USER@HOST:PORT/DB (libpq: a password from ~/.pgpass)
   std::string host;  // this host's name in the fleet (not empty)
+  // Who holds the name (service/fleet/host_identity.h): a live host of the same name and
+  // another identity keeps it (FleetStore::hold_name).
+  std::string host_identity;
   StoreRetry retry;
   std::chrono::milliseconds connect_timeout{3000};
   std::chrono::milliseconds statement_timeout{10000};

@@ -72,8 +72,11 @@ CREATE TABLE IF NOT EXISTS hosts (
   lease_until          timestamptz NOT NULL,
   renewed_at           timestamptz NOT NULL,
   clock_offset_us      bigint NOT NULL DEFAULT 0,
-  clock_uncertainty_us bigint NOT NULL DEFAULT 0
+  clock_uncertainty_us bigint NOT NULL DEFAULT 0,
+  host_identity        text NOT NULL DEFAULT ''
 );
+-- Databases made before hosts had identities (service/fleet/host_identity.h).
+ALTER TABLE hosts ADD COLUMN IF NOT EXISTS host_identity text NOT NULL DEFAULT '';
 CREATE TABLE IF NOT EXISTS cameras (
   host        text NOT NULL,
   camera_id   text NOT NULL,

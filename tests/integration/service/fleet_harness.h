@@ -44,9 +44,10 @@ class FleetHarness {
   std::string db_url() const { return cluster_.url("camlab"); }
 
   // Starts host `name` (its folder DIR/NAME keeps its data across restarts) on `db`
-  // (default: the cluster), with a lease of `lease_ms`.
+  // (default: the cluster), with a lease of `lease_ms`, as --host-name `host_name`
+  // (default: `name`; another folder with the same host name is a cloned machine).
   Daemon* start_host(const std::string& name, int lease_ms, const std::string& db = "",
-                     std::vector<std::string> extra = {}) {
+                     std::vector<std::string> extra = {}, const std::string& host_name = "") {
     const fs::path folder = dir_ / name;
     fs::create_directories(folder / "data");
     const fs::path token = folder / "data" / "token";
@@ -64,7 +65,7 @@ class FleetHarness {
                                      "--db",
                                      db.empty() ? db_url() : db,
                                      "--host-name",
-                                     name,
+                                     host_name.empty() ? name : host_name,
                                      "--lease-ms",
                                      std::to_string(lease_ms),
                                      "--rescan-ms",

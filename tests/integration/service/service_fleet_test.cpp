@@ -13,10 +13,13 @@
 // Skipped, saying why, only when PostgreSQL's server binaries are not installed.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdio>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <random>
 #include <set>
+#include <thread>
 
 #include "fleet_harness.h"
 #include "tests/support/job_history.h"
@@ -251,6 +254,55 @@ TEST_F(ServiceFleet, ASynchronisedCaptureReportsEachFramesStartOnEveryHost) {
       "%lld us)\n",
       static_cast<long long>(worst),
       static_cast<long long>(result["frame_interval_us"].get<int64_t>()));
+}
+
+// Cloned hosts (the review's finding 2): two camlabd with one --host-name fenced and
+// rejoined each other every 1-3 s, interrupting each other's jobs. Now the second is
+// refused at start, before it touches any job of that name, and the live host's capture
+// runs on; a kill -9 and restart of the same host (same data folder, same boot) takes its
+// name back at once and interrupts only its own jobs.
+TEST_F(ServiceFleet, ASecondHostWithALiveHostsNameIsRefusedAndARestartRejoins) {
+  Daemon* lab = fleet_->start_host("lab", 3000);
+  ASSERT_NE(lab, nullptr);
+  Daemon* other = fleet_->start_host("other", 3000);
+  ASSERT_NE(other, nullptr);
+  ASSERT_FALSE(fleet_->wait_live(*lab, 2).is_null()) << fleet_->logs();
+  const std::string camera = "/v1/cameras/" + url_segment(lab->camera_id());
+  auto capture = lab->post(camera + "/captures", {{"kind", "single"}, {"repeats", 5000}});
+  ASSERT_EQ(capture.status, 202) << capture.body;
+  const int64_t id = capture.json()["id"];
+  auto running = lab->wait_job(id, [](const json& j) { return j["state"] != "queued"; });
+  ASSERT_EQ(running["state"], "running") << running.dump();
+  auto other_capture = other->post("/v1/cameras/" + url_segment(other->camera_id()) + "/captures",
+                                   {{"kind", "single"}, {"repeats", 5000}});
+  ASSERT_EQ(other_capture.status, 202) << other_capture.body;
+  const int64_t other_id = other_capture.json()["id"];
+
+  // The clone: its own folder (another identity), the live host's name.
+  EXPECT_EQ(fleet_->start_host("clone", 3000, "", {}, "lab"), nullptr);
+  const std::string clone_log = read_file(dir_ / "clone" / "camlabd.1.log");
+  EXPECT_NE(clone_log.find("held by another live camlabd"), std::string::npos) << clone_log;
+  // Through two of the live host's lease periods, its capture keeps running.
+  std::this_thread::sleep_for(std::chrono::milliseconds(6500));
+  auto still = lab->get("/v1/jobs/" + std::to_string(id));
+  EXPECT_EQ(still.json()["state"], "running") << still.body;
+
+  // kill -9 and restart the real host: it takes its name back without waiting out its
+  // lease; its own capture ends interrupted, the other host's runs on.
+  EXPECT_EQ(lab->stop(SIGKILL), 128 + SIGKILL);
+  const auto restarted_at = std::chrono::steady_clock::now();
+  lab = fleet_->start_host("lab", 3000);
+  ASSERT_NE(lab, nullptr) << fleet_->logs();
+  std::printf(
+      "restarted host serving %.2f s after its start (lease 3 s)\n",
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - restarted_at).count());
+  auto after = lab->get("/v1/jobs/" + std::to_string(id));
+  EXPECT_EQ(after.json()["state"], "interrupted") << after.body;
+  auto other_after = other->get("/v1/jobs/" + std::to_string(other_id));
+  EXPECT_EQ(other_after.json()["state"], "running") << other_after.body;
+  for (const auto& [job, states] : history())
+    EXPECT_LE(std::count(states.begin(), states.end(), "interrupted"), 1) << "job " << job;
+  EXPECT_EQ(other->del("/v1/jobs/" + std::to_string(other_id)).status, 202);
 }
 
 TEST_F(ServiceFleet, AHostCutOffFromTheDatabaseEndsItsJobOnceAndRejoins) {
