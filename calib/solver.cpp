@@ -8,6 +8,7 @@
 #include <numeric>
 #include <optional>
 
+#include "base/cancel.h"
 #include "base/format.h"
 #include "base/log.h"
 #include "base/stack_thread.h"
@@ -25,7 +26,7 @@ using Problem = MrcalProblem;
 
 // One mrcal_optimize call. Returns false when mrcal fails or leaves non-finite values.
 bool optimize(Problem* p, const BoardSpec& board, mrcal_problem_selections_t sel) {
-  if (p->cancel && p->cancel->load()) return false;  // solve() reports it as "cancelled"
+  if (is_cancelled(p->cancel)) return false;  // solve() reports it as "cancelled"
   const int nobs = static_cast<int>(p->observations.size());
   const int nframes = static_cast<int>(p->frames.size());
   const int nx = mrcal_num_measurements(nobs, 0, board.cols, board.rows, 1, 0, nframes, 0, 0, sel,
@@ -606,8 +607,7 @@ Result<Solution> solve_staged(const CalibrationData& data, const SolveOptions& o
 Result<Solution> solve(const CalibrationData& data, const SolveOptions& options) {
   auto solved = solve_staged(data, options);
   // A stage stopped by the flag fails as a stage would: say why instead.
-  if (options.cancel && options.cancel->load())
-    return make_error("cancelled", "the calibration was cancelled");
+  if (Status s = check_not_cancelled(options.cancel, "calibration"); !s) return s.error();
   return solved;
 }
 

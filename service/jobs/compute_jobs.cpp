@@ -25,17 +25,6 @@ JobOutcome failure(Error error) {
 
 }  // namespace
 
-double manifest_pixel_pitch_um(const image::CaptureFolder& folder) {
-  const nlohmann::json& source = folder.manifest().value("source", nlohmann::json::object());
-  if (source.is_object() && source.contains("camera_spec")) {
-    const auto& sensor = source["camera_spec"].value("sensor", nlohmann::json::object());
-    if (sensor.is_object() && sensor.contains("pixel_pitch_um") &&
-        sensor["pixel_pitch_um"].is_number())
-      return sensor["pixel_pitch_um"].get<double>();
-  }
-  return 0;
-}
-
 JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path& data_dir,
                                const std::atomic<bool>* cancel) {
   const nlohmann::json& request = job.request;
@@ -50,7 +39,7 @@ JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path
   calib::CalibrateOptions options = calibration_options(request);
   options.job_dir = source;
   const double pixel_um = request.contains("pixel_um") ? request["pixel_um"].get<double>()
-                                                       : manifest_pixel_pitch_um(*folder);
+                                                       : image::manifest_pixel_pitch_um(*folder);
   options.pixel_pitch_um =
       pixel_um >= calib::kPixelPitchMinUm && pixel_um <= calib::kPixelPitchMaxUm ? pixel_um : 0;
   options.cancel = cancel;
@@ -83,13 +72,15 @@ JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path
   return outcome;
 }
 
-JobOutcome execute_analysis(const JobRecord& job, const std::filesystem::path& data_dir) {
+JobOutcome execute_analysis(const JobRecord& job, const std::filesystem::path& data_dir,
+                            const std::atomic<bool>* cancel) {
   const std::filesystem::path dir = data_dir / job.request.at("source_folder").get<std::string>();
   const std::string kind = job.request.at("analysis").get<std::string>();
   // The same run as `camlab analyze KIND DIR --plots` (analysis/analyze_folder.h): the
   // report, its warnings, and the plots in the job's folder (GET /v1/jobs/{id}/plots).
   analysis::AnalyzeOptions options;
   options.defocus.threads = 1;  // the compute thread; cameras and HTTP keep the other core
+  options.cancel = cancel;
   if (!job.folder.empty()) options.plots_dir = data_dir / job.folder / "plots";
   auto run = analysis::analyze(kind, dir, options);
   std::optional<Error> plots_failed;
@@ -131,7 +122,7 @@ void ComputeWorker::stop() {
 }
 
 bool ComputeWorker::cancel_running(int64_t id) {
-  if (id == 0 || running_calibration_.load() != id) return false;
+  if (id == 0 || running_job_.load() != id) return false;
   cancel_ = true;
   return true;
 }
@@ -179,15 +170,15 @@ void ComputeWorker::run() {
       std::lock_guard lock(mutex_);
       if (!stopping_) cancel_ = false;
     }
-    if (job.kind == "calibration") running_calibration_ = id;
+    running_job_ = id;
     try {
       outcome = job.kind == "calibration" ? execute_calibration(job, data_dir_, &cancel_)
-                                          : execute_analysis(job, data_dir_);
+                                          : execute_analysis(job, data_dir_, &cancel_);
     } catch (const std::exception& e) {
       outcome =
           failure(make_error("internal", std::string("the job failed unexpectedly: ") + e.what()));
     }
-    running_calibration_ = 0;
+    running_job_ = 0;
     if (outcome.error && outcome.error->code == ErrorCode::kCancelled) {
       std::lock_guard lock(mutex_);
       // Stopped by camlabd's shutdown it is interrupted (as a capture is), by DELETE cancelled.

@@ -29,14 +29,14 @@ class Metrics;
 
 // Writes the model into DATA/<job folder>/camera.cameramodel (and report.json); the
 // job's result holds the report and the model text.
-// The pixel pitch (um) a capture folder's manifest knows (the virtual camera's spec), else 0.
-double manifest_pixel_pitch_um(const image::CaptureFolder& folder);
 
-// `cancel`: set by another thread to stop the job between images and solve stages; the
-// outcome is then "cancelled" (the caller decides between cancelled and interrupted).
+// `cancel`: set by another thread to stop the job between images and solve stages (a
+// calibration) or between frames (an analysis); the outcome is then "cancelled" (the caller
+// decides between cancelled and interrupted).
 JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path& data_dir,
                                const std::atomic<bool>* cancel = nullptr);
-JobOutcome execute_analysis(const JobRecord& job, const std::filesystem::path& data_dir);
+JobOutcome execute_analysis(const JobRecord& job, const std::filesystem::path& data_dir,
+                            const std::atomic<bool>* cancel = nullptr);
 
 class ComputeWorker {
  public:
@@ -44,13 +44,13 @@ class ComputeWorker {
                 int max_queued_jobs = 16);
   ~ComputeWorker();
   void start();
-  // Interrupts queued jobs and the running calibration (it stops after the image or solve
+  // Interrupts queued jobs and the running one (it stops after the image, frame or solve
   // stage in hand, well within a service manager's stop timeout); waits for it.
   void stop();
   Status enqueue_job(int64_t id);
   bool can_accept_job() const;
-  // Requests that job `id` stop if it is the running calibration (DELETE /v1/jobs/{id});
-  // false otherwise (an analysis runs to its end: seconds).
+  // Requests that job `id` stop if it is the one running (DELETE /v1/jobs/{id}); false
+  // otherwise.
   bool cancel_running(int64_t id);
 
  private:
@@ -64,7 +64,7 @@ class ComputeWorker {
   std::condition_variable wake_;
   std::deque<int64_t> jobs_;
   bool stopping_ = false;
-  std::atomic<int64_t> running_calibration_{0};
+  std::atomic<int64_t> running_job_{0};
   std::atomic<bool> cancel_{false};  // the running job's stop request
   std::thread thread_;
 };

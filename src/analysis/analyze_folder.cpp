@@ -234,17 +234,22 @@ Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& 
     return {};
   };
   Status done;
+  // The stop request reaches each measurement's own options.
+  DefocusOptions defocus = options.defocus;
+  ExposureOptions exposure = options.exposure;
+  FocusStackOptions focus = options.focus;
+  defocus.cancel = exposure.cancel = focus.cancel = options.cancel;
   if (kind == "defocus") {
     DefocusReport r;
-    CAMLAB_ASSIGN(r, analyze_defocus(dir, options.defocus));
+    CAMLAB_ASSIGN(r, analyze_defocus(dir, defocus));
     done = finish(r, to_text(r), write_defocus_plots);
   } else if (kind == "exposure") {
     ExposureReport r;
-    CAMLAB_ASSIGN(r, analyze_exposure(dir, options.exposure));
+    CAMLAB_ASSIGN(r, analyze_exposure(dir, exposure));
     done = finish(r, to_text(r), write_exposure_plots);
   } else if (kind == "focus") {
     FocusReport r;
-    CAMLAB_ASSIGN(r, analyze_focus(dir, options.focus));
+    CAMLAB_ASSIGN(r, analyze_focus(dir, focus));
     done = finish(r, to_text(r, options.focus.region_px), write_focus_plots);
   } else {
     return make_error("invalid_argument", "unknown analysis '" + std::string(kind) +

@@ -9,6 +9,7 @@
 // Reentrant.
 #pragma once
 
+#include <atomic>
 #include <filesystem>
 #include <string>
 #include <string_view>
@@ -28,6 +29,8 @@ struct AnalyzeOptions {
   ExposureOptions exposure;
   FocusStackOptions focus;
   std::filesystem::path plots_dir;  // empty: no plots
+  // Set by another thread to stop between frames: analyze() then returns "cancelled".
+  const std::atomic<bool>* cancel = nullptr;
 };
 
 struct AnalysisRun {

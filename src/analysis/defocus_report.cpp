@@ -14,6 +14,7 @@
 #include "analysis/chromatic_aberration.h"
 #include "analysis/clip_level.h"
 #include "analysis/edge/edge_finder.h"
+#include "base/cancel.h"
 #include "image/capture_folder.h"
 #include "image/frame_views.h"
 #include "optics/optics.h"
@@ -283,6 +284,7 @@ Result<std::vector<EdgeSegment>> detect_edges(const image::CaptureFolder& folder
   std::vector<const json*> unused;
   if (!edges_from_truth(first->truth, folder.manifest(), &unused).empty()) return detected;
   for (int i = 0; i < count; ++i) {
+    if (Status s = check_not_cancelled(options.cancel, "analysis"); !s) return s.error();
     auto side = folder.load_sidecar(i);
     if (!side) return side.error();
     auto stored = folder.load_stored_image(i);
@@ -305,10 +307,11 @@ Result<DefocusReport> analyze_channel(const image::CaptureFolder& folder,
   std::vector<std::thread> pool;
   for (int w = 0; w < threads; ++w)
     pool.emplace_back([&, w] {
-      for (int i = w; i < count; i += threads)
+      for (int i = w; i < count && !is_cancelled(options.cancel); i += threads)
         results[i] = measure_frame(folder, i, options, detected, channel);
     });
   for (auto& th : pool) th.join();
+  if (Status s = check_not_cancelled(options.cancel, "analysis"); !s) return s.error();
 
   DefocusReport report;
   report.channel = channel;

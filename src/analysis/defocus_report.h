@@ -16,6 +16,7 @@
 // Reentrant.
 #pragma once
 
+#include <atomic>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -36,6 +37,7 @@ struct DefocusOptions {
   double acceptable_coc_px = 2.0;  // for the depth of field from the V-curve
   int threads = 1;                 // frames measured in parallel
   EdgeFinderOptions edge_finder;   // for frames without edge geometry in their truth
+  const std::atomic<bool>* cancel = nullptr;  // set: stop between frames (base/cancel.h)
 };
 
 struct FrameEdge {

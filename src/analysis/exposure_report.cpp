@@ -9,6 +9,7 @@
 
 #include "analysis/channel_signal.h"
 #include "analysis/clip_level.h"
+#include "base/cancel.h"
 #include "image/capture_folder.h"
 
 namespace camlab::analysis {
@@ -40,6 +41,7 @@ Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
   std::optional<double> clip_mean_dn;  // where the frames clip (the lowest plateau's mean)
   std::map<std::pair<double, double>, Group> groups;
   for (int i = 0; i < report.frame_count; ++i) {
+    if (Status s = check_not_cancelled(options.cancel, "analysis"); !s) return s.error();
     image::FrameSidecar side;
     CAMLAB_ASSIGN(side, folder.load_sidecar(i));
     const double t = side.settings.value("exposure_us", 0.0), g = side.settings.value("gain", 1.0);

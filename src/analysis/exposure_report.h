@@ -11,6 +11,7 @@
 // Reentrant.
 #pragma once
 
+#include <atomic>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -24,7 +25,8 @@
 namespace camlab::analysis {
 
 struct ExposureOptions {
-  double roi_fraction = 0.5;  // central part of the frame used for statistics
+  double roi_fraction = 0.5;                  // central part of the frame used for statistics
+  const std::atomic<bool>* cancel = nullptr;  // set: stop between frames (base/cancel.h)
 };
 
 struct ExposureReport {

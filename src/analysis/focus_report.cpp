@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include "analysis/channel_signal.h"
+#include "base/cancel.h"
 #include "image/capture_folder.h"
 #include "image/frame_views.h"
 
@@ -67,6 +68,7 @@ Result<FocusReport> focus_of(const image::CaptureFolder& folder, const std::vect
   for (const Entry& e : entries) {
     if (!report.positions.empty() && e.position == report.positions.back())
       continue;  // repeats at one position: the first frame only
+    if (Status s = check_not_cancelled(options.cancel, "analysis"); !s) return s.error();
     cv::Mat image;
     CAMLAB_ASSIGN(image, view_of(folder, e.index, view));
     // Magnification relative to the first frame from the lens-to-sensor distance (thin

@@ -30,6 +30,7 @@
 // accumulator is thread-bound.
 #pragma once
 
+#include <atomic>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -94,6 +95,7 @@ struct FocusStackOptions {
   double min_peak_ratio = 3.0;  // peak (minus floor) over the floor: below it, flat;
                                 // also flat when the peak is < 1.25 x the curve's least
   double black_level = 0;       // DN subtracted before the brightness normalisation
+  const std::atomic<bool>* cancel = nullptr;  // set: stop between frames (base/cancel.h)
 };
 
 struct RegionFocus {
