@@ -14,6 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "base/atomic_file.h"
+#include "base/cancel.h"
 #include "calib/calibration_request.h"
 #include "calib/corners/charuco_corners.h"
 #include "calib/corners/chessboard_detector.h"
@@ -100,9 +101,7 @@ bool is_charuco(const CalibrateOptions& options) { return options.detector == "c
 
 // Error "cancelled" once options.cancel is set: checked between images and after each solve.
 Status check_not_cancelled(const CalibrateOptions& options) {
-  if (options.cancel && options.cancel->load())
-    return make_error("cancelled", "the calibration was cancelled");
-  return {};
+  return camlab::check_not_cancelled(options.cancel, "calibration");
 }
 
 CharucoBoardSpec charuco_board(const CalibrateOptions& options) {
@@ -292,6 +291,12 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
     optics::SensorFormat format;
     CAMLAB_ASSIGN(format, optics::find_sensor_format(options.sensor));
     pitch_um = format.width_mm * 1000.0 / data.imager_width_px;
+  } else if (pitch_um == 0 && !options.job_dir.empty()) {
+    // A capture folder may know its camera's pitch (camlabd reads it the same way).
+    if (auto folder = image::CaptureFolder::open(options.job_dir); folder.ok()) {
+      const double recorded = image::manifest_pixel_pitch_um(*folder);
+      if (recorded >= kPixelPitchMinUm && recorded <= kPixelPitchMaxUm) pitch_um = recorded;
+    }
   }
 
   const double read_and_detect_s =

@@ -284,7 +284,7 @@ void CalibrationSessions::do_view(const std::shared_ptr<Live>& live, int64_t cap
   if (!sidecar) return publish_error(sidecar.error());
   auto luminance = image::luminance_view(*stored, *sidecar);
   if (!luminance) return publish_error(luminance.error());
-  if (live->pixel_pitch_um <= 0) live->pixel_pitch_um = manifest_pixel_pitch_um(*folder);
+  if (live->pixel_pitch_um <= 0) live->pixel_pitch_um = image::manifest_pixel_pitch_um(*folder);
   const std::string frame = capture->folder + "/" + folder->frames()[0].image_file;
   if (Status s = live->session->add_frame(*luminance, capture_job, frame); !s)
     return publish_error(s.error());

@@ -259,4 +259,15 @@ Result<FrameSidecar> CaptureFolder::load_sidecar(int index) const {
   return frame_sidecar_from_json(json);
 }
 
+double manifest_pixel_pitch_um(const CaptureFolder& folder) {
+  const nlohmann::json& source = folder.manifest().value("source", nlohmann::json::object());
+  if (source.is_object() && source.contains("camera_spec")) {
+    const auto& sensor = source["camera_spec"].value("sensor", nlohmann::json::object());
+    if (sensor.is_object() && sensor.contains("pixel_pitch_um") &&
+        sensor["pixel_pitch_um"].is_number())
+      return sensor["pixel_pitch_um"].get<double>();
+  }
+  return 0;
+}
+
 }  // namespace camlab::image

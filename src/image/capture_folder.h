@@ -203,4 +203,9 @@ class CaptureFolder {
   std::string journal_problem_;
 };
 
+// The pixel pitch (um) the folder's manifest records for its camera (the virtual camera's
+// spec: source.camera_spec.sensor.pixel_pitch_um), else 0. camlab calibrate --job and
+// camlabd's calibrations both take it when no pitch is given.
+double manifest_pixel_pitch_um(const CaptureFolder& folder);
+
 }  // namespace camlab::image

@@ -155,12 +155,9 @@ CliRun render_calibration_set(const fs::path& set) {
                  set.string());
 }
 
-// A capture folder of the rendered 7-view calibration set, each frame listed `repeats`
-// times in its journal: a calibration that takes a while (detection alone runs at several
-// images a second on the compute thread), with the same answer as the 7 views.
-fs::path long_calibration_set(const fs::path& data_dir, int repeats) {
-  const fs::path set = data_dir / "imports" / "long-set";
-  EXPECT_EQ(render_calibration_set(set).exit_code, 0);
+// Lists each frame of the capture folder `set` `repeats` times in its journal: a long
+// capture of the same frames, whose measurements are those of the frames once.
+void repeat_frames(const fs::path& set, int repeats) {
   std::vector<json> lines;
   {
     std::ifstream in(set / "frames.jsonl");
@@ -179,19 +176,22 @@ fs::path long_calibration_set(const fs::path& data_dir, int repeats) {
   json manifest = json::parse(read_file(set / "manifest.json"));
   manifest["frame_count"] = index;
   std::ofstream(set / "manifest.json", std::ios::trunc) << manifest.dump(2);
-  return set;
 }
 
-// A running calibration stops on DELETE (it answered 409 before) and on SIGTERM (camlabd
-// ran on for minutes, past a service manager's 30 s stop timeout).
-TEST_F(ServiceCompute, ARunningCalibrationStopsOnDeleteAndOnSigterm) {
-  long_calibration_set(dir / "data", 40);  // 280 frames
+// A running calibration or analysis stops on DELETE (it answered 409 before) and on
+// SIGTERM (camlabd ran on for minutes, past a service manager's 30 s stop timeout).
+TEST_F(ServiceCompute, ARunningCalibrationOrAnalysisStopsOnDeleteAndOnSigterm) {
+  // The 7-view calibration set, 280 frames long: detection alone takes a minute on the
+  // compute thread.
+  const fs::path set = dir / "data" / "imports" / "long-set";
+  ASSERT_EQ(render_calibration_set(set).exit_code, 0);
+  repeat_frames(set, 40);
   const json request = {
       {"folder", "imports/long-set"}, {"inner_corners", {14, 10}}, {"spacing_m", 0.04}};
   auto first = daemon.post("/v1/calibrations", request);
   ASSERT_EQ(first.status, 202) << first.body;
   const int64_t first_id = first.json()["id"];
-  auto running = daemon.wait_job(first_id, [](const json& j) { return j["state"] != "queued"; });
+  json running = daemon.wait_job(first_id, [](const json& j) { return j["state"] != "queued"; });
   ASSERT_EQ(running["state"], "running") << running.dump();
   auto cancel = daemon.del("/v1/jobs/" + std::to_string(first_id));
   EXPECT_EQ(cancel.status, 202) << cancel.body;
@@ -201,6 +201,25 @@ TEST_F(ServiceCompute, ARunningCalibrationStopsOnDeleteAndOnSigterm) {
   const double stop_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - cancelled_at).count();
   std::printf("calibration stopped %.2f s after DELETE\n", stop_s);
+
+  // An aperture series, 40 frames listed 100 times: a defocus analysis of a minute.
+  const fs::path series = dir / "data" / "imports" / "long-series";
+  const auto render = run_cli("render --camera " CAMLAB_SOURCE_DIR
+                              "/mock_device/examples/camera_640x480.json --scene " CAMLAB_SOURCE_DIR
+                              "/mock_device/examples/scene_slanted_edges.json --sweep "
+                              "f_number=2:11.4:1.41421 --repeats 8 --quiet --out " +
+                              series.string());
+  ASSERT_EQ(render.exit_code, 0) << render.err;
+  repeat_frames(series, 100);
+  auto analysis =
+      daemon.post("/v1/analyses", {{"kind", "defocus"}, {"folder", "imports/long-series"}});
+  ASSERT_EQ(analysis.status, 202) << analysis.body;
+  const int64_t analysis_id = analysis.json()["id"];
+  running = daemon.wait_job(analysis_id, [](const json& j) { return j["state"] != "queued"; });
+  ASSERT_EQ(running["state"], "running") << running.dump();
+  EXPECT_EQ(daemon.del("/v1/jobs/" + std::to_string(analysis_id)).status, 202);
+  auto stopped = daemon.wait_finished(analysis_id, std::chrono::seconds(30));
+  EXPECT_EQ(stopped["state"], "cancelled") << stopped.dump();
 
   auto second = daemon.post("/v1/calibrations", request);
   ASSERT_EQ(second.status, 202) << second.body;
@@ -266,6 +285,18 @@ TEST_F(ServiceCompute, CalibrationOfARenderedChessboardSetRecoversTheFocalLength
   ASSERT_TRUE(fx.is_number()) << job["result"]["report"].dump();
   EXPECT_NEAR(fx.get<double>(), 2.2 / 0.003, 0.02 * 2.2 / 0.003)
       << "fx against the spec's f / pitch";
+  // Both read the pixel pitch from the capture's manifest (camlab calibrate --job did not):
+  // the focal length in mm against the spec's 2.2 mm.
+  EXPECT_EQ(find_key(job["result"]["report"], "pixel_pitch_um"), 3.0);
+  const auto cli = run_cli("calibrate --json --job " + set.string() +
+                           " --board 14x10 --spacing-m 0.04 --model LENSMODEL_OPENCV8 --out " +
+                           (dir / "cli.cameramodel").string());
+  ASSERT_EQ(cli.exit_code, 0) << cli.err;
+  const json cli_report = json::parse(cli.out);
+  EXPECT_EQ(find_key(cli_report, "pixel_pitch_um"), 3.0) << cli.out.substr(0, 2000);
+  const json focal_mm = find_key(cli_report, "focal_mm");
+  ASSERT_TRUE(focal_mm.is_number()) << cli.out.substr(0, 2000);
+  EXPECT_NEAR(focal_mm.get<double>(), 2.2, 0.02 * 2.2);
   // The model file is the CLI's: it carries mrcal's optimization inputs.
   std::ifstream model_file(dir / "data" / job["folder"].get<std::string>() / "camera.cameramodel");
   ASSERT_TRUE(model_file) << "no camera.cameramodel in the job's folder";
