@@ -95,6 +95,11 @@ void queue_compute_job(const ServiceContext& context, const std::string& kind,
 void post_calibration(const ServiceContext& context, const ApiRequest& request, Reply reply) {
   auto body = parse_json_object(request.body);
   if (!body) return reply(error_response(body.error()));
+  if (Status known =
+          check_known_fields(*body, {"job", "folder", "inner_corners", "spacing_m", "detector",
+                                     "marker_m", "dictionary", "model", "pixel_um"});
+      !known)
+    return reply(error_response(known.error()));
   auto normalised = normalised_calibration_fields(*body);
   if (!normalised) return reply(error_response(normalised.error()));
   // The source last: a malformed request is refused before any file is looked at.
@@ -107,6 +112,8 @@ void post_calibration(const ServiceContext& context, const ApiRequest& request, 
 void post_analysis(const ServiceContext& context, const ApiRequest& request, Reply reply) {
   auto body = parse_json_object(request.body);
   if (!body) return reply(error_response(body.error()));
+  if (Status known = check_known_fields(*body, {"kind", "job", "folder"}); !known)
+    return reply(error_response(known.error()));
   const nlohmann::json& kind = body->value("kind", nlohmann::json());
   if (!kind.is_string() || (kind != "defocus" && kind != "exposure" && kind != "focus"))
     return reply(error_response("invalid_request",

@@ -30,6 +30,21 @@ namespace {
 
 constexpr int kMaxListLimit = 1000;
 
+// Whether `relative` (a job's folder, maybe with a subfolder) leads from the data folder
+// through real folders only: a job folder replaced by a symlink (to /etc, or another
+// user's captures) is not followed, as a frame file replaced by one is not (read_bytes).
+bool within_data_dir(const std::filesystem::path& data_dir, const std::filesystem::path& relative) {
+  std::filesystem::path at = data_dir;
+  std::error_code ec;
+  for (const auto& part : relative) {
+    if (part.empty() || part == "." || part == "..") return false;
+    at /= part;
+    const auto status = std::filesystem::symlink_status(at, ec);
+    if (ec || std::filesystem::is_symlink(status)) return false;
+  }
+  return true;
+}
+
 // The capture folder of a capture job, or a reply saying why there is none.
 std::optional<image::CaptureFolder> job_folder(const ServiceContext& context, const JobRecord& job,
                                                const Reply& reply) {
@@ -38,7 +53,11 @@ std::optional<image::CaptureFolder> job_folder(const ServiceContext& context, co
                                           " job; only capture jobs have frames"));
     return std::nullopt;
   }
-  auto folder = image::CaptureFolder::open(context.data_dir / job.folder);
+  auto folder =
+      within_data_dir(context.data_dir, job.folder)
+          ? image::CaptureFolder::open(context.data_dir / job.folder)
+          : Result<image::CaptureFolder>(make_error(
+                "not_found", "its folder is missing or a symlink, which is not followed"));
   if (!folder) {
     if (job.state == JobState::kQueued) {
       reply(error_response("not_found",
@@ -192,7 +211,7 @@ void cancel_job(const ServiceContext& context, const PathParams& params, Reply r
   }
   if (job->state == JobState::kRunning) {
     auto worker = job->camera_id.empty() ? nullptr : context.cameras->find(job->camera_id);
-    // A calibration stops between images and solve stages (service/jobs/compute_jobs.h).
+    // A calibration or analysis stops between its steps (service/jobs/compute_jobs.h).
     const bool compute_cancelled =
         job->camera_id.empty() && context.compute && context.compute->cancel_running(job->id);
     if (compute_cancelled || (worker && worker->cancel_running(job->id))) {
@@ -226,7 +245,8 @@ void list_plots(const ServiceContext& context, const PathParams& params, Reply r
   auto job = find_job(context, params, reply);
   if (!job) return;
   nlohmann::json plots = nlohmann::json::array();
-  if (!job->folder.empty() && job->kind != "capture") {
+  if (!job->folder.empty() && job->kind != "capture" &&
+      within_data_dir(context.data_dir, std::filesystem::path(job->folder) / "plots")) {
     const std::string base = "/v1/jobs/" + std::to_string(job->id) + "/plots/";
     for (const auto& name : plot_names(context.data_dir / job->folder / "plots"))
       plots.push_back({{"name", name}, {"image", base + name}});
@@ -243,7 +263,8 @@ void get_plot(const ServiceContext& context, const PathParams& params, Reply rep
   const std::string& name = params.at("name");
   const std::filesystem::path dir = context.data_dir / job->folder / "plots";
   if (job->folder.empty() || job->kind == "capture" || !image::is_plain_file_name(name) ||
-      std::filesystem::path(name).extension() != ".png")
+      std::filesystem::path(name).extension() != ".png" ||
+      !within_data_dir(context.data_dir, std::filesystem::path(job->folder) / "plots"))
     return reply(error_response("not_found", "job " + std::to_string(job->id) + " has no plot '" +
                                                  clip(name) + "' (GET /v1/jobs/" +
                                                  std::to_string(job->id) + "/plots lists them)"));

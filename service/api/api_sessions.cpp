@@ -25,14 +25,11 @@ void post_session(const ServiceContext& context, const ApiRequest& request, Repl
   if (!sessions_available(context, reply)) return;
   auto body = parse_json_object(request.body);
   if (!body) return reply(error_response(body.error()));
-  for (const auto& [key, value] : body->items())
-    if (key != "camera" && key != "inner_corners" && key != "spacing_m" && key != "detector" &&
-        key != "marker_m" && key != "dictionary" && key != "model" && key != "pixel_um" &&
-        key != "target_uncertainty_px")
-      return reply(error_response("invalid_request",
-                                  "unknown field '" + key.substr(0, 40) +
-                                      "' (camera, inner_corners, spacing_m, detector, marker_m, "
-                                      "dictionary, model, pixel_um, target_uncertainty_px)"));
+  if (Status known =
+          check_known_fields(*body, {"camera", "inner_corners", "spacing_m", "detector", "marker_m",
+                                     "dictionary", "model", "pixel_um", "target_uncertainty_px"});
+      !known)
+    return reply(error_response(known.error()));
   const nlohmann::json& camera = body->value("camera", nlohmann::json());
   if (!camera.is_string() || camera.get<std::string>().empty() ||
       camera.get<std::string>().size() > 200)

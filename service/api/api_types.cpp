@@ -71,6 +71,19 @@ Result<int64_t> parse_id(const std::string& text, const std::string& what, int m
   return value;
 }
 
+Status check_known_fields(const nlohmann::json& body, std::initializer_list<const char*> known) {
+  for (const auto& [key, value] : body.items()) {
+    bool found = false;
+    for (const char* k : known) found |= key == k;
+    if (found) continue;
+    std::string list;
+    for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
+    return make_error("invalid_request",
+                      "unknown field '" + key.substr(0, 40) + "' (" + list + ")");
+  }
+  return {};
+}
+
 QueryParams parse_query(const std::string& query) {
   QueryParams out;
   size_t start = 0;

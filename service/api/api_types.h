@@ -72,6 +72,11 @@ ApiResponse error_response(ErrorCodeName code, const std::string& message);
 // Parses a JSON request body: an object, or the error "bad_json"/"invalid_request".
 Result<nlohmann::json> parse_json_object(const std::string& body);
 
+// "invalid_request" naming the first field of `body` that is not in `known` (a typo such as
+// "inner_corner" would otherwise be ignored, and the request run without it), and the
+// fields that are.
+Status check_known_fields(const nlohmann::json& body, std::initializer_list<const char*> known);
+
 // "state=running&limit=10": at most 16 pairs, later ones ignored; values are taken as
 // they are (query parameters are numbers and words, never percent-encoded text).
 using QueryParams = std::map<std::string, std::string>;

@@ -1,6 +1,7 @@
 // The OpenAPI 3.0 document of camlabd's API (GET /v1/openapi.json). Written by hand, so
 // it documents bodies and errors; tests/integration/service checks that its paths and
 // methods are exactly the router's.
+#include "calib/calibration_request.h"
 #include "capture/capture_plan.h"
 #include "service/api/service_context.h"
 
@@ -29,8 +30,42 @@ json error_responses(std::initializer_list<int> statuses) {
   return out;
 }
 
+// The limits calib/calibration_request.h checks, as the document states them.
+json inner_corners_schema() {
+  return {{"type", "array"},
+          {"items",
+           {{"type", "integer"},
+            {"minimum", calib::kBoardInnerCornersMin},
+            {"maximum", calib::kBoardInnerCornersMax}}},
+          {"minItems", 2},
+          {"maxItems", 2}};
+}
+json spacing_schema() {
+  return {{"type", "number"},
+          {"minimum", calib::kBoardSpacingMinM},
+          {"maximum", calib::kBoardSpacingMaxM},
+          {"description", "corner spacing (m)"}};
+}
+json pixel_schema() {
+  return {{"type", "number"},
+          {"minimum", calib::kPixelPitchMinUm},
+          {"maximum", calib::kPixelPitchMaxUm},
+          {"description", "pixel pitch (um)"}};
+}
+
 json operation(const std::string& summary, const std::string& tag, json parameters, json responses,
                json request_schema = nullptr) {
+  // Any request may meet these, whatever its route: every connection busy, a fleet host's
+  // database out of reach, a stop under way (503); the database or a camera past its
+  // time (504).
+  if (!responses.contains("503"))
+    responses["503"] = {{"description",
+                         "Every connection busy (too_many_connections), the fleet's database out "
+                         "of reach, or shutting down; Retry-After says when to try again"},
+                        {"content", {{"application/json", {{"schema", ref("Error")}}}}}};
+  if (!responses.contains("504"))
+    responses["504"] = {{"description", "The database or the camera did not answer in time"},
+                        {"content", {{"application/json", {{"schema", ref("Error")}}}}}};
   json op = {{"summary", summary}, {"tags", {tag}}, {"responses", std::move(responses)}};
   if (!parameters.empty()) op["parameters"] = std::move(parameters);
   if (!request_schema.is_null())
@@ -146,11 +181,14 @@ json schemas() {
          {{"job", {{"type", "integer"}, {"description", "a finished capture job"}}},
           {"folder",
            {{"type", "string"}, {"description", "or a capture folder under the data folder"}}},
-          {"inner_corners",
-           {{"type", "array"}, {"items", {{"type", "integer"}}}, {"minItems", 2}, {"maxItems", 2}}},
-          {"spacing_m", {{"type", "number"}}},
+          {"inner_corners", inner_corners_schema()},
+          {"spacing_m", spacing_schema()},
           {"model",
-           {{"type", "string"}, {"description", "auto (default) or a mrcal LENSMODEL_... name"}}},
+           {{"type", "string"},
+            {"maxLength", 200},
+            {"description",
+             "auto (default) or a mrcal LENSMODEL_... name; a splined model within order 2-3, "
+             "4-40 knots each way and 900 in all, fov_x_deg 10-300 (else 422 out_of_range)"}}},
           {"detector",
            {{"type", "string"},
             {"enum", {"auto", "saddle", "opencv", "mrgingham", "markers", "charuco"}},
@@ -164,15 +202,15 @@ json schemas() {
             {"description", "ChArUco: a marker's side (m), its black border included"}}},
           {"dictionary",
            {{"type", "string"}, {"description", "ChArUco: OpenCV's dictionary, e.g. DICT_4X4_50"}}},
-          {"pixel_um", {{"type", "number"}}}}}}},
+          {"pixel_um", pixel_schema()}}},
+        {"additionalProperties", false}}},
       {"CalibrationSessionRequest",
        {{"type", "object"},
         {"required", {"camera", "inner_corners", "spacing_m"}},
         {"properties",
          {{"camera", {{"type", "string"}, {"description", "a camera id (GET /v1/cameras)"}}},
-          {"inner_corners",
-           {{"type", "array"}, {"items", {{"type", "integer"}}}, {"minItems", 2}, {"maxItems", 2}}},
-          {"spacing_m", {{"type", "number"}}},
+          {"inner_corners", inner_corners_schema()},
+          {"spacing_m", spacing_schema()},
           {"model",
            {{"type", "string"},
             {"description",
@@ -182,7 +220,7 @@ json schemas() {
            {{"type", "string"}, {"enum", {"auto", "saddle", "opencv", "mrgingham", "charuco"}}}},
           {"marker_m", {{"type", "number"}}},
           {"dictionary", {{"type", "string"}}},
-          {"pixel_um", {{"type", "number"}}},
+          {"pixel_um", pixel_schema()},
           {"target_uncertainty_px",
            {{"type", "number"},
             {"minimum", 0.01},
@@ -190,14 +228,16 @@ json schemas() {
             {"default", 0.5},
             {"description",
              "worst projection uncertainty over the imager (px, at the working distance) at "
-             "which the session has enough views"}}}}}}},
+             "which the session has enough views"}}}}},
+        {"additionalProperties", false}}},
       {"AnalysisRequest",
        {{"type", "object"},
         {"required", {"kind"}},
         {"properties",
          {{"kind", {{"type", "string"}, {"enum", {"defocus", "exposure", "focus"}}}},
-          {"job", {{"type", "integer"}}},
-          {"folder", {{"type", "string"}}}}}}},
+          {"job", {{"type", "integer"}, {"minimum", 1}}},
+          {"folder", {{"type", "string"}}}}},
+        {"additionalProperties", false}}},
       {"CameraSummary",
        {{"type", "object"},
         {"properties",

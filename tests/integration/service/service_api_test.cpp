@@ -334,6 +334,29 @@ TEST_F(ServiceApi, AFrameReplacedBySymlinkIsNotFollowed) {
   EXPECT_EQ(daemon_->get("/v1/jobs/" + std::to_string(id) + "/frames/1").status, 200);
 }
 
+// A job folder replaced by a symlink (the second review) was followed: a link to another
+// capture folder served that folder's frames as this job's. Not any more.
+TEST_F(ServiceApi, AJobFolderReplacedBySymlinkIsNotFollowed) {
+  const int64_t first = capture(0, {{"kind", "single"}, {"repeats", 2}});
+  const int64_t second = capture(0, {{"kind", "single"}, {"repeats", 3}});
+  ASSERT_GT(first, 0);
+  ASSERT_GT(second, 0);
+  const json a = daemon_->wait_finished(first);
+  const json b = daemon_->wait_finished(second);
+  ASSERT_EQ(a["state"], "succeeded") << a.dump();
+  ASSERT_EQ(b["state"], "succeeded") << b.dump();
+  const std::string frames = "/v1/jobs/" + std::to_string(first) + "/frames";
+  ASSERT_EQ(daemon_->get(frames + "/0").status, 200);
+  // The first job's folder becomes a link to the second's (elsewhere it could be /etc).
+  const fs::path folder = *dir_ / "data" / a["folder"].get<std::string>();
+  fs::rename(folder, fs::path(folder.string() + ".moved"));
+  fs::create_symlink(*dir_ / "data" / b["folder"].get<std::string>(), folder);
+  for (const std::string& path : {frames, frames + "/0", frames + "/0/meta"}) {
+    auto r = daemon_->get(path);
+    EXPECT_EQ(r.status, 404) << path << ": " << r.body;
+  }
+}
+
 // Error messages name files relative to the data folder: the server's absolute paths
 // are not the client's business (the review saw them in errors).
 TEST_F(ServiceApi, ErrorsNameFilesRelativeToTheDataFolder) {
@@ -498,6 +521,24 @@ TEST_F(ServiceApi, OpenApiDocumentMatchesTheRoutes) {
   for (const auto& route : router.routes()) routed.insert(route.method + " " + route.pattern);
   EXPECT_EQ(documented, routed);
   EXPECT_TRUE(doc["paths"]["/v1/test/cameras/{id}/faults"]["post"].value("x-test-only", false));
+  // The review: no additionalProperties: false, no limits, no 503/504. Request bodies with
+  // a field the handler does not know are refused (400), and the schemas say so; the limits
+  // are calib/calibration_request.h's; every operation can answer 503 and 504.
+  for (const char* name : {"CalibrationRequest", "CalibrationSessionRequest", "AnalysisRequest"})
+    EXPECT_EQ(doc["components"]["schemas"][name]["additionalProperties"], false) << name;
+  const json& calibration = doc["components"]["schemas"]["CalibrationRequest"]["properties"];
+  EXPECT_EQ(calibration["spacing_m"]["minimum"], 1e-6);
+  EXPECT_EQ(calibration["inner_corners"]["items"]["maximum"], 100);
+  for (const auto& [path, ops] : doc["paths"].items())
+    for (const auto& [method, op] : ops.items()) {
+      EXPECT_TRUE(op["responses"].contains("503")) << method << " " << path;
+      EXPECT_TRUE(op["responses"].contains("504")) << method << " " << path;
+    }
+  for (const char* route : {"/v1/calibrations", "/v1/analyses"}) {
+    auto typo = daemon_->post(route, {{"kind", "exposure"}, {"job", 1}, {"inner_corner", {9, 6}}});
+    EXPECT_EQ(typo.status, 400) << route << ": " << typo.body;
+    EXPECT_NE(typo.body.find("inner_corner"), std::string::npos) << typo.body;
+  }
   EXPECT_FALSE(
       camlab::service::openapi_document(false)["paths"].contains("/v1/test/cameras/{id}/faults"));
   for (const auto& entry : documented) {
