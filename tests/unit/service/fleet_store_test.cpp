@@ -40,10 +40,12 @@ class FleetStoreTest : public ::testing::Test {
 
   // A host's store (its own connections), joined unless said otherwise.
   std::unique_ptr<JobStore> host(const std::string& name, std::chrono::milliseconds lease = 60s,
-                                 bool join = true, std::chrono::milliseconds patience = 20s) {
+                                 bool join = true, std::chrono::milliseconds patience = 20s,
+                                 const std::string& identity = "") {
     StoreConfig config;
     config.db = cluster_.url("fleet");
     config.host_name = name;
+    config.host_identity = identity;
     config.retry.worker_patience = patience;
     auto store = open_job_store(config);
     EXPECT_TRUE(store.ok()) << store.error().message;
@@ -311,6 +313,44 @@ TEST_F(FleetStoreTest, RecoveryListsWhatTheFleetInterruptedWhileTheHostWasAway) 
   EXPECT_EQ((*back->get(running))->frames_done, 5);
   ASSERT_TRUE(back->fleet()->set_recovered_frames(running, 4).ok());  // never lowered
   EXPECT_EQ((*back->get(running))->frames_done, 5);
+}
+
+// Cloned hosts (one --host-name, two machines): the name is held by one identity while its
+// host is live; another is refused without touching it, the same identity (a restart) takes
+// it at once, and anyone takes it once the holder's lease has passed.
+TEST_F(FleetStoreTest, ANameIsHeldByOneIdentityWhileItsHostIsLive) {
+  auto first = host("lab", 400ms, /*join=*/true, 20s, "aaaa@boot1");
+  ASSERT_NE(first, nullptr);
+  auto clone = host("lab", 60s, /*join=*/false, 20s, "bbbb@boot2");
+  ASSERT_NE(clone, nullptr);
+  const Status refused = clone->fleet()->hold_name(60s);
+  ASSERT_FALSE(refused.ok());
+  EXPECT_EQ(refused.error().code, "exists");
+  EXPECT_NE(refused.error().message.find("http://lab"), std::string::npos)
+      << refused.error().message;
+  EXPECT_FALSE(clone->fleet()->join("http://clone", 60s).ok());
+  EXPECT_TRUE(first->fleet()->renew()->renewed);  // the holder was not disturbed
+  auto restarted = host("lab", 400ms, /*join=*/false, 20s, "aaaa@boot1");
+  EXPECT_TRUE(restarted->fleet()->hold_name(400ms).ok());
+  std::this_thread::sleep_for(600ms);  // the holder's lease passes
+  EXPECT_TRUE(clone->fleet()->hold_name(60s).ok());
+}
+
+// A finished job another host cached is read anew once the fleet says it changed: a
+// restarted host recovered its frames (5), and the other host's cache said 2.
+TEST_F(FleetStoreTest, AFinishedJobCachedByAnotherHostIsReadAnewWhenTheFleetSaysItChanged) {
+  auto away = host("away", 300ms);
+  auto other = host("other");
+  const int64_t id = away->create("capture", "cam0", {{"n", 1}}, "captures/job-", 9)->id;
+  ASSERT_TRUE(*away->start(id));
+  ASSERT_TRUE(away->progress(id, 2, 9, 0).ok());
+  std::this_thread::sleep_for(500ms);
+  ASSERT_EQ(other->fleet()->expire_hosts()->size(), 1u);
+  EXPECT_EQ((*other->get(id))->frames_done, 2);  // finished (interrupted): cached here
+  auto back = host("away", 60s, /*join=*/false);
+  ASSERT_TRUE(back->fleet()->set_recovered_frames(id, 5).ok());
+  other->relay_change({id, JobState::kInterrupted, 5, 9, 0});  // what the notification says
+  EXPECT_EQ((*other->get(id))->frames_done, 5);
 }
 
 }  // namespace
