@@ -33,6 +33,11 @@ void JobWaiters::stop() {
   answer_due(std::move(left), true);
 }
 
+bool JobWaiters::has_room() const {
+  std::lock_guard lock(mutex_);
+  return started_ && !stopping_ && waiting_.size() < max_waiting_;
+}
+
 bool JobWaiters::wait(int64_t id, std::chrono::steady_clock::time_point deadline, Answer answer) {
   {
     std::lock_guard lock(mutex_);

@@ -10,8 +10,7 @@
 //
 // Bounded: at most `max_waiting` requests wait at once, well below the connection limit
 // (a quarter of it in camlabd) so that waiting requests cannot hold every connection;
-// beyond that wait() refuses and the handler answers at once with the job as it is (the
-// client polls again; never an error).
+// beyond that the handler answers 503 with Retry-After before reading the store.
 //
 // Thread-safe.
 #pragma once
@@ -42,6 +41,10 @@ class JobWaiters {
 
   void start();
   void stop();  // answers every waiting request with its job as it is now
+
+  // Whether wait() would take one more request now, and how many it takes in all.
+  bool has_room() const;
+  size_t capacity() const { return max_waiting_; }
 
   // Calls `answer` once, from the waiters' thread, when job `id` has finished or at
   // `deadline`. False (and `answer` is not called) when full or stopped.

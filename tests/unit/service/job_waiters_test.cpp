@@ -102,6 +102,7 @@ TEST_F(JobWaitersTest, TheDeadlineAnswersAndTheCapRefuses) {
   };
   EXPECT_TRUE(waiters_->wait(id, deadline, count));
   EXPECT_TRUE(waiters_->wait(id, deadline, count));
+  EXPECT_FALSE(waiters_->has_room());
   EXPECT_FALSE(waiters_->wait(id, deadline, count));  // past the cap: the caller answers
   for (int i = 0; i < 500 && answered.load() < 2; ++i) std::this_thread::sleep_for(10ms);
   EXPECT_EQ(answered.load(), 2);
