@@ -5,6 +5,8 @@
 #include <ctime>
 #include <utility>
 
+#include "base/log.h"
+#include "service/store/fleet_store.h"
 #include "service/store/store_retry.h"
 
 namespace camlab::service {
@@ -249,7 +251,7 @@ Result<bool> JobStore::finish(int64_t id, JobState state, const std::optional<Er
       result.is_null() ? std::nullopt : std::optional<std::string>(dump_json(result));
   const int64_t now_ms = unix_time_ms();
   const std::string op = next_op();
-  return with_retry(Patience::kWorker, [&]() -> Result<bool> {
+  Result<bool> finished = with_retry(Patience::kWorker, [&]() -> Result<bool> {
     // The last progress first, so the finished row holds it.
     if (Status flushed = flush_progress(id); !flushed) return flushed.error();
     Result<bool> finished =
@@ -259,6 +261,17 @@ Result<bool> JobStore::finish(int64_t id, JobState state, const std::optional<Er
     if (*finished) notify_finished(id, state);
     return finished;
   });
+  // The fleet ended the job while this host ran on (frozen past its lease, or cut off, its
+  // worker kept writing frames until it fenced itself): the frames it kept are on disk, and
+  // the database is brought up to them (it said 31 where the folder held 40). Outside the
+  // store's lock: the fleet has its own connection and lock.
+  if (finished && !*finished && fleet() && result.is_object() && result.contains("frames_kept") &&
+      result["frames_kept"].is_number_integer())
+    if (Status raised = fleet()->set_recovered_frames(id, result["frames_kept"].get<int>());
+        !raised)
+      log_warning(log::Category::kJobs, "job %lld: frames kept after the fleet ended it: %s",
+                  static_cast<long long>(id), raised.error().message.c_str());
+  return finished;
 }
 
 void JobStore::notify_finished(int64_t id, JobState state) {

@@ -278,6 +278,8 @@ TEST_F(ServiceFleet, ASecondHostWithALiveHostsNameIsRefusedAndARestartRejoins) {
   ASSERT_EQ(other_capture.status, 202) << other_capture.body;
   const int64_t other_id = other_capture.json()["id"];
 
+  // At defaults a fleet host advertises its loopback listen address: said at start.
+  EXPECT_NE(lab->log().find("a loopback address"), std::string::npos) << lab->log();
   // The clone: its own folder (another identity), the live host's name.
   EXPECT_EQ(fleet_->start_host("clone", 3000, "", {}, "lab"), nullptr);
   const std::string clone_log = read_file(dir_ / "clone" / "camlabd.1.log");
@@ -339,9 +341,19 @@ TEST_F(ServiceFleet, AHostCutOffFromTheDatabaseEndsItsJobOnceAndRejoins) {
   EXPECT_EQ(second["state"], "succeeded") << second.dump();
   const auto h = history().at(id);
   EXPECT_EQ(h, (std::vector<std::string>{"queued", "running", "interrupted"}));
-  // The frames written before the cut are whole, and the log says why it stopped.
-  const json job = cut->get("/v1/jobs/" + std::to_string(id)).json();
-  EXPECT_GE(check_frames(*fleet_->host("steady"), job), job["progress"]["frames_done"].get<int>());
+  // The frames written before the cut are whole, the log says why it stopped, and the
+  // frames the host wrote after the fleet ended the job, until it fenced itself, are
+  // counted once it is back (the review: the database said 31 where the folder held 40;
+  // every host, the steady one's cache too, reads the same).
+  json job = cut->get("/v1/jobs/" + std::to_string(id)).json();
+  const int listed = check_frames(*fleet_->host("steady"), job);
+  for (int i = 0; i < 100; ++i) {
+    job = fleet_->host("steady")->get("/v1/jobs/" + std::to_string(id)).json();
+    if (job["progress"]["frames_done"].get<int>() == listed) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_EQ(job["progress"]["frames_done"].get<int>(), listed) << job.dump();
+  EXPECT_EQ(cut->get("/v1/jobs/" + std::to_string(id)).json()["progress"]["frames_done"], listed);
   EXPECT_NE(cut->log().find("fenced itself"), std::string::npos);
 }
 
