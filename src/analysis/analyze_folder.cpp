@@ -117,7 +117,9 @@ std::string exposure_text(const ExposureReport& r) {
     text += "  T x gain [us]   mean [DN]   linearity error\n";
     for (const auto& l : r.linearity)
       text += line("  %12.1f %11.2f %+9.3f%%%s\n", l.exposure_gain_us, l.mean_dn, l.error_pct,
-                   l.used ? "" : "  (saturated or dark: not used)");
+                   l.saturated ? "  (saturated: not used)"
+                   : l.used    ? ""
+                               : "  (outside 5-95% of saturation: not used)");
     text += line("  max linearity error %.3f%% over %d settings\n", r.max_linearity_error_pct,
                  r.linearity_used);
   }
@@ -128,10 +130,14 @@ std::string exposure_text(const ExposureReport& r) {
     text += line("    system gain K     %.5f +- %.5f DN/e-\n", pt.system_gain_dn_per_e,
                  pt.system_gain_sigma);
     text += line("    dark noise        %.3f e-\n", pt.dark_noise_e);
-    text += line("    saturation        %.0f e- (mean %.1f DN above dark)\n",
-                 pt.saturation_capacity_e, pt.saturation_mean_dn - pt.dark_mean_dn);
-    text += line("    SNR max           %.2f (%.2f dB)\n", pt.snr_max, 20 * std::log10(pt.snr_max));
-    text += line("    dynamic range     %.1f (%.2f dB)\n", pt.dynamic_range,
+    // Without saturation in the data these are bounds, said as such.
+    const char* at_least = pt.saturation_reached ? "" : ">= ";
+    text += line("    saturation        %s%.0f e- (mean %.1f DN above dark)%s\n", at_least,
+                 pt.saturation_capacity_e, pt.saturation_mean_dn - pt.dark_mean_dn,
+                 pt.saturation_reached ? "" : ": a lower bound, no setting reached saturation");
+    text += line("    SNR max           %s%.2f (%.2f dB)\n", at_least, pt.snr_max,
+                 20 * std::log10(pt.snr_max));
+    text += line("    dynamic range     %s%.1f (%.2f dB)\n", at_least, pt.dynamic_range,
                  20 * std::log10(pt.dynamic_range));
     if (pt.expected_gain_dn_per_e > 0)
       text += line("    spec K x gain     %.5f DN/e- (measured/spec - 1 = %+.2f%%)\n",
@@ -140,6 +146,7 @@ std::string exposure_text(const ExposureReport& r) {
   } else if (!r.photon_transfer_error.empty()) {
     text += "  photon transfer: " + r.photon_transfer_error + "\n";
   }
+  for (const std::string& why : r.left_out) text += "  left out: " + why + "\n";
   if (r.hdr) {
     text += line(
         "  HDR merge: %zu exposures, %lld pixels clipped in every frame (flagged, lower bound "

@@ -38,9 +38,12 @@ Result<PhotonTransfer> fit_photon_transfer(std::vector<PairStats> points,
   std::sort(points.begin(), points.end(),
             [](const PairStats& x, const PairStats& y) { return x.mean_dn < y.mean_dn; });
   PhotonTransfer pt;
-  const auto peak = std::max_element(
-      points.begin(), points.end(),
-      [](const PairStats& x, const PairStats& y) { return x.variance_dn2 < y.variance_dn2; });
+  // The variance peak among the pairs not partly clipped (a partly clipped pair's variance
+  // is that of its unclipped pixels only).
+  const auto peak =
+      std::max_element(points.begin(), points.end(), [](const PairStats& x, const PairStats& y) {
+        return (x.saturated ? -1.0 : x.variance_dn2) < (y.saturated ? -1.0 : y.variance_dn2);
+      });
   pt.saturation_mean_dn = peak->mean_dn;
   // A brighter pair whose variance has collapsed (under half the peak's) has most of its
   // pixels clipped: its mean is where the sensor clips, which a coarse sweep's variance
@@ -48,16 +51,25 @@ Result<PhotonTransfer> fit_photon_transfer(std::vector<PairStats> points,
   for (auto p = peak + 1; p != points.end(); ++p)
     if (p->variance_dn2 < 0.5 * peak->variance_dn2) {
       pt.saturation_mean_dn = p->mean_dn;
+      pt.saturation_reached = true;
       break;
     }
-  if (clip_mean_dn && *clip_mean_dn > pt.saturation_mean_dn) pt.saturation_mean_dn = *clip_mean_dn;
+  // A pair with part of its pixels clipped reached it too.
+  for (const PairStats& p : points) pt.saturation_reached |= p.saturated;
+  if (clip_mean_dn && *clip_mean_dn > pt.saturation_mean_dn) {
+    pt.saturation_mean_dn = *clip_mean_dn;
+    pt.saturation_reached = true;
+  }
   if (!(pt.saturation_mean_dn > 0))
     return make_error("no_signal", "no frame pair has a signal above the black level");
   // If the brightest pair is the variance peak, the sweep may not reach saturation: the
   // capacity is then a lower bound (as EMVA 1288 asks for a sweep into saturation).
   double s0 = 0, s1 = 0, s2 = 0, r0 = 0, r1 = 0;
   for (PairStats& p : points) {
-    p.used = p.mean_dn <= 0.7 * pt.saturation_mean_dn && p.variance_dn2 > 0 && p.pixels > 1;
+    // The 70% cap is of a saturation the data reached; below it (a sweep that stops short)
+    // every pair is below the sensor's saturation.
+    p.used = !p.saturated && (!pt.saturation_reached || p.mean_dn <= 0.7 * pt.saturation_mean_dn) &&
+             p.variance_dn2 > 0 && p.pixels > 1;
     if (!p.used) continue;
     const double w = (p.pixels - 1) / (2.0 * p.variance_dn2 * p.variance_dn2);
     s0 += w;
@@ -95,13 +107,15 @@ Result<PhotonTransfer> fit_photon_transfer(std::vector<PairStats> points,
   return pt;
 }
 
-Result<Linearity> fit_linearity(std::vector<LinearityPoint> points, double saturation_dn) {
+Result<Linearity> fit_linearity(std::vector<LinearityPoint> points, double saturation_dn,
+                                bool saturation_known) {
   Linearity lin;
   // Minimise sum ((y - a x) / y)^2: a = sum(x / y) / sum(x^2 / y^2).
   double sxy = 0, sxx = 0;
   for (LinearityPoint& p : points) {
-    p.used = saturation_dn > 0 && p.exposure_gain_us > 0 && p.mean_dn >= 0.05 * saturation_dn &&
-             p.mean_dn <= 0.95 * saturation_dn;
+    p.used = !p.saturated && saturation_dn > 0 && p.exposure_gain_us > 0 &&
+             p.mean_dn >= 0.05 * saturation_dn &&
+             (!saturation_known || p.mean_dn <= 0.95 * saturation_dn);
     if (!p.used) continue;
     const double q = p.exposure_gain_us / p.mean_dn;
     sxy += q;

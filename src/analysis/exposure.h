@@ -30,6 +30,11 @@ struct PairStats {
   double variance_dn2 = 0;
   int64_t pixels = 0;
   bool used = false;  // in the K fit (0-70% of saturation)
+  // Part of the pair's pixels at the clip level (a bright area of the scene clipped while
+  // the rest did not): its variance has partly collapsed and its mean is not the sensor's
+  // response, so the pair is left out of every fit, whatever its mean.
+  bool saturated = false;
+  double clipped_fraction = 0;  // of its pixels at or above the clip level
 };
 
 // Mean and temporal variance of two frames (single channel, same size and type) inside
@@ -39,8 +44,9 @@ Result<PairStats> pair_stats(const cv::Mat& a, const cv::Mat& b, double black_le
                              const cv::Rect& roi = cv::Rect());
 
 // EMVA 1288 results. The line is fitted by weighted least squares (weight = 1 / the
-// variance of a variance estimate, 2 var^2 / (n - 1)) over the pairs whose mean lies
-// below 70% of the saturation mean; the saturation point is the pair of largest variance
+// variance of a variance estimate, 2 var^2 / (n - 1)) over the pairs not saturated (no part
+// of them clipped) whose mean lies below 70% of the saturation mean, when the data reached
+// saturation (all of them otherwise); the saturation point is the pair of largest variance
 // (where clipping starts to eat the noise). The dark variance sigma_y,dark^2 comes from
 // the lowest pair when its mean is below 5% of saturation (its variance minus the shot
 // part K mu: exact for a dark pair, and far better determined than the line's intercept),
@@ -60,6 +66,10 @@ struct PhotonTransfer {
   double snr_max = 0;
   double dynamic_range = 0;
   double expected_gain_dn_per_e = 0;  // filled by callers that know the spec (0 = unknown)
+  // Whether the sweep reached saturation (a pair saturated, or a brighter pair's variance
+  // collapsed). When not, saturation_mean_dn is the brightest pair's and the capacity,
+  // SNR max and dynamic range derived from it are lower bounds, not the sensor's.
+  bool saturation_reached = false;
   int used_count = 0;
   std::vector<PairStats> points;
 };
@@ -81,6 +91,7 @@ struct LinearityPoint {
   double mean_dn = 0;
   double error_pct = 0;
   bool used = false;
+  bool saturated = false;  // part of its frame clipped (see PairStats): never used
 };
 struct Linearity {
   double slope_dn_per_us = 0;
@@ -89,7 +100,10 @@ struct Linearity {
   std::vector<LinearityPoint> points;
 };
 // Errors: "too_few_samples" (fewer than 2 usable points).
-Result<Linearity> fit_linearity(std::vector<LinearityPoint> points, double saturation_dn);
+// `saturation_known` false (a sweep that never reached saturation: saturation_dn is only its
+// brightest mean, a lower bound) drops the 95% cap.
+Result<Linearity> fit_linearity(std::vector<LinearityPoint> points, double saturation_dn,
+                                bool saturation_known = true);
 
 // One frame of a bracket: DN above black (CV_32F), its exposure and gain, the level at
 // which it clips (DN above black), and its noise model var = gain K0 signal + read_var.

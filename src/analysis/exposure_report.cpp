@@ -10,6 +10,7 @@
 #include "analysis/channel_signal.h"
 #include "analysis/clip_level.h"
 #include "base/cancel.h"
+#include "base/format.h"
 #include "image/capture_folder.h"
 
 namespace camlab::analysis {
@@ -18,6 +19,14 @@ namespace {
 using nlohmann::json;
 
 json num(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
+// A setting whose frames have more of the ROI at the clip level than this is saturated:
+// above any hot pixel or noise tail (0.1% of a 320 x 240 ROI is 77 pixels).
+constexpr double kSaturatedFraction = 0.001;
+
+std::string setting_name(double exposure_us, double gain) {
+  return format_significant(exposure_us, 6) + " us x gain " + format_significant(gain, 4);
+}
 
 double spec_number(const json& j, const char* section, const char* key, double fallback) {
   if (!j.is_object() || !j.contains(section) || !j[section].is_object()) return fallback;
@@ -71,6 +80,26 @@ Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
   std::vector<LinearityPoint> lin_points;
   double max_dn = 0;
   double gain_sum = 0;
+  // Where the frames clip (raw DN): the lowest plateau any frame shows (a full well under
+  // the ADC's top code, clip_level.h), else each frame's white level.
+  for (auto& [key, grp] : groups)
+    if (auto plateau = detect_clip_plateau(grp.frames[0], grp.black)) {
+      grp.clip_level_dn = plateau->level_dn;
+      clip_mean_dn = std::min(clip_mean_dn.value_or(plateau->mean_dn), plateau->mean_dn);
+      report.clip_level_dn =
+          std::min(report.clip_level_dn.value_or(plateau->level_dn), plateau->level_dn);
+    }
+  const auto clipped_fraction = [&](const Group& grp) {
+    const double level = std::min<double>(report.clip_level_dn.value_or(grp.white), grp.white);
+    double worst = 0;
+    for (const cv::Mat& f : grp.frames) {
+      cv::Mat at_clip;
+      cv::compare(f(roi), level, at_clip, cv::CMP_GE);
+      worst = std::max(worst, cv::countNonZero(at_clip) / static_cast<double>(roi.area()));
+    }
+    return worst;
+  };
+  bool any_saturated = false;
   for (auto& [key, grp] : groups) {
     max_dn = grp.white - grp.black;
     gain_sum += grp.gain;
@@ -79,21 +108,31 @@ Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
     double mean = 0;
     for (const cv::Mat& f : grp.frames) mean += cv::mean(f(roi))[0] - grp.black;
     lp.mean_dn = mean / static_cast<double>(grp.frames.size());
+    // A setting with part of the ROI clipped (a bright area of the scene at the clip while
+    // the rest is not): its mean and variance are not the sensor's response, whatever its
+    // mean says. Left out of every fit, and named (the README's bracket clipped at 16 ms
+    // on the bright side of its edges and gave K 56% low with a tight error bar).
+    const double clipped = clipped_fraction(grp);
+    lp.saturated = clipped > kSaturatedFraction;
+    any_saturated |= lp.saturated;
+    if (lp.saturated)
+      report.left_out.push_back(setting_name(grp.exposure_us, grp.gain) + ": saturated, " +
+                                format_significant(100 * clipped, 3) +
+                                "% of the ROI at the clip level");
     lin_points.push_back(lp);
-    if (auto plateau = detect_clip_plateau(grp.frames[0], grp.black)) {
-      grp.clip_level_dn = plateau->level_dn;
-      clip_mean_dn = std::min(clip_mean_dn.value_or(plateau->mean_dn), plateau->mean_dn);
-      report.clip_level_dn =
-          std::min(report.clip_level_dn.value_or(plateau->level_dn), plateau->level_dn);
-    }
     if (grp.frames.size() == 2) {
       auto ps = pair_stats(grp.frames[0], grp.frames[1], grp.black, roi);
       if (!ps) return ps.error();
       ps->exposure_us = grp.exposure_us;
       ps->gain = grp.gain;
+      ps->saturated = lp.saturated;
+      ps->clipped_fraction = clipped;
       pairs.push_back(*ps);
     }
   }
+  // Where a setting clipped at the white level without a plateau (no shot noise to tell
+  // it), the white level is the clip: the saturation mean is there.
+  if (any_saturated && !clip_mean_dn) clip_mean_dn = groups.begin()->second.white;
   const double mean_gain = gain_sum / static_cast<double>(groups.size());
 
   // Expected K from the spec.
@@ -124,7 +163,12 @@ Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
   // Frames that clip below their white level clip the linearity too.
   const double clip_saturation =
       report.clip_level_dn ? *report.clip_level_dn - groups.begin()->second.black : saturation;
-  auto lin = fit_linearity(lin_points, std::min(saturation, clip_saturation));
+  // Saturation is known from the data (reached, or a clip seen) or from the spec; a
+  // photon transfer that never reached it gives only a lower bound.
+  const bool saturation_known = !report.photon_transfer ||
+                                report.photon_transfer->saturation_reached ||
+                                report.clip_level_dn.has_value();
+  auto lin = fit_linearity(lin_points, std::min(saturation, clip_saturation), saturation_known);
   if (lin) {
     report.linearity = lin->points;
     report.linearity_slope_dn_per_us = lin->slope_dn_per_us;
@@ -134,6 +178,20 @@ Result<ExposureReport> analyze_channel(const image::CaptureFolder& folder,
     report.linearity = lin_points;
     report.linearity_error = lin.error().text();
   }
+  // The rest of what the fits left out, by EMVA 1288's ranges.
+  for (const LinearityPoint& p : report.linearity)
+    if (!p.saturated && !p.used && lin)
+      report.left_out.push_back(
+          format_significant(p.exposure_gain_us, 6) + " us (exposure x gain): " +
+          (p.mean_dn < 0.5 * std::min(saturation, clip_saturation) ? "dark, below 5%"
+                                                                   : "bright, above 95%") +
+          " of saturation (left out of the linearity fit only)");
+  if (report.photon_transfer)
+    for (const PairStats& p : report.photon_transfer->points)
+      if (!p.saturated && !p.used)
+        report.left_out.push_back(setting_name(p.exposure_us, p.gain) +
+                                  ": above 70% of saturation (left out of the photon transfer "
+                                  "fit only)");
 
   // HDR: one frame per setting, noise from the photon transfer (else the spec).
   if (groups.size() >= 2) {
@@ -207,7 +265,9 @@ json channel_json(const ExposureReport& r) {
     lin.push_back({{"exposure_gain_us", p.exposure_gain_us},
                    {"mean_dn", p.mean_dn},
                    {"error_pct", p.error_pct},
-                   {"used", p.used}});
+                   {"used", p.used},
+                   {"saturated", p.saturated}});
+  j["left_out"] = r.left_out;
   j["linearity"] = {{"points", lin},
                     {"slope_dn_per_us", r.linearity_slope_dn_per_us},
                     {"max_abs_error_pct", r.max_linearity_error_pct},
@@ -221,19 +281,29 @@ json channel_json(const ExposureReport& r) {
                      {"gain", p.gain},
                      {"mean_dn", p.mean_dn},
                      {"variance_dn2", p.variance_dn2},
-                     {"used", p.used}});
-    j["photon_transfer"] = {{"system_gain_dn_per_e", pt.system_gain_dn_per_e},
-                            {"system_gain_sigma", pt.system_gain_sigma},
-                            {"expected_gain_dn_per_e",
-                             num(pt.expected_gain_dn_per_e > 0 ? pt.expected_gain_dn_per_e : NAN)},
-                            {"dark_variance_dn2", pt.dark_variance_dn2},
-                            {"dark_noise_e", pt.dark_noise_e},
-                            {"saturation_mean_dn", pt.saturation_mean_dn},
-                            {"saturation_capacity_e", pt.saturation_capacity_e},
-                            {"snr_max", pt.snr_max},
-                            {"dynamic_range", pt.dynamic_range},
-                            {"pairs_used", pt.used_count},
-                            {"points", pts}};
+                     {"used", p.used},
+                     {"saturated", p.saturated},
+                     {"clipped_fraction", p.clipped_fraction}});
+    j["photon_transfer"] = {
+        {"system_gain_dn_per_e", pt.system_gain_dn_per_e},
+        {"system_gain_sigma", pt.system_gain_sigma},
+        {"expected_gain_dn_per_e",
+         num(pt.expected_gain_dn_per_e > 0 ? pt.expected_gain_dn_per_e : NAN)},
+        {"dark_variance_dn2", pt.dark_variance_dn2},
+        {"dark_noise_e", pt.dark_noise_e},
+        {"saturation_reached", pt.saturation_reached},
+        {"saturation_mean_dn", pt.saturation_mean_dn},
+        // Without saturation in the data, the capacity and what follows
+        // from it are lower bounds: given under their own names only.
+        {"saturation_capacity_e", num(pt.saturation_reached ? pt.saturation_capacity_e : NAN)},
+        {"snr_max", num(pt.saturation_reached ? pt.snr_max : NAN)},
+        {"dynamic_range", num(pt.saturation_reached ? pt.dynamic_range : NAN)},
+        {"pairs_used", pt.used_count},
+        {"points", pts}};
+    if (!pt.saturation_reached)
+      j["photon_transfer"].update({{"saturation_capacity_lower_bound_e", pt.saturation_capacity_e},
+                                   {"snr_max_lower_bound", pt.snr_max},
+                                   {"dynamic_range_lower_bound", pt.dynamic_range}});
   } else {
     j["photon_transfer"] = {{"error", r.photon_transfer_error}};
   }

@@ -45,6 +45,10 @@ struct ExposureReport {
   // The lowest clip level found in the frames' histograms (raw DN), when frames clip below
   // their white level (a full well under the ADC's top code; clip_level.h).
   std::optional<double> clip_level_dn;
+  // What the fits left out and why, one line per setting ("16000 us x gain 1: saturated,
+  // 22.8% of the ROI at the clip level"; "1000 us x gain 1: dark, below 5% of saturation
+  // (linearity)"), for the report's summary.
+  std::vector<std::string> left_out;
   // Colour captures: one report per channel, on that channel's samples only.
   std::vector<ExposureReport> channels;
 };
