@@ -3,6 +3,7 @@
 // normalised job and queue it on the compute worker (service/jobs/compute_jobs.h).
 #include <algorithm>
 
+#include "analysis/capture_check.h"
 #include "image/capture_folder.h"
 #include "service/api/service_context.h"
 #include "service/jobs/calibration_request.h"
@@ -120,6 +121,12 @@ void post_analysis(const ServiceContext& context, const ApiRequest& request, Rep
                                 "\"kind\" must be \"defocus\", \"exposure\" or \"focus\""));
   auto source = resolve_source(context, *body);
   if (!source) return reply(error_response(source.error()));
+  // The wrong capture for the analysis is refused now (422), not run into an empty report.
+  auto folder =
+      image::CaptureFolder::open(context.data_dir / (*source)["source_folder"].get<std::string>());
+  if (!folder) return reply(error_response(folder.error()));
+  if (Status fits = analysis::check_capture_for(kind.get<std::string>(), *folder); !fits)
+    return reply(error_response(fits.error()));
   nlohmann::json normalised = *source;
   normalised["analysis"] = kind;
   queue_compute_job(context, "analysis", normalised, reply);

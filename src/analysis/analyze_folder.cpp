@@ -8,6 +8,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "analysis/capture_check.h"
 #include "analysis/focus_report.h"
 #include "image/capture_folder.h"
 
@@ -240,6 +241,16 @@ Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& 
     run.report = with_plots(to_json(report), run.plots);
     return {};
   };
+  if (kind != "defocus" && kind != "exposure" && kind != "focus")
+    return make_error("invalid_argument", "unknown analysis '" + std::string(kind) +
+                                              "'; use defocus, exposure or focus");
+  // The capture must be one the analysis can measure (capture_check.h): the wrong one is
+  // an error naming what is needed, never an empty report.
+  {
+    image::CaptureFolder folder;
+    CAMLAB_ASSIGN(folder, image::CaptureFolder::open(dir));
+    if (Status fits = check_capture_for(kind, folder); !fits) return fits.error();
+  }
   Status done;
   // The stop request reaches each measurement's own options.
   DefocusOptions defocus = options.defocus;

@@ -86,6 +86,21 @@ TEST_F(ServiceCompute, SourcesAreValidated) {
                       {{"folder", "captures"}, {"inner_corners", {14}}, {"spacing_m", 0.04}})
                 .status,
             400);
+  // The wrong capture for the analysis (the review: an analysis job of the wrong kind
+  // succeeded empty): refused at submission, naming the capture needed.
+  auto single = daemon.post(camera + "/captures", {{"kind", "single"}, {"repeats", 2}});
+  ASSERT_EQ(single.status, 202) << single.body;
+  const int64_t single_id = single.json()["id"];
+  ASSERT_EQ(daemon.wait_finished(single_id)["state"], "succeeded");
+  for (const char* kind : {"exposure", "focus"}) {
+    auto wrong = daemon.post("/v1/analyses", {{"kind", kind}, {"job", single_id}});
+    EXPECT_EQ(wrong.status, 422) << kind << ": " << wrong.body;
+    EXPECT_EQ(wrong.error_code(), "invalid_argument") << wrong.body;
+    EXPECT_NE(wrong.body.find(std::string(kind) == "exposure" ? "needs a bracket"
+                                                              : "needs a focus stack"),
+              std::string::npos)
+        << wrong.body;
+  }
 }
 
 // One front door (calib/calibration_request.h): the same bad calibration request gets the

@@ -94,12 +94,14 @@ TEST(AnalyzeCli, ExposureAndFocusRunOnTheirCaptures) {
     EXPECT_EQ(r["status"], "ok");
     EXPECT_NEAR(r["best_position"].get<double>(), 130.08, 1.0);
   }
-  // The same folder has one exposure: photon transfer needs pairs, and says so.
+  // The same folder has one exposure: an exposure analysis of it is refused, naming the
+  // capture it needs and what this one sweeps (it answered "0.000% over 0 settings", exit 0).
   const auto exposure = camlab::testing::run_cli("analyze exposure " + dir.string() + " --json");
-  ASSERT_EQ(exposure.exit_code, 0) << exposure.err;
-  EXPECT_NE(nlohmann::json::parse(exposure.out)["photon_transfer"]["error"].get<std::string>().find(
-                "too_few"),
-            std::string::npos);
+  EXPECT_EQ(exposure.exit_code, 2) << exposure.out;
+  const auto refused = nlohmann::json::parse(exposure.out)["error"];
+  EXPECT_EQ(refused["code"], "invalid_argument");
+  EXPECT_NE(refused["message"].get<std::string>().find("needs a bracket"), std::string::npos);
+  EXPECT_NE(refused["message"].get<std::string>().find("focus_position"), std::string::npos);
   std::filesystem::remove_all(dir);
 }
 
