@@ -106,8 +106,10 @@ void register_render_command(CLI::App& app) {
       ->required();
   cmd->add_option(
       "--sweep", args->sweep,
-      "vary one setting: exposure_us=1000,2000,4000 | f_number=2:11.3:1.414 (start:stop:step)\n"
-      "| focus_position=0:200:20 (steps) | focus_m=0.5,1,2 | gain=1,2,4 (linear)");
+      "vary one setting: exposure_us=1000,2000,4000 | f_number=2:11.4:stops (f/2, 2.83, 4,\n"
+      "5.66, 8, 11.3: start:stop:stops, half-stops, third-stops or xRATIO multiply)\n"
+      "| exposure_us=1000:16000:stops (x2) | focus_position=0:200:20 (start:stop:step adds)\n"
+      "| focus_m=0.5,1,2 | gain=1,2,4 (linear)");
   cmd->add_option("--set", args->sets,
                   "fix a setting for every frame, e.g. --set exposure_us=5000 --set f_number=2.8;\n"
                   "names as for --sweep; defaults come from the camera spec's controls");

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <sstream>
 
 #include "image/capture_folder.h"
@@ -28,32 +29,70 @@ Result<double> parse_number(const std::string& text, const std::string& context)
 
 }  // namespace
 
+namespace {
+
+// The factor between neighbouring values of a geometric step: "stops" (a factor 2 in light:
+// sqrt 2 in f-number, 2 in exposure or gain), "half-stops", "third-stops", or "xR" (R > 0,
+// any ratio). 0 when `step` is none of these (an additive step).
+double geometric_factor(const std::string& parameter, const std::string& step) {
+  const double per_stop = parameter == "f_number" ? std::sqrt(2.0) : 2.0;
+  if (step == "stops") return per_stop;
+  if (step == "half-stops") return std::sqrt(per_stop);
+  if (step == "third-stops") return std::cbrt(per_stop);
+  if (step.size() > 1 && step[0] == 'x') {
+    char* end = nullptr;
+    const double ratio = std::strtod(step.c_str() + 1, &end);
+    if (*end == '\0' && std::isfinite(ratio) && ratio > 0) return ratio;
+  }
+  return 0;
+}
+
+}  // namespace
+
 Result<Sweep> parse_sweep(const std::string& text) {
   const auto eq = text.find('=');
   if (eq == std::string::npos || eq == 0)
     return make_error("invalid_argument",
-                      "sweep '" + text + "' must be name=v1,v2,... or name=start:stop:step");
+                      "sweep '" + text +
+                          "' must be name=v1,v2,..., name=start:stop:step (added), or "
+                          "name=start:stop:stops | half-stops | third-stops | xRATIO (multiplied)");
   Sweep sweep;
   sweep.parameter = text.substr(0, eq);
   const std::string values = text.substr(eq + 1);
   if (values.find(':') != std::string::npos) {
-    std::vector<double> parts;
+    std::vector<std::string> fields;
     std::stringstream in(values);
-    for (std::string part; std::getline(in, part, ':');) {
-      double v;
-      CAMLAB_ASSIGN(v, parse_number(part, "sweep " + sweep.parameter));
-      parts.push_back(v);
+    for (std::string part; std::getline(in, part, ':');) fields.push_back(part);
+    if (fields.size() != 3)
+      return make_error("invalid_argument", "sweep range '" + values + "' must be start:stop:step");
+    double start, stop;
+    CAMLAB_ASSIGN(start, parse_number(fields[0], "sweep " + sweep.parameter));
+    CAMLAB_ASSIGN(stop, parse_number(fields[1], "sweep " + sweep.parameter));
+    if (const double factor = geometric_factor(sweep.parameter, fields[2]); factor > 0) {
+      // Multiplied: photographers read an aperture series in stops (f/2, 2.8, 4, ...), where
+      // an added step of 1.41421 gives f/2, 3.41, 4.83.
+      if (!(start > 0) || factor == 1 || (stop / start > 1) != (factor > 1))
+        return make_error("invalid_argument",
+                          "sweep range '" + values + "' must start above 0 and step towards stop");
+      const double count = std::floor(std::log(stop / start) / std::log(factor) + 1e-9) + 1;
+      if (count > kMaxFrames)
+        return make_error("out_of_range", "sweep range gives " + std::to_string(count) +
+                                              " values; at most " + std::to_string(kMaxFrames));
+      for (int i = 0; i < static_cast<int>(count); ++i)
+        sweep.values.push_back(start * std::pow(factor, i));
+    } else {
+      double step;
+      CAMLAB_ASSIGN(step, parse_number(fields[2], "sweep " + sweep.parameter + " step"));
+      if (step == 0 || (stop - start) / step < 0)
+        return make_error(
+            "invalid_argument",
+            "sweep range '" + values + "' must be start:stop:step with a step towards stop");
+      const double count = std::floor((stop - start) / step + 1e-9) + 1;
+      if (count > kMaxFrames)
+        return make_error("out_of_range", "sweep range gives " + std::to_string(count) +
+                                              " values; at most " + std::to_string(kMaxFrames));
+      for (int i = 0; i < static_cast<int>(count); ++i) sweep.values.push_back(start + i * step);
     }
-    if (parts.size() != 3 || parts[2] == 0 || (parts[1] - parts[0]) / parts[2] < 0)
-      return make_error(
-          "invalid_argument",
-          "sweep range '" + values + "' must be start:stop:step with a step towards stop");
-    const double count = std::floor((parts[1] - parts[0]) / parts[2] + 1e-9) + 1;
-    if (count > kMaxFrames)
-      return make_error("out_of_range", "sweep range gives " + std::to_string(count) +
-                                            " values; at most " + std::to_string(kMaxFrames));
-    for (int i = 0; i < static_cast<int>(count); ++i)
-      sweep.values.push_back(parts[0] + i * parts[2]);
   } else {
     std::stringstream in(values);
     for (std::string part; std::getline(in, part, ',');) {

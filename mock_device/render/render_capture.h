@@ -23,7 +23,10 @@ struct Sweep {
   std::vector<double> values;
 };
 
-// "name=v1,v2,..." or "name=start:stop:step" (stop included when on the grid).
+// "name=v1,v2,...", "name=start:stop:step" (added; stop included when on the grid), or
+// "name=start:stop:stops" (multiplied by one stop: sqrt 2 for f_number, 2 for exposure_us
+// and gain; also half-stops, third-stops, or xRATIO for any ratio), so that
+// f_number=2:11.4:stops is f/2, 2.83, 4, 5.66, 8, 11.3.
 Result<Sweep> parse_sweep(const std::string& text);
 
 // Applies one `name=value` to settings (the same names as a sweep).

@@ -222,7 +222,7 @@ TEST_F(ServiceCompute, ARunningCalibrationOrAnalysisStopsOnDeleteAndOnSigterm) {
   const auto render = run_cli("render --camera " CAMLAB_SOURCE_DIR
                               "/mock_device/examples/camera_640x480.json --scene " CAMLAB_SOURCE_DIR
                               "/mock_device/examples/scene_slanted_edges.json --sweep "
-                              "f_number=2:11.4:1.41421 --repeats 8 --quiet --out " +
+                              "f_number=2:11.4:stops --repeats 8 --quiet --out " +
                               series.string());
   ASSERT_EQ(render.exit_code, 0) << render.err;
   repeat_frames(series, 100);
