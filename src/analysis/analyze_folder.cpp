@@ -47,8 +47,9 @@ std::string defocus_text(const DefocusReport& r) {
     text += "\n  frame      N   focus  status                    D [px]  95% CI          truth\n";
     for (const auto& fe : t.frames) {
       const auto& m = fe.edge;
-      text += line("  %5d %6.3g %7.1f  %-24s %7.3f  [%6.3f, %6.3f]", fe.frame, fe.f_number,
-                   fe.focus_position, m.status.c_str(), m.diameter_px, m.ci_low_px, m.ci_high_px);
+      text += line("  %5d %6.3g %7.1f  %-24s %7.3f  [%6.3f, %s]", fe.frame, fe.f_number,
+                   fe.focus_position, m.status.c_str(), m.diameter_px, m.ci_low_px,
+                   m.upper_unconstrained() ? "unconstrained" : line("%6.3f", m.ci_high_px).c_str());
       text += fe.truth_coc_px ? line("  %7.3f", *fe.truth_coc_px) : std::string();
       if (m.low_signal) text += line("  LOW SIGNAL (CNR %.1f)", m.contrast_to_noise);
       text += m.joint_with.empty() ? std::string("\n")

@@ -16,6 +16,7 @@
 // Reentrant: no state.
 #pragma once
 
+#include <cmath>
 #include <span>
 #include <string>
 #include <string_view>
@@ -85,6 +86,12 @@ struct EdgeMeasurement {
   std::string joint_with;
   double joint_separation_px = 0;
   bool measured() const { return status == kEdgeOk; }
+  // The interval's upper end says nothing: infinite, or past the window across the edge
+  // (a blur wider than the window cannot show in it). Reports say "unconstrained" there,
+  // never a number such as 8810527.724 px.
+  bool upper_unconstrained() const {
+    return !std::isfinite(ci_high_px) || (half_width_px > 0 && ci_high_px > 2 * half_width_px);
+  }
 };
 
 // Measures one edge of `image` (single channel, any type fit_pillbox_edge() takes).

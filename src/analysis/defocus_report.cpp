@@ -408,8 +408,10 @@ json targets_json(const DefocusReport& r) {
                 {"status", m.status},
                 {"diameter_px", has_diameter ? num(m.diameter_px) : json(nullptr)},
                 {"diameter_sigma_px", has_diameter ? num(m.diameter_sigma_px) : json(nullptr)},
-                {"ci95_px",
-                 has_diameter ? json::array({num(m.ci_low_px), num(m.ci_high_px)}) : json(nullptr)},
+                {"ci95_px", has_diameter ? json::array({num(m.ci_low_px), m.upper_unconstrained()
+                                                                              ? json(nullptr)
+                                                                              : num(m.ci_high_px)})
+                                         : json(nullptr)},
                 {"apparent_diameter_px", num(m.apparent_diameter_px)},
                 {"rms_residual", num(m.rms_residual)},
                 {"contrast_to_noise", num(m.contrast_to_noise)},

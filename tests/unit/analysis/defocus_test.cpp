@@ -4,6 +4,7 @@
 #include "analysis/defocus.h"
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <vector>
@@ -220,6 +221,19 @@ TEST(MeasureEdge, InvalidInputIsAnError) {
   EdgeMeasureOptions bad;
   bad.baseline_sigma_px = NAN;
   EXPECT_FALSE(measure_edge(e.image, e.segment, {}, bad).ok());
+}
+
+// An interval whose upper end is infinite or wider than the window across the edge says
+// nothing: reports say "unconstrained" (the review read [0.000, 8810527.724] px).
+TEST(Defocus, AnIntervalPastTheWindowIsUnconstrained) {
+  EdgeMeasurement m;
+  m.half_width_px = 12;  // a 24 px window across the edge
+  m.ci_high_px = 20;
+  EXPECT_FALSE(m.upper_unconstrained());
+  m.ci_high_px = 8810527.724;
+  EXPECT_TRUE(m.upper_unconstrained());
+  m.ci_high_px = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(m.upper_unconstrained());
 }
 
 }  // namespace
