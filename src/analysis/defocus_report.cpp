@@ -101,6 +101,17 @@ struct FrameResult {
 };
 
 // `detected`: edges found automatically (used when the frame's truth has none).
+// Whether the frames can show diffraction: a real lens always does; the virtual camera's
+// renderer does not model it (docs/virtual-camera.md) unless its lens spec says
+// "diffraction": true. Flagging its sharp edges below_diffraction_floor (8 of 14 rows on
+// the review's aperture series) told a user about physics the data did not have.
+bool frames_show_diffraction(const image::CaptureFolder& folder) {
+  const json& source = folder.manifest().value("source", json::object());
+  if (!source.is_object() || !source.contains("camera_spec")) return true;
+  const json& lens = source["camera_spec"].value("lens", json::object());
+  return lens.is_object() && lens.value("diffraction", false) == true;
+}
+
 FrameResult measure_frame(const image::CaptureFolder& folder, int index,
                           const DefocusOptions& options, const std::vector<EdgeSegment>& detected,
                           const std::string& channel) {
@@ -168,7 +179,8 @@ FrameResult measure_frame(const image::CaptureFolder& folder, int index,
       mo.saturation_level = std::min(mo.saturation_level, plateau->level_dn - side->black_level_dn);
     }
   }
-  if (out.pitch_um > 0 && f_number > 0) mo.airy_diameter_px = 2.44 * 0.55 * f_number / out.pitch_um;
+  if (out.pitch_um > 0 && f_number > 0 && frames_show_diffraction(folder))
+    mo.airy_diameter_px = 2.44 * 0.55 * f_number / out.pitch_um;
   for (size_t i = 0; i < edges.size(); ++i) {
     auto m = measure_edge(*signal, edges[i], edges, mo);
     if (!m) {

@@ -149,6 +149,41 @@ TEST(AnalyzeCli, TheReadmeBracketLeavesItsClippedSettingOutAndNamesIt) {
   std::filesystem::remove_all(dir);
 }
 
+// The diffraction floor only where the frames can show diffraction: the virtual camera
+// does not render it, and its aperture series (the README's, f/2 to f/11.3 in stops) had 26
+// of 48 rows flagged below_diffraction_floor. A lens spec that says it diffracts (or a real
+// camera, with no spec) keeps the floor.
+TEST(AnalyzeCli, TheDiffractionFloorOnlyWhereTheFramesCanShowIt) {
+  const auto dir = testing::fresh_dir("cli_diffraction");
+  ASSERT_EQ(camlab::testing::run_cli(
+                "render --camera " CAMLAB_SOURCE_DIR
+                "/mock_device/examples/camera_640x480.json --scene " CAMLAB_SOURCE_DIR
+                "/mock_device/examples/scene_slanted_edges.json --sweep "
+                "f_number=2:11.4:stops --quiet --out " +
+                dir.string())
+                .exit_code,
+            0);
+  auto below_floor = [&] {
+    const auto run = camlab::testing::run_cli("analyze defocus " + dir.string() + " --json");
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    int n = 0;
+    const auto report = nlohmann::json::parse(run.out);
+    for (const auto& t : report["targets"])
+      for (const auto& f : t["frames"]) n += f["status"] == "below_diffraction_floor";
+    return n;
+  };
+  EXPECT_EQ(below_floor(), 0);
+  nlohmann::json manifest;
+  {
+    std::ifstream in(dir / "manifest.json");
+    manifest = nlohmann::json::parse(in);
+  }
+  manifest["source"]["camera_spec"]["lens"]["diffraction"] = true;
+  std::ofstream(dir / "manifest.json", std::ios::trunc) << manifest.dump();
+  EXPECT_GT(below_floor(), 0);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(AnalyzeCli, ErrorsGoToStderrWithStatus2) {
   const auto missing = camlab::testing::run_cli("analyze defocus /nonexistent/capture");
   EXPECT_NE(missing.exit_code, 0);
