@@ -188,8 +188,15 @@ void HttpSession::watch_peer() {
   stream_.socket().async_read_some(net::buffer(drain_buffer_),
                                    [self = shared_from_this()](beast::error_code ec, std::size_t) {
                                      if (!self->body_stream_) return;
-                                     if (ec) return self->end_stream();
-                                     self->watch_peer();
+                                     if (!ec) return self->watch_peer();
+                                     // The client left: free what the stream holds now. The stream
+                                     // object itself stays until its pending next() answers or is
+                                     // dropped (it may be answering right now on another thread,
+                                     // through an object that must still exist), so it is only
+                                     // closed here; that answer then fails to be written and ends
+                                     // the stream as any failed write does.
+                                     self->close_body_stream();
+                                     self->do_close();
                                    });
 }
 
@@ -218,9 +225,14 @@ void HttpSession::on_stream_written(beast::error_code ec, std::size_t) {
   ask_stream();
 }
 
+void HttpSession::close_body_stream() {
+  if (body_stream_ && !body_stream_closed_) body_stream_->close();
+  body_stream_closed_ = true;
+}
+
 void HttpSession::end_stream() {
   if (body_stream_) {
-    body_stream_->close();
+    close_body_stream();
     body_stream_.reset();
   }
   do_close();

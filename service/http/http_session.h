@@ -69,6 +69,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   void on_stream_piece(std::optional<std::string> piece);
   void on_stream_written(boost::beast::error_code ec, std::size_t bytes);
   void end_stream();
+  // BodyStream::close(), once (the client's leaving and a failed write may both ask).
+  void close_body_stream();
   // Half-closes, then reads and drops what the client still sends (bounded in bytes
   // and time) before closing, so the client sees the error response.
   void drain_and_close();
@@ -85,6 +87,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   std::optional<boost::beast::http::response<boost::beast::http::string_body>> response_;
   std::optional<boost::beast::http::response<boost::beast::http::empty_body>> stream_head_;
   std::shared_ptr<BodyStream> body_stream_;
+  bool body_stream_closed_ = false;
   std::string stream_piece_;  // being written
   // Pipelined requests answered in a row (see on_write).
   static constexpr int kMaxPipelinedRequests = 32;
