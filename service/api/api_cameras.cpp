@@ -19,7 +19,9 @@ nlohmann::json latency_json(const ServiceContext& context, const std::string& id
   if (!stored || !stored->has_value()) return nullptr;
   return {{"frames", (*stored)->latency_frames},
           {"source", (*stored)->source},
-          {"measured_ms", (*stored)->measured_ms}};
+          // When it was measured (Unix time, ms): named for what it holds (it was
+          // "measured_ms", which reads as a duration).
+          {"measured_at_unix_ms", (*stored)->measured_ms}};
 }
 
 nlohmann::json summary_json(const ServiceContext& context, const CameraSnapshot& s) {

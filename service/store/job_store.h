@@ -111,9 +111,9 @@ struct JobChange {
 struct LatencyRecord {
   std::string camera_id;
   int latency_frames = 0;
-  std::string source;  // "probe", "spec" (the virtual camera's), "default"
-  int64_t measured_ms = 0;
-  nlohmann::json details;  // the probe's trace and agreement
+  std::string source;       // "probe", "spec" (the virtual camera's), "default"
+  int64_t measured_ms = 0;  // when it was measured: Unix time in ms (the API's measured_at_unix_ms)
+  nlohmann::json details;   // the probe's trace and agreement
 };
 
 // How long a write is tried again while the database is unavailable (see above).

@@ -325,6 +325,9 @@ TEST_F(ServiceLifecycle, ControlLatencyIsMeasuredAtStartUpNotInTheFirstCapture) 
     std::this_thread::sleep_for(50ms);
   }
   ASSERT_FALSE(camera["control_latency"].is_null()) << camera.dump(1);
+  // When it was measured, as a Unix time in ms (after 2020), under a name that says so.
+  EXPECT_GT(camera["control_latency"].value("measured_at_unix_ms", int64_t{0}), 1577836800000)
+      << camera.dump(1);
   EXPECT_FALSE(camera["measuring_latency"].get<bool>());
   EXPECT_TRUE(daemon.get("/v1/jobs").json()["jobs"].empty());
   auto r = daemon.post("/v1/cameras/" + url_segment(daemon.camera_id()) + "/captures",
