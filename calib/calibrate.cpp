@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -115,12 +116,18 @@ bool detector_keeps_partial_boards(const std::string& detector) {
   return detector == "charuco" || detector == "markers";
 }
 
-std::optional<BoardView> detect_board_view(const cv::Mat& image, const CalibrateOptions& options) {
+std::optional<BoardView> detect_board_view(const cv::Mat& image, const CalibrateOptions& options,
+                                           BoardMiss* miss) {
   const BoardSpec& board = options.board;
   BoardView v;
+  // A named detector's own error is the reason; auto's cascade says more (BoardMiss).
+  auto missed = [&](const Error& e) {
+    if (miss && miss->reason.empty()) *miss = {"board_not_found", e.message};
+    return std::nullopt;
+  };
   if (is_charuco(options)) {
     auto c = find_charuco_corners(image, charuco_board(options));
-    if (!c) return std::nullopt;
+    if (!c) return missed(c.error());
     // By id: a ChArUco id is the corner's row-major index; the corners not found stay
     // missing, as mrcal takes a partial view.
     v.corners.assign(static_cast<size_t>(board.cols * board.rows), CornerObservation{});
@@ -132,7 +139,7 @@ std::optional<BoardView> detect_board_view(const cv::Mat& image, const Calibrate
   }
   if (options.detector == "markers") {
     auto c = find_marker_chessboard(image, board.cols, board.rows);
-    if (!c) return std::nullopt;
+    if (!c) return missed(c.error());
     // By id, as for ChArUco: the markers name the corners; those not found stay missing.
     v.corners.assign(static_cast<size_t>(board.cols * board.rows), CornerObservation{});
     for (size_t k = 0; k < c->ids.size(); ++k)
@@ -141,8 +148,8 @@ std::optional<BoardView> detect_board_view(const cv::Mat& image, const Calibrate
     v.detector = "markers";
     return v;
   }
-  auto c = find_chessboard(image, board.cols, board.rows, options.detector);
-  if (!c) return std::nullopt;
+  auto c = find_chessboard(image, board.cols, board.rows, options.detector, miss);
+  if (!c) return missed(c.error());
   v.detector = c->detector;
   for (size_t k = 0; k < c->corners_px.size(); ++k)
     // Weight 0: a corner the detector could not place; mrcal takes it as missing.
@@ -157,12 +164,13 @@ namespace {
 // record which detector found them. The first unreadable image (in order) is the error,
 // and so is the first whose size differs from the first image's.
 Status detect(const std::vector<ImageSource>& images, const CalibrateOptions& options,
-              CalibrationData* data) {
+              CalibrationData* data, std::vector<ImageDetection>* detections) {
   if (Status s = check_calibration_request(options, /*need_source=*/false); !s) return s;
   struct Outcome {
     std::optional<Error> load_error;
     cv::Size size;
     std::optional<BoardView> view;
+    BoardMiss miss;
   };
   std::vector<Outcome> outcomes(images.size());
   std::atomic<size_t> next{0}, done{0};
@@ -179,7 +187,7 @@ Status detect(const std::vector<ImageSource>& images, const CalibrateOptions& op
         break;
       }
       o.size = image->size();
-      o.view = detect_board_view(*image, options);
+      o.view = detect_board_view(*image, options, &o.miss);
       if (o.view) ++boards;
       const size_t n = ++done;
       if (options.progress) {
@@ -212,9 +220,12 @@ Status detect(const std::vector<ImageSource>& images, const CalibrateOptions& op
     }
   }
   for (size_t i = 0; i < images.size(); ++i) {
-    if (!outcomes[i].view) continue;
-    outcomes[i].view->name = images[i].name;
-    data->views.push_back(std::move(*outcomes[i].view));
+    Outcome& o = outcomes[i];
+    detections->push_back({images[i].name, o.view ? o.view->detector : "",
+                           o.view ? "" : o.miss.reason, o.view ? "" : o.miss.detail});
+    if (!o.view) continue;
+    o.view->name = images[i].name;
+    data->views.push_back(std::move(*o.view));
   }
   return {};
 }
@@ -239,6 +250,23 @@ Result<std::string> model_name(const CalibrateOptions& options, const Calibratio
   return name;
 }
 
+// "10 no_corners, 3 partial_board (e.g. img7.png: the largest ...)": the reasons no board
+// was found, counted, with the first image's detail.
+std::string misses_summary(const std::vector<ImageDetection>& detections) {
+  std::map<std::string, int> counts;
+  const ImageDetection* first = nullptr;
+  for (const auto& d : detections)
+    if (d.detector.empty()) {
+      ++counts[d.why_not.empty() ? "board_not_found" : d.why_not];
+      if (!first) first = &d;
+    }
+  std::string out;
+  for (const auto& [reason, n] : counts)
+    out += (out.empty() ? "" : ", ") + std::to_string(n) + " " + reason;
+  if (first) out += " (e.g. " + first->image + ": " + first->detail + ")";
+  return out;
+}
+
 // Outputs are written atomically (a reader, e.g. the daemon serving a job's files, never
 // sees half a file).
 Status write_text(const fs::path& path, const std::string& text) {
@@ -261,7 +289,7 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
     CAMLAB_ASSIGN(images, options.images_dir.empty() ? job_sources(options.job_dir)
                                                      : images_dir_sources(options.images_dir));
     run.images = static_cast<int>(images.size());
-    if (Status s = detect(images, options, &data); !s) return s.error();
+    if (Status s = detect(images, options, &data, &run.detections); !s) return s.error();
     if (data.views.empty() && is_charuco(options))
       return make_error("no_board", "no corner of the " + std::to_string(data.board.cols + 1) +
                                         "x" + std::to_string(data.board.rows + 1) + "-square " +
@@ -276,7 +304,8 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
                                         " inner-corner chessboard found in any of the " +
                                         std::to_string(images.size()) +
                                         " images (check --board: inner corners, "
-                                        "not squares)");
+                                        "not squares): " +
+                                        misses_summary(run.detections));
   }
   // Written before the solve, so the corners survive a solve that fails.
   if (!options.out_corners_vnl.empty())
@@ -339,16 +368,31 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
       {"solve", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() -
                     read_and_detect_s}};
   if (run.images > 0) {
-    // Boards found per detector: under "auto", the "mrgingham" count on a square board is
-    // the images the saddle detector missed.
-    nlohmann::json views_by_detector =
-        is_charuco(options) ? nlohmann::json{{"charuco", 0}}
-        : options.detector == "markers"
-            ? nlohmann::json{{"markers", 0}}
-            : nlohmann::json{{"saddle", 0}, {"mrgingham", 0}, {"opencv", 0}};
+    // Boards found per detector: under "auto", each stage's count after "saddle" is the
+    // images the stages before it missed.
+    nlohmann::json views_by_detector = is_charuco(options) ? nlohmann::json{{"charuco", 0}}
+                                       : options.detector == "markers"
+                                           ? nlohmann::json{{"markers", 0}}
+                                           : nlohmann::json{{"saddle", 0},
+                                                            {"mrgingham", 0},
+                                                            {"opencv_classic", 0},
+                                                            {"opencv_sb", 0},
+                                                            {"opencv", 0}};
     for (const auto& v : data.views)
       views_by_detector[v.detector] = views_by_detector.value(v.detector, 0) + 1;
     run.report_json["detector"] = {{"requested", options.detector}, {"views", views_by_detector}};
+    // Every image's outcome: which detector found the board, or why none did.
+    nlohmann::json per_image = nlohmann::json::array(), not_found = nlohmann::json::object();
+    for (const auto& d : run.detections) {
+      if (!d.detector.empty()) {
+        per_image.push_back({{"image", d.image}, {"detector", d.detector}});
+        continue;
+      }
+      per_image.push_back({{"image", d.image}, {"why_not", d.why_not}, {"detail", d.detail}});
+      not_found[d.why_not] = not_found.value(d.why_not, 0) + 1;
+    }
+    run.report_json["detector"]["not_found"] = not_found;
+    run.report_json["detections"] = per_image;
     // Partial views are the point of a ChArUco or marker board: how many, and the
     // corners found.
     int corners = 0, partial = 0;

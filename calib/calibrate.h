@@ -19,6 +19,7 @@
 
 #include "base/result.h"
 #include "calib/calibration_data.h"
+#include "calib/corners/chessboard_detector.h"
 #include "calib/report.h"
 
 namespace camlab::calib {
@@ -57,10 +58,21 @@ struct CalibrateOptions {
   const std::atomic<bool>* cancel = nullptr;
 };
 
+// One image's outcome of the board search: the detector that found the board, or why
+// none did (calib/corners/chessboard_detector.h's BoardMiss reasons; "board_not_found"
+// from a detector named in --detector, which does not say why).
+struct ImageDetection {
+  std::string image;
+  std::string detector;  // empty: no board found
+  std::string why_not;   // with no board: the reason, a stable key
+  std::string detail;    // with no board: the reason for a person
+};
+
 struct CalibrationRun {
-  CalibrationData data;      // the corners used
-  int images = 0;            // images read (0 for corners.vnl)
-  CalibrationReport report;  // report.solution holds the model
+  CalibrationData data;                    // the corners used
+  int images = 0;                          // images read (0 for corners.vnl)
+  std::vector<ImageDetection> detections;  // one per image read, in the images' order
+  CalibrationReport report;                // report.solution holds the model
   nlohmann::json report_json;
   std::string cameramodel_text;                 // full precision (model_io.h)
   std::optional<std::string> opencv_yaml_text;  // when the model has an OpenCV equivalent
@@ -76,9 +88,10 @@ bool detector_keeps_partial_boards(const std::string& detector);
 // One image's board as a view with options.detector (checked by the caller, as the
 // request validation of calibration_request.h does):
 // row-major corners in mrcal's order, a ChArUco board's by id with those not found
-// missing; nothing when no board is found. For callers that take images one at a time
-// (the daemon's calibration sessions).
-std::optional<BoardView> detect_board_view(const cv::Mat& image, const CalibrateOptions& options);
+// missing; nothing when no board is found, and then *miss (when given) says why. For
+// callers that take images one at a time (the daemon's calibration sessions).
+std::optional<BoardView> detect_board_view(const cv::Mat& image, const CalibrateOptions& options,
+                                           BoardMiss* miss = nullptr);
 
 // Detects, solves and reports; writes only options.out_corners_vnl (right after
 // detection, so the corners survive a solve that fails). Errors (stable codes): "invalid_argument"

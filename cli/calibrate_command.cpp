@@ -132,6 +132,33 @@ void run_watch(const CalibrateArgs& a, const calib::CalibrateOptions& o,
 
 // "WxH" in decimal digits, each read as a 64-bit number: one past int's range is for the
 // caller to refuse as out of range, never wrapped (sscanf's %d reads 4294967310 as 14).
+// "saddle 10, opencv_classic 3": the detectors that found boards, with their counts.
+std::string counts_text(const nlohmann::json& by_detector) {
+  std::string out;
+  for (const auto& [name, n] : by_detector.items())
+    if (n.is_number_integer() && n.get<int>() > 0)
+      out += (out.empty() ? "" : ", ") + name + " " + std::to_string(n.get<int>());
+  return out.empty() ? "none" : out;
+}
+
+// The images without a board and why, at most 10 lines (the report has them all).
+void print_misses(const std::vector<calib::ImageDetection>& detections) {
+  constexpr int kMaxLines = 10;
+  int shown = 0, missed = 0;
+  for (const auto& d : detections) {
+    if (!d.detector.empty()) continue;
+    if (++missed > kMaxLines) continue;
+    ++shown;
+    std::fprintf(stderr, "  no board in %s [%s]: %s\n", d.image.c_str(), d.why_not.c_str(),
+                 d.detail.c_str());
+  }
+  if (missed > shown)
+    std::fprintf(stderr,
+                 "  ... and %d more images without the board (the report's "
+                 "\"detections\" lists every image)\n",
+                 missed - shown);
+}
+
 bool parse_wxh(const std::string& s, long long* w, long long* h) {
   const char* const end = s.data() + s.size();
   auto [after_w, ew] = std::from_chars(s.data(), end, *w);
@@ -240,11 +267,9 @@ void run_calibrate(const CalibrateArgs& a) {
                    run->data.views.size(), run->images, charuco.value("corners", 0),
                    charuco.value("partial_views", 0));
     else
-      std::fprintf(stderr,
-                   "camlab calibrate: found the board in %zu of %d images (saddle %d, mrgingham "
-                   "%d, opencv %d)\n",
-                   run->data.views.size(), run->images, by.value("saddle", 0),
-                   by.value("mrgingham", 0), by.value("opencv", 0));
+      std::fprintf(stderr, "camlab calibrate: found the board in %zu of %d images (%s)\n",
+                   run->data.views.size(), run->images, counts_text(by).c_str());
+    print_misses(run->detections);
   }
   auto report = calib::write_calibration_outputs(&*run, o);
   if (!report) errors.fail(report.error());
@@ -295,9 +320,12 @@ void register_calibrate_command(CLI::App& app) {
       "Corner detector for --images/--job: auto (default), saddle, opencv or mrgingham for a "
       "chessboard, charuco for a ChArUco board. saddle: saddle points at reduced resolution, "
       "a grid grown from them, cornerSubPix at full resolution (any board, a few ms an "
-      "image); auto: saddle, then mrgingham (mrcal's detector, N x N boards only) on a square "
-      "board's image where saddle finds none; opencv: findChessboardCornersSB + cornerSubPix "
-      "(any board, 0.7-0.9 s an image); markers: a chessboard with OpenCV's three circle "
+      "image); auto: a cascade, each stage where the ones before found no board: saddle, "
+      "mrgingham (mrcal's detector, N x N boards only), OpenCV's classic findChessboardCorners, "
+      "then findChessboardCornersSB, so it finds every board OpenCV's detectors find; a grid "
+      "that is part of a bigger board is refused, and each image without a board is reported "
+      "with why; opencv: findChessboardCornersSB's exhaustive search + cornerSubPix (any "
+      "board, 0.2-0.9 s an image); markers: a chessboard with OpenCV's three circle "
       "markers near its middle (findChessboardCornersSB's CALIB_CB_MARKER layout): the "
       "saddle grid, whole or cut by the frame, named by the markers, partial boards kept "
       "(a view must show the three marker squares); charuco: OpenCV's ArUco markers name the "

@@ -3,13 +3,16 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdlib>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
 
+#include "calib/corners/board_ring.h"
 #include "calib/corners/image_8bit.h"
+#include "calib/corners/tone_sampling.h"
 
 namespace camlab::calib {
 
@@ -93,17 +96,6 @@ std::vector<Candidate> find_candidates(const cv::Mat& saddle, int board_corners,
   return out;
 }
 
-float bilinear(const cv::Mat& f, float x, float y) {
-  x = std::clamp(x, 0.f, f.cols - 1.001f);
-  y = std::clamp(y, 0.f, f.rows - 1.001f);
-  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
-  const float ax = x - x0, ay = y - y0;
-  const float* r0 = f.ptr<float>(y0);
-  const float* r1 = f.ptr<float>(y0 + 1);
-  return (1 - ay) * ((1 - ax) * r0[x0] + ax * r0[x0 + 1]) +
-         ay * ((1 - ax) * r1[x0] + ax * r1[x0 + 1]);
-}
-
 // Whether the blurred image around p shows an X-junction: on a circle of `radius` px, the
 // intensity changes sign (about its mean) exactly four times, dark and bright sectors
 // alternating. An L-junction at the board's outer edge, a blob or a line end has two
@@ -115,7 +107,7 @@ bool is_x_junction(const cv::Mat& blurred, cv::Point2f p, float radius) {
   float mean = 0, lo = 1e9f, hi = -1e9f;
   for (int k = 0; k < kSamples; ++k) {
     const float a = static_cast<float>(2 * M_PI * k / kSamples);
-    v[k] = bilinear(blurred, p.x + radius * std::cos(a), p.y + radius * std::sin(a));
+    v[k] = sample_bilinear(blurred, p.x + radius * std::cos(a), p.y + radius * std::sin(a));
     mean += v[k] / kSamples;
     lo = std::min(lo, v[k]);
     hi = std::max(hi, v[k]);
@@ -135,18 +127,6 @@ bool is_x_junction(const cv::Mat& blurred, cv::Point2f p, float radius) {
   return changes == 4;
 }
 
-// The intensity range (max - min) of the blurred image on a circle of `radius` px around p.
-float contrast_around(const cv::Mat& blurred, cv::Point2f p, float radius) {
-  float lo = 1e9f, hi = -1e9f;
-  for (int k = 0; k < 16; ++k) {
-    const float a = static_cast<float>(2 * M_PI * k / 16);
-    const float v = bilinear(blurred, p.x + radius * std::cos(a), p.y + radius * std::sin(a));
-    lo = std::min(lo, v);
-    hi = std::max(hi, v);
-  }
-  return hi - lo;
-}
-
 // Whether the segment p-q runs along a black-white edge of the board, as it does between
 // neighbours along a row or column: either side of its midpoint differs by half the
 // local contrast. Between diagonal neighbours the midpoint is a square's centre, alike on
@@ -155,8 +135,8 @@ float contrast_around(const cv::Mat& blurred, cv::Point2f p, float radius) {
 bool along_edge(const cv::Mat& blurred, cv::Point2f p, cv::Point2f q, float contrast) {
   const cv::Point2f m = 0.5f * (p + q), d = q - p;
   const cv::Point2f n = cv::Point2f(-d.y, d.x) * 0.2f;
-  const float a = bilinear(blurred, m.x + n.x, m.y + n.y),
-              b = bilinear(blurred, m.x - n.x, m.y - n.y);
+  const float a = sample_bilinear(blurred, m.x + n.x, m.y + n.y),
+              b = sample_bilinear(blurred, m.x - n.x, m.y - n.y);
   return std::fabs(a - b) > 0.5f * contrast;
 }
 
@@ -280,7 +260,16 @@ class GridBuilder {
     // The board is the one complete cols x rows (or rows x cols) window of the lattice: a
     // few stray junctions past the board's edge (its frame, the background) may join the
     // lattice, but a second complete window means a bigger board than the one asked for.
-    int found = 0, wi = 0, wj = 0, ww = 0, wh = 0;
+    // Where several windows are complete, the stray junctions form whole rows: a board
+    // held with a white margin inside a dark frame shows a junction at each of its edge
+    // squares' outer corners (a black square, the margin, the frame); 8 of 13 views of
+    // OpenCV's sample stereo pair do. The board is then the one window ringed by squares
+    // (board_ring.h): outside a window that reaches into the margin lies the margin, one
+    // tone. Two windows that both pass are a bigger board: not the one asked for.
+    struct Window {
+      int i0, j0, w, h;
+    };
+    std::vector<Window> complete;
     for (int orientation = 0; orientation < (cols_ == rows_ ? 1 : 2); ++orientation) {
       const int w = orientation == 0 ? cols_ : rows_, h = orientation == 0 ? rows_ : cols_;
       for (int j0 = jmin; j0 + h - 1 <= jmax; ++j0)
@@ -288,12 +277,20 @@ class GridBuilder {
           bool full = true;
           for (int j = j0; j < j0 + h && full; ++j)
             for (int i = i0; i < i0 + w && full; ++i) full = lattice.get(i, j) >= 0;
-          if (!full) continue;
-          ++found;
-          wi = i0, wj = j0, ww = w, wh = h;
+          if (full) complete.push_back({i0, j0, w, h});
         }
     }
-    if (found != 1) return false;
+    if (complete.size() > 1)
+      std::erase_if(complete, [&](const Window& c) {
+        auto corner = [&](int i, int j) { return cand_[lattice.get(c.i0 + i, c.j0 + j)].p; };
+        return !ringed_by_squares(ring_alternation(blurred_, corner, c.w, c.h, 1));
+      });
+    if (complete.size() != 1) return false;
+    const int wi = complete[0].i0, wj = complete[0].j0, ww = complete[0].w, wh = complete[0].h;
+    // A window whose squares go on past its edge is part of a bigger board whose lattice
+    // did not grow whole (a junction missed): not the board asked for.
+    auto window_corner = [&](int i, int j) { return cand_[lattice.get(wi + i, wj + j)].p; };
+    if (board_goes_on(ring_alternation(blurred_, window_corner, ww, wh, 2))) return false;
     *nx = ww;
     *ny = wh;
     grid->assign(cols_ * rows_, cv::Point2f());

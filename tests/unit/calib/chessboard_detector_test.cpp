@@ -471,9 +471,14 @@ TEST_F(CalibrateDetector, RecordsEachViewsDetectorAndMrginghamWeights) {
   ASSERT_TRUE(run.ok()) << run.error().message;
   ASSERT_EQ(run->data.views.size(), views.size());
   for (const BoardView& v : run->data.views) EXPECT_EQ(v.detector, "saddle") << v.name;
-  nlohmann::json expected = {
-      {"requested", "auto"},
-      {"views", {{"saddle", views.size()}, {"mrgingham", 0}, {"opencv", 0}}}};
+  nlohmann::json expected = {{"requested", "auto"},
+                             {"views",
+                              {{"saddle", views.size()},
+                               {"mrgingham", 0},
+                               {"opencv_classic", 0},
+                               {"opencv_sb", 0},
+                               {"opencv", 0}}},
+                             {"not_found", nlohmann::json::object()}};
   EXPECT_EQ(run->report_json["detector"], expected);
 
   // mrgingham asked for: its corners and its weights, 0.5^level, as it found them.
@@ -492,8 +497,16 @@ TEST_F(CalibrateDetector, RecordsEachViewsDetectorAndMrginghamWeights) {
       EXPECT_EQ(v.corners[i].x_px, direct->corners_px[i].x) << v.name << " corner " << i;
     }
   }
+  // The view it misses is reported, with the detector's own reason (a named detector does
+  // not say why).
   expected = {{"requested", "mrgingham"},
-              {"views", {{"saddle", 0}, {"mrgingham", views.size() - 1}, {"opencv", 0}}}};
+              {"views",
+               {{"saddle", 0},
+                {"mrgingham", views.size() - 1},
+                {"opencv_classic", 0},
+                {"opencv_sb", 0},
+                {"opencv", 0}}},
+              {"not_found", {{"board_not_found", 1}}}};
   EXPECT_EQ(run->report_json["detector"], expected);
 
   o.board = {14, 10, kSquareM};
