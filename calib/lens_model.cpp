@@ -66,6 +66,17 @@ double angle_between(const double* a, const double* b) {
   return std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), dot);
 }
 
+// The field between two image points' directions a and b, seen from the camera: the
+// angle between them while both look forward (z > 0); beyond, where a fisheye sees
+// behind its own plane, the sum of their angles off the optical axis, so a field past
+// 180 deg reads as such (the angle between two directions folds back under 180). The two
+// agree at 90 deg each side for edge points opposite across the axis.
+double field_between(const double* a, const double* b) {
+  if (a[2] > 0 && b[2] > 0) return angle_between(a, b);
+  auto off_axis = [](const double* v) { return std::atan2(std::hypot(v[0], v[1]), v[2]); };
+  return off_axis(a) + off_axis(b);
+}
+
 }  // namespace
 
 Result<int> lensmodel_param_count(const std::string& lensmodel) {
@@ -84,9 +95,10 @@ Result<std::string> configured_lensmodel(const std::string& name_in, int width_p
     const int nx = 16;
     const int ny = std::clamp(static_cast<int>(std::lround(nx * double(height_px) / width_px)),
                               kSplineKnotsMin, kSplineKnotsMax);
-    // The spline must span the whole field of view with some margin; mrcal requires an
-    // integer number of degrees.
-    const int fov = std::clamp(static_cast<int>(std::ceil(fov_x_deg_hint * 1.1 + 5)), 10, 200);
+    // The spline must span the whole field of view with some margin (a fisheye's corners
+    // see further off-axis than its sides: 1.25 x the horizontal field); mrcal requires
+    // an integer number of degrees; at most 280, inside the limit of 300.
+    const int fov = std::clamp(static_cast<int>(std::ceil(fov_x_deg_hint * 1.1 + 5)), 10, 280);
     name += "_order=3_Nx=" + std::to_string(nx) + "_Ny=" + std::to_string(ny) +
             "_fov_x_deg=" + std::to_string(fov);
   }
@@ -187,9 +199,9 @@ Result<FieldOfView> field_of_view(const LensModel& model) {
                         "(the model extrapolates beyond the data)");
   FieldOfView fov;
   constexpr double kDeg = 180.0 / M_PI;
-  fov.horizontal_deg = angle_between(&v[0], &v[3]) * kDeg;
-  fov.vertical_deg = angle_between(&v[6], &v[9]) * kDeg;
-  fov.diagonal_deg = 0.5 * (angle_between(&v[12], &v[15]) + angle_between(&v[18], &v[21])) * kDeg;
+  fov.horizontal_deg = field_between(&v[0], &v[3]) * kDeg;
+  fov.vertical_deg = field_between(&v[6], &v[9]) * kDeg;
+  fov.diagonal_deg = 0.5 * (field_between(&v[12], &v[15]) + field_between(&v[18], &v[21])) * kDeg;
   return fov;
 }
 
@@ -211,10 +223,10 @@ Result<FieldOfViewParts> field_of_view_parts(const LensModel& model) {
   }
   constexpr double kDeg = 180.0 / M_PI;
   FieldOfViewParts fov;
-  if (valid[0] && valid[1]) fov.horizontal_deg = angle_between(&v[0], &v[3]) * kDeg;
-  if (valid[2] && valid[3]) fov.vertical_deg = angle_between(&v[6], &v[9]) * kDeg;
+  if (valid[0] && valid[1]) fov.horizontal_deg = field_between(&v[0], &v[3]) * kDeg;
+  if (valid[2] && valid[3]) fov.vertical_deg = field_between(&v[6], &v[9]) * kDeg;
   if (valid[4] && valid[5] && valid[6] && valid[7])
-    fov.diagonal_deg = 0.5 * (angle_between(&v[12], &v[15]) + angle_between(&v[18], &v[21])) * kDeg;
+    fov.diagonal_deg = 0.5 * (field_between(&v[12], &v[15]) + field_between(&v[18], &v[21])) * kDeg;
   return fov;
 }
 

@@ -52,6 +52,8 @@ struct FieldOfView {
 };
 
 // FOV by unprojecting the image edges (pixel edges at -0.5 and W - 0.5) through the model.
+// Past 180 deg (a fisheye that sees behind its own plane) each FOV is the sum of its two
+// edge points' angles off the optical axis.
 // Error "unproject_failed" when the model cannot unproject the edges (a polynomial model
 // fitted far beyond its data may fold over).
 Result<FieldOfView> field_of_view(const LensModel& model);

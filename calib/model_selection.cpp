@@ -14,11 +14,13 @@
 #include <optional>
 #include <thread>
 
+#include "base/cancel.h"
 #include "base/format.h"
 #include "base/log.h"
 #include "calib/lens_model.h"
 #include "calib/library_stderr.h"
 #include "calib/residual_pattern.h"
+#include "calib/seed.h"
 #include "calib/uncertainty.h"
 
 namespace camlab::calib {
@@ -318,6 +320,61 @@ void cross_check_with_spline(const CalibrationData& data, const SolveOptions& op
   if (switch_to_spline) out->chosen = std::move(*spline);
 }
 
+// Why the data call for a fisheye model, or empty: corners seen 60 deg or more off the
+// axis, or a chosen model that sees 120 deg or more across or whose FOV is undefined. No
+// OpenCV model describes such a lens well, and a polynomial fitted to one folds over
+// before the imager's edges, yet the field of view is the number the user came for.
+// The largest angle off the optical axis at which a corner is seen, under the seed's
+// projection and focal length (principal point at the imager's centre), in degrees.
+double widest_corner_deg(const CalibrationData& data, const FocalSeed& seed) {
+  const double cx = 0.5 * (data.imager_width_px - 1), cy = 0.5 * (data.imager_height_px - 1);
+  double widest = 0;
+  for (const auto& v : data.views)
+    for (const auto& c : v.corners) {
+      if (!c.present || c.weight <= 0) continue;
+      const double r = std::hypot(c.x_px - cx, c.y_px - cy);
+      widest = std::max(widest, seed.projection == SeedProjection::kStereographic
+                                    ? 2 * std::atan(r / (2 * seed.focal_px))
+                                    : std::atan(r / seed.focal_px));
+    }
+  return widest * 180 / M_PI;
+}
+
+std::string fisheye_call(const CalibrationData& data, const Solution& chosen,
+                         const FocalSeed* seed) {
+  if (seed && seed->focal_px > 0)
+    if (const double widest = widest_corner_deg(data, *seed); widest >= 60)
+      return format_printf("corners are seen %.0f deg off the axis", widest);
+  auto fov = field_of_view_parts(chosen.model);
+  if (!fov || !fov->horizontal_deg)
+    return "the horizontal FOV of " + chosen.model.lensmodel + " is undefined";
+  if (*fov->horizontal_deg >= 120)
+    return format_printf("%s sees %.0f deg across", chosen.model.lensmodel.c_str(),
+                         *fov->horizontal_deg);
+  return "";
+}
+
+// The field of view the splined fisheye model's grid must span: the widest horizontal
+// field among the models fitted (the stereographic one's is always defined), else from
+// the seed's focal length, with a margin of 30%: a stereographic fit to a lens of
+// another projection sees less than its field (144 deg of a 180-deg LONLAT lens), and a
+// grid short of the imager's edges leaves them to extrapolation (172 deg read instead).
+double fisheye_fov_hint_deg(const CalibrationData& data, const std::vector<const Solution*>& fits,
+                            const FocalSeed* seed) {
+  double fov_x_deg = 0;
+  for (const Solution* s : fits)
+    if (auto fov = field_of_view_parts(s->model); fov.ok() && fov->horizontal_deg)
+      fov_x_deg = std::max(fov_x_deg, *fov->horizontal_deg);
+  if (fov_x_deg < 100 && seed && seed->focal_px > 0) {
+    const double half_width_px = 0.5 * data.imager_width_px;
+    fov_x_deg = std::max(fov_x_deg, (seed->projection == SeedProjection::kStereographic
+                                         ? 4 * std::atan(half_width_px / (2 * seed->focal_px))
+                                         : 2 * std::atan(half_width_px / seed->focal_px)) *
+                                        180 / M_PI);
+  }
+  return std::clamp(1.3 * fov_x_deg, 60.0, 250.0);
+}
+
 }  // namespace
 
 Result<ModelSelection> select_model(const CalibrationData& data, const SolveOptions& options,
@@ -447,6 +504,48 @@ Result<ModelSelection> select_model(const CalibrationData& data, const SolveOpti
   for (auto& t : pool) t.join();
   if (best < 0) return make_error("solve_failed", "no lens model could be fitted");
   out.chosen = std::move(solutions[best]);
+  // A fisheye: its models are fitted and cross-validated as the others, and one is taken
+  // when its held-out error is lower by the same rule, or when the model chosen so far
+  // has no horizontal FOV and the fisheye model's held-out error is within 10% of it (the
+  // same fit, and the field defined).
+  if (const std::string why = fisheye_call(data, out.chosen, shared.seed.get()); !why.empty()) {
+    log_info(log::Category::kCalib, "model selection: fisheye candidates, as %s", why.c_str());
+    // Simplest first: LENSMODEL_STEREOGRAPHIC (4 parameters), then mrcal's splined
+    // stereographic model, its grid spanning the field the fits so far see.
+    std::optional<Solution> stereographic;
+    for (int k = 0; k < 2; ++k) {
+      if (Status s = check_not_cancelled(options.cancel, "calibration"); !s) return s.error();
+      std::string name = "LENSMODEL_STEREOGRAPHIC";
+      if (k == 1) {
+        std::vector<const Solution*> fits = {&out.chosen};
+        if (stereographic) fits.push_back(&*stereographic);
+        auto spline = configured_lensmodel("LENSMODEL_SPLINED_STEREOGRAPHIC", data.imager_width_px,
+                                           data.imager_height_px,
+                                           fisheye_fov_hint_deg(data, fits, shared.seed.get()));
+        if (!spline) break;
+        name = *spline;
+      }
+      Candidate c = evaluate(name);
+      c.evidence.note = "fisheye candidate: " + why;
+      out.evidence.push_back(c.evidence);
+      if (!c.evidence.ok) continue;
+      if (k == 0) stereographic = c.solution;
+      auto fov = field_of_view_parts(out.chosen.model);
+      const bool fov_undefined = !fov || !fov->horizontal_deg;
+      auto candidate_fov = field_of_view_parts(c.solution.model);
+      // A fisheye model taken for its field must have one.
+      if (!candidate_fov || !candidate_fov->horizontal_deg) continue;
+      const double h = c.evidence.heldout_px;
+      const bool clearly_lower = h < best_heldout_px * 0.95 - 0.005;
+      const bool as_good_with_a_field = fov_undefined && h <= best_heldout_px * 1.1 + 0.005;
+      if (clearly_lower || as_good_with_a_field ||
+          significantly_better(best_heldout, c.heldout, by_views)) {
+        out.chosen = std::move(c.solution);
+        best_heldout = std::move(c.heldout);
+        best_heldout_px = h;
+      }
+    }
+  }
   cross_check_with_spline(data, options, by_views, &out);
   return out;
 }

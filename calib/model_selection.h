@@ -7,6 +7,11 @@
 // the trimmed RMS of the weighted held-out residuals. Models are compared by their
 // projections of held-out data, never by coefficients. The search stops after two
 // richer models in a row fail to improve.
+// A fisheye (corners seen 60 deg or more off the axis, or a chosen model that sees 120 deg
+// or more across or has no defined FOV) gets two more candidates, fitted and judged the
+// same way: LENSMODEL_STEREOGRAPHIC, then mrcal's splined stereographic model over the
+// field the fits see. One is also taken when the model chosen so far has no horizontal
+// FOV and its held-out error is within 10%: the field of view is the number asked for.
 // With fewer than 6 usable views no view can be spared: a third of each view's corners
 // is held out per fold instead (cross_validation "corners"; weaker evidence, see
 // model_selection.cpp), and the report says so.
