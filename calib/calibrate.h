@@ -36,6 +36,9 @@ struct CalibrateOptions {
   std::string sensor;          // a sensor format name instead of the pitch (optics)
   double focal_guess_px = 0;   // searched around, never trusted
   bool board_warp = true;
+  // Odd/even and leave-one-out repeatability in the report (calib/repeatability.h): two
+  // half-data solves and up to 24 leave-one-out solves, each warm-started.
+  bool repeatability = true;
   int detect_threads = 0;  // 0: hardware concurrency, at most 16
   // auto | saddle | opencv | mrgingham (calib/corners/chessboard_detector.h), or charuco
   // for a ChArUco board (calib/corners/charuco_corners.h): its squares are board.cols + 1

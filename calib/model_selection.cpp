@@ -32,30 +32,6 @@ std::vector<std::string> default_candidate_models() {
 
 namespace {
 
-// The full data's solution as a warm start for a fold whose views are data.views[fold_views[k]].
-std::shared_ptr<const WarmStart> warm_start_for(const Solution& full,
-                                                const std::vector<int>& fold_views) {
-  auto warm = std::make_shared<WarmStart>();
-  warm->model = full.model;
-  warm->calobject_warp = full.calobject_warp;
-  for (int v : fold_views) {
-    const auto it = std::find(full.views_used.begin(), full.views_used.end(), v);
-    auto& outliers = warm->outlier_corners.emplace_back();
-    if (it == full.views_used.end()) {
-      warm->rt_cam_board.emplace_back();
-      continue;
-    }
-    const size_t i = it - full.views_used.begin();
-    warm->rt_cam_board.emplace_back(full.rt_cam_board[i]);
-    // A down-weighted view's corners all count as outliers in the report; in the fold it
-    // is judged afresh (rejecting all its corners would leave its pose undetermined).
-    if (i < full.view_downweighted.size() && full.view_downweighted[i]) continue;
-    for (const auto& r : full.residuals)
-      if (r.view == v && r.outlier) outliers.push_back(r.corner);
-  }
-  return warm;
-}
-
 // Held-out residuals in units of each corner's own noise: the residual times the corner's
 // weight (mrcal's weight = 1 / relative noise, 0.5^level for mrgingham), so a corner found
 // at a coarse level does not outweigh the finer ones it is noisier than.
@@ -136,7 +112,7 @@ Result<std::vector<CornerResidual>> heldout_residuals(const CalibrationData& dat
         train_views.push_back(views[i]);
       }
     }
-    fold_options.warm_start = warm_start_for(full, train_views);
+    fold_options.warm_start = warm_start_from(full, train_views);
     Solution s;
     CAMLAB_ASSIGN(s, solve(train, fold_options));
     Solution h;
@@ -176,7 +152,7 @@ Result<std::vector<CornerResidual>> heldout_residuals_by_corners(const Calibrati
     fold_options.compute_covariance = false;
     std::vector<int> all_views(data.views.size());
     std::iota(all_views.begin(), all_views.end(), 0);
-    fold_options.warm_start = warm_start_for(full, all_views);
+    fold_options.warm_start = warm_start_from(full, all_views);
     Solution s;
     CAMLAB_ASSIGN(s, solve(train, fold_options));
     for (auto [v, j] : test) {

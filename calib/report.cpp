@@ -251,6 +251,7 @@ nlohmann::json to_json(const CalibrationReport& r) {
       row["heldout_px"] = e.heldout_px;
       row["solve_s"] = e.solve_s;
       row["cv_s"] = e.cv_s;
+      if (!e.note.empty()) row["note"] = e.note;
     } else {
       if (!e.error.empty()) row["error"] = e.error;
       if (!e.note.empty()) row["note"] = e.note;
@@ -284,6 +285,10 @@ nlohmann::json to_json(const CalibrationReport& r) {
   } else {
     j["projection_uncertainty"] = {{"error", r.uncertainty_error}};
   }
+  if (r.repeatability)
+    j["repeatability"] = to_json(*r.repeatability);
+  else if (!r.repeatability_error.empty())
+    j["repeatability"] = {{"error", r.repeatability_error}};
   nlohmann::json w = nlohmann::json::array();
   for (const auto& x : r.warnings) w.push_back({{"code", x.code}, {"message", x.message}});
   j["warnings"] = w;
@@ -362,6 +367,10 @@ std::string to_text(const CalibrationReport& r) {
   } else if (!r.uncertainty_error.empty()) {
     t += "projection uncertainty: " + r.uncertainty_error + "\n";
   }
+  if (r.repeatability)
+    t += to_text(*r.repeatability);
+  else if (!r.repeatability_error.empty())
+    t += "repeatability: " + r.repeatability_error + "\n";
   for (const auto& w : r.warnings) t += "warning [" + w.code + "]: " + w.message + "\n";
   return t;
 }

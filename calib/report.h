@@ -28,6 +28,7 @@
 
 #include "calib/calibration_data.h"
 #include "calib/lens_model.h"
+#include "calib/repeatability.h"
 #include "calib/solver.h"
 #include "calib/uncertainty.h"
 
@@ -78,6 +79,10 @@ struct CalibrationReport {
   std::vector<ModelEvidence> evidence;
   std::string cross_validation;  // how held-out errors were found: "views", "corners" or ""
   SplineCheck spline_check;
+  // Odd/even and leave-one-out (repeatability.h); empty when not measured (a corners.vnl
+  // without views, --no-repeatability) or when it failed (repeatability_error says why).
+  std::optional<Repeatability> repeatability;
+  std::string repeatability_error;
   std::vector<Warning> warnings;
 };
 

@@ -647,4 +647,27 @@ Result<Solution> fit_poses(const CalibrationData& data, const LensModel& model,
   return s;
 }
 
+std::shared_ptr<const WarmStart> warm_start_from(const Solution& full,
+                                                 const std::vector<int>& fold_views) {
+  auto warm = std::make_shared<WarmStart>();
+  warm->model = full.model;
+  warm->calobject_warp = full.calobject_warp;
+  for (int v : fold_views) {
+    const auto it = std::find(full.views_used.begin(), full.views_used.end(), v);
+    auto& outliers = warm->outlier_corners.emplace_back();
+    if (it == full.views_used.end()) {
+      warm->rt_cam_board.emplace_back();
+      continue;
+    }
+    const size_t i = it - full.views_used.begin();
+    warm->rt_cam_board.emplace_back(full.rt_cam_board[i]);
+    // A down-weighted view's corners all count as outliers in the report; in the fold it
+    // is judged afresh (rejecting all its corners would leave its pose undetermined).
+    if (i < full.view_downweighted.size() && full.view_downweighted[i]) continue;
+    for (const auto& r : full.residuals)
+      if (r.view == v && r.outlier) outliers.push_back(r.corner);
+  }
+  return warm;
+}
+
 }  // namespace camlab::calib

@@ -99,6 +99,13 @@ struct Solution {
 // (options.cancel was set).
 Result<Solution> solve(const CalibrationData& data, const SolveOptions& options);
 
+// The full data's solution `full` as a warm start for a solve of the views
+// data.views[fold_views[k]] (a cross-validation fold, a subset): its model and warp, the
+// poses of the views it used (others posed by PnP), and the corners it rejected, except
+// in views it down-weighted, which the subset judges afresh.
+std::shared_ptr<const WarmStart> warm_start_from(const Solution& full,
+                                                 const std::vector<int>& fold_views);
+
 // With `model` fixed, fits the poses of `views` (indices into data.views) and returns
 // their residuals (outlier rejection off). Used to score a model on held-out views.
 Result<Solution> fit_poses(const CalibrationData& data, const LensModel& model,

@@ -36,7 +36,7 @@ struct CalibrateArgs {
   std::string board, imager, model = "auto", detector = "auto", sensor, out, report_path, yaml_path,
                              write_corners, plots_dir, dictionary;
   double spacing_m = 0, pixel_um = 0, focal_guess_px = 0, marker_m = 0;
-  bool json = false, quiet = false, no_board_warp = false;
+  bool json = false, quiet = false, no_board_warp = false, no_repeatability = false;
   // The guided calibration (calib/view_suggestion.h, calib/guided_session.h).
   bool suggest = false, watch = false;
   double target_uncertainty_px = 0, watch_timeout_s = 60, watch_poll_s = 0.5,
@@ -200,6 +200,7 @@ void run_calibrate(const CalibrateArgs& a) {
   o.sensor = a.sensor;
   o.focal_guess_px = a.focal_guess_px;
   o.board_warp = !a.no_board_warp;
+  o.repeatability = !a.no_repeatability;
   // Checked here, before any image is read, by the rules camlabd applies to the same
   // request (calib/calibration_request.h): the board, the detector and its markers, the
   // model, the sensor, the source. Where a rule is about flags, the message names them
@@ -353,6 +354,9 @@ void register_calibrate_command(CLI::App& app) {
       "Write PNG plots here: residuals, residual histogram, coverage, uncertainty, distortion");
   cmd->add_flag("--no-board-warp", args->no_board_warp,
                 "Skip the board-warp stage (for a board known to be flat to a few um)");
+  cmd->add_flag("--no-repeatability", args->no_repeatability,
+                "Skip the repeatability check (odd and even views solved apart and compared; "
+                "each view predicted by the model solved without it, at most 24)");
   cmd->add_flag("--suggest", args->suggest,
                 "After the calibration, print the worst projection uncertainty over the imager "
                 "and the next view that most reduces it (with --json: \"coverage\" and "
