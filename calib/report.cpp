@@ -35,6 +35,7 @@ CalibrationReport make_report(const CalibrationData& data, const Solution& s,
   r.outlier_share = total > 0 ? double(s.outliers) / total : 0.0;
   auto fov = field_of_view_parts(s.model);
   if (fov) r.fov = *fov;
+  if (auto sigma = intrinsics_uncertainty(s); sigma.ok()) r.intrinsics_sigma = *sigma;
 
   if (pixel_pitch_um > 0) {
     r.pixel_pitch_um = pixel_pitch_um;
@@ -224,6 +225,20 @@ nlohmann::json to_json(const CalibrationReport& r) {
                     {"diagonal", or_null(r.fov.diagonal_deg)}};
   else
     j["fov_deg"] = nullptr;
+  if (r.intrinsics_sigma) {
+    const IntrinsicsUncertainty& u = *r.intrinsics_sigma;
+    j["sigma_1"] = {{"fx_px", u.fx_px},
+                    {"fy_px", u.fy_px},
+                    {"cx_px", u.cx_px},
+                    {"cy_px", u.cy_px},
+                    {"fov_deg",
+                     {{"horizontal", or_null(u.horizontal_fov_deg)},
+                      {"vertical", or_null(u.vertical_fov_deg)},
+                      {"diagonal", or_null(u.diagonal_fov_deg)}}},
+                    {"source", "corner noise through the solve's covariance"}};
+    if (r.pixel_pitch_um > 0)
+      j["sigma_1"]["focal_mm"] = 0.5 * (u.fx_px + u.fy_px) * r.pixel_pitch_um / 1000;
+  }
   if (r.pixel_pitch_um > 0) {
     j["pixel_pitch_um"] = r.pixel_pitch_um;
     j["focal_mm"] = r.focal_mm;
@@ -322,22 +337,33 @@ std::string to_text(const CalibrationReport& r) {
   }
   if (r.spline_check.considered) t += "  spline cross-check " + r.spline_check.reason + "\n";
   t += "lensmodel: " + s.model.lensmodel + "\n";
-  std::snprintf(buf, sizeof buf, "fx %.3f px  fy %.3f px  cx %.3f px  cy %.3f px\n",
-                s.model.intrinsics[0], s.model.intrinsics[1], s.model.intrinsics[2],
-                s.model.intrinsics[3]);
-  t += buf;
+  // "537.131 +- 0.812": a value and its 1-sigma where the covariance gives one.
+  auto with_sigma = [](double v, std::optional<double> sigma) {
+    return sigma ? format_printf("%.3f +- %.3f", v, *sigma) : format_printf("%.3f", v);
+  };
+  const std::optional<IntrinsicsUncertainty>& u = r.intrinsics_sigma;
+  t += "fx " + with_sigma(s.model.intrinsics[0], u ? std::optional(u->fx_px) : std::nullopt) +
+       " px  fy " + with_sigma(s.model.intrinsics[1], u ? std::optional(u->fy_px) : std::nullopt) +
+       " px  cx " + with_sigma(s.model.intrinsics[2], u ? std::optional(u->cx_px) : std::nullopt) +
+       " px  cy " + with_sigma(s.model.intrinsics[3], u ? std::optional(u->cy_px) : std::nullopt) +
+       " px" + (u ? " (1 sigma from corner noise)" : "") + "\n";
   if (r.fov.any()) {
-    auto deg = [](const std::optional<double>& v) {
-      return v ? format_printf("%.3f", *v) : std::string("undefined");
+    auto deg = [&](const std::optional<double>& v, std::optional<double> sigma) {
+      return v ? with_sigma(*v, sigma) : std::string("undefined");
     };
-    t += "FOV (unprojected image edges): " + deg(r.fov.horizontal_deg) + " x " +
-         deg(r.fov.vertical_deg) + " deg, diagonal " + deg(r.fov.diagonal_deg) +
+    t += "FOV (unprojected image edges): " +
+         deg(r.fov.horizontal_deg, u ? u->horizontal_fov_deg : std::nullopt) + " x " +
+         deg(r.fov.vertical_deg, u ? u->vertical_fov_deg : std::nullopt) + " deg, diagonal " +
+         deg(r.fov.diagonal_deg, u ? u->diagonal_fov_deg : std::nullopt) +
          (r.fov.diagonal_deg ? " deg" : "") + "\n";
   }
   if (r.pixel_pitch_um > 0) {
+    const std::string sigma_mm =
+        u ? format_printf(" +- %.4f", 0.5 * (u->fx_px + u->fy_px) * r.pixel_pitch_um / 1000) : "";
     std::snprintf(buf, sizeof buf,
-                  "focal length %.4f mm (pixel %.3f um), 35-mm equivalent %.2f mm (crop %.3f)\n",
-                  r.focal_mm, r.pixel_pitch_um, r.focal_35mm_equiv_mm, r.crop_factor);
+                  "focal length %.4f%s mm (pixel %.3f um), 35-mm equivalent %.2f mm (crop %.3f)\n",
+                  r.focal_mm, sigma_mm.c_str(), r.pixel_pitch_um, r.focal_35mm_equiv_mm,
+                  r.crop_factor);
     t += buf;
   }
   std::snprintf(buf, sizeof buf,

@@ -27,6 +27,7 @@
 #include <nlohmann/json.hpp>
 
 #include "calib/calibration_data.h"
+#include "calib/intrinsics_uncertainty.h"
 #include "calib/lens_model.h"
 #include "calib/repeatability.h"
 #include "calib/solver.h"
@@ -63,7 +64,9 @@ struct SplineCheck {
 
 struct CalibrationReport {
   Solution solution;
-  FieldOfViewParts fov;       // each FOV where the model inverts at its edge points
+  FieldOfViewParts fov;  // each FOV where the model inverts at its edge points
+  // 1-sigma of fx, fy, cx, cy and the FOVs from corner noise; empty without a covariance.
+  std::optional<IntrinsicsUncertainty> intrinsics_sigma;
   double pixel_pitch_um = 0;  // 0: unknown
   double focal_mm = 0, focal_35mm_equiv_mm = 0, crop_factor = 0;
   int views_total = 0;

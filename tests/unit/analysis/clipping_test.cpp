@@ -172,6 +172,57 @@ TEST(Clipping, HdrLeavesPixelsAtTheFullWellOutAndStaysWithinThreePercent) {
   fs::remove_all(dir);
 }
 
+// Issue 15's first case for HDR: part of the scene so bright that even the shortest
+// exposure fills the full well (75% of the ADC's range, so no frame reaches the top code).
+// Every pixel clipped in every frame is flagged, and the others merge within 3%.
+TEST(Clipping, HdrFlagsEveryPixelAtTheFullWellInEveryFrame) {
+  const int width = 256, height = 26;
+  const fs::path dir = fresh("hdr_always");
+  auto writer = image::CaptureFolderWriter::create(dir, "bracket", {{"backend", "test"}}, {});
+  ASSERT_TRUE(writer.ok());
+  Sensor sensor;
+  // Electrons per us, log-spaced from 20 to 80000 across the frame: at 0.4 us the
+  // brightest 16% of the columns (over 25000 e-/us) still exceed the full well.
+  auto rate = [&](int x) { return 20.0 * std::pow(4000.0, x / (width - 1.0)); };
+  const std::vector<double> exposures_us = {0.4, 1.0, 2.5, 6.0, 15.0, 40.0};
+  uint64_t sequence = 0;
+  for (double t : exposures_us)
+    for (int repeat = 0; repeat < 2; ++repeat) {
+      cv::Mat frame(height, width, CV_16UC1);
+      for (int y = 0; y < height; ++y)
+        for (int x = 0; x < width; ++x) frame.at<uint16_t>(y, x) = sensor.dn(rate(x) * t);
+      ASSERT_TRUE(
+          writer->add_frame(frame, sidecar(sequence++, {{"exposure_us", t}, {"gain", 1.0}})).ok());
+    }
+  ASSERT_TRUE(writer->finish().ok());
+  auto report = analyze_exposure(dir, {});
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  ASSERT_TRUE(report->hdr) << report->hdr_error;
+  int always = 0, flagged = 0;
+  std::vector<double> errors;
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const bool clipped = report->hdr->clipped.at<uint8_t>(y, x) != 0;
+      // Saturated in every frame: 4 sigma of shot noise over the full well at the shortest
+      // exposure. Pixels near the full well there may or may not be flagged.
+      const double e_shortest = rate(x) * exposures_us.front();
+      if (e_shortest > kFullWellE + 4 * std::sqrt(kFullWellE)) {
+        ++always;
+        flagged += clipped ? 1 : 0;
+      }
+      if (clipped || e_shortest > 0.9 * kFullWellE) continue;
+      const double truth = kGainDnPerE * rate(x);
+      errors.push_back(std::fabs(report->hdr->radiance.at<float>(y, x) / truth - 1));
+    }
+  ASSERT_GT(always, 0.1 * width * height);
+  EXPECT_EQ(flagged, always) << "of the pixels at the full well in every frame";
+  ASSERT_GT(errors.size(), 0.7 * width * height);
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  EXPECT_LT(errors[errors.size() / 2], 0.03);
+  EXPECT_GE(report->hdr->clipped_everywhere, always);
+  fs::remove_all(dir);
+}
+
 // Doubling exposures of a flat field: the pair of largest variance (8000 e-) lies a step
 // below the full well, so EMVA's saturation point alone reads the capacity 20% low and the
 // linearity fit (5-95% of saturation) drops that last unclipped setting.
@@ -242,10 +293,15 @@ TEST(Clipping, ASettingClippedInPartOfTheFrameIsLeftOutAndNamed) {
   EXPECT_NEAR(pt.saturation_capacity_e / kFullWellE - 1, 0, 0.03) << pt.saturation_capacity_e;
   for (const PairStats& p : pt.points) {
     EXPECT_EQ(p.saturated, p.exposure_us == 16) << p.exposure_us << " us";
-    if (p.saturated) EXPECT_FALSE(p.used);
+    if (p.saturated) {
+      EXPECT_FALSE(p.used);
+    }
   }
-  for (const LinearityPoint& p : report->linearity)
-    if (p.used) EXPECT_LT(std::fabs(p.error_pct), 0.5) << p.exposure_gain_us << " us";
+  for (const LinearityPoint& p : report->linearity) {
+    if (p.used) {
+      EXPECT_LT(std::fabs(p.error_pct), 0.5) << p.exposure_gain_us << " us";
+    }
+  }
   EXPECT_LT(report->max_linearity_error_pct, 0.5);
   bool named = false;
   for (const std::string& why : report->left_out)
