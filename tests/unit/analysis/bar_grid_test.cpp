@@ -35,7 +35,11 @@ struct Bar {
 // A dark bar (level 200) on light ground (1000), `width` px wide, 3 deg off the pixel
 // columns, under a disk of `diameter` px.
 Bar draw_bar(double width, double diameter, unsigned seed) {
-  const int size = static_cast<int>(std::max(200.0, 2 * (diameter + width) + 90));
+  // Edges listed over D + 30 px each side of the middle (at least 70): room for a window
+  // clear of twice the blur from the listed ends (defocus.h), and no larger, as a longer
+  // window costs time and tells nothing more.
+  const double half = std::max(70.0, diameter + 30);
+  const int size = static_cast<int>(std::max({200.0, 2 * (diameter + width) + 90, 2 * half + 40}));
   const double angle = 93.0 * M_PI / 180.0, c = std::cos(angle), s = std::sin(angle);
   const double cx = 0.5 * size + 0.3 - 0.5 * width, cy = 0.5 * size;
   Bar bar;
@@ -57,8 +61,8 @@ Bar draw_bar(double width, double diameter, unsigned seed) {
     }
   for (double offset : {0.0, width}) {
     const double ox = cx + offset * s, oy = cy - offset * c;
-    bar.edges.push_back(
-        {offset == 0 ? "left" : "right", ox - 70 * c, oy - 70 * s, ox + 70 * c, oy + 70 * s, 0});
+    bar.edges.push_back({offset == 0 ? "left" : "right", ox - half * c, oy - half * s,
+                         ox + half * c, oy + half * s, 0});
   }
   return bar;
 }
