@@ -8,6 +8,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "analysis/analysis_summary.h"
+
 #include "analysis/capture_check.h"
 #include "analysis/focus_report.h"
 #include "image/capture_folder.h"
@@ -235,11 +237,14 @@ Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& 
                             const AnalyzeOptions& options) {
   AnalysisRun run;
   // One measurement: its report, its text, its plots when asked for.
+  // Each ends with its summary: what it measured, what it left out and why.
   auto finish = [&](const auto& report, std::string text, auto write_plots) -> Status {
-    run.text = std::move(text);
+    const nlohmann::json summary = summary_json(report);
+    run.text = std::move(text) + summary_text(summary);
     if (!options.plots_dir.empty())
       CAMLAB_ASSIGN(run.plots, write_plots(options.plots_dir, report));
     run.report = with_plots(to_json(report), run.plots);
+    run.report["summary"] = summary;
     return {};
   };
   if (kind != "defocus" && kind != "exposure" && kind != "focus")
