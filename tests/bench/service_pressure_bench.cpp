@@ -32,22 +32,6 @@ using namespace camlab::testing;
 using nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-int connect_loopback(int port, int receive_buffer = 0) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) return -1;
-  if (receive_buffer > 0)
-    ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &receive_buffer, sizeof receive_buffer);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<uint16_t>(port));
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    ::close(fd);
-    return -1;
-  }
-  return fd;
-}
-
 int64_t commits(PgCluster& cluster) {
   return std::atoll(
       cluster.sql("postgres", "SELECT xact_commit FROM pg_stat_database WHERE datname = 'camlab'")

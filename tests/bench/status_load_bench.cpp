@@ -45,7 +45,7 @@ struct Conn {
   Clock::time_point t0;
 };
 
-int connect_loopback(int port) {
+int connect_nonblocking(int port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
   if (fd < 0) return -1;
   const int one = 1;
@@ -94,7 +94,7 @@ LoadResult load(int port, const std::string& token, const std::string& path, int
     Conn& c = conns[i];
     if (c.fd >= 0) ::close(c.fd);
     c = Conn{};
-    c.fd = connect_loopback(port);
+    c.fd = connect_nonblocking(port);
     if (c.fd < 0) return;
     c.t0 = Clock::now();
     epoll_event ev{};

@@ -46,25 +46,35 @@ struct HttpResult {
   }
 };
 
-// Sends `bytes` on a new loopback connection to `port` and reads one response (headers,
-// then Content-Length bytes); `timeout` bounds the whole exchange.
-inline HttpResult raw_exchange(int port, const std::string& bytes,
-                               std::chrono::milliseconds timeout = 10s) {
-  HttpResult result;
+// A new TCP connection to 127.0.0.1:`port`, or -1. `receive_buffer` > 0 sets SO_RCVBUF
+// first (a client that reads slowly, as the pressure benchmark's are).
+inline int connect_loopback(int port, int receive_buffer = 0) {
   const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  if (fd < 0) return result;
-  timeval tv{static_cast<time_t>(timeout.count() / 1000),
-             static_cast<suseconds_t>((timeout.count() % 1000) * 1000)};
-  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-  setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+  if (fd < 0) return -1;
+  if (receive_buffer > 0)
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &receive_buffer, sizeof receive_buffer);
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
   addr.sin_port = htons(static_cast<uint16_t>(port));
   addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
     ::close(fd);
-    return result;
+    return -1;
   }
+  return fd;
+}
+
+// Sends `bytes` on a new loopback connection to `port` and reads one response (headers,
+// then Content-Length bytes); `timeout` bounds the whole exchange.
+inline HttpResult raw_exchange(int port, const std::string& bytes,
+                               std::chrono::milliseconds timeout = 10s) {
+  HttpResult result;
+  const int fd = connect_loopback(port);
+  if (fd < 0) return result;
+  timeval tv{static_cast<time_t>(timeout.count() / 1000),
+             static_cast<suseconds_t>((timeout.count() % 1000) * 1000)};
+  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+  setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
   size_t sent = 0;
   while (sent < bytes.size()) {
     const ssize_t n = ::send(fd, bytes.data() + sent, bytes.size() - sent, MSG_NOSIGNAL);

@@ -12,6 +12,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "analysis/analyze_folder.h"
 #include "analysis/clip_level.h"
@@ -134,24 +135,35 @@ TEST(Clipping, EdgesAtTheFullWellAreFlaggedAndCtimesNComesFromTheOthers) {
 
 // An exposure bracket of a radiance ramp whose bright end fills the full well at the
 // longer exposures: the merge must leave those pixels out, not average them in.
-TEST(Clipping, HdrLeavesPixelsAtTheFullWellOutAndStaysWithinThreePercent) {
-  const int width = 256, height = 32;
-  const fs::path dir = fresh("hdr");
+// A bracket of a horizontal ramp, two frames per exposure: column x receives
+// rate(x) electrons per us (rows alike), drawn through `Sensor`. Returns the folder.
+template <typename Rate>
+fs::path write_ramp_bracket(const std::string& name, int width, int height, Rate rate,
+                            const std::vector<double>& exposures_us) {
+  const fs::path dir = fresh(name);
   auto writer = image::CaptureFolderWriter::create(dir, "bracket", {{"backend", "test"}}, {});
-  ASSERT_TRUE(writer.ok());
+  if (!writer) throw std::runtime_error(writer.error().message);
   Sensor sensor;
-  // Electrons per us, log-spaced from 20 to 20000 across the frame.
-  auto rate = [&](int x) { return 20.0 * std::pow(1000.0, x / (width - 1.0)); };
   uint64_t sequence = 0;
-  for (double t : {0.4, 1.0, 2.5, 6.0, 15.0, 40.0})
+  for (double t : exposures_us)
     for (int repeat = 0; repeat < 2; ++repeat) {
       cv::Mat frame(height, width, CV_16UC1);
       for (int y = 0; y < height; ++y)
         for (int x = 0; x < width; ++x) frame.at<uint16_t>(y, x) = sensor.dn(rate(x) * t);
-      ASSERT_TRUE(
-          writer->add_frame(frame, sidecar(sequence++, {{"exposure_us", t}, {"gain", 1.0}})).ok());
+      auto added =
+          writer->add_frame(frame, sidecar(sequence++, {{"exposure_us", t}, {"gain", 1.0}}));
+      if (!added) throw std::runtime_error(added.error().message);
     }
-  ASSERT_TRUE(writer->finish().ok());
+  if (auto done = writer->finish(); !done) throw std::runtime_error(done.error().message);
+  return dir;
+}
+
+TEST(Clipping, HdrLeavesPixelsAtTheFullWellOutAndStaysWithinThreePercent) {
+  const int width = 256, height = 32;
+  // Electrons per us, log-spaced from 20 to 20000 across the frame.
+  auto rate = [&](int x) { return 20.0 * std::pow(1000.0, x / (width - 1.0)); };
+  const fs::path dir =
+      write_ramp_bracket("hdr", width, height, rate, {0.4, 1.0, 2.5, 6.0, 15.0, 40.0});
   auto report = analyze_exposure(dir, {});
   ASSERT_TRUE(report.ok()) << report.error().message;
   ASSERT_TRUE(report->hdr) << report->hdr_error;
@@ -177,24 +189,11 @@ TEST(Clipping, HdrLeavesPixelsAtTheFullWellOutAndStaysWithinThreePercent) {
 // Every pixel clipped in every frame is flagged, and the others merge within 3%.
 TEST(Clipping, HdrFlagsEveryPixelAtTheFullWellInEveryFrame) {
   const int width = 256, height = 26;
-  const fs::path dir = fresh("hdr_always");
-  auto writer = image::CaptureFolderWriter::create(dir, "bracket", {{"backend", "test"}}, {});
-  ASSERT_TRUE(writer.ok());
-  Sensor sensor;
   // Electrons per us, log-spaced from 20 to 80000 across the frame: at 0.4 us the
   // brightest 16% of the columns (over 25000 e-/us) still exceed the full well.
   auto rate = [&](int x) { return 20.0 * std::pow(4000.0, x / (width - 1.0)); };
   const std::vector<double> exposures_us = {0.4, 1.0, 2.5, 6.0, 15.0, 40.0};
-  uint64_t sequence = 0;
-  for (double t : exposures_us)
-    for (int repeat = 0; repeat < 2; ++repeat) {
-      cv::Mat frame(height, width, CV_16UC1);
-      for (int y = 0; y < height; ++y)
-        for (int x = 0; x < width; ++x) frame.at<uint16_t>(y, x) = sensor.dn(rate(x) * t);
-      ASSERT_TRUE(
-          writer->add_frame(frame, sidecar(sequence++, {{"exposure_us", t}, {"gain", 1.0}})).ok());
-    }
-  ASSERT_TRUE(writer->finish().ok());
+  const fs::path dir = write_ramp_bracket("hdr_always", width, height, rate, exposures_us);
   auto report = analyze_exposure(dir, {});
   ASSERT_TRUE(report.ok()) << report.error().message;
   ASSERT_TRUE(report->hdr) << report->hdr_error;
