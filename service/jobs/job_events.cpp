@@ -84,8 +84,10 @@ void JobEvents::Subscription::next(Deliver deliver) {
 void JobEvents::Subscription::close() { events_->unsubscribe(subscriber_); }
 
 void JobEvents::unsubscribe(const std::shared_ptr<Subscriber>& subscriber) {
+  Deliver dropped;  // destroyed after the lock is released (see run())
   std::lock_guard lock(mutex_);
   subscriber->closed = true;
+  dropped = std::move(subscriber->deliver);
   subscriber->deliver = nullptr;
   subscribers_.remove(subscriber);
 }
@@ -119,6 +121,9 @@ void JobEvents::run() {
     }
     lock.unlock();
     for (auto& [deliver, batch] : due) deliver(std::move(batch));
+    // Destroyed before the lock is taken again: a callback may hold the last reference to
+    // its HTTP session, whose stream then unsubscribes under this same lock.
+    due.clear();
     lock.lock();
   }
 }

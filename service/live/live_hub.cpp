@@ -129,10 +129,12 @@ void LiveHub::Viewer::next(Deliver deliver) {
 void LiveHub::Viewer::close() { hub_->close_viewer(state_); }
 
 void LiveHub::close_viewer(const std::shared_ptr<ViewerState>& state) {
+  Viewer::Deliver dropped;  // destroyed after the lock is released (see run())
   {
     std::lock_guard lock(mutex_);
     if (state->closed) return;
     state->closed = true;
+    dropped = std::move(state->pending);
     state->pending = nullptr;
     viewers_.remove(state);
   }
@@ -316,6 +318,11 @@ void LiveHub::run() {
     for (auto& [done, result] : waits_done) done(std::move(result));
     for (Work& w : work) render_and_send(w);
     for (auto& task : tasks) task();
+    // Destroyed before the lock is taken again: a callback may hold the last reference to
+    // its HTTP session, whose stream then closes its viewer under this same lock.
+    waits_done.clear();
+    work.clear();
+    tasks.clear();
     lock.lock();
   }
 }

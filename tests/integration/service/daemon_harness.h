@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -223,6 +224,7 @@ class Daemon {
       }
       std::this_thread::sleep_for(20ms);
     }
+    append_thread_stacks();
     ::kill(-pid_, SIGKILL);
     waitpid(pid_, &status, 0);
     pid_ = -1;
@@ -283,6 +285,17 @@ class Daemon {
   std::string log() const { return read_file(log_); }
 
  private:
+  // A daemon that does not stop is hung: where each of its threads waits goes into its log,
+  // which the failing test prints (gdb when the machine has it; nothing otherwise).
+  void append_thread_stacks() const {
+    if (!fs::exists("/usr/bin/gdb")) return;
+    const std::string command = "/usr/bin/gdb -q -batch -p " + std::to_string(pid_) +
+                                " -ex 'thread apply all bt' >> '" + log_.string() +
+                                "' 2>&1 < /dev/null";
+    std::ofstream(log_, std::ios::app) << "\n--- camlabd did not stop: its threads ---\n";
+    (void)std::system(command.c_str());
+  }
+
   fs::path dir_, log_;
   pid_t pid_ = -1;
   int port_ = 0;

@@ -7,8 +7,11 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <future>
 #include <memory>
+#include <thread>
 
 namespace camlab::service {
 namespace {
@@ -92,6 +95,67 @@ TEST(JobEvents, LimitsAndTheStopAreSaid) {
   ASSERT_EQ(future.wait_for(5s), std::future_status::ready);
   EXPECT_EQ(future.get(), ErrorCode::kShuttingDown);
   EXPECT_EQ(events.subscribe().error().code, ErrorCode::kShuttingDown);
+}
+
+// What an HTTP session is to its event stream: the owner whose destruction closes the
+// subscription. A callback may hold the last reference to it; dropping that callback must
+// not happen under the hub's lock, or close() waits on the lock its own thread holds (a
+// camlabd that never stopped: ServiceLive.EventsShowAJobFromItsStartToItsEndInOrder, once
+// in about 15 runs under load).
+struct ClosesWhenDropped {
+  std::shared_ptr<JobEvents::Subscription> subscription;
+  std::shared_ptr<std::promise<void>> closed = std::make_shared<std::promise<void>>();
+  ~ClosesWhenDropped() {
+    subscription->close();
+    closed->set_value();
+  }
+};
+
+// Waits (bounded) for the owner's close() to return. A hub deadlocked on itself cannot be
+// cleaned up (its destructor would join the stuck thread), so the test process ends here.
+void expect_closed_within_bound(std::future<void> closed, const char* what) {
+  if (closed.wait_for(5s) == std::future_status::ready) return;
+  std::fprintf(stderr, "FAILED: %s: close() did not return within 5 s (deadlocked)\n", what);
+  std::_Exit(1);
+}
+
+TEST(JobEvents, ACallbackHoldingTheLastReferenceToItsStreamMayCloseItWhenDropped) {
+  JobEvents events;
+  events.start();
+  {
+    // Dropped by the event thread after it delivered.
+    auto sub = events.subscribe();
+    ASSERT_TRUE(sub.ok());
+    auto owner = std::make_shared<ClosesWhenDropped>();
+    owner->subscription = *sub;
+    auto closed = owner->closed->get_future();
+    auto delivered = std::make_shared<std::promise<void>>();
+    (*sub)->next([owner, delivered](Result<JobEventBatch>) { delivered->set_value(); });
+    owner.reset();
+    events.publish({1, JobState::kQueued, 0, 1, 0});
+    ASSERT_EQ(delivered->get_future().wait_for(5s), std::future_status::ready);
+    expect_closed_within_bound(std::move(closed), "dropped after delivery");
+  }
+  {
+    // Dropped by close() from elsewhere (the client left) while the callback waits.
+    auto sub = events.subscribe();
+    ASSERT_TRUE(sub.ok());
+    auto owner = std::make_shared<ClosesWhenDropped>();
+    owner->subscription = *sub;
+    auto closed = owner->closed->get_future();
+    (*sub)->next([owner](Result<JobEventBatch>) {});
+    owner.reset();
+    std::thread([s = *sub] { s->close(); }).detach();
+    expect_closed_within_bound(std::move(closed), "dropped by close()");
+  }
+  // The hub still serves.
+  auto sub = events.subscribe();
+  ASSERT_TRUE(sub.ok());
+  events.publish({2, JobState::kQueued, 0, 1, 0});
+  auto batch = next_batch(**sub);
+  ASSERT_TRUE(batch.ok()) << batch.error().message;
+  ASSERT_EQ(batch->changes.size(), 1u);
+  EXPECT_EQ(batch->changes[0].id, 2);
 }
 
 }  // namespace

@@ -8,6 +8,8 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <future>
 #include <thread>
 #include <vector>
@@ -196,6 +198,38 @@ TEST(LiveHub, LimitsAndEndsAreSaid) {
   ASSERT_EQ(s.wait_for(5s), std::future_status::ready);
   EXPECT_EQ(s.get(), ErrorCode::kShuttingDown);
   EXPECT_EQ(hub.open_viewer(other, {1, {}}).error().code, ErrorCode::kShuttingDown);
+}
+
+// What an HTTP session is to its live stream: the owner whose destruction closes the viewer.
+// The viewer's pending callback may hold the last reference to it; close() from elsewhere
+// (the client left) drops that callback, which must not happen under the hub's lock.
+TEST(LiveHub, ACallbackHoldingTheLastReferenceToItsViewerMayCloseItWhenDropped) {
+  LiveHub hub;
+  hub.start();
+  auto feed = std::make_shared<LiveFeed>("cam", capture::CameraTraits{});
+  auto viewer = hub.open_viewer(feed, {1, {}});
+  ASSERT_TRUE(viewer.ok());
+  struct ClosesWhenDropped {
+    std::shared_ptr<LiveHub::Viewer> viewer;
+    std::shared_ptr<std::promise<void>> closed = std::make_shared<std::promise<void>>();
+    ~ClosesWhenDropped() {
+      viewer->close();
+      closed->set_value();
+    }
+  };
+  auto owner = std::make_shared<ClosesWhenDropped>();
+  owner->viewer = *viewer;
+  auto closed = owner->closed->get_future();
+  (*viewer)->next([owner](Result<EncodedFrame>) {});
+  owner.reset();
+  std::thread([v = *viewer] { v->close(); }).detach();
+  if (closed.wait_for(5s) != std::future_status::ready) {
+    // A hub deadlocked on itself cannot be cleaned up: the process ends here.
+    std::fprintf(stderr, "FAILED: close() did not return within 5 s (deadlocked)\n");
+    std::_Exit(1);
+  }
+  EXPECT_EQ(feed->viewers(), 0);
+  EXPECT_TRUE(hub.open_viewer(feed, {1, {}}).ok());  // the hub still serves
 }
 
 }  // namespace
