@@ -5,7 +5,12 @@
 #include <filesystem>
 #include <system_error>
 
+#include <unistd.h>
+
+#include "base/atomic_file.h"
 #include "calib/calibration_request.h"
+#include "calib/corners/corners_vnl.h"
+#include "calib/guided_loop.h"
 #include "calib/lens_model.h"
 #include "calib/library_stderr.h"
 #include "calib/model_io.h"
@@ -114,49 +119,51 @@ Result<FolderPoll> FolderSession::poll() {
     ++out.new_views;
   }
   if (out.new_views == 0) {
-    if (solution_)
-      if (auto c = uncertainty_coverage(*solution_, suggestion_); c.ok()) out.coverage = *c;
+    if (loop_ && loop_->coverage()) out.coverage = *loop_->coverage();
     return out;
   }
-
-  if (lensmodel_.empty()) {
-    CAMLAB_ASSIGN(lensmodel_, configured_lensmodel(
-                                  options_.model == "auto" ? "LENSMODEL_OPENCV8" : options_.model,
-                                  data_.imager_width_px, data_.imager_height_px, 90));
+  if (!loop_) {
+    GuidedLoopOptions o;
+    CAMLAB_ASSIGN(o.lensmodel,
+                  guided_loop_model(options_.model, data_.imager_width_px, data_.imager_height_px));
+    o.focal_guess_px = options_.focal_guess_px;
+    o.board_warp = options_.board_warp;
+    o.suggestion = suggestion_;
+    loop_.emplace(std::move(o));
   }
-  const LibraryStderrCapture quiet_mrcal;
-  SolveOptions o;
-  o.lensmodel = lensmodel_;
-  o.focal_guess_px = options_.focal_guess_px;
-  o.board_warp = options_.board_warp;
-  if (solution_) o.warm_start = session_warm_start(*solution_);
-  auto s = solve(data_, o);
-  if (!s && solution_) {  // a warm start from a poor early solution: start afresh
-    o.warm_start.reset();
-    s = solve(data_, o);
-  }
-  if (!s) {
-    out.solve_error = s.error().message;
-  } else if (!s->covariance) {
-    out.solve_error = s->covariance_error;
-  } else {
-    solution_ = std::move(*s);
-    out.solved = true;
-  }
-  if (solution_)
-    if (auto c = uncertainty_coverage(*solution_, suggestion_); c.ok()) out.coverage = *c;
-  // Before the first solve with a covariance: the opening sequence.
-  auto next = suggest_next_view(data_, solution_ ? &*solution_ : nullptr, suggestion_);
-  if (next)
-    out.suggestion = std::move(*next);
-  else
-    out.suggestion_error = next.error().text();
+  GuidedStep step = loop_->step(data_);
+  out.solved = step.solved;
+  if (step.solve_error) out.solve_error = step.solve_error->message;
+  if (loop_->coverage()) out.coverage = *loop_->coverage();
+  out.suggestion = std::move(step.suggestion);
+  if (step.suggestion_error) out.suggestion_error = step.suggestion_error->text();
   return out;
 }
 
 Result<CalibrationRun> FolderSession::run() const {
-  if (!solution_)
+  const Solution* solution = this->solution();
+  if (!solution)
     return make_error("too_few_views", "no solve yet: the folder holds too few views of the board");
+  if (options_.model == "auto" || options_.model.find("SPLINED") != std::string::npos) {
+    // The loop solved LENSMODEL_OPENCV8 (guided_loop_model); the finish is the full
+    // calibration on the views, as camlabd's sessions finish: model selection, or the spline.
+    CalibrateOptions o = options_;
+    o.images_dir.clear();
+    o.corners_vnl =
+        fs::temp_directory_path() / ("camlab-watch-" + std::to_string(::getpid()) + "-corners.vnl");
+    o.imager_width_px = data_.imager_width_px;
+    o.imager_height_px = data_.imager_height_px;
+    if (Status s = write_file_atomically(o.corners_vnl, to_corners_vnl(data_.views)); !s)
+      return s.error();
+    auto finished = calibrate(o);
+    std::error_code ec;
+    fs::remove(o.corners_vnl, ec);
+    if (finished) {
+      finished->images = images_;
+      finished->report_json["images"] = images_;
+    }
+    return finished;
+  }
   CalibrationRun run;
   run.data = data_;
   run.images = images_;
@@ -166,14 +173,14 @@ Result<CalibrationRun> FolderSession::run() const {
     CAMLAB_ASSIGN(format, optics::find_sensor_format(options_.sensor));
     pitch_um = format.width_mm * 1000.0 / data_.imager_width_px;
   }
-  run.report = make_report(data_, *solution_, pitch_um);
+  run.report = make_report(data_, *solution, pitch_um);
   run.report_json = to_json(run.report);
   run.report_json["images"] = images_;
-  CAMLAB_ASSIGN(
-      run.cameramodel_text,
-      cameramodel_text_with_inputs(*solution_, data_, "camlab calibrate --watch: " + lensmodel_));
-  if (has_opencv_equivalent(solution_->model))
-    if (auto yaml = opencv_yaml_text(solution_->model); yaml.ok())
+  CAMLAB_ASSIGN(run.cameramodel_text,
+                cameramodel_text_with_inputs(
+                    *solution, data_, "camlab calibrate --watch: " + loop_->options().lensmodel));
+  if (has_opencv_equivalent(solution->model))
+    if (auto yaml = opencv_yaml_text(solution->model); yaml.ok())
       run.opencv_yaml_text = std::move(*yaml);
   return run;
 }

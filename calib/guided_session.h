@@ -1,9 +1,8 @@
 // A guided calibration over a folder of images that grows (`camlab calibrate --watch`).
 // Each poll lists the folder and detects the board in the images it has not seen; an
 // image is read once its size has stayed the same over two polls, so a copy in progress
-// is not read half-written. When views were added, the data are re-solved, warm-started
-// from the last solution (view_suggestion.h, session_warm_start), and the next view is
-// suggested: from the opening sequence until a solve has a covariance.
+// is not read half-written. When views were added, the guided loop (guided_loop.h, the
+// same as camlabd's sessions) re-solves and suggests the next view.
 //
 // Thread-compatible.
 #pragma once
@@ -17,6 +16,7 @@
 
 #include "base/result.h"
 #include "calib/calibrate.h"
+#include "calib/guided_loop.h"
 #include "calib/solver.h"
 #include "calib/view_suggestion.h"
 
@@ -51,7 +51,7 @@ class FolderSession {
 
   int images() const { return images_; }
   const CalibrationData& data() const { return data_; }
-  const Solution* solution() const { return solution_ ? &*solution_ : nullptr; }
+  const Solution* solution() const { return loop_ ? loop_->solution() : nullptr; }
 
   // The run for write_calibration_outputs (calibrate.h): the report, the .cameramodel
   // with mrcal's optimization inputs, OpenCV YAML when the model has one. Error
@@ -61,12 +61,11 @@ class FolderSession {
  private:
   CalibrateOptions options_;
   SuggestionOptions suggestion_;
-  std::string lensmodel_;
   CalibrationData data_;
   int images_ = 0;
   std::map<std::string, long long> pending_size_;  // name -> size at the last poll
   std::map<std::string, bool> seen_;               // name -> detected (or skipped)
-  std::optional<Solution> solution_;
+  std::optional<GuidedLoop> loop_;  // from the first view (the loop's model needs the imager)
 };
 
 }  // namespace camlab::calib

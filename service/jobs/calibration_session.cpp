@@ -1,20 +1,16 @@
 #include "service/jobs/calibration_session.h"
 
-#include <chrono>
 #include <cmath>
 
 #include "base/atomic_file.h"
 #include "calib/corners/corners_vnl.h"
+#include "calib/guided_loop.h"
 #include "calib/guided_session.h"
 #include "calib/lens_model.h"
 
 namespace camlab::service {
 
 namespace {
-
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 
 // A number for JSON: NaN and infinities (a grid point the model cannot unproject) as null.
 nlohmann::json finite_or_null(double value) {
@@ -34,13 +30,15 @@ Status CalibrationSession::add_frame(const cv::Mat& image, int64_t capture_job,
   if (data_.imager_width_px == 0) {
     data_.imager_width_px = image.cols;
     data_.imager_height_px = image.rows;
-    // The loop's model (see the header); configured for this imager.
-    const bool fixed =
-        options_.model != "auto" && options_.model.find("SPLINED") == std::string::npos;
-    auto configured = calib::configured_lensmodel(fixed ? options_.model : "LENSMODEL_OPENCV8",
-                                                  image.cols, image.rows, 90);
+    // The loop's model (calib/guided_loop.h), configured for this imager.
+    calib::GuidedLoopOptions loop;
+    auto configured = calib::guided_loop_model(options_.model, image.cols, image.rows);
     if (!configured) return configured.error();
-    loop_model_ = *configured;
+    loop.lensmodel = *configured;
+    loop.focal_guess_px = options_.focal_guess_px;
+    loop.board_warp = options_.board_warp;
+    loop.suggestion.whole_board_required = !calib::detector_keeps_partial_boards(options_.detector);
+    loop_.emplace(std::move(loop));
   } else if (image.cols != data_.imager_width_px || image.rows != data_.imager_height_px) {
     return make_error("imager_mismatch", "the frame is " + std::to_string(image.cols) + "x" +
                                              std::to_string(image.rows) +
@@ -70,39 +68,14 @@ Status CalibrationSession::add_frame(const cv::Mat& image, int64_t capture_job,
 }
 
 void CalibrationSession::solve_and_suggest() {
-  calib::SuggestionOptions suggest;
-  suggest.whole_board_required = !calib::detector_keeps_partial_boards(options_.detector);
-  const auto solve_start = std::chrono::steady_clock::now();
-  solution_.reset();
-  coverage_.reset();
-  if (data_.views.size() >= 2) {
-    calib::SolveOptions solve;
-    solve.lensmodel = loop_model_;
-    solve.board_warp = options_.board_warp;
-    // Warm start from the previous solve: its poses for the views it had, PnP for the new.
-    if (previous_) solve.warm_start = calib::session_warm_start(*previous_);
-    auto solved = calib::solve(data_, solve);
-    if (solved) {
-      solution_ = std::move(*solved);
-      previous_ = solution_;
-    } else {
-      last_error_ = solved.error();
-    }
-  }
-  last_solve_s_ = seconds_since(solve_start);
-  const auto suggest_start = std::chrono::steady_clock::now();
-  if (solution_) {
-    if (auto c = calib::uncertainty_coverage(*solution_, suggest); c)
-      coverage_ = std::move(*c);
-    else
-      last_error_ = c.error();
-  }
-  auto next = calib::suggest_next_view(data_, solution_ ? &*solution_ : nullptr, suggest);
-  if (next)
-    suggestion_ = std::move(*next);
-  else
-    last_error_ = next.error();
-  last_suggest_s_ = seconds_since(suggest_start);
+  calib::GuidedStep step = loop_->step(data_);
+  // Before the second view there is nothing to solve: not an error of the view just added.
+  if (step.solve_error && step.solve_error->code != ErrorCode::kTooFewViews)
+    last_error_ = step.solve_error;
+  if (step.suggestion_error) last_error_ = step.suggestion_error;
+  suggestion_ = std::move(step.suggestion);
+  last_solve_s_ = step.solve_s;
+  last_suggest_s_ = step.suggest_s;
 }
 
 Result<nlohmann::json> CalibrationSession::finish(const std::filesystem::path& out_dir,
@@ -134,33 +107,37 @@ nlohmann::json CalibrationSession::to_json() const {
                       {"frame", f.frame_file},
                       {"board_found", f.board_found},
                       {"corners", f.corners}});
-  nlohmann::json json = {
-      {"frames", frames},          {"views_with_board", data_.views.size()},
-      {"loop_model", loop_model_}, {"target_uncertainty_px", target_uncertainty_px_},
-      {"solve_s", last_solve_s_},  {"suggest_s", last_suggest_s_}};
+  nlohmann::json json = {{"frames", frames},
+                         {"views_with_board", data_.views.size()},
+                         {"loop_model", loop_ ? loop_->options().lensmodel : ""},
+                         {"target_uncertainty_px", target_uncertainty_px_},
+                         {"solve_s", last_solve_s_},
+                         {"suggest_s", last_suggest_s_}};
   if (data_.imager_width_px > 0)
     json["imager_px"] = {data_.imager_width_px, data_.imager_height_px};
+  // The last solve with a covariance (a later one that failed says so in last_error).
+  const calib::Solution* solution = loop_ ? loop_->solution() : nullptr;
+  const calib::UncertaintyCoverage* coverage = loop_ ? loop_->coverage() : nullptr;
   json["solution"] = nullptr;
-  if (solution_)
-    json["solution"] = {{"rms_px", solution_->rms_px},
-                        {"worst_px", solution_->worst_px},
-                        {"inliers", solution_->inliers},
-                        {"outliers", solution_->outliers},
-                        {"views_used", solution_->views_used.size()},
-                        {"intrinsics", solution_->model.intrinsics}};
+  if (solution)
+    json["solution"] = {{"rms_px", solution->rms_px},
+                        {"worst_px", solution->worst_px},
+                        {"inliers", solution->inliers},
+                        {"outliers", solution->outliers},
+                        {"views_used", solution->views_used.size()},
+                        {"intrinsics", solution->model.intrinsics}};
   json["uncertainty"] = nullptr;
   json["target_reached"] = false;
-  if (coverage_) {
+  if (coverage) {
     nlohmann::json grid = nlohmann::json::array();
-    for (double v : coverage_->worst_px) grid.push_back(finite_or_null(v));
-    json["uncertainty"] = {{"distance_m", coverage_->distance_m},
-                           {"worst_px", finite_or_null(coverage_->worst_of_grid_px)},
-                           {"worst_at_px", {coverage_->worst_x_px, coverage_->worst_y_px}},
-                           {"grid_cols", coverage_->cols},
-                           {"grid_rows", coverage_->rows},
+    for (double v : coverage->worst_px) grid.push_back(finite_or_null(v));
+    json["uncertainty"] = {{"distance_m", coverage->distance_m},
+                           {"worst_px", finite_or_null(coverage->worst_of_grid_px)},
+                           {"worst_at_px", {coverage->worst_x_px, coverage->worst_y_px}},
+                           {"grid_cols", coverage->cols},
+                           {"grid_rows", coverage->rows},
                            {"grid_worst_px", grid}};
-    json["target_reached"] = std::isfinite(coverage_->worst_of_grid_px) &&
-                             coverage_->worst_of_grid_px <= target_uncertainty_px_;
+    json["target_reached"] = loop_->target_reached(target_uncertainty_px_);
   }
   json["suggestion"] = suggestion_ ? calib::to_json(*suggestion_) : nlohmann::json(nullptr);
   json["last_error"] = last_error_ ? nlohmann::json{{"code", name_of(last_error_->code)},

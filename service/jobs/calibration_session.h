@@ -1,11 +1,8 @@
-// One guided calibration: the views taken so far, the solve after each (warm-started from
-// the previous one), the projection uncertainty over the imager and the next suggested
-// view (calib/view_suggestion.h); finished into a .cameramodel and a report by the same
-// run as POST /v1/calibrations (calib/calibrate.h), from the session's corners.
-//
-// During the loop a fixed model is solved: the request's, or LENSMODEL_OPENCV8 when it
-// asks for "auto" (model selection with its cross-validation is left to the finish, where
-// it runs once on every view).
+// One guided calibration: the views taken so far and, after each, the guided loop
+// (calib/guided_loop.h, the same as `camlab calibrate --watch`): the solve, the projection
+// uncertainty over the imager and the next suggested view; finished into a .cameramodel
+// and a report by the same run as POST /v1/calibrations (calib/calibrate.h), from the
+// session's corners, with the request's model ("auto" included).
 //
 // Not thread-safe: the session manager (calibration_sessions.h) owns each session and
 // works on it from its one thread; readers get the JSON snapshot it publishes.
@@ -21,6 +18,7 @@
 
 #include "base/result.h"
 #include "calib/calibrate.h"
+#include "calib/guided_loop.h"
 #include "calib/solver.h"
 #include "calib/view_suggestion.h"
 
@@ -58,7 +56,6 @@ class CalibrationSession {
 
   calib::CalibrateOptions options_;
   double target_uncertainty_px_;
-  std::string loop_model_;  // the configured mrcal name solved during the loop
   calib::CalibrationData data_;
   struct FrameRecord {
     int64_t capture_job = 0;
@@ -68,9 +65,7 @@ class CalibrationSession {
     int view = -1;  // index into data_.views when found
   };
   std::vector<FrameRecord> frames_;
-  std::optional<calib::Solution> solution_;
-  std::optional<calib::Solution> previous_;  // the last successful solve: the next one's start
-  std::optional<calib::UncertaintyCoverage> coverage_;
+  std::optional<calib::GuidedLoop> loop_;  // from the first frame (its model needs the imager)
   std::optional<calib::ViewSuggestion> suggestion_;
   std::optional<Error> last_error_;
   double last_solve_s_ = 0, last_suggest_s_ = 0;

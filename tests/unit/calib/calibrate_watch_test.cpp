@@ -161,6 +161,9 @@ TEST_F(CalibrateWatch, WatchDetectsEachNewImageOnceAndSuggestsAfterEach) {
   EXPECT_EQ(done["event"], "done");
   EXPECT_EQ(done["reason"], "timeout");
   EXPECT_EQ(done["report"]["images"].get<int>(), kFrames);
+  // `--model auto`: the loop solved LENSMODEL_OPENCV8; the end is the full calibration, as
+  // camlabd's sessions finish: model selection over the candidates, on every view.
+  EXPECT_GE(done["report"]["model_selection"].size(), 2u) << done["report"].dump();
   // The model written at the end is the wide lens: f 2.2 mm on 3 um pixels = 733.3 px.
   mrcal_cameramodel_t* model = mrcal_read_cameramodel_file((dir_ / "cam.cameramodel").c_str());
   ASSERT_NE(model, nullptr);

@@ -1,10 +1,10 @@
 // The guided calibration loop against random poses, on synthetic views (synthetic_views.h):
 // views are added one at a time, each observed through the TRUE lens with Gaussian corner
-// noise, the data re-solved (warm-started from the previous solution), and the worst
-// projection uncertainty over the imager's grid at a fixed distance compared with a
-// target. The guided loop places the board at each suggestion (the suggested pose is the
-// true pose); the random loop takes poses as ViewSetSpec draws them. Shared by the
-// view-suggestion test and the guided-calibration benchmark.
+// noise, the data re-solved by camlab's own loop (calib/guided_loop.h: warm-started from
+// the previous solution), and the worst projection uncertainty over the imager's grid at
+// a fixed distance compared with a target. The guided loop places the board at each suggestion (the
+// suggested pose is the true pose); the random loop takes poses as ViewSetSpec draws them. Shared
+// by the view-suggestion test and the guided-calibration benchmark.
 #pragma once
 
 #include <chrono>
@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/guided_loop.h"
 #include "calib/solver.h"
 #include "calib/uncertainty.h"
 #include "calib/view_suggestion.h"
@@ -63,42 +64,45 @@ inline Result<Solution> session_solve(const CalibrationData& data, const Solutio
   return s;
 }
 
-// After a view was added: re-solve, and the worst of the grid when there is a covariance.
-inline void resolve(const CalibrationData& data, const LoopSpec& spec,
-                    std::optional<Solution>* solution, LoopResult* r) {
+inline GuidedLoop make_loop(const LoopSpec& spec) {
+  GuidedLoopOptions o;
+  o.lensmodel = "LENSMODEL_OPENCV8";
+  o.suggestion = loop_suggestion_options(spec);
+  return GuidedLoop(std::move(o));
+}
+
+// After a view was added (and the loop stepped): the worst of the grid when the loop has a
+// solution with a covariance.
+inline void record(const CalibrationData& data, const LoopSpec& spec, const GuidedLoop& loop,
+                   bool solved, LoopResult* r) {
   r->views = static_cast<int>(data.views.size());
-  auto s = session_solve(data, solution->has_value() ? &**solution : nullptr);
-  if (!s || !s->covariance) return;
-  *solution = std::move(*s);
-  auto cov = uncertainty_coverage(**solution, loop_suggestion_options(spec));
-  if (!cov) return;
-  r->worst_px = cov->worst_of_grid_px;
+  if (!solved || !loop.coverage()) return;
+  r->worst_px = loop.coverage()->worst_of_grid_px;
   r->worst_history_px.push_back(r->worst_px);
   r->reached = r->worst_px < spec.target_px;
 }
 
+// camlab's guided loop (calib/guided_loop.h), the board put at each suggestion.
 inline LoopResult run_guided(const LoopSpec& spec) {
   std::mt19937 rng(spec.seed);
   CalibrationData data;
   data.board = spec.board;
   data.imager_width_px = spec.truth.width_px;
   data.imager_height_px = spec.truth.height_px;
-  const SuggestionOptions options = loop_suggestion_options(spec);
-  std::optional<Solution> solution;
+  GuidedLoop loop = make_loop(spec);
   LoopResult r;
+  GuidedStep step = loop.step(data);  // no views: the opening sequence's first
   while (static_cast<int>(data.views.size()) < spec.max_views && !r.reached) {
-    const auto t0 = std::chrono::steady_clock::now();
-    auto next = suggest_next_view(data, solution ? &*solution : nullptr, options);
-    if (solution)
-      r.suggest_s.push_back(
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    if (!next) break;
-    data.views.push_back(observe(spec.truth, spec.board, next->rt_cam_board, spec.noise_px, 0, rng,
+    if (loop.solution()) r.suggest_s.push_back(step.suggest_s);
+    if (!step.suggestion) break;
+    data.views.push_back(observe(spec.truth, spec.board, step.suggestion->rt_cam_board,
+                                 spec.noise_px, 0, rng,
                                  "guided" + std::to_string(data.views.size())));
-    resolve(data, spec, &solution, &r);
+    step = loop.step(data);
+    record(data, spec, loop, step.solved, &r);
   }
   r.views = static_cast<int>(data.views.size());
-  r.solution = std::move(solution);
+  if (loop.solution()) r.solution = *loop.solution();
   return r;
 }
 
@@ -112,15 +116,15 @@ inline LoopResult run_random(const LoopSpec& spec) {
   const CalibrationData all = make_views(spec.truth, spec.board, draw);
   CalibrationData data = all;
   data.views.clear();
-  std::optional<Solution> solution;
+  GuidedLoop loop = make_loop(spec);
   LoopResult r;
   for (const auto& v : all.views) {
     data.views.push_back(v);
-    resolve(data, spec, &solution, &r);
+    record(data, spec, loop, loop.resolve(data).solved, &r);
     if (r.reached) break;
   }
   r.views = static_cast<int>(data.views.size());
-  r.solution = std::move(solution);
+  if (loop.solution()) r.solution = *loop.solution();
   return r;
 }
 
