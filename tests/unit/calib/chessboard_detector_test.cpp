@@ -293,6 +293,27 @@ TEST(ChessboardDetector, SaddleCornersMatchTheTruthOnSquareAndOblongBoards) {
   EXPECT_LT(rms, 0.1);
 }
 
+// OpenCV's classic detector, the cascade's third stage, looks at a 1280x800 view at VGA size
+// (its quadrilateral search ran 85 s on one full-size view that has a board): the corners
+// it hands on are mapped back and refined at full resolution, on the truth's corners.
+TEST(ChessboardDetector, ClassicStageLooksAtVgaSizeAndHandsOnFullResolutionCorners) {
+  int found_views = 0;
+  for (int view : kAccuracyViews) {
+    const Rendered& r = render(view, /*square=*/false);
+    ASSERT_GT(std::max(r.image.cols, r.image.rows), 640);
+    auto found = find_chessboard_corners_classic(r.image, 14, 10);
+    if (!found) continue;  // a miss is the next stage's work; a wrong corner is not allowed
+    ++found_views;
+    EXPECT_EQ(found->detector, "opencv_classic");
+    const Match m = match_truth(*found, r.corners_px);
+    ASSERT_GE(m.symmetry, 0) << "view " << view;
+    EXPECT_LT(m.max_px, 0.5) << "view " << view;
+    EXPECT_LT(m.rms_px, 0.15) << "view " << view;
+    std::printf("classic, view %d: %.3f px RMS (max %.3f)\n", view, m.rms_px, m.max_px);
+  }
+  EXPECT_GE(found_views, 5) << "of " << std::size(kAccuracyViews);
+}
+
 // Every view of the README's example set (14x10, 40 views): no corner the detector hands
 // on may be pixels off. cornerSubPix can carry a corner along an edge whose window sees
 // mostly that edge (view 23 had one 9.9 px down an edge, and its board counted as found);
