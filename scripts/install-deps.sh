@@ -5,6 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake pkg-config git
+  lld                    # the linker CMakeLists.txt uses when present: links in a fraction of GNU ld's time
   clang-format           # scripts/check-format.sh (Debian 12: version 14, the one .clang-format is checked with)
   clang-14 libclang-rt-14-dev   # scripts/fuzz.sh: clang++ and its libFuzzer and sanitizer runtimes
   libopencv-dev          # image I/O, chessboard detection, filtering

@@ -12,7 +12,7 @@ namespace camlab::service {
 
 namespace {
 
-const std::string kColumns = kPostgresJobColumns;
+const std::string kFleetJobColumns = kPostgresJobColumns;
 
 int64_t realtime_us() {
   timespec now{};
@@ -399,7 +399,7 @@ Result<std::vector<JobRecord>> PostgresFleet::jobs_to_recover() {
   return conn_.transact("find jobs to recover", [&](pqxx::work& tx) {
     std::vector<JobRecord> jobs;
     for (const pqxx::row& row : tx.exec_params(
-             "SELECT " + kColumns +
+             "SELECT " + kFleetJobColumns +
                  " FROM jobs WHERE host = $1 AND folder <> '' AND (state IN ('queued', "
                  "'running') OR (state = 'interrupted' AND finished_ms >= COALESCE((SELECT "
                  "started_ms FROM hosts WHERE name = $1), 0))) ORDER BY id",

@@ -25,6 +25,8 @@
 
 namespace camlab::analysis {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace colour_defocus_test {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -179,5 +181,6 @@ TEST(ColourDefocus, JpegCapturesAreRefusedAsNotLinear) {
   fs::remove_all(dir);
 }
 
+}  // namespace colour_defocus_test
 }  // namespace
 }  // namespace camlab::analysis

@@ -16,6 +16,8 @@
 
 namespace camlab::analysis {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace colour_exposure_test {
 
 namespace fs = std::filesystem;
 
@@ -83,5 +85,6 @@ TEST(ColourExposure, EachChannelGivesTheConversionGainAndItsOwnSlope) {
   fs::remove_all(dir);
 }
 
+}  // namespace colour_exposure_test
 }  // namespace
 }  // namespace camlab::analysis

@@ -17,6 +17,8 @@
 
 namespace camlab::analysis {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace colour_focus_test {
 
 namespace fs = std::filesystem;
 
@@ -93,5 +95,6 @@ TEST(ColourFocus, EachChannelPeaksAtItsOwnFocusAndLuminanceBetween) {
   fs::remove_all(dir);
 }
 
+}  // namespace colour_focus_test
 }  // namespace
 }  // namespace camlab::analysis

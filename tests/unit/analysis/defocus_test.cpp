@@ -14,6 +14,8 @@
 
 namespace camlab::analysis {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace defocus_test {
 
 constexpr double kPi = std::numbers::pi;
 
@@ -236,5 +238,6 @@ TEST(Defocus, AnIntervalPastTheWindowIsUnconstrained) {
   EXPECT_TRUE(m.upper_unconstrained());
 }
 
+}  // namespace defocus_test
 }  // namespace
 }  // namespace camlab::analysis

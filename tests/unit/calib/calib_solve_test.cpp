@@ -11,6 +11,8 @@
 
 namespace camlab::calib {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace calib_solve_test {
 
 const BoardSpec kBoard{14, 10, 0.04};
 
@@ -101,5 +103,6 @@ TEST(CalibReport, FovWhereDefinedAndTheWarningNamesTheMissingOne) {
   EXPECT_FALSE(has_warning(whole, "fov_undefined"));
 }
 
+}  // namespace calib_solve_test
 }  // namespace
 }  // namespace camlab::calib

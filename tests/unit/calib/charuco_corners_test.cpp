@@ -24,6 +24,8 @@
 
 namespace camlab::calib {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace charuco_corners_test {
 
 namespace fs = std::filesystem;
 const fs::path kExamples = fs::path(CAMLAB_SOURCE_DIR) / "mock_device/examples";
@@ -324,5 +326,6 @@ TEST(CharucoBoard, BadBoardsAndImagesAreRefusedSayingWhy) {
   EXPECT_EQ(none.error().code, ErrorCode::kBoardNotFound);
 }
 
+}  // namespace charuco_corners_test
 }  // namespace
 }  // namespace camlab::calib

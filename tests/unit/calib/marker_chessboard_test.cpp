@@ -29,6 +29,8 @@
 
 namespace camlab::calib {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace marker_chessboard_test {
 
 namespace fs = std::filesystem;
 const fs::path kExamples = fs::path(CAMLAB_SOURCE_DIR) / "mock_device/examples";
@@ -183,5 +185,6 @@ TEST_F(MarkerChessboard, CalibrateWithPartialViewsCoversTheBorderAndGetsTheCorne
   EXPECT_LT(e.border_rms_px, 0.2);
 }
 
+}  // namespace marker_chessboard_test
 }  // namespace
 }  // namespace camlab::calib

@@ -10,6 +10,8 @@
 
 namespace camlab::calib {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace model_selection_test {
 
 const BoardSpec kBoard{10, 7, 0.05};
 
@@ -164,5 +166,6 @@ TEST(ModelSelection, FieldOfViewBeyondHalfASphere) {
   EXPECT_NEAR(*parts->horizontal_deg, fov->horizontal_deg, 1e-9);
 }
 
+}  // namespace model_selection_test
 }  // namespace
 }  // namespace camlab::calib

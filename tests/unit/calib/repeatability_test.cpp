@@ -11,6 +11,8 @@
 
 namespace camlab::calib {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace repeatability_test {
 
 const BoardSpec kBoard{10, 7, 0.05};
 const LensModel kTruth{
@@ -92,5 +94,6 @@ TEST(Repeatability, TooFewViewsForHalvesSayWhy) {
   EXPECT_EQ(j["leave_one_out"]["views"], 6);
 }
 
+}  // namespace repeatability_test
 }  // namespace
 }  // namespace camlab::calib

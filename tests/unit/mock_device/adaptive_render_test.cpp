@@ -16,6 +16,8 @@
 
 namespace camlab::mock {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace adaptive_render_test {
 
 using nlohmann::json;
 
@@ -387,5 +389,6 @@ TEST(AdaptiveRender, TheThreadCountDoesNotChangeTheIntegral) {
   EXPECT_EQ(cv::norm(one->reflectance, three->reflectance, cv::NORM_INF), 0.0);
 }
 
+}  // namespace adaptive_render_test
 }  // namespace
 }  // namespace camlab::mock

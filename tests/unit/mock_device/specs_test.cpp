@@ -9,6 +9,8 @@
 
 namespace camlab::mock {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace specs_test {
 
 const std::filesystem::path kExamples =
     std::filesystem::path(CAMLAB_SOURCE_DIR) / "mock_device/examples";
@@ -133,5 +135,6 @@ TEST(Specs, FocusBreathingScalesTheFocalLengthInPixels) {
   EXPECT_DOUBLE_EQ(intrinsics_at(*spec, 8.0)[2], 127.5);  // (256 - 1) / 2
 }
 
+}  // namespace specs_test
 }  // namespace
 }  // namespace camlab::mock

@@ -13,6 +13,8 @@
 
 namespace camlab::optics {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace defocus_test {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kEps = std::numeric_limits<double>::epsilon();
@@ -326,5 +328,6 @@ TEST(OpticsDepthOfField, RandomSweepIsOrderedAndConsistentWithCoc) {
   EXPECT_GT(checked_limits, 10000);
 }
 
+}  // namespace defocus_test
 }  // namespace
 }  // namespace camlab::optics

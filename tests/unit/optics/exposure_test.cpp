@@ -14,6 +14,8 @@
 
 namespace camlab::optics {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace exposure_test {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -169,5 +171,6 @@ TEST(OpticsExposure, RejectsInvalidInputs) {
   EXPECT_EQ(overflow.error().code, kErrInvalidArgument);
 }
 
+}  // namespace exposure_test
 }  // namespace
 }  // namespace camlab::optics

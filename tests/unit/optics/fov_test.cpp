@@ -13,6 +13,8 @@
 
 namespace camlab::optics {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace fov_test {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -223,5 +225,6 @@ TEST(OpticsSensorFormats, UnknownNameListsKnownFormats) {
   }
 }
 
+}  // namespace fov_test
 }  // namespace
 }  // namespace camlab::optics

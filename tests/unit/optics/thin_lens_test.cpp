@@ -12,6 +12,8 @@
 
 namespace camlab::optics {
 namespace {
+// Named too: the test files of an executable share a unity build's translation unit.
+namespace thin_lens_test {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -125,5 +127,6 @@ TEST(OpticsThinLens, RejectsInvalidInputs) {
       << negative.error().message;
 }
 
+}  // namespace thin_lens_test
 }  // namespace
 }  // namespace camlab::optics
