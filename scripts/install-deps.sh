@@ -25,6 +25,7 @@ packages=(
   # vcam_yuyv_range_test): each finds the camera its own way and captures from it.
   ustreamer motion fswebcam uvccapture
   gstreamer1.0-plugins-base-apps   # gst-device-monitor-1.0
+  gstreamer1.0-libcamera # libcamera's GStreamer provider, as camera users have it: the monitor's test runs with and without it
   libcamera-dev libcamera-tools   # the libcamera backend (0.0.3), and cam to test it against the virtual camera
   wrk curl               # camlabd: status-request load benchmark (tests/bench/service_bench), README's curl session
   chromium               # the dashboard's browser test (tests/browser), headless

@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -28,6 +29,32 @@ using camlab::testing::is_the_cameras_image;
 using camlab::testing::run_cli;
 
 bool installed(const char* program) { return fs::exists(fs::path("/usr/bin") / program); }
+
+// What gst-device-monitor printed for the camera, checked for the provider that found it
+// (its name goes into `seen`).
+void expect_device_monitor_found_the_camera(const std::string& out, std::set<std::string>* seen) {
+  EXPECT_NE(out.find("Device found:"), std::string::npos) << out;
+  const bool through_libcamera = out.find("libcamerasrc") != std::string::npos;
+  seen->insert(through_libcamera ? "libcamera" : "v4l2");
+  std::printf("gst-device-monitor found the camera through %s\n",
+              through_libcamera ? "libcamera's provider (gstreamer1.0-libcamera)" : "V4L2's");
+  if (through_libcamera) {
+    EXPECT_NE(out.find("class : Source/Video"), std::string::npos) << out;
+    EXPECT_NE(out.find("CAMLAB"), std::string::npos) << "the camera's libcamera id" << out;
+    EXPECT_NE(out.find("video/x-raw, format=YUY2, width=640, height=480"), std::string::npos)
+        << out;
+    return;
+  }
+  EXPECT_NE(out.find("name  : vcam clients test"), std::string::npos) << out;
+  EXPECT_NE(out.find("class : Video/Source"), std::string::npos) << out;
+  EXPECT_NE(out.find("udev-probed = true"), std::string::npos) << "found by udev" << out;
+  EXPECT_NE(out.find("device.path = /dev/video0"), std::string::npos) << out;
+  // Its caps: the sensor's size at the spec's rate, as a driver reports 33333 us.
+  EXPECT_NE(out.find("format=YUY2, width=640, height=480, framerate={ (fraction)30/1, "
+                     "(fraction)15/1 }"),
+            std::string::npos)
+      << out;
+}
 
 class VcamClients : public ::testing::Test {
  protected:
@@ -93,32 +120,34 @@ TEST_F(VcamClients, V4l2CtlListDevicesGroupsEachCamerasNodes) {
 // probed, /dev/video0, its caps with the frame rates) or, on a machine with Debian's
 // gstreamer1.0-libcamera (as most that run libcamera have), libcamera's, which then hides
 // the V4L2 one (class Source/Video, libcamerasrc, the camera by libcamera's id). Either is
-// the camera found; the test says which it saw.
+// the camera found; the test says which it saw, and where the package is installed it runs
+// the monitor both ways (scripts/install-deps.sh installs it, so CI shows both).
 TEST_F(VcamClients, GstreamersDeviceMonitorFindsTheCameraThroughUdev) {
   if (!installed("gst-device-monitor-1.0"))
     GTEST_SKIP() << "gst-device-monitor-1.0 (gstreamer1.0-plugins-base-apps) is not installed";
-  auto run = run_cli(vcam() + "timeout -k 5 60 gst-device-monitor-1.0 Video/Source");
-  ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
-  EXPECT_NE(run.out.find("Device found:"), std::string::npos) << run.out;
-  const bool through_libcamera = run.out.find("libcamerasrc") != std::string::npos;
-  std::printf("gst-device-monitor found the camera through %s\n",
-              through_libcamera ? "libcamera's provider (gstreamer1.0-libcamera)" : "V4L2's");
-  if (through_libcamera) {
-    EXPECT_NE(run.out.find("class : Source/Video"), std::string::npos) << run.out;
-    EXPECT_NE(run.out.find("CAMLAB"), std::string::npos) << "the camera's libcamera id" << run.out;
-    EXPECT_NE(run.out.find("video/x-raw, format=YUY2, width=640, height=480"), std::string::npos)
-        << run.out;
-    return;
+  // The monitor as this machine has it, then, where libcamera's plugin is installed, as a
+  // machine without it: a plugin path of every other plugin and a registry of its own.
+  const fs::path plugins = "/usr/lib/x86_64-linux-gnu/gstreamer-1.0";
+  const bool has_libcamera = fs::exists(plugins / "libgstlibcamera.so");
+  std::vector<std::string> environments = {""};
+  if (has_libcamera) {
+    const fs::path without = dir / "plugins-without-libcamera";
+    fs::create_directories(without);
+    for (const auto& e : fs::directory_iterator(plugins))
+      if (e.path().extension() == ".so" && e.path().filename() != "libgstlibcamera.so")
+        fs::create_symlink(e.path(), without / e.path().filename());
+    environments.push_back("GST_PLUGIN_SYSTEM_PATH_1_0=" + without.string() +
+                           " GST_REGISTRY_1_0=" + (dir / "registry.bin").string() + " ");
   }
-  EXPECT_NE(run.out.find("name  : vcam clients test"), std::string::npos) << run.out;
-  EXPECT_NE(run.out.find("class : Video/Source"), std::string::npos) << run.out;
-  EXPECT_NE(run.out.find("udev-probed = true"), std::string::npos) << "found by udev" << run.out;
-  EXPECT_NE(run.out.find("device.path = /dev/video0"), std::string::npos) << run.out;
-  // Its caps: the sensor's size at the spec's rate, as a driver reports 33333 us.
-  EXPECT_NE(run.out.find("format=YUY2, width=640, height=480, framerate={ (fraction)30/1, "
-                         "(fraction)15/1 }"),
-            std::string::npos)
-      << run.out;
+  std::set<std::string> seen;
+  for (const std::string& environment : environments) {
+    auto run = run_cli(vcam() + "env " + environment +
+                       "timeout -k 5 60 gst-device-monitor-1.0 Video/Source");
+    ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
+    expect_device_monitor_found_the_camera(run.out, &seen);
+  }
+  // With libcamera's plugin its provider, without it V4L2's: both ways were seen.
+  EXPECT_EQ(seen.size(), environments.size());
 }
 
 TEST_F(VcamClients, UstreamerServesTheCamerasImageAsASnapshot) {
