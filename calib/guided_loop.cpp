@@ -16,12 +16,15 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 
 }  // namespace
 
+bool guided_loop_solves(const std::string& requested_model) {
+  return requested_model != "auto" && requested_model.find("SPLINED") == std::string::npos;
+}
+
 Result<std::string> guided_loop_model(const std::string& requested_model, int imager_width_px,
                                       int imager_height_px) {
-  const bool fixed =
-      requested_model != "auto" && requested_model.find("SPLINED") == std::string::npos;
-  return configured_lensmodel(fixed ? requested_model : "LENSMODEL_OPENCV8", imager_width_px,
-                              imager_height_px, 90);
+  return configured_lensmodel(
+      guided_loop_solves(requested_model) ? requested_model : "LENSMODEL_OPENCV8", imager_width_px,
+      imager_height_px, 90);
 }
 
 GuidedStep GuidedLoop::step(const CalibrationData& data) {

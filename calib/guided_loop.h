@@ -24,6 +24,10 @@ namespace camlab::calib {
 Result<std::string> guided_loop_model(const std::string& requested_model, int imager_width_px,
                                       int imager_height_px);
 
+// Whether the loop solves the requested model itself; when not, a session's end is the full
+// calibration on its views with the requested model.
+bool guided_loop_solves(const std::string& requested_model);
+
 struct GuidedLoopOptions {
   std::string lensmodel;      // configured mrcal name (guided_loop_model)
   double focal_guess_px = 0;  // > 0: passed to every solve (SolveOptions::focal_guess_px)

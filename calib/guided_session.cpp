@@ -11,8 +11,6 @@
 #include "calib/calibration_request.h"
 #include "calib/corners/corners_vnl.h"
 #include "calib/guided_loop.h"
-#include "calib/lens_model.h"
-#include "calib/library_stderr.h"
 #include "calib/model_io.h"
 #include "calib/report.h"
 #include "optics/optics.h"
@@ -144,7 +142,7 @@ Result<CalibrationRun> FolderSession::run() const {
   const Solution* solution = this->solution();
   if (!solution)
     return make_error("too_few_views", "no solve yet: the folder holds too few views of the board");
-  if (options_.model == "auto" || options_.model.find("SPLINED") != std::string::npos) {
+  if (!guided_loop_solves(options_.model)) {
     // The loop solved LENSMODEL_OPENCV8 (guided_loop_model); the finish is the full
     // calibration on the views, as camlabd's sessions finish: model selection, or the spline.
     CalibrateOptions o = options_;

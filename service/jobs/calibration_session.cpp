@@ -6,7 +6,6 @@
 #include "calib/corners/corners_vnl.h"
 #include "calib/guided_loop.h"
 #include "calib/guided_session.h"
-#include "calib/lens_model.h"
 
 namespace camlab::service {
 
