@@ -86,7 +86,11 @@ std::array<double, 4> ring_alternation(const cv::Mat& tone,
         previous_inside = false;
         continue;
       }
-      const cv::Point2f a = line(s, ring - 1), b = line(s + 1, ring - 1);
+      // The board's contrast beside the cell: across the grid's outermost line, between an
+      // edge square and the square inward of it (always of opposite tones). Not at the
+      // cell's own border: past a light edge square the margin continues its tone, the
+      // contrast there is the paper's grain, and a quarter of it calls any shade a change.
+      const cv::Point2f a = line(s, 0), b = line(s + 1, 0);
       const float contrast =
           contrast_around(tone, 0.5f * (a + b), 0.35f * static_cast<float>(cv::norm(b - a)));
       const CellTone tone_out = cell_tone(tone, out), tone_in = cell_tone(tone, in);

@@ -7,9 +7,12 @@
 //   ring 2 (the cells past those) alternates only where the grid is part of a bigger
 //   board: the distractor a detector must not return as the board asked for.
 // A cell "alternates" when it is one tone across (ring 2: five samples within a quarter
-// of the local contrast; ring 1, the edge squares: its centre) and that tone differs from the cell
-// inward across the ring's line and from the previous cell along the side, by a quarter of the
-// local contrast each. Cells are placed by steps out from the grid's edge, each the last step
+// of the board's contrast; ring 1, the edge squares: its centre) and that tone differs from
+// the cell inward across the ring's line and from the previous cell along the side, by a
+// quarter of the board's contrast each. The board's contrast is taken beside the cell,
+// across the grid's outermost line (an edge square against the square inward of it), never
+// at the cell's own border: there a white margin continues a light edge square's tone.
+// Cells are placed by steps out from the grid's edge, each the last step
 // scaled by the ratio of the grid's last two (perspective shrinks squares geometrically);
 // distortion bends them by a fraction of a cell.
 //
