@@ -1,6 +1,7 @@
 #include "base/atomic_file.h"
 
 #include "base/file_mode.h"
+#include "base/io_error.h"
 #include "base/unique_fd.h"
 
 #include <fcntl.h>
@@ -15,15 +16,6 @@
 #include <string>
 
 namespace camlab {
-
-namespace {
-
-Error io_error(const std::filesystem::path& path, const char* what, int err) {
-  return make_error("io_error",
-                    std::string(what) + " " + path.string() + ": " + std::strerror(err));
-}
-
-}  // namespace
 
 Status write_file_atomically(const std::filesystem::path& path,
                              std::span<const unsigned char> bytes) {

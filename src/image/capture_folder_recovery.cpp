@@ -10,6 +10,7 @@
 #include <system_error>
 
 #include "base/atomic_file.h"
+#include "base/io_error.h"
 #include "base/unique_fd.h"
 #include "image/capture_folder.h"
 #include "image/frame_journal.h"
@@ -19,10 +20,6 @@ namespace camlab::image {
 namespace fs = std::filesystem;
 
 namespace {
-
-Error io_error(const fs::path& path, const std::string& what, int err) {
-  return make_error("io_error", what + " " + path.string() + ": " + std::strerror(err));
-}
 
 // "frame_" + six or more digits + ".png", ".jpg" or ".json": the names a writer gives.
 bool is_frame_file_name(const std::string& name) {

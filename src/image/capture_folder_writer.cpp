@@ -12,6 +12,7 @@
 
 #include "base/atomic_file.h"
 #include "base/file_mode.h"
+#include "base/io_error.h"
 #include "image/capture_folder.h"
 #include "image/frame_journal.h"
 #include "image/jpeg_codec.h"
@@ -35,10 +36,6 @@ std::string frame_stem(int index) {
   char stem[32];
   std::snprintf(stem, sizeof stem, "frame_%06d", index);
   return stem;
-}
-
-Error io_error(const fs::path& path, const std::string& what, int err) {
-  return make_error("io_error", what + " " + path.string() + ": " + std::strerror(err));
 }
 
 Status write_all(int fd, std::span<const uint8_t> bytes, const fs::path& path) {
