@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 #include <string>
 
 #include <opencv2/core.hpp>
@@ -116,6 +117,76 @@ bool continues_across_gap(const cv::Mat& smooth, const Line& a, const Line& b) {
   return true;
 }
 
+// A bar narrower than the detection's scale (two edges within 5 reduced px) is found as
+// one line, and a single-edge fit of it measures the bar's profile as one blurred step:
+// a wrong diameter with a tight interval. So each line's profile across it is read at full
+// resolution (the mean over the middle 60% of its length, every half pixel out to
+// kBarReachPx): where both far ends lie at one level and the profile between them departs
+// from it once (one dip or one peak, crossing its half level exactly twice), the line is
+// a bar, and its two edges, at the half-level crossings, replace it; measure_edge() then
+// fits them jointly (edge_pair.h), offsets included.
+constexpr double kBarReachPx = 40.0, kBarFarBandPx = 6.0;
+
+struct BarEdges {
+  double first_px = 0, second_px = 0;  // offsets along the line's normal, first < second
+};
+
+std::optional<BarEdges> bar_across(const cv::Mat& full, const EdgeSegment& e) {
+  const double dx = e.end_x_px - e.start_x_px, dy = e.end_y_px - e.start_y_px;
+  const double len = std::hypot(dx, dy);
+  if (len < 8) return std::nullopt;
+  const double ux = dx / len, uy = dy / len, nx = -uy, ny = ux;
+  constexpr double kStep = 0.5;
+  const int n = static_cast<int>(2 * kBarReachPx / kStep) + 1;
+  std::vector<double> profile(static_cast<size_t>(n), 0.0);
+  int rows = 0;
+  for (double t = 0.2 * len; t <= 0.8 * len; t += 1.0, ++rows)
+    for (int k = 0; k < n; ++k) {
+      const double o = -kBarReachPx + k * kStep;
+      const double x = e.start_x_px + ux * t + nx * o, y = e.start_y_px + uy * t + ny * o;
+      if (x < 0 || y < 0 || x > full.cols - 1 || y > full.rows - 1) return std::nullopt;
+      const int x0 = std::min(static_cast<int>(x), full.cols - 2),
+                y0 = std::min(static_cast<int>(y), full.rows - 2);
+      const double ax = x - x0, ay = y - y0;
+      profile[static_cast<size_t>(k)] +=
+          (1 - ay) * ((1 - ax) * full.at<float>(y0, x0) + ax * full.at<float>(y0, x0 + 1)) +
+          ay * ((1 - ax) * full.at<float>(y0 + 1, x0) + ax * full.at<float>(y0 + 1, x0 + 1));
+    }
+  if (rows == 0) return std::nullopt;
+  for (double& v : profile) v /= rows;
+  const int band = static_cast<int>(kBarFarBandPx / kStep);
+  auto band_mean = [&](int from) {
+    double sum = 0;
+    for (int k = from; k < from + band; ++k) sum += profile[static_cast<size_t>(k)];
+    return sum / band;
+  };
+  const double left = band_mean(0), right = band_mean(n - band);
+  const double base = 0.5 * (left + right);
+  double extreme = base;
+  for (int k = band; k < n - band; ++k)
+    if (std::fabs(profile[static_cast<size_t>(k)] - base) > std::fabs(extreme - base))
+      extreme = profile[static_cast<size_t>(k)];
+  const double depth = extreme - base;
+  // One level both sides (a step's sides differ by its whole contrast), flat there (the
+  // far bands' spread well under the depth), and a departure from it.
+  double far_spread = 0;
+  for (int k = 0; k < band; ++k)
+    far_spread = std::max({far_spread, std::fabs(profile[static_cast<size_t>(k)] - left),
+                           std::fabs(profile[static_cast<size_t>(n - 1 - k)] - right)});
+  if (!(std::fabs(depth) > 0) || std::fabs(left - right) > 0.25 * std::fabs(depth) ||
+      far_spread > 0.25 * std::fabs(depth))
+    return std::nullopt;
+  const double half = base + 0.5 * depth;
+  std::vector<double> crossings;
+  for (int k = 0; k + 1 < n; ++k) {
+    const double a = profile[static_cast<size_t>(k)] - half,
+                 b = profile[static_cast<size_t>(k + 1)] - half;
+    if ((a < 0) != (b < 0)) crossings.push_back(-kBarReachPx + (k + a / (a - b)) * kStep);
+  }
+  if (crossings.size() != 2) return std::nullopt;
+  return BarEdges{crossings[0], crossings[1]};
+}
+
 }  // namespace
 
 std::vector<EdgeSegment> find_edges(const cv::Mat& image, const EdgeFinderOptions& options) {
@@ -219,16 +290,47 @@ std::vector<EdgeSegment> find_edges(const cv::Mat& image, const EdgeFinderOption
   merged = std::move(kept);
   // Back to full resolution: reduced pixel i covers full pixels [i s, i s + s - 1].
   const double shift = 0.5 * (s - 1.0);
+  std::vector<EdgeSegment> found;
   for (const Line& l : merged) {
     if (l.length() * s < options.min_length_px) continue;
-    if (static_cast<int>(out.size()) >= options.max_edges) break;
     EdgeSegment e;
-    e.name = "edge_" + std::to_string(out.size());
     e.start_x_px = l.ax * s + shift;
     e.start_y_px = l.ay * s + shift;
     e.end_x_px = l.bx * s + shift;
     e.end_y_px = l.by * s + shift;
+    const auto bar = bar_across(f, e);
+    if (!bar) {
+      found.push_back(e);
+      continue;
+    }
+    const double len = std::hypot(e.end_x_px - e.start_x_px, e.end_y_px - e.start_y_px);
+    const double nx = -(e.end_y_px - e.start_y_px) / len, ny = (e.end_x_px - e.start_x_px) / len;
+    for (double offset : {bar->first_px, bar->second_px}) {
+      EdgeSegment side = e;
+      side.start_x_px += nx * offset, side.start_y_px += ny * offset;
+      side.end_x_px += nx * offset, side.end_y_px += ny * offset;
+      found.push_back(side);
+    }
+  }
+  // A bar found as two lines gives its edges twice (from profiles read a pixel or two
+  // apart): an edge parallel to one kept, whose middle lies within 3 px of it and within
+  // its extent, is that edge again.
+  for (const EdgeSegment& e : found) {
+    const bool again = std::any_of(out.begin(), out.end(), [&](const EdgeSegment& k) {
+      const double len = std::hypot(k.end_x_px - k.start_x_px, k.end_y_px - k.start_y_px);
+      const double ux = (k.end_x_px - k.start_x_px) / len, uy = (k.end_y_px - k.start_y_px) / len;
+      const double ex = e.end_x_px - e.start_x_px, ey = e.end_y_px - e.start_y_px;
+      const double sine = std::fabs(ex * uy - ey * ux) / std::hypot(ex, ey);
+      const double mx = 0.5 * (e.start_x_px + e.end_x_px) - k.start_x_px,
+                   my = 0.5 * (e.start_y_px + e.end_y_px) - k.start_y_px;
+      const double along = mx * ux + my * uy, across = std::fabs(mx * uy - my * ux);
+      return sine < std::sin(3.0 * std::numbers::pi / 180.0) && across < 3.0 && along >= 0 &&
+             along <= len;
+    });
+    if (again) continue;
+    if (static_cast<int>(out.size()) >= options.max_edges) break;
     out.push_back(e);
+    out.back().name = "edge_" + std::to_string(out.size() - 1);
   }
   return out;
 }

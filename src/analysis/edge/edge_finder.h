@@ -8,8 +8,10 @@
 // collinear (angle within 2 degrees, lines within 2 px at the reduced scale) and
 // overlapping; parallel lines within 5 reduced px of each other (the ridges a blurred
 // edge's flat-topped gradient can leave) count as one. Segments shorter than
-// `min_length_px` (full resolution) are dropped. Consequence: parallel edges closer than
-// about 5 x scale px (bars) are not found as separate edges.
+// `min_length_px` (full resolution) are dropped. Parallel edges closer than about 5 x
+// scale px (a narrow bar) are found as one line: each line whose profile across it, read at
+// full resolution, is a bar's (one level both sides, one dip or peak between) is replaced by
+// the bar's two edges, at the profile's half-level crossings.
 // Edges of every kind are found, target borders included: a border against the
 // background is an edge too (measure_edge() rejects what its window cannot hold).
 //
