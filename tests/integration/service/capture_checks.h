@@ -72,8 +72,9 @@ inline double check_bracket_is_linear(const Daemon& daemon, const std::string& c
   const nlohmann::json job = daemon.wait_finished(id);
   EXPECT_EQ(job["state"], "succeeded") << job.dump();
   if (job["state"] != "succeeded") return std::nan("");
-  if (latency_frames >= 0)
+  if (latency_frames >= 0) {
     EXPECT_EQ(job["result"]["control_latency_frames"], latency_frames) << job.dump();
+  }
   std::vector<double> per_us;
   for (int i = 0; i < 4; ++i) {
     const DownloadedFrame frame = download_frame(daemon, id, i);

@@ -70,7 +70,9 @@ class ServiceCrash : public ::testing::Test {
       ASSERT_TRUE(meta.is_object()) << "frame " << i << "'s sidecar is not whole";
       EXPECT_EQ(meta["index"], i);
       const uint64_t sequence = meta["sequence"].get<uint64_t>();
-      if (i > 0) EXPECT_GT(sequence, previous_sequence) << "frame " << i;
+      if (i > 0) {
+        EXPECT_GT(sequence, previous_sequence) << "frame " << i;
+      }
       previous_sequence = sequence;
     }
     // On disk: the manifest, the journal and the listed frames' files, nothing else.

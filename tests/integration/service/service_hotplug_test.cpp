@@ -67,7 +67,9 @@ void check_lost_job(const Daemon& daemon, const fs::path& data, const json& job)
     ASSERT_FALSE(frame.image.empty()) << "frame " << i;
     EXPECT_EQ(frame.image.cols, 160);
     const uint64_t sequence = frame.sidecar["sequence"];
-    if (i > 0) EXPECT_GT(sequence, last_sequence) << "frame " << i;
+    if (i > 0) {
+      EXPECT_GT(sequence, last_sequence) << "frame " << i;
+    }
     last_sequence = sequence;
   }
   const fs::path folder = data / job["folder"].get<std::string>();

@@ -118,9 +118,10 @@ TEST(BoardRing, ABiggerBoardIsNeverReturnedAsTheBoardAskedFor) {
       auto found = find_chessboard(image, cols, rows, "auto", &miss);
       EXPECT_FALSE(found.ok()) << cols << "x" << rows << " turn " << turn << " found by "
                                << (found.ok() ? found->detector : "");
-      if (!found.ok())
+      if (!found.ok()) {
         EXPECT_TRUE(miss.reason == "bigger_grid" || miss.reason == "part_of_bigger_board")
             << miss.reason << ": " << miss.detail;
+      }
     }
     // The board itself is found, at its corners (by OpenCV's classic detector where the
     // saddle lattice misses a junction: within a fifth of a pixel).

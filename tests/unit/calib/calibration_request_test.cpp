@@ -118,8 +118,9 @@ TEST(LensModelLimits, HostileSplinesAreRefusedNamingTheLimit) {
     auto count = lensmodel_param_count(c.model);
     ASSERT_FALSE(count.ok()) << c.model;
     EXPECT_EQ(name_of(count.error().code), std::string(c.code)) << c.model;
-    if (std::string(c.code) == "out_of_range")
+    if (std::string(c.code) == "out_of_range") {
       EXPECT_NE(count.error().message.find("["), std::string::npos) << count.error().message;
+    }
   }
   EXPECT_EQ(
       *lensmodel_param_count("LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=30_Ny=30_fov_x_deg=300"),

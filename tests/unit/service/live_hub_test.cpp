@@ -109,7 +109,9 @@ TEST(LiveHub, AViewerGetsNewerFramesNeverFasterThanItsCap) {
     ASSERT_TRUE(frame.ok()) << frame.error().message;
     ASSERT_FALSE(frame->repeated);
     EXPECT_GT(frame->generation, last_generation);
-    if (frames > 0) EXPECT_GT(frame->sequence, last_sequence);
+    if (frames > 0) {
+      EXPECT_GT(frame->sequence, last_sequence);
+    }
     last_generation = frame->generation;
     last_sequence = frame->sequence;
     auto decoded = image::decode_jpeg(*frame->jpeg);
