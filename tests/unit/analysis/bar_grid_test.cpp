@@ -141,7 +141,9 @@ TEST(BarGrid, FoundWithoutGeometryABarIsTwoEdgesRightOrFlagged) {
             << m->diameter_px << " [" << m->ci_low_px << ", " << m->ci_high_px << "]";
       }
       // Where the blur is under the bar's width both edges are found and measured.
-      if (diameter < width) EXPECT_EQ(measured_here, 2) << "bar " << width << ", D " << diameter;
+      if (diameter < width) {
+        EXPECT_EQ(measured_here, 2) << "bar " << width << ", D " << diameter;
+      }
     }
   EXPECT_GE(measured, 2 * flagged);
 }

@@ -1,0 +1,141 @@
+#include "analysis/sfr/sfr_image.h"
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <numbers>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "analysis/edge/edge_finder.h"
+
+namespace camlab::analysis {
+namespace {
+
+using json = nlohmann::json;
+
+// Where an edge lies in the field: "meridional" when it runs across the radius from the
+// centre (its SFR is the resolution along the radius), "sagittal" when it runs along it,
+// "axial" within 5% of the half diagonal of the centre, "oblique" between 30 and 60 deg.
+std::string field_orientation(const SfrResult& r, const cv::Size& size) {
+  const double cx = 0.5 * (size.width - 1), cy = 0.5 * (size.height - 1);
+  const double rx = r.centre_x_px - cx, ry = r.centre_y_px - cy;
+  const double radius = std::hypot(rx, ry),
+               half_diagonal = 0.5 * std::hypot(size.width, size.height);
+  if (radius < 0.05 * half_diagonal) return "axial";
+  const double a = r.angle_deg * std::numbers::pi / 180;
+  // |cos| of the angle between the edge's direction and the radius.
+  const double along = std::fabs(std::cos(a) * rx + std::sin(a) * ry) / radius;
+  if (along < std::cos(60 * std::numbers::pi / 180)) return "meridional";
+  if (along > std::cos(30 * std::numbers::pi / 180)) return "sagittal";
+  return "oblique";
+}
+
+json optional_number(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
+
+std::string cell(const std::optional<double>& v, const char* format) {
+  if (!v) return "     -";
+  char text[32];
+  std::snprintf(text, sizeof text, format, *v);
+  return text;
+}
+
+}  // namespace
+
+Result<SfrImageReport> analyze_sfr(const cv::Mat& image, const std::string& name,
+                                   const SfrImageOptions& options) {
+  if (image.empty() || image.channels() != 1)
+    return make_error("bad_image", "the SFR needs a single-channel image");
+  cv::Mat f;
+  image.convertTo(f, CV_32F);
+  EdgeFinderOptions finder;
+  finder.min_length_px = options.min_edge_length_px;
+  const std::vector<EdgeSegment> edges = find_edges(f, finder);
+  if (edges.empty())
+    return make_error("no_edge_geometry",
+                      "no straight edge " +
+                          std::to_string(static_cast<int>(options.min_edge_length_px)) +
+                          " px or longer was found in " + name);
+  const double lp_per_mm_per_cy_px =
+      options.pixel_pitch_um > 0 ? 1000.0 / options.pixel_pitch_um : 0.0;
+  SfrImageReport out;
+  json list = json::array();
+  int measured = 0;
+  std::map<std::string, int> left_out;
+  out.text = "sfr: " + name + ", " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+             ", " + std::to_string(edges.size()) + " edge(s)" +
+             (lp_per_mm_per_cy_px > 0 ? "" : " (no --pixel-um: cycles/px only)") + "\n" +
+             "  edge       centre (px)    angle  slant  field        MTF50  MTF30  MTF10 "
+             "[cy/px]" +
+             (lp_per_mm_per_cy_px > 0 ? "  MTF50 [lp/mm]" : "") + "  status\n";
+  for (const EdgeSegment& e : edges) {
+    auto r = slanted_edge_sfr(f, e, options.sfr);
+    if (!r) return r.error();
+    const std::string field = field_orientation(*r, image.size());
+    json j = {{"name", e.name},
+              {"centre_px", {r->centre_x_px, r->centre_y_px}},
+              {"angle_deg", r->angle_deg},
+              {"slant_deg", r->slant_deg},
+              {"field", field},
+              {"status", r->status},
+              {"rise_10_90_px", r->rise_10_90_px}};
+    if (!r->message.empty()) j["message"] = r->message;
+    const bool ok = r->status == kSfrOk;
+    if (ok) {
+      ++measured;
+      j["mtf50_cy_px"] = optional_number(r->mtf50_cy_px);
+      j["mtf30_cy_px"] = optional_number(r->mtf30_cy_px);
+      j["mtf10_cy_px"] = optional_number(r->mtf10_cy_px);
+      if (lp_per_mm_per_cy_px > 0 && r->mtf50_cy_px)
+        j["mtf50_lp_mm"] = *r->mtf50_cy_px * lp_per_mm_per_cy_px;
+      j["sfr"] = {{"frequency_cy_px", r->frequency_cy_px}, {"sfr", r->sfr}};
+    } else {
+      ++left_out[r->status];
+    }
+    list.push_back(std::move(j));
+    char line[256];
+    std::snprintf(line, sizeof line, "  %-9s (%6.1f, %6.1f) %6.1f %6.1f  %-10s", e.name.c_str(),
+                  r->centre_x_px, r->centre_y_px, r->angle_deg, r->slant_deg, field.c_str());
+    out.text += line;
+    if (ok) {
+      out.text += " " + cell(r->mtf50_cy_px, "%6.3f") + " " + cell(r->mtf30_cy_px, "%6.3f") + " " +
+                  cell(r->mtf10_cy_px, "%6.3f") + "        ";
+      if (lp_per_mm_per_cy_px > 0) {
+        std::optional<double> lp;
+        if (r->mtf50_cy_px) lp = *r->mtf50_cy_px * lp_per_mm_per_cy_px;
+        out.text += "  " + cell(lp, "%12.1f");
+      }
+      out.text += "  ok\n";
+    } else {
+      out.text += "  " + r->status + ": " + r->message + "\n";
+    }
+  }
+  std::string left_text;
+  for (const auto& [status, count] : left_out)
+    left_text += (left_text.empty() ? "" : ", ") + std::to_string(count) + " " + status;
+  out.text += "summary: " + std::to_string(measured) + " of " + std::to_string(edges.size()) +
+              " edge(s) measured; left out: " + (left_text.empty() ? "none" : left_text) + "\n";
+  out.report = {
+      {"image", name},
+      {"size_px", {image.cols, image.rows}},
+      {"pixel_pitch_um", options.pixel_pitch_um > 0 ? json(options.pixel_pitch_um) : json(nullptr)},
+      {"method", "ISO 12233 slanted edge, " + std::to_string(options.sfr.oversampling) +
+                     "x oversampled ESF, cycles per pixel across the edge"},
+      {"edges", std::move(list)},
+      {"summary", {{"edges", edges.size()}, {"measured", measured}, {"left_out", left_out}}}};
+  return out;
+}
+
+Result<SfrImageReport> analyze_sfr_image(const std::string& path, const SfrImageOptions& options) {
+  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (image.empty()) return make_error("bad_image", "cannot read an image from " + path);
+  if (image.depth() != CV_8U && image.depth() != CV_16U)
+    return make_error("bad_image", path + ": only 8- and 16-bit images are measured");
+  if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2BGR);
+  if (image.channels() == 3) cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);
+  if (image.channels() != 1) return make_error("bad_image", path + ": unsupported channel count");
+  return analyze_sfr(image, path, options);
+}
+
+}  // namespace camlab::analysis

@@ -1,0 +1,80 @@
+// ISO 12233 slanted-edge SFR (spatial frequency response) of one edge: how much contrast
+// the camera keeps at each spatial frequency across the edge, optics and pixel aperture
+// together, and its MTF50, MTF30 and MTF10.
+//
+// Method (ISO 12233:2014 e-SFR, docs/analysis.md "SFR"):
+//   1. the region: pixels within half_length of the segment's middle along it and within
+//      half_width across it; the image is read transposed when the edge is nearer
+//      horizontal, so that rows cross it;
+//   2. the edge's line: per row, the centroid of the row's derivative under a Hamming
+//      window; a straight line fitted to the centroids (least squares), twice, the second
+//      time with the windows centred on the first line;
+//   3. the ESF: every pixel of the region binned by its perpendicular distance from the
+//      line into bins 1/oversampling px wide (4x: the edge's slant spreads the pixels'
+//      phases); each bin's mean value placed at its samples' mean distance, and the ESF
+//      on the bin centres interpolated linearly between those (empty bins included);
+//   4. the LSF: the ESF's central difference, under a window centred on its centroid:
+//      flat to 1.25 rises + 1.5 px each side, a cosine taper to twice that (the noise past
+//      the spread left out);
+//   5. the SFR: the LSF's Fourier transform (evaluated directly, every 0.005 cycles/px),
+//      normalised at zero frequency, divided by the central difference's response
+//      sin(2 pi f d) / (2 pi f d) (d the bin width).
+// Frequencies are in cycles per pixel perpendicular to the edge.
+//
+// Flags (never a silent number): an edge within 2 deg of a pixel axis (too few phases),
+// clipped pixels in the region, an ESF window shorter than 3 of the edge's 10-90% rise
+// widths, too few rows.
+//
+// Reentrant: no state.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "analysis/defocus.h"
+#include "base/result.h"
+
+namespace camlab::analysis {
+
+struct SfrOptions {
+  double half_length_px = 0;    // along the edge; 0: the segment's half length less 4 px
+  double half_width_px = 24;    // across the edge (each side)
+  int oversampling = 8;         // ESF bins per pixel
+  double saturation_level = 0;  // image value at which pixels clip; <= 0: not checked
+};
+
+inline constexpr std::string_view kSfrOk = "ok";
+inline constexpr std::string_view kSfrNearAxis = "near_axis";
+inline constexpr std::string_view kSfrClipped = "clipped";
+inline constexpr std::string_view kSfrWindowTooShort = "window_too_short";
+inline constexpr std::string_view kSfrTooFewRows = "too_few_rows";
+inline constexpr std::string_view kSfrNoEdge = "no_edge";  // no step across the region
+
+struct SfrResult {
+  std::string status = std::string(kSfrOk);  // kSfr...; anything but ok: figures not to be used
+  std::string message;                       // why, when not ok
+  double angle_deg = 0;  // the edge's direction in the image, (-90, 90], 0 = along +x
+  double slant_deg = 0;  // off the nearest pixel axis, 0..45
+  double centre_x_px = 0, centre_y_px = 0;
+  double rise_10_90_px = 0;                                     // the ESF's 10-90% rise distance
+  double contrast = 0;                                          // light - dark level of the ESF
+  std::vector<double> frequency_cy_px, sfr;                     // the curve, 0 to 1 cycle/px
+  std::optional<double> mtf50_cy_px, mtf30_cy_px, mtf10_cy_px;  // none: not reached below 1
+};
+
+// The SFR of `edge` in a single-channel image (any depth; read as float). Errors:
+// "bad_image" (empty or multi-channel), "invalid_argument" (options out of range, a
+// segment shorter than 8 px). A region the edge cannot be measured in is a result with a
+// status, not an error.
+Result<SfrResult> slanted_edge_sfr(const cv::Mat& image, const EdgeSegment& edge,
+                                   const SfrOptions& options = {});
+
+// The frequency (cycles/px) where `sfr` first falls to `level`, linearly interpolated;
+// none when it stays above.
+std::optional<double> frequency_at(const std::vector<double>& frequency_cy_px,
+                                   const std::vector<double>& sfr, double level);
+
+}  // namespace camlab::analysis
