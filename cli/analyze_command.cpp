@@ -4,6 +4,7 @@
 // `camlab analyze sfr IMAGE`: the slanted-edge SFR of every edge in one image
 // (src/analysis/sfr/sfr_image.h).
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <memory>
 #include <string>
@@ -68,7 +69,9 @@ void run_sfr(const AnalyzeArgs& args) {
   o.pixel_pitch_um = args.pixel_um;
   o.sfr.half_width_px = args.half_width_px;
   o.min_edge_length_px = args.min_edge_px;
-  const auto result = errors.take(analysis::analyze_sfr_image(args.dir, o));
+  const auto result = errors.take(std::filesystem::is_directory(args.dir)
+                                      ? analysis::analyze_sfr_folder(args.dir, o)
+                                      : analysis::analyze_sfr_image(args.dir, o));
   emit(errors, args, result.report, result.text);
 }
 
@@ -128,14 +131,16 @@ void register_analyze_command(CLI::App& app) {
 
   CLI::App* sfr = analyze->add_subcommand(
       "sfr",
-      "ISO 12233 slanted-edge SFR of every straight edge in an image: MTF50, MTF30, MTF10 in "
+      "ISO 12233 slanted-edge SFR of every straight edge in an image or in each frame of a "
+      "capture folder: MTF50, MTF30, MTF10 in "
       "cycles/px across the edge (and lp/mm with --pixel-um), each edge's orientation in the "
       "field (meridional, sagittal) relative to the image centre; edges within 2 deg of a "
       "pixel axis, clipped, or wider than the window are flagged, not measured");
   sfr->add_option("IMAGE", args->dir,
-                  "image file (PNG, JPEG, TIFF; 8 or 16 bits; colour as luminance)")
+                  "image file (PNG, JPEG, TIFF; 8 or 16 bits; colour as luminance), or a capture "
+                  "folder: every frame, with its settings (MTF50 through focus and aperture)")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->check(CLI::ExistingPath);
   sfr->add_flag("--json", args->json, "print the report as JSON (with each edge's SFR curve)");
   sfr->add_option("--report", args->report_path, "also write the JSON report to this file");
   sfr->add_option("--pixel-um", args->pixel_um, "pixel pitch in micrometres: MTF50 in lp/mm too")

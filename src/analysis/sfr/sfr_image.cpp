@@ -9,6 +9,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "analysis/edge/edge_finder.h"
+#include "base/format.h"
+#include "image/capture_folder.h"
+#include "image/frame_views.h"
 
 namespace camlab::analysis {
 namespace {
@@ -41,38 +44,21 @@ std::string cell(const std::optional<double>& v, const char* format) {
   return text;
 }
 
-}  // namespace
-
-Result<SfrImageReport> analyze_sfr(const cv::Mat& image, const std::string& name,
-                                   const SfrImageOptions& options) {
-  if (image.empty() || image.channels() != 1)
-    return make_error("bad_image", "the SFR needs a single-channel image");
-  cv::Mat f;
-  image.convertTo(f, CV_32F);
-  EdgeFinderOptions finder;
-  finder.min_length_px = options.min_edge_length_px;
-  const std::vector<EdgeSegment> edges = find_edges(f, finder);
-  if (edges.empty())
-    return make_error("no_edge_geometry",
-                      "no straight edge " +
-                          std::to_string(static_cast<int>(options.min_edge_length_px)) +
-                          " px or longer was found in " + name);
-  const double lp_per_mm_per_cy_px =
-      options.pixel_pitch_um > 0 ? 1000.0 / options.pixel_pitch_um : 0.0;
-  SfrImageReport out;
-  json list = json::array();
-  int measured = 0;
+// Every edge of `edges` measured on `f` (float, single channel): their JSON entries, one
+// text line each, and the tally.
+struct Tally {
+  int edges = 0, measured = 0;
   std::map<std::string, int> left_out;
-  out.text = "sfr: " + name + ", " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
-             ", " + std::to_string(edges.size()) + " edge(s)" +
-             (lp_per_mm_per_cy_px > 0 ? "" : " (no --pixel-um: cycles/px only)") + "\n" +
-             "  edge       centre (px)    angle  slant  field        MTF50  MTF30  MTF10 "
-             "[cy/px]" +
-             (lp_per_mm_per_cy_px > 0 ? "  MTF50 [lp/mm]" : "") + "  status\n";
+};
+Result<json> measure_edges(const cv::Mat& f, const std::vector<EdgeSegment>& edges,
+                           const SfrImageOptions& options, double lp_per_mm_per_cy_px,
+                           std::string* text, Tally* tally) {
+  json list = json::array();
   for (const EdgeSegment& e : edges) {
     auto r = slanted_edge_sfr(f, e, options.sfr);
     if (!r) return r.error();
-    const std::string field = field_orientation(*r, image.size());
+    ++tally->edges;
+    const std::string field = field_orientation(*r, f.size());
     json j = {{"name", e.name},
               {"centre_px", {r->centre_x_px, r->centre_y_px}},
               {"angle_deg", r->angle_deg},
@@ -83,7 +69,7 @@ Result<SfrImageReport> analyze_sfr(const cv::Mat& image, const std::string& name
     if (!r->message.empty()) j["message"] = r->message;
     const bool ok = r->status == kSfrOk;
     if (ok) {
-      ++measured;
+      ++tally->measured;
       j["mtf50_cy_px"] = optional_number(r->mtf50_cy_px);
       j["mtf30_cy_px"] = optional_number(r->mtf30_cy_px);
       j["mtf10_cy_px"] = optional_number(r->mtf10_cy_px);
@@ -91,39 +77,159 @@ Result<SfrImageReport> analyze_sfr(const cv::Mat& image, const std::string& name
         j["mtf50_lp_mm"] = *r->mtf50_cy_px * lp_per_mm_per_cy_px;
       j["sfr"] = {{"frequency_cy_px", r->frequency_cy_px}, {"sfr", r->sfr}};
     } else {
-      ++left_out[r->status];
+      ++tally->left_out[r->status];
     }
     list.push_back(std::move(j));
     char line[256];
     std::snprintf(line, sizeof line, "  %-9s (%6.1f, %6.1f) %6.1f %6.1f  %-10s", e.name.c_str(),
                   r->centre_x_px, r->centre_y_px, r->angle_deg, r->slant_deg, field.c_str());
-    out.text += line;
+    *text += line;
     if (ok) {
-      out.text += " " + cell(r->mtf50_cy_px, "%6.3f") + " " + cell(r->mtf30_cy_px, "%6.3f") + " " +
-                  cell(r->mtf10_cy_px, "%6.3f") + "        ";
+      *text += " " + cell(r->mtf50_cy_px, "%6.3f") + " " + cell(r->mtf30_cy_px, "%6.3f") + " " +
+               cell(r->mtf10_cy_px, "%6.3f") + "        ";
       if (lp_per_mm_per_cy_px > 0) {
         std::optional<double> lp;
         if (r->mtf50_cy_px) lp = *r->mtf50_cy_px * lp_per_mm_per_cy_px;
-        out.text += "  " + cell(lp, "%12.1f");
+        *text += "  " + cell(lp, "%12.1f");
       }
-      out.text += "  ok\n";
+      *text += "  ok\n";
     } else {
-      out.text += "  " + r->status + ": " + r->message + "\n";
+      *text += "  " + r->status + ": " + r->message + "\n";
     }
   }
+  return list;
+}
+
+std::string table_header(double lp_per_mm_per_cy_px) {
+  return std::string(
+             "  edge       centre (px)    angle  slant  field        MTF50  MTF30  MTF10 ") +
+         "[cy/px]" + (lp_per_mm_per_cy_px > 0 ? "  MTF50 [lp/mm]" : "") + "  status\n";
+}
+
+std::string summary_line(const Tally& t) {
   std::string left_text;
-  for (const auto& [status, count] : left_out)
+  for (const auto& [status, count] : t.left_out)
     left_text += (left_text.empty() ? "" : ", ") + std::to_string(count) + " " + status;
-  out.text += "summary: " + std::to_string(measured) + " of " + std::to_string(edges.size()) +
-              " edge(s) measured; left out: " + (left_text.empty() ? "none" : left_text) + "\n";
+  return "summary: " + std::to_string(t.measured) + " of " + std::to_string(t.edges) +
+         " edge fit(s) measured; left out: " + (left_text.empty() ? "none" : left_text) + "\n";
+}
+
+json summary_json(const Tally& t) {
+  return {{"edges", t.edges}, {"measured", t.measured}, {"left_out", t.left_out}};
+}
+
+std::vector<EdgeSegment> edges_in(const cv::Mat& f, const SfrImageOptions& options) {
+  EdgeFinderOptions finder;
+  finder.min_length_px = options.min_edge_length_px;
+  return find_edges(f, finder);
+}
+
+Error no_edges(const SfrImageOptions& options, const std::string& name) {
+  return make_error("no_edge_geometry",
+                    "no straight edge " +
+                        std::to_string(static_cast<int>(options.min_edge_length_px)) +
+                        " px or longer was found in " + name);
+}
+
+}  // namespace
+
+Result<SfrImageReport> analyze_sfr(const cv::Mat& image, const std::string& name,
+                                   const SfrImageOptions& options) {
+  if (image.empty() || image.channels() != 1)
+    return make_error("bad_image", "the SFR needs a single-channel image");
+  cv::Mat f;
+  image.convertTo(f, CV_32F);
+  const std::vector<EdgeSegment> edges = edges_in(f, options);
+  if (edges.empty()) return no_edges(options, name);
+  const double lp_per_mm_per_cy_px =
+      options.pixel_pitch_um > 0 ? 1000.0 / options.pixel_pitch_um : 0.0;
+  SfrImageReport out;
+  out.text = "sfr: " + name + ", " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+             ", " + std::to_string(edges.size()) + " edge(s)" +
+             (lp_per_mm_per_cy_px > 0 ? "" : " (no --pixel-um: cycles/px only)") + "\n" +
+             table_header(lp_per_mm_per_cy_px);
+  Tally tally;
+  auto list = measure_edges(f, edges, options, lp_per_mm_per_cy_px, &out.text, &tally);
+  if (!list) return list.error();
+  out.text += summary_line(tally);
   out.report = {
       {"image", name},
       {"size_px", {image.cols, image.rows}},
       {"pixel_pitch_um", options.pixel_pitch_um > 0 ? json(options.pixel_pitch_um) : json(nullptr)},
       {"method", "ISO 12233 slanted edge, " + std::to_string(options.sfr.oversampling) +
                      "x oversampled ESF, cycles per pixel across the edge"},
-      {"edges", std::move(list)},
-      {"summary", {{"edges", edges.size()}, {"measured", measured}, {"left_out", left_out}}}};
+      {"edges", std::move(*list)},
+      {"summary", summary_json(tally)}};
+  return out;
+}
+
+Result<SfrImageReport> analyze_sfr_folder(const std::filesystem::path& dir,
+                                          const SfrImageOptions& options_in) {
+  auto folder = image::CaptureFolder::open(dir);
+  if (!folder) return folder.error();
+  const int count = static_cast<int>(folder->frames().size());
+  if (count == 0) return make_error("no_frames", "the capture folder holds no frames");
+  // Each frame's luminance (stored DN), and the edges of the frame where most are found
+  // (the sharpest, usually), measured on every frame.
+  std::vector<cv::Mat> frames(static_cast<size_t>(count));
+  std::vector<image::FrameSidecar> sidecars;
+  std::vector<EdgeSegment> edges;
+  for (int i = 0; i < count; ++i) {
+    auto side = folder->load_sidecar(i);
+    if (!side) return side.error();
+    auto stored = folder->load_stored_image(i);
+    if (!stored) return stored.error();
+    auto luminance = image::luminance_view(*stored, *side);
+    if (!luminance) return luminance.error();
+    luminance->convertTo(frames[static_cast<size_t>(i)], CV_32F);
+    sidecars.push_back(std::move(*side));
+    std::vector<EdgeSegment> found = edges_in(frames[static_cast<size_t>(i)], options_in);
+    if (found.size() > edges.size()) edges = std::move(found);
+  }
+  if (edges.empty()) return no_edges(options_in, dir.string());
+  SfrImageOptions options = options_in;
+  if (!(options.pixel_pitch_um > 0)) {
+    const json& camera =
+        folder->manifest().value("source", json::object()).value("camera_spec", json::object());
+    const json sensor = camera.is_object() ? camera.value("sensor", json::object()) : json();
+    if (sensor.is_object() && sensor.contains("pixel_pitch_um") &&
+        sensor["pixel_pitch_um"].is_number())
+      options.pixel_pitch_um = sensor["pixel_pitch_um"].get<double>();
+  }
+  const double lp_per_mm_per_cy_px =
+      options.pixel_pitch_um > 0 ? 1000.0 / options.pixel_pitch_um : 0.0;
+  SfrImageReport out;
+  out.text = "sfr: " + dir.string() + ", " + std::to_string(count) + " frame(s), " +
+             std::to_string(edges.size()) + " edge(s) from the frame with the most" +
+             (lp_per_mm_per_cy_px > 0 ? "" : " (no pixel pitch: cycles/px only)") + "\n";
+  Tally tally;
+  json frames_json = json::array();
+  for (int i = 0; i < count; ++i) {
+    const image::FrameSidecar& side = sidecars[static_cast<size_t>(i)];
+    // Pixels at the white level are clipped.
+    options.sfr.saturation_level = side.white_level_dn > 0 ? side.white_level_dn : 0;
+    const json& settings = side.settings;
+    std::string settings_text;
+    for (const char* key : {"f_number", "focus_position", "exposure_us"})
+      if (settings.contains(key) && settings[key].is_number())
+        settings_text += std::string(settings_text.empty() ? "" : ", ") + key + " " +
+                         format_significant(settings[key].get<double>(), 4);
+    out.text += "frame " + std::to_string(i) +
+                (settings_text.empty() ? "" : " (" + settings_text + ")") + "\n" +
+                table_header(lp_per_mm_per_cy_px);
+    auto list = measure_edges(frames[static_cast<size_t>(i)], edges, options, lp_per_mm_per_cy_px,
+                              &out.text, &tally);
+    if (!list) return list.error();
+    frames_json.push_back({{"frame", i}, {"settings", settings}, {"edges", std::move(*list)}});
+  }
+  out.text += summary_line(tally);
+  out.report = {
+      {"capture", dir.string()},
+      {"pixel_pitch_um", options.pixel_pitch_um > 0 ? json(options.pixel_pitch_um) : json(nullptr)},
+      {"method", "ISO 12233 slanted edge, " + std::to_string(options.sfr.oversampling) +
+                     "x oversampled ESF, cycles per pixel across the edge"},
+      {"frames", std::move(frames_json)},
+      {"summary", summary_json(tally)}};
   return out;
 }
 

@@ -1,11 +1,12 @@
-// `camlab analyze sfr`: the slanted-edge SFR of every straight edge found in a photograph
-// or a frame (slanted_edge_sfr.h), with each edge's place in the field: its orientation
-// relative to the optical centre (taken as the image's centre) and MTF50/30/10 in
+// `camlab analyze sfr`: the slanted-edge SFR of every straight edge found in a photograph,
+// or in each frame of a capture folder (slanted_edge_sfr.h), with each edge's place in the field:
+// its orientation relative to the optical centre (taken as the image's centre) and MTF50/30/10 in
 // cycles/px and, given the pixel pitch, line pairs/mm.
 //
 // Reentrant.
 #pragma once
 
+#include <filesystem>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -32,6 +33,15 @@ struct SfrImageReport {
 // other than 8/16 bits), "no_edge_geometry" (no straight edge found), and
 // slanted_edge_sfr()'s.
 Result<SfrImageReport> analyze_sfr_image(const std::string& path, const SfrImageOptions& options);
+
+// Every frame of a capture folder (docs/capture-folder.md), each read as its luminance in
+// stored DN: the edges found on the frame where most are found, measured on every frame,
+// each frame with its settings (f-number, focus, exposure): MTF50 through focus and
+// aperture. Pixels at a frame's white level count as clipped; the pixel pitch, when not
+// given, is the capture's camera spec's. Errors: the folder's ("not_a_capture"...),
+// "no_frames", "no_edge_geometry".
+Result<SfrImageReport> analyze_sfr_folder(const std::filesystem::path& dir,
+                                          const SfrImageOptions& options);
 
 // The same on an image already in memory (single channel); `name` labels the report.
 Result<SfrImageReport> analyze_sfr(const cv::Mat& image, const std::string& name,

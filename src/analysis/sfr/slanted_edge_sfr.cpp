@@ -293,7 +293,16 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& image, const EdgeSegment& edge
   r.mtf10_cy_px = frequency_at(r.frequency_cy_px, r.sfr, 0.1);
 
   // Flags, most basic first.
-  if (r.slant_deg < kNearAxisDeg) {
+  double rise_area = 0, dip_area = 0;
+  for (double v : lsf) (v > 0 ? rise_area : dip_area) += std::fabs(v);
+  if (dip_area > rise_area / 3 || !r.mtf50_cy_px) {
+    r.status = std::string(kSfrNotAStep);
+    r.message = r.mtf50_cy_px ? "the profile across it is not one step (its line spread dips " +
+                                    format_significant(100 * dip_area / rise_area, 3) +
+                                    "% below zero): a bar, a line or texture"
+                              : "its SFR never falls to 0.5: the profile across it is not one "
+                                "blurred step";
+  } else if (r.slant_deg < kNearAxisDeg) {
     r.status = std::string(kSfrNearAxis);
     r.message = "the edge is " + format_significant(r.slant_deg, 3) +
                 " deg off a pixel axis: under 2 deg the rows sample too few phases of it";

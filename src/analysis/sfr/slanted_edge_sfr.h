@@ -23,7 +23,7 @@
 //
 // Flags (never a silent number): an edge within 2 deg of a pixel axis (too few phases),
 // clipped pixels in the region, an ESF window shorter than 3 of the edge's 10-90% rise
-// widths, too few rows.
+// widths, too few rows, a profile that is not one step.
 //
 // Reentrant: no state.
 #pragma once
@@ -52,6 +52,10 @@ inline constexpr std::string_view kSfrClipped = "clipped";
 inline constexpr std::string_view kSfrWindowTooShort = "window_too_short";
 inline constexpr std::string_view kSfrTooFewRows = "too_few_rows";
 inline constexpr std::string_view kSfrNoEdge = "no_edge";  // no step across the region
+// The profile is not one step (a bar, a line, a group of bars or texture): its line
+// spread dips below zero by over a third of its rise, or its SFR never falls to 0.5
+// (which an area-sampling pixel alone makes it do by 0.6 cycles/px).
+inline constexpr std::string_view kSfrNotAStep = "not_a_step";
 
 struct SfrResult {
   std::string status = std::string(kSfrOk);  // kSfr...; anything but ok: figures not to be used

@@ -223,6 +223,42 @@ TEST(AnalyzeCli, SfrOfAnEdgeDrawnHereIsItsClosedForm) {
   std::filesystem::remove_all(dir);
 }
 
+// `analyze sfr` on a capture folder: the README's aperture series (f/2 to f/11.3 in full
+// stops) of slanted edges at 0.4-2 m, focused at one of them. Each edge keeps its place in
+// every frame; the defocused edges sharpen as the aperture closes (their blur ~ 1/N), and
+// the pixel pitch comes from the capture's camera spec.
+TEST(AnalyzeCli, SfrOfAnApertureSeriesRisesWithTheFNumber) {
+  const auto dir = testing::fresh_dir("cli_sfr_series");
+  const auto render = camlab::testing::run_cli(
+      "render --camera " CAMLAB_SOURCE_DIR
+      "/mock_device/examples/camera_640x480.json --scene " CAMLAB_SOURCE_DIR
+      "/mock_device/examples/scene_slanted_edges.json --sweep f_number=2:11.4:stops --quiet "
+      "--out " +
+      dir.string());
+  ASSERT_EQ(render.exit_code, 0) << render.err;
+  const auto run = camlab::testing::run_cli("analyze sfr " + dir.string() + " --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto report = nlohmann::json::parse(run.out);
+  const auto& frames = report["frames"];
+  ASSERT_EQ(frames.size(), 6u);
+  EXPECT_GT(report["pixel_pitch_um"].get<double>(), 0);
+  int compared = 0, sharpened = 0;
+  for (size_t e = 0; e < frames[0]["edges"].size(); ++e) {
+    const auto& open = frames[0]["edges"][e];
+    const auto& closed = frames[5]["edges"][e];
+    ASSERT_EQ(open["name"], closed["name"]);
+    if (open["status"] != "ok" || closed["status"] != "ok") continue;
+    ++compared;
+    const double at_f2 = open["mtf50_cy_px"], at_f11 = closed["mtf50_cy_px"];
+    EXPECT_GT(at_f11, at_f2 - 0.03) << open["name"];
+    sharpened += at_f11 > 1.5 * at_f2 ? 1 : 0;
+    EXPECT_TRUE(open.contains("mtf50_lp_mm"));
+  }
+  EXPECT_GE(compared, 4) << run.out.substr(0, 2000);
+  EXPECT_GE(sharpened, 2);
+  std::filesystem::remove_all(dir);
+}
+
 TEST(AnalyzeCli, ErrorsGoToStderrWithStatus2) {
   const auto missing = camlab::testing::run_cli("analyze defocus /nonexistent/capture");
   EXPECT_NE(missing.exit_code, 0);

@@ -113,6 +113,22 @@ TEST(SlantedEdgeSfr, FlagsWhatItCannotMeasure) {
   auto clipped = slanted_edge_sfr(draw_edge(sharp, 5, false, 9), centre_segment(5, false), clip);
   ASSERT_TRUE(clipped.ok());
   EXPECT_EQ(clipped->status, "clipped") << clipped->message;
+  // A dark line 3 px wide (two edges a line's width apart), 5 deg off the columns: not one
+  // step (its rows' derivatives sum to nothing, so no line is found; or, off centre, its
+  // line spread dips below zero).
+  cv::Mat line(kSize, kSize, CV_32F);
+  const double a = 5.0 * kPi / 180, c = 0.5 * (kSize - 1);
+  for (int y = 0; y < kSize; ++y)
+    for (int x = 0; x < kSize; ++x) {
+      const double d = (x - c) * std::cos(a) - (y - c) * std::sin(a);
+      line.at<float>(y, x) =
+          static_cast<float>(1000 - 800 * (sharp.esf(d + 1.5) - sharp.esf(d - 1.5)));
+    }
+  auto not_step = slanted_edge_sfr(line, centre_segment(5, false));
+  ASSERT_TRUE(not_step.ok());
+  EXPECT_TRUE(not_step->status == "not_a_step" || not_step->status == "no_edge")
+      << not_step->status << ": " << not_step->message;
+  EXPECT_FALSE(not_step->status == "ok");
   // Bad input is an error, not a number.
   EXPECT_EQ(slanted_edge_sfr(cv::Mat(), centre_segment(5, false)).error().code, "bad_image");
   EXPECT_EQ(
