@@ -69,9 +69,14 @@ void run_sfr(const AnalyzeArgs& args) {
   o.pixel_pitch_um = args.pixel_um;
   o.sfr.half_width_px = args.half_width_px;
   o.min_edge_length_px = args.min_edge_px;
-  const auto result = errors.take(std::filesystem::is_directory(args.dir)
-                                      ? analysis::analyze_sfr_folder(args.dir, o)
-                                      : analysis::analyze_sfr_image(args.dir, o));
+  if (std::filesystem::is_directory(args.dir)) {
+    // A capture folder: the same run as camlabd's analysis job of kind "sfr".
+    analysis::AnalyzeOptions folder;
+    folder.sfr = o;
+    const auto result = errors.take(analysis::analyze("sfr", args.dir, folder));
+    return emit(errors, args, result.report, result.text);
+  }
+  const auto result = errors.take(analysis::analyze_sfr_image(args.dir, o));
   emit(errors, args, result.report, result.text);
 }
 

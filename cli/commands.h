@@ -22,7 +22,7 @@ void register_vcam_command(CLI::App& app);
 // `camlab calibrate` (cli/calibrate_command.cpp).
 void register_calibrate_command(CLI::App& app);
 
-// `camlab analyze defocus|exposure|focus` (cli/analyze_command.cpp).
+// `camlab analyze defocus|exposure|focus|sfr` (cli/analyze_command.cpp).
 void register_analyze_command(CLI::App& app);
 
 // `camlab lightfield render|refocus|stack|depth|decode` (cli/lightfield_command.cpp).

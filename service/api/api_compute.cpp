@@ -116,9 +116,10 @@ void post_analysis(const ServiceContext& context, const ApiRequest& request, Rep
   if (Status known = check_known_fields(*body, {"kind", "job", "folder"}); !known)
     return reply(error_response(known.error()));
   const nlohmann::json& kind = body->value("kind", nlohmann::json());
-  if (!kind.is_string() || (kind != "defocus" && kind != "exposure" && kind != "focus"))
-    return reply(error_response("invalid_request",
-                                "\"kind\" must be \"defocus\", \"exposure\" or \"focus\""));
+  if (!kind.is_string() ||
+      (kind != "defocus" && kind != "exposure" && kind != "focus" && kind != "sfr"))
+    return reply(error_response(
+        "invalid_request", "\"kind\" must be \"defocus\", \"exposure\", \"focus\" or \"sfr\""));
   auto source = resolve_source(context, *body);
   if (!source) return reply(error_response(source.error()));
   // The wrong capture for the analysis is refused now (422), not run into an empty report.
@@ -143,8 +144,8 @@ void add_compute_routes(Router& router, const ServiceContext& context) {
                 post_calibration(context, request, std::move(reply));
               }});
   router.add({"POST", "/v1/analyses",
-              "Queue an analysis (defocus, exposure, focus) of a capture: 202 with the job; the "
-              "result holds the report",
+              "Queue an analysis (defocus, exposure, focus, sfr) of a capture: 202 with the job; "
+              "the result holds the report",
               [context](const ApiRequest& request, const PathParams&, Reply reply) {
                 post_analysis(context, request, std::move(reply));
               }});

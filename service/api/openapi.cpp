@@ -234,7 +234,7 @@ json schemas() {
        {{"type", "object"},
         {"required", {"kind"}},
         {"properties",
-         {{"kind", {{"type", "string"}, {"enum", {"defocus", "exposure", "focus"}}}},
+         {{"kind", {{"type", "string"}, {"enum", {"defocus", "exposure", "focus", "sfr"}}}},
           {"job", {{"type", "integer"}, {"minimum", 1}}},
           {"folder", {{"type", "string"}}}}},
         {"additionalProperties", false}}},

@@ -247,9 +247,9 @@ Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& 
     run.report["summary"] = summary;
     return {};
   };
-  if (kind != "defocus" && kind != "exposure" && kind != "focus")
+  if (kind != "defocus" && kind != "exposure" && kind != "focus" && kind != "sfr")
     return make_error("invalid_argument", "unknown analysis '" + std::string(kind) +
-                                              "'; use defocus, exposure or focus");
+                                              "'; use defocus, exposure, focus or sfr");
   // The capture must be one the analysis can measure (capture_check.h): the wrong one is
   // an error naming what is needed, never an empty report.
   {
@@ -275,9 +275,16 @@ Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& 
     FocusReport r;
     CAMLAB_ASSIGN(r, analyze_focus(dir, focus));
     done = finish(r, to_text(r, options.focus.region_px), write_focus_plots);
+  } else if (kind == "sfr") {
+    // Its report carries its own summary (measured, left out and why); no plots.
+    SfrImageReport r;
+    CAMLAB_ASSIGN(r, analyze_sfr_folder(dir, options.sfr));
+    run.report = std::move(r.report);
+    run.report["kind"] = "sfr";
+    run.text = std::move(r.text);
   } else {
     return make_error("invalid_argument", "unknown analysis '" + std::string(kind) +
-                                              "'; use defocus, exposure or focus");
+                                              "'; use defocus, exposure, focus or sfr");
   }
   if (!done) return done.error();
   // A capture cut short (camlabd stopped, the camera vanished) is still read, but never

@@ -20,6 +20,7 @@
 #include "analysis/defocus_report.h"
 #include "analysis/exposure_report.h"
 #include "analysis/focus_stack.h"
+#include "analysis/sfr/sfr_image.h"
 #include "base/result.h"
 
 namespace camlab::analysis {
@@ -28,7 +29,8 @@ struct AnalyzeOptions {
   DefocusOptions defocus;
   ExposureOptions exposure;
   FocusStackOptions focus;
-  std::filesystem::path plots_dir;  // empty: no plots
+  SfrImageOptions sfr;
+  std::filesystem::path plots_dir;  // empty: no plots (sfr writes none)
   // Set by another thread to stop between frames: analyze() then returns "cancelled".
   const std::atomic<bool>* cancel = nullptr;
 };

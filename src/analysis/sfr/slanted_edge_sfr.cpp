@@ -137,7 +137,9 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& image, const EdgeSegment& edge
   }
   const double norm = std::sqrt(1 + line.b * line.b);
   const double slant = std::atan(std::fabs(line.b));
-  r.slant_deg = slant * 180 / std::numbers::pi;
+  // Off the nearest pixel axis (a fitted line may lean past 45 deg from the rows it was read
+  // along).
+  r.slant_deg = std::min(slant, std::numbers::pi / 2 - slant) * 180 / std::numbers::pi;
   // The edge's direction in the image: (b, 1) in working coordinates.
   const double ex = transposed ? 1.0 : line.b, ey = transposed ? line.b : 1.0;
   r.angle_deg = std::atan2(ey, ex) * 180 / std::numbers::pi;

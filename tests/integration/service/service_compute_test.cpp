@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <set>
@@ -69,6 +70,38 @@ TEST_F(ServiceCompute, ExposureAnalysisOfABracketReportsLinearity) {
   const json linearity_error = find_key(job["result"]["report"], "max_abs_error_pct");
   ASSERT_TRUE(linearity_error.is_number()) << job["result"].dump();
   EXPECT_LT(linearity_error.get<double>(), 2.0) << job["result"]["report"]["linearity"].dump();
+}
+
+// kind "sfr": the slanted-edge SFR of a capture's frames, the same run as `camlab analyze
+// sfr DIR`; the test scene's 5 deg edge is measured in every frame.
+TEST_F(ServiceCompute, SfrAnalysisMeasuresTheSceneEdgeInEveryFrame) {
+  auto capture = daemon.post(camera + "/captures",
+                             {{"kind", "bracket"}, {"exposures_us", {2000, 4000}}, {"repeats", 1}});
+  ASSERT_EQ(capture.status, 202) << capture.body;
+  const int64_t capture_id = capture.json()["id"];
+  ASSERT_EQ(daemon.wait_finished(capture_id)["state"], "succeeded");
+  auto r = daemon.post("/v1/analyses", {{"kind", "sfr"}, {"job", capture_id}});
+  ASSERT_EQ(r.status, 202) << r.body;
+  const json job = daemon.wait_finished(r.json()["id"]);
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  const json& report = job["result"]["report"];
+  EXPECT_EQ(report["kind"], "sfr");
+  ASSERT_EQ(report["frames"].size(), 2u) << report.dump();
+  for (const json& frame : report["frames"]) {
+    int near_five_degrees = 0;
+    for (const json& edge : frame["edges"])
+      if (edge["status"] == "ok" && std::fabs(edge["slant_deg"].get<double>() - 5.0) < 0.2) {
+        ++near_five_degrees;
+        const double mtf50 = edge["mtf50_cy_px"];
+        EXPECT_GT(mtf50, 0.02);
+        EXPECT_LT(mtf50, 0.7);  // a pixel's own area holds it under 0.6 cycles/px
+      }
+    EXPECT_GE(near_five_degrees, 1) << frame.dump().substr(0, 1500);
+  }
+  // An unknown kind names the ones there are.
+  auto bad = daemon.post("/v1/analyses", {{"kind", "mtf"}, {"job", capture_id}});
+  EXPECT_EQ(bad.status, 400) << bad.body;
+  EXPECT_NE(bad.body.find("sfr"), std::string::npos) << bad.body;
 }
 
 TEST_F(ServiceCompute, SourcesAreValidated) {
