@@ -8,6 +8,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "analysis/channel_signal.h"
 #include "analysis/edge/edge_finder.h"
 #include "base/format.h"
 #include "image/capture_folder.h"
@@ -131,6 +132,54 @@ Error no_edges(const SfrImageOptions& options, const std::string& name) {
                         " px or longer was found in " + name);
 }
 
+// A colour frame (a raw mosaic or linear RGB): each edge's SFR in R, G and B as well,
+// each channel on its own sites (the others NaN, channel_signal.h) and on the line the
+// luminance shows, so the pixel aperture stays one site's and no demosaicing blur enters
+// (longitudinal colour shows as channels sharp at different focus). Added to each edge's
+// entry as "channels" and as one text line per frame; mono and JPEG frames get none.
+Status channel_sfr(const image::CaptureFolder& folder, int index, const image::FrameSidecar& side,
+                   const cv::Mat& luminance, const std::vector<EdgeSegment>& edges,
+                   const SfrImageOptions& options, json* list, std::string* text) {
+  auto channels = measurable_channels(side);
+  if (!channels || channels->size() < 3) return {};
+  auto stored = folder.load_stored_image(index);
+  if (!stored) return stored.error();
+  SfrOptions o = options.sfr;
+  o.saturation_level = side.white_level_dn > 0 ? side.white_level_dn - side.black_level_dn : 0;
+  std::string line = "  MTF50 per channel [cy/px]:";
+  for (const std::string& channel : *channels) {
+    auto signal = channel_signal(*stored, side, channel);
+    if (!signal) return signal.error();
+    for (size_t k = 0; k < edges.size(); ++k) {
+      auto r = slanted_edge_sfr(*signal, luminance, edges[k], o);
+      if (!r) return r.error();
+      json c = {{"status", r->status}};
+      if (r->status == kSfrOk) {
+        c["mtf50_cy_px"] = optional_number(r->mtf50_cy_px);
+        c["mtf30_cy_px"] = optional_number(r->mtf30_cy_px);
+        c["mtf10_cy_px"] = optional_number(r->mtf10_cy_px);
+      } else {
+        c["message"] = r->message;
+      }
+      (*list)[k]["channels"][channel] = std::move(c);
+    }
+  }
+  for (size_t k = 0; k < edges.size(); ++k) {
+    if ((*list)[k]["status"] != std::string(kSfrOk)) continue;
+    line += " " + edges[k].name;
+    for (const std::string& channel : *channels) {
+      const json& c = (*list)[k]["channels"][channel];
+      line += " " + channel + " " +
+              (c["status"] == std::string(kSfrOk) && c["mtf50_cy_px"].is_number()
+                   ? format_significant(c["mtf50_cy_px"].get<double>(), 3)
+                   : std::string("-"));
+    }
+    line += ";";
+  }
+  *text += line + "\n";
+  return {};
+}
+
 }  // namespace
 
 Result<SfrImageReport> analyze_sfr(const cv::Mat& image, const std::string& name,
@@ -220,6 +269,9 @@ Result<SfrImageReport> analyze_sfr_folder(const std::filesystem::path& dir,
     auto list = measure_edges(frames[static_cast<size_t>(i)], edges, options, lp_per_mm_per_cy_px,
                               &out.text, &tally);
     if (!list) return list.error();
+    auto by_channel = channel_sfr(*folder, i, side, frames[static_cast<size_t>(i)], edges, options,
+                                  &*list, &out.text);
+    if (!by_channel) return by_channel.error();
     frames_json.push_back({{"frame", i}, {"settings", settings}, {"edges", std::move(*list)}});
   }
   out.text += summary_line(tally);

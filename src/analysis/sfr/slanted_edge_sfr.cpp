@@ -86,8 +86,15 @@ std::optional<double> frequency_at(const std::vector<double>& frequency_cy_px,
 
 Result<SfrResult> slanted_edge_sfr(const cv::Mat& image, const EdgeSegment& edge,
                                    const SfrOptions& options) {
-  if (image.empty() || image.channels() != 1)
+  return slanted_edge_sfr(image, image, edge, options);
+}
+
+Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometry,
+                                   const EdgeSegment& edge, const SfrOptions& options) {
+  if (signal.empty() || signal.channels() != 1 || geometry.empty() || geometry.channels() != 1)
     return make_error("bad_image", "the SFR needs a single-channel image");
+  if (signal.size() != geometry.size())
+    return make_error("bad_image", "the SFR's signal and geometry images differ in size");
   if (!(options.half_width_px >= 4 && options.half_width_px <= 256) || options.oversampling < 1 ||
       options.oversampling > 16 || options.half_length_px < 0)
     return make_error("invalid_argument",
@@ -97,14 +104,15 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& image, const EdgeSegment& edge
   const double length = std::hypot(dx, dy);
   if (!(length >= 8))
     return make_error("invalid_argument", "an edge segment for the SFR must be 8 px or longer");
-  cv::Mat f;
-  image.convertTo(f, CV_32F);
+  cv::Mat f, g;
+  signal.convertTo(f, CV_32F);
+  geometry.convertTo(g, CV_32F);
 
   SfrResult r;
   r.centre_x_px = 0.5 * (edge.start_x_px + edge.end_x_px);
   r.centre_y_px = 0.5 * (edge.start_y_px + edge.end_y_px);
   const bool transposed = std::fabs(dx) > std::fabs(dy);
-  const WorkingView view(f, transposed);
+  const WorkingView view(f, transposed), line_view(g, transposed);
   // Working coordinates: (x, y) = (col, row) of the view.
   const double x0 = transposed ? edge.start_y_px : edge.start_x_px,
                y0 = transposed ? edge.start_x_px : edge.start_y_px;
@@ -125,8 +133,8 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& image, const EdgeSegment& edge
   int row_lo = 0, row_hi = 0, rows_used = 0;
   for (int pass = 0; pass < 2; ++pass) {
     row_range(line, &row_lo, &row_hi);
-    const auto fitted =
-        fit_edge_line(view, line, row_lo, row_hi, hw * std::sqrt(1 + line.b * line.b), &rows_used);
+    const auto fitted = fit_edge_line(line_view, line, row_lo, row_hi,
+                                      hw * std::sqrt(1 + line.b * line.b), &rows_used);
     if (!fitted) {
       r.status = std::string(kSfrNoEdge);
       r.message =
@@ -167,6 +175,7 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& image, const EdgeSegment& edge
       const int bin = static_cast<int>(std::floor((d + hw) * os));
       if (bin < 0 || bin >= bins) continue;
       const double v = view.at(y, x);
+      if (!std::isfinite(v)) continue;  // a site of another colour
       if (options.saturation_level > 0 && v >= options.saturation_level) clipped = true;
       sum[static_cast<size_t>(bin)] += v;
       where[static_cast<size_t>(bin)] += (d + hw) * os - 0.5;

@@ -76,6 +76,12 @@ struct SfrResult {
 Result<SfrResult> slanted_edge_sfr(const cv::Mat& image, const EdgeSegment& edge,
                                    const SfrOptions& options = {});
 
+// The same with the edge's line found on `geometry` and the ESF read from `signal` (the
+// same size): one colour of a raw mosaic, its other sites NaN (channel_signal.h), measured
+// on the line its luminance shows. NaN samples are skipped.
+Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometry,
+                                   const EdgeSegment& edge, const SfrOptions& options = {});
+
 // The frequency (cycles/px) where `sfr` first falls to `level`, linearly interpolated;
 // none when it stays above.
 std::optional<double> frequency_at(const std::vector<double>& frequency_cy_px,
