@@ -368,8 +368,9 @@ void register_calibrate_command(CLI::App& app) {
                 "Keep calibrating the --images folder as new images arrive: detect only the "
                 "new ones, re-solve warm-started, print the next suggestion each time (with "
                 "--json one JSON object per line); ends at --target-uncertainty-px, on Ctrl-C, or "
-                "after --watch-timeout-s without a new image, then writes the outputs. --model "
-                "auto solves LENSMODEL_OPENCV8");
+                "after --watch-timeout-s without a new image, then writes the outputs. With "
+                "--model auto or a splined model the loop solves LENSMODEL_OPENCV8 and the end "
+                "runs the requested model on every view");
   cmd->add_option("--target-uncertainty-px", args->target_uncertainty_px,
                   "--watch: stop once the worst projection uncertainty is below this (px); "
                   "default 0: no target");
