@@ -220,19 +220,22 @@ Result<SfrImageReport> analyze_sfr_folder(const std::filesystem::path& dir,
   if (count == 0) return make_error("no_frames", "the capture folder holds no frames");
   // Each frame's luminance (stored DN), and the edges of the frame where most are found
   // (the sharpest, usually), measured on every frame.
-  std::vector<cv::Mat> frames(static_cast<size_t>(count));
-  std::vector<image::FrameSidecar> sidecars;
+  // One frame in memory at a time (a 300-frame capture of 12 MP frames would take 14 GB
+  // as float): read once to find the edges, once more to measure them.
+  auto luminance_of = [&](int i, image::FrameSidecar* side) -> Result<cv::Mat> {
+    CAMLAB_ASSIGN(*side, folder->load_sidecar(i));
+    cv::Mat stored, luminance, f;
+    CAMLAB_ASSIGN(stored, folder->load_stored_image(i));
+    CAMLAB_ASSIGN(luminance, image::luminance_view(stored, *side));
+    luminance.convertTo(f, CV_32F);
+    return f;
+  };
   std::vector<EdgeSegment> edges;
   for (int i = 0; i < count; ++i) {
-    auto side = folder->load_sidecar(i);
-    if (!side) return side.error();
-    auto stored = folder->load_stored_image(i);
-    if (!stored) return stored.error();
-    auto luminance = image::luminance_view(*stored, *side);
-    if (!luminance) return luminance.error();
-    luminance->convertTo(frames[static_cast<size_t>(i)], CV_32F);
-    sidecars.push_back(std::move(*side));
-    std::vector<EdgeSegment> found = edges_in(frames[static_cast<size_t>(i)], options_in);
+    image::FrameSidecar side;
+    cv::Mat frame;
+    CAMLAB_ASSIGN(frame, luminance_of(i, &side));
+    std::vector<EdgeSegment> found = edges_in(frame, options_in);
     if (found.size() > edges.size()) edges = std::move(found);
   }
   if (edges.empty()) return no_edges(options_in, dir.string());
@@ -254,7 +257,9 @@ Result<SfrImageReport> analyze_sfr_folder(const std::filesystem::path& dir,
   Tally tally;
   json frames_json = json::array();
   for (int i = 0; i < count; ++i) {
-    const image::FrameSidecar& side = sidecars[static_cast<size_t>(i)];
+    image::FrameSidecar side;
+    cv::Mat frame;
+    CAMLAB_ASSIGN(frame, luminance_of(i, &side));
     // Pixels at the white level are clipped.
     options.sfr.saturation_level = side.white_level_dn > 0 ? side.white_level_dn : 0;
     const json& settings = side.settings;
@@ -266,11 +271,9 @@ Result<SfrImageReport> analyze_sfr_folder(const std::filesystem::path& dir,
     out.text += "frame " + std::to_string(i) +
                 (settings_text.empty() ? "" : " (" + settings_text + ")") + "\n" +
                 table_header(lp_per_mm_per_cy_px);
-    auto list = measure_edges(frames[static_cast<size_t>(i)], edges, options, lp_per_mm_per_cy_px,
-                              &out.text, &tally);
+    auto list = measure_edges(frame, edges, options, lp_per_mm_per_cy_px, &out.text, &tally);
     if (!list) return list.error();
-    auto by_channel = channel_sfr(*folder, i, side, frames[static_cast<size_t>(i)], edges, options,
-                                  &*list, &out.text);
+    auto by_channel = channel_sfr(*folder, i, side, frame, edges, options, &*list, &out.text);
     if (!by_channel) return by_channel.error();
     frames_json.push_back({{"frame", i}, {"settings", settings}, {"edges", std::move(*list)}});
   }
