@@ -137,18 +137,16 @@ Error no_edges(const SfrImageOptions& options, const std::string& name) {
 // luminance shows, so the pixel aperture stays one site's and no demosaicing blur enters
 // (longitudinal colour shows as channels sharp at different focus). Added to each edge's
 // entry as "channels" and as one text line per frame; mono and JPEG frames get none.
-Status channel_sfr(const image::CaptureFolder& folder, int index, const image::FrameSidecar& side,
-                   const cv::Mat& luminance, const std::vector<EdgeSegment>& edges,
-                   const SfrImageOptions& options, json* list, std::string* text) {
+Status channel_sfr(const cv::Mat& stored, const image::FrameSidecar& side, const cv::Mat& luminance,
+                   const std::vector<EdgeSegment>& edges, const SfrImageOptions& options,
+                   json* list, std::string* text) {
   auto channels = measurable_channels(side);
   if (!channels || channels->size() < 3) return {};
-  auto stored = folder.load_stored_image(index);
-  if (!stored) return stored.error();
   SfrOptions o = options.sfr;
   o.saturation_level = side.white_level_dn > 0 ? side.white_level_dn - side.black_level_dn : 0;
   std::string line = "  MTF50 per channel [cy/px]:";
   for (const std::string& channel : *channels) {
-    auto signal = channel_signal(*stored, side, channel);
+    auto signal = channel_signal(stored, side, channel);
     if (!signal) return signal.error();
     for (size_t k = 0; k < edges.size(); ++k) {
       auto r = slanted_edge_sfr(*signal, luminance, edges[k], o);
@@ -222,19 +220,20 @@ Result<SfrImageReport> analyze_sfr_folder(const std::filesystem::path& dir,
   // (the sharpest, usually), measured on every frame.
   // One frame in memory at a time (a 300-frame capture of 12 MP frames would take 14 GB
   // as float): read once to find the edges, once more to measure them.
-  auto luminance_of = [&](int i, image::FrameSidecar* side) -> Result<cv::Mat> {
+  // The frame as stored (for its colour channels) and its luminance as float.
+  auto luminance_of = [&](int i, image::FrameSidecar* side, cv::Mat* stored) -> Result<cv::Mat> {
     CAMLAB_ASSIGN(*side, folder->load_sidecar(i));
-    cv::Mat stored, luminance, f;
-    CAMLAB_ASSIGN(stored, folder->load_stored_image(i));
-    CAMLAB_ASSIGN(luminance, image::luminance_view(stored, *side));
+    cv::Mat luminance, f;
+    CAMLAB_ASSIGN(*stored, folder->load_stored_image(i));
+    CAMLAB_ASSIGN(luminance, image::luminance_view(*stored, *side));
     luminance.convertTo(f, CV_32F);
     return f;
   };
   std::vector<EdgeSegment> edges;
   for (int i = 0; i < count; ++i) {
     image::FrameSidecar side;
-    cv::Mat frame;
-    CAMLAB_ASSIGN(frame, luminance_of(i, &side));
+    cv::Mat stored, frame;
+    CAMLAB_ASSIGN(frame, luminance_of(i, &side, &stored));
     std::vector<EdgeSegment> found = edges_in(frame, options_in);
     if (found.size() > edges.size()) edges = std::move(found);
   }
@@ -258,8 +257,8 @@ Result<SfrImageReport> analyze_sfr_folder(const std::filesystem::path& dir,
   json frames_json = json::array();
   for (int i = 0; i < count; ++i) {
     image::FrameSidecar side;
-    cv::Mat frame;
-    CAMLAB_ASSIGN(frame, luminance_of(i, &side));
+    cv::Mat stored, frame;
+    CAMLAB_ASSIGN(frame, luminance_of(i, &side, &stored));
     // Pixels at the white level are clipped.
     options.sfr.saturation_level = side.white_level_dn > 0 ? side.white_level_dn : 0;
     const json& settings = side.settings;
@@ -273,7 +272,7 @@ Result<SfrImageReport> analyze_sfr_folder(const std::filesystem::path& dir,
                 table_header(lp_per_mm_per_cy_px);
     auto list = measure_edges(frame, edges, options, lp_per_mm_per_cy_px, &out.text, &tally);
     if (!list) return list.error();
-    auto by_channel = channel_sfr(*folder, i, side, frame, edges, options, &*list, &out.text);
+    auto by_channel = channel_sfr(stored, side, frame, edges, options, &*list, &out.text);
     if (!by_channel) return by_channel.error();
     frames_json.push_back({{"frame", i}, {"settings", settings}, {"edges", std::move(*list)}});
   }
