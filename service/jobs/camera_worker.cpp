@@ -376,10 +376,15 @@ void CameraWorker::run_job(int64_t id) {
     return;
   }
   const JobRecord& job = **record;
-  auto started = store_.start(id);
-  if (!started || !*started) return;  // cancelled while queued
-  running_job_ = id;
+  // Cancellable before the store says running (as the compute worker): a DELETE that reads
+  // "running" finds the job here; one that reads "queued" cancels it in the store instead.
   cancel_ = lost_.load();  // a retirement since the job left the queue still cancels it
+  running_job_ = id;
+  auto started = store_.start(id);
+  if (!started || !*started) {  // cancelled while queued
+    running_job_ = 0;
+    return;
+  }
   log_info(log::Category::kJobs, "job %lld (%s) started on camera %s", static_cast<long long>(id),
            job.kind.c_str(), this->id().c_str());
 

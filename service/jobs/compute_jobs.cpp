@@ -158,19 +158,25 @@ void ComputeWorker::run() {
     }
     auto record = store_.get(id);
     if (!record || !record->has_value()) continue;
+    {
+      std::lock_guard lock(mutex_);
+      if (!stopping_) cancel_ = false;
+    }
+    // Cancellable before the store says running: a DELETE that reads "running" must find
+    // the job here (it answered 409 not_cancellable in that window), and one that still
+    // reads "queued" cancels it in the store, so that start() refuses it.
+    running_job_ = id;
     auto started = store_.start(id);
-    if (!started || !*started) continue;
+    if (!started || !*started) {
+      running_job_ = 0;
+      continue;
+    }
     const JobRecord& job = **record;
     log_info(log::Category::kJobs, "job %lld (%s) started", static_cast<long long>(id),
              job.kind.c_str());
     JobOutcome outcome;
     // The libraries return errors as values; an exception here is a bug in a library or
     // a request the handler let through malformed, and must not take the daemon down.
-    {
-      std::lock_guard lock(mutex_);
-      if (!stopping_) cancel_ = false;
-    }
-    running_job_ = id;
     try {
       outcome = job.kind == "calibration" ? execute_calibration(job, data_dir_, &cancel_)
                                           : execute_analysis(job, data_dir_, &cancel_);
