@@ -33,6 +33,7 @@ struct AnalyzeArgs {
   double pixel_um = 0;
   double half_width_px = 24;
   double min_edge_px = 40;
+  double focus_step_mm = 0;
 };
 
 // The report to --report, then the JSON (--json) or the text summary to stdout.
@@ -77,6 +78,18 @@ void run_sfr(const AnalyzeArgs& args) {
     return emit(errors, args, result.report, result.text);
   }
   const auto result = errors.take(analysis::analyze_sfr_image(args.dir, o));
+  emit(errors, args, result.report, result.text);
+}
+
+void run_lensmap(const AnalyzeArgs& args) {
+  const CommandErrors errors("camlab analyze", args.json);
+  analysis::AnalyzeOptions o;
+  o.sfr.pixel_pitch_um = args.pixel_um;
+  o.sfr.sfr.half_width_px = args.half_width_px;
+  o.sfr.min_edge_length_px = args.min_edge_px;
+  o.lensmap.pixel_pitch_um = args.pixel_um;
+  o.lensmap.extension_mm_per_step = args.focus_step_mm;
+  const auto result = errors.take(analysis::analyze("lensmap", args.dir, o));
   emit(errors, args, result.report, result.text);
 }
 
@@ -158,6 +171,39 @@ void register_analyze_command(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(16.0, 100000.0));
   sfr->callback([args] { run_sfr(*args); });
+
+  CLI::App* lensmap = analyze->add_subcommand(
+      "lensmap",
+      "the lens across its field from a focus sweep (a capture with 5 or more focus_position "
+      "values, at one or more f-numbers) of a chart of slanted edges: each edge's best focus "
+      "(the vertex of 1/MTF50^2 through focus), then per f-number the best-focus surface over "
+      "the field: focus on the axis, tilt, field curvature, and the sagittal and meridional "
+      "curvatures apart (astigmatism), in focus steps and, with the lens's extension per step "
+      "and the pixel pitch, in micrometres at the sensor and degrees");
+  lensmap->add_option("DIR", args->dir, "capture folder of the focus sweep")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  lensmap->add_flag("--json", args->json, "print the report as JSON");
+  lensmap->add_option("--report", args->report_path, "also write the JSON report to this file");
+  lensmap
+      ->add_option("--pixel-um", args->pixel_um,
+                   "pixel pitch in micrometres (default: the capture's camera spec's)")
+      ->check(CLI::Range(0.1, 100.0));
+  lensmap
+      ->add_option("--focus-step-mm", args->focus_step_mm,
+                   "lens movement per focus_position unit in mm (default: the capture's "
+                   "camera spec's lens.focus.extension_mm_per_step)")
+      ->check(CLI::Range(1e-6, 10.0));
+  lensmap
+      ->add_option("--half-width", args->half_width_px,
+                   "px each side of an edge read for its ESF (3 blur diameters at the "
+                   "sweep's ends)")
+      ->capture_default_str()
+      ->check(CLI::Range(4.0, 256.0));
+  lensmap->add_option("--min-edge", args->min_edge_px, "shortest edge measured (px)")
+      ->capture_default_str()
+      ->check(CLI::Range(16.0, 100000.0));
+  lensmap->callback([args] { run_lensmap(*args); });
 }
 
 }  // namespace camlab::cli

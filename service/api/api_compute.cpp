@@ -116,10 +116,11 @@ void post_analysis(const ServiceContext& context, const ApiRequest& request, Rep
   if (Status known = check_known_fields(*body, {"kind", "job", "folder"}); !known)
     return reply(error_response(known.error()));
   const nlohmann::json& kind = body->value("kind", nlohmann::json());
-  if (!kind.is_string() ||
-      (kind != "defocus" && kind != "exposure" && kind != "focus" && kind != "sfr"))
-    return reply(error_response(
-        "invalid_request", "\"kind\" must be \"defocus\", \"exposure\", \"focus\" or \"sfr\""));
+  if (!kind.is_string() || (kind != "defocus" && kind != "exposure" && kind != "focus" &&
+                            kind != "sfr" && kind != "lensmap"))
+    return reply(error_response("invalid_request",
+                                "\"kind\" must be \"defocus\", \"exposure\", \"focus\", "
+                                "\"sfr\" or \"lensmap\""));
   auto source = resolve_source(context, *body);
   if (!source) return reply(error_response(source.error()));
   // The wrong capture for the analysis is refused now (422), not run into an empty report.

@@ -8,7 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "analysis/analyze_folder.h"
-#include "analysis/focus_report.h"
+#include "analysis/focus/focus_report.h"
 #include "analysis/plot.h"
 #include "base/format.h"
 

@@ -2,7 +2,7 @@
 // same from the CLI and camlabd: what it measured, what it left out and why.
 //
 //   defocus   edge fits measured of all (frames x edges, over colour channels), those left
-//             out counted by status (defocus.h: clipped, neighbour_overlap, ...), targets
+//             out counted by status (edge/edge_measure.h: clipped, neighbour_overlap, ...), targets
 //             with a C = k/N fit and with a V-curve fit;
 //   exposure  settings, those in the linearity and the photon transfer fits, and each
 //             setting left out with its reason (exposure_report.h's left_out);
@@ -16,9 +16,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "analysis/defocus_report.h"
-#include "analysis/exposure_report.h"
-#include "analysis/focus_report.h"
+#include "analysis/defocus/defocus_report.h"
+#include "analysis/exposure/exposure_report.h"
+#include "analysis/focus/focus_report.h"
 
 namespace camlab::analysis {
 

@@ -11,7 +11,7 @@
 #include "analysis/analysis_summary.h"
 
 #include "analysis/capture_check.h"
-#include "analysis/focus_report.h"
+#include "analysis/focus/focus_report.h"
 #include "image/capture_folder.h"
 
 namespace camlab::analysis {
@@ -247,9 +247,10 @@ Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& 
     run.report["summary"] = summary;
     return {};
   };
-  if (kind != "defocus" && kind != "exposure" && kind != "focus" && kind != "sfr")
+  if (kind != "defocus" && kind != "exposure" && kind != "focus" && kind != "sfr" &&
+      kind != "lensmap")
     return make_error("invalid_argument", "unknown analysis '" + std::string(kind) +
-                                              "'; use defocus, exposure, focus or sfr");
+                                              "'; use defocus, exposure, focus, sfr or lensmap");
   // The capture must be one the analysis can measure (capture_check.h): the wrong one is
   // an error naming what is needed, never an empty report.
   {
@@ -282,9 +283,17 @@ Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& 
     run.report = std::move(r.report);
     run.report["kind"] = "sfr";
     run.text = std::move(r.text);
+  } else if (kind == "lensmap") {
+    LensMapOptions lensmap = options.lensmap;
+    lensmap.sfr = options.sfr;
+    LensMapReport r;
+    CAMLAB_ASSIGN(r, analyze_lens_map(dir, lensmap));
+    run.report = std::move(r.report);
+    run.report["kind"] = "lensmap";
+    run.text = std::move(r.text);
   } else {
     return make_error("invalid_argument", "unknown analysis '" + std::string(kind) +
-                                              "'; use defocus, exposure, focus or sfr");
+                                              "'; use defocus, exposure, focus, sfr or lensmap");
   }
   if (!done) return done.error();
   // A capture cut short (camlabd stopped, the camera vanished) is still read, but never

@@ -17,9 +17,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "analysis/defocus_report.h"
-#include "analysis/exposure_report.h"
-#include "analysis/focus_stack.h"
+#include "analysis/defocus/defocus_report.h"
+#include "analysis/exposure/exposure_report.h"
+#include "analysis/focus/focus_stack.h"
+#include "analysis/lensmap/lens_map.h"
 #include "analysis/sfr/sfr_image.h"
 #include "base/result.h"
 
@@ -29,8 +30,9 @@ struct AnalyzeOptions {
   DefocusOptions defocus;
   ExposureOptions exposure;
   FocusStackOptions focus;
-  SfrImageOptions sfr;
-  std::filesystem::path plots_dir;  // empty: no plots (sfr writes none)
+  SfrImageOptions sfr;  // sfr, and the SFR under lensmap
+  LensMapOptions lensmap;
+  std::filesystem::path plots_dir;  // empty: no plots (sfr and lensmap write none)
   // Set by another thread to stop between frames: analyze() then returns "cancelled".
   const std::atomic<bool>* cancel = nullptr;
 };
@@ -41,8 +43,8 @@ struct AnalysisRun {
   std::vector<std::filesystem::path> plots;  // written
 };
 
-// `kind`: "defocus", "exposure" or "focus". Errors: "invalid_argument" (unknown kind),
-// the measurement's own errors (e.g. "empty_capture", "no_edge_geometry",
+// `kind`: "defocus", "exposure", "focus", "sfr" or "lensmap". Errors: "invalid_argument" (unknown
+// kind), the measurement's own errors (e.g. "empty_capture", "no_edge_geometry",
 // "too_few_samples"), "io_error" (plots).
 Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& capture_dir,
                             const AnalyzeOptions& options);

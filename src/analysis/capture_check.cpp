@@ -58,6 +58,11 @@ Status check_capture_for(std::string_view analysis, const image::CaptureFolder& 
                       "a focus analysis needs a focus stack: frames at 2 or more focus_position "
                       "values; " +
                           holds);
+  if (analysis == "lensmap" && swept.focus_positions.size() < 5)
+    return make_error("invalid_argument",
+                      "a lens map needs a focus sweep: frames at 5 or more focus_position values "
+                      "(at each f-number), on a chart of slanted edges across the field; " +
+                          holds);
   if (analysis == "defocus" && swept.exposures.size() >= 2 && swept.f_numbers.size() < 2 &&
       swept.focus_positions.size() < 2)
     return make_error("invalid_argument",

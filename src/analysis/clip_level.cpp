@@ -4,7 +4,7 @@
 #include <cmath>
 #include <vector>
 
-#include "analysis/focus_stack.h"  // laplacian_noise_floor: 20 sigma_n^2
+#include "analysis/focus/focus_stack.h"  // laplacian_noise_floor: 20 sigma_n^2
 
 namespace camlab::analysis {
 

@@ -17,12 +17,24 @@ import sys
 # Each room: the path prefix of its files, and the rooms (path prefixes of included
 # headers, as written in #include "...") it may include. A room may always include itself.
 SRC_ALL = ["base/", "optics/", "image/", "analysis/", "device/", "capture/"]
+# What every measurement room of src/analysis may use besides image/, optics/ and base/.
+ANALYSIS_SHARED = ["analysis/channel_signal.h", "analysis/clip_level.h", "image/", "optics/",
+                   "base/"]
 ROOMS = [
     # (room prefix in the tree, include prefix of the room itself, allowed include prefixes)
     ("src/base/", "base/", []),
     # src/optics links nothing: only the header-only parts of base/.
     ("src/optics/", "optics/", ["base/result.h", "base/error_code.h", "base/format.h"]),
     ("src/image/", "image/", ["base/"]),
+    # The measurements, a room each on the shared edge core and helpers; the dispatch,
+    # summary and plots at analysis/'s top see them all (src/analysis/CMakeLists.txt).
+    ("src/analysis/edge/", "analysis/edge/", ["image/", "optics/", "base/"]),
+    ("src/analysis/defocus/", "analysis/defocus/", ANALYSIS_SHARED + ["analysis/edge/"]),
+    ("src/analysis/sfr/", "analysis/sfr/", ANALYSIS_SHARED + ["analysis/edge/"]),
+    ("src/analysis/lensmap/", "analysis/lensmap/", ANALYSIS_SHARED + ["analysis/sfr/"]),
+    ("src/analysis/exposure/", "analysis/exposure/", ANALYSIS_SHARED),
+    ("src/analysis/focus/", "analysis/focus/", ANALYSIS_SHARED),
+    ("src/analysis/lightfield/", "analysis/lightfield/", ANALYSIS_SHARED + ["analysis/focus/"]),
     ("src/analysis/", "analysis/", ["image/", "optics/", "base/"]),
     ("src/device/", "device/", ["base/"]),
     ("src/capture/", "capture/", ["device/", "image/", "optics/", "base/"]),

@@ -21,9 +21,9 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "analysis/defocus.h"
+#include "analysis/edge/edge_measure.h"
 #include "analysis/edge/edge_spread.h"
-#include "analysis/focus_stack.h"
+#include "analysis/focus/focus_stack.h"
 #include "analysis_bench_previous_focus.h"
 #include "mock_device/render/renderer.h"
 #include "mock_device/spec/camera_spec.h"

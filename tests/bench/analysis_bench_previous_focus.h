@@ -1,4 +1,4 @@
-// The focus measure as it was before its speed-up (src/analysis/focus_stack.cpp,
+// The focus measure as it was before its speed-up (src/analysis/focus/focus_stack.cpp,
 // 2026-11-21): one fused pass with double running sums, horizontal sums sequential.
 // Kept only so analysis_bench can time the current measure against it in the same run
 // (docs/measuring.md: compare two methods as a ratio measured in the same run).

@@ -33,7 +33,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "analysis/analyze_folder.h"
-#include "analysis/focus_report.h"
+#include "analysis/focus/focus_report.h"
 #include "analysis/lightfield/depth.h"
 #include "analysis/lightfield/lenslet_decode.h"
 #include "analysis/lightfield/refocus.h"

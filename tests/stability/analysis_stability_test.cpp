@@ -8,9 +8,9 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "analysis/coc_fits.h"
-#include "analysis/defocus.h"
-#include "analysis/exposure.h"
+#include "analysis/defocus/coc_fits.h"
+#include "analysis/edge/edge_measure.h"
+#include "analysis/exposure/exposure.h"
 
 namespace camlab::analysis {
 namespace {

@@ -1,4 +1,4 @@
-#include "analysis/chromatic_aberration.h"
+#include "analysis/defocus/chromatic_aberration.h"
 
 #include <cmath>
 #include <string>

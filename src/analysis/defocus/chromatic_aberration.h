@@ -14,7 +14,7 @@
 
 #include <vector>
 
-#include "analysis/defocus_report.h"
+#include "analysis/defocus/defocus_report.h"
 
 namespace camlab::analysis {
 

@@ -1,5 +1,5 @@
 // Weighted least-squares fits of C = k / N and of the V-curve C = s |p - p0|.
-#include "analysis/coc_fits.h"
+#include "analysis/defocus/coc_fits.h"
 
 #include <algorithm>
 #include <cmath>

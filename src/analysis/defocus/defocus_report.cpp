@@ -1,5 +1,5 @@
 // Capture-folder defocus analysis: measurement per frame, fits per target.
-#include "analysis/defocus_report.h"
+#include "analysis/defocus/defocus_report.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,8 +11,8 @@
 #include <opencv2/core.hpp>
 
 #include "analysis/channel_signal.h"
-#include "analysis/chromatic_aberration.h"
 #include "analysis/clip_level.h"
+#include "analysis/defocus/chromatic_aberration.h"
 #include "analysis/edge/edge_finder.h"
 #include "base/cancel.h"
 #include "image/capture_folder.h"

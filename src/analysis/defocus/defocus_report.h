@@ -1,5 +1,5 @@
 // Defocus analysis of a whole capture folder: every slanted edge in every frame measured
-// (defocus.h), grouped by target, then fitted against the thin lens (coc_fits.h):
+// (edge/edge_measure.h), grouped by target, then fitted against the thin lens (coc_fits.h):
 //  - frames that differ in f-number: C = k / N, the implied defocus |z_s - z_i| / z_i =
 //    k pitch / f, and the thin-lens prediction of k where f, the focus distance and the
 //    object distance are known;
@@ -24,9 +24,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "analysis/coc_fits.h"
-#include "analysis/defocus.h"
+#include "analysis/defocus/coc_fits.h"
 #include "analysis/edge/edge_finder.h"
+#include "analysis/edge/edge_measure.h"
 #include "base/result.h"
 
 namespace camlab::analysis {

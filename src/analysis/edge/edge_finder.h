@@ -1,6 +1,6 @@
 // Automatic slanted-edge finding, for frames whose edge geometry is not known: long,
 // straight, high-contrast transitions, found at a scale where even a large blur looks
-// sharp, then handed to measure_edge() (defocus.h), whose fit refines offset and angle.
+// sharp, then handed to measure_edge() (edge_measure.h), whose fit refines offset and angle.
 //
 // Method: the frame is reduced by `scale` (area averaging, so a blur of D px becomes D /
 // scale), smoothed, edged with Canny (thresholds from the gradient magnitude's
@@ -22,7 +22,7 @@
 
 #include <opencv2/core/mat.hpp>
 
-#include "analysis/defocus.h"
+#include "analysis/edge/edge_measure.h"
 
 namespace camlab::analysis {
 

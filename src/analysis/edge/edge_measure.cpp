@@ -1,5 +1,5 @@
 // Edge measurement: window choice, rejections, baseline removal, diffraction flag.
-#include "analysis/defocus.h"
+#include "analysis/edge/edge_measure.h"
 
 #include "analysis/edge/edge_pair.h"
 #include "base/format.h"

@@ -1,5 +1,5 @@
 // Photon transfer, linearity and HDR merge.
-#include "analysis/exposure.h"
+#include "analysis/exposure/exposure.h"
 
 #include <algorithm>
 #include <cmath>

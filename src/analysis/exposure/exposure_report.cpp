@@ -1,5 +1,5 @@
 // Capture-folder exposure analysis: grouping, pairs, linearity, photon transfer, HDR.
-#include "analysis/exposure_report.h"
+#include "analysis/exposure/exposure_report.h"
 
 #include <algorithm>
 #include <cmath>

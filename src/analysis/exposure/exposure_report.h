@@ -19,7 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "analysis/exposure.h"
+#include "analysis/exposure/exposure.h"
 #include "base/result.h"
 
 namespace camlab::analysis {

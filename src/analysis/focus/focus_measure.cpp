@@ -12,7 +12,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "analysis/focus_stack.h"
+#include "analysis/focus/focus_stack.h"
 
 namespace camlab::analysis {
 namespace {

@@ -1,5 +1,5 @@
 // Capture-folder focus-stack analysis.
-#include "analysis/focus_report.h"
+#include "analysis/focus/focus_report.h"
 
 #include <algorithm>
 #include <cmath>

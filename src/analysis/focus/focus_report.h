@@ -17,7 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core/mat.hpp>
 
-#include "analysis/focus_stack.h"
+#include "analysis/focus/focus_stack.h"
 #include "base/result.h"
 
 namespace camlab::analysis {

@@ -1,5 +1,5 @@
 // Streaming focus-stack accumulator and the log-parabola peak.
-#include "analysis/focus_stack.h"
+#include "analysis/focus/focus_stack.h"
 
 #include <algorithm>
 #include <cmath>

@@ -6,7 +6,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "analysis/focus_stack.h"
+#include "analysis/focus/focus_stack.h"
 #include "analysis/lightfield/lattice_resampler.h"
 #include "analysis/lightfield/refocus.h"
 #include "base/format.h"

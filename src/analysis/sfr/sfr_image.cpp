@@ -255,10 +255,12 @@ Result<SfrImageReport> analyze_sfr_folder(const std::filesystem::path& dir,
              (lp_per_mm_per_cy_px > 0 ? "" : " (no pixel pitch: cycles/px only)") + "\n";
   Tally tally;
   json frames_json = json::array();
+  cv::Size size;
   for (int i = 0; i < count; ++i) {
     image::FrameSidecar side;
     cv::Mat stored, frame;
     CAMLAB_ASSIGN(frame, luminance_of(i, &side, &stored));
+    size = frame.size();
     // Pixels at the white level are clipped.
     options.sfr.saturation_level = side.white_level_dn > 0 ? side.white_level_dn : 0;
     const json& settings = side.settings;
@@ -279,6 +281,7 @@ Result<SfrImageReport> analyze_sfr_folder(const std::filesystem::path& dir,
   out.text += summary_line(tally);
   out.report = {
       {"capture", dir.string()},
+      {"size_px", {size.width, size.height}},
       {"pixel_pitch_um", options.pixel_pitch_um > 0 ? json(options.pixel_pitch_um) : json(nullptr)},
       {"method", "ISO 12233 slanted edge, " + std::to_string(options.sfr.oversampling) +
                      "x oversampled ESF, cycles per pixel across the edge"},

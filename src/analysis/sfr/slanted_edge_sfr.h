@@ -34,7 +34,7 @@
 
 #include <opencv2/core/mat.hpp>
 
-#include "analysis/defocus.h"
+#include "analysis/edge/edge_measure.h"
 #include "base/result.h"
 
 namespace camlab::analysis {

@@ -14,8 +14,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "analysis/defocus.h"
 #include "analysis/edge/edge_finder.h"
+#include "analysis/edge/edge_measure.h"
 
 namespace camlab::analysis {
 namespace {
@@ -37,7 +37,7 @@ struct Bar {
 // columns, under a disk of `diameter` px.
 Bar draw_bar(double width, double diameter, unsigned seed) {
   // Edges listed over D + 30 px each side of the middle (at least 70): room for a window
-  // clear of twice the blur from the listed ends (defocus.h), and no larger, as a longer
+  // clear of twice the blur from the listed ends (edge/edge_measure.h), and no larger, as a longer
   // window costs time and tells nothing more.
   const double half = std::max(70.0, diameter + 30);
   const int size = static_cast<int>(std::max({200.0, 2 * (diameter + width) + 90, 2 * half + 40}));

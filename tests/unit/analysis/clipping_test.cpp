@@ -16,8 +16,8 @@
 
 #include "analysis/analyze_folder.h"
 #include "analysis/clip_level.h"
-#include "analysis/defocus_report.h"
-#include "analysis/exposure_report.h"
+#include "analysis/defocus/defocus_report.h"
+#include "analysis/exposure/exposure_report.h"
 #include "analytic_edge.h"
 #include "image/capture_folder.h"
 

@@ -1,6 +1,6 @@
 // C = k / N and V-curve fits against exact synthetic diameters and noisy draws around
 // them (fixed seeds).
-#include "analysis/coc_fits.h"
+#include "analysis/defocus/coc_fits.h"
 
 #include <cmath>
 #include <random>

@@ -17,9 +17,9 @@
 #include <random>
 #include <string>
 
-#include "analysis/defocus_report.h"
-#include "analysis/exposure_report.h"
-#include "analysis/focus_report.h"
+#include "analysis/defocus/defocus_report.h"
+#include "analysis/exposure/exposure_report.h"
+#include "analysis/focus/focus_report.h"
 #include "analytic_edge.h"
 #include "image/capture_folder.h"
 

@@ -11,7 +11,7 @@
 #include <random>
 #include <string>
 
-#include "analysis/exposure_report.h"
+#include "analysis/exposure/exposure_report.h"
 #include "image/capture_folder.h"
 
 namespace camlab::analysis {

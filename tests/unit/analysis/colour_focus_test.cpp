@@ -12,7 +12,7 @@
 #include <opencv2/imgproc.hpp>
 #include <string>
 
-#include "analysis/focus_report.h"
+#include "analysis/focus/focus_report.h"
 #include "image/capture_folder.h"
 
 namespace camlab::analysis {

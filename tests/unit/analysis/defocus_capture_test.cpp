@@ -2,7 +2,7 @@
 // constant, k against the thin lens, each frame against the renderer's predicted CoC)
 // and a focus sweep with an in-focus baseline blur (V-curve best focus against the
 // position that images the target's distance).
-#include "analysis/defocus_report.h"
+#include "analysis/defocus/defocus_report.h"
 
 #include <cmath>
 #include <cstdio>

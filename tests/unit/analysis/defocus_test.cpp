@@ -1,7 +1,7 @@
 // Edge measurement on synthetic edges with known disk diameter and baseline blur:
 // the baseline inversion against its forward map, the diameter against the truth under
 // noise, and every rejection and flag on the case that must raise it.
-#include "analysis/defocus.h"
+#include "analysis/edge/edge_measure.h"
 
 #include <cmath>
 #include <limits>

@@ -9,7 +9,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "analysis/defocus.h"
+#include "analysis/edge/edge_measure.h"
 #include "capture_fixture.h"
 
 namespace camlab::analysis {

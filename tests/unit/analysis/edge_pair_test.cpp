@@ -1,5 +1,5 @@
 // Joint fit of two overlapping edges (analysis/edge/edge_pair.h) and its use by measure_edge
-// (defocus.h) against the truth: two parallel edges rendered with the exact model (the
+// (edge/edge_measure.h) against the truth: two parallel edges rendered with the exact model (the
 // superposition of two pixel-integrated pillbox steps), noise at contrast-to-noise 50.
 #include "analysis/edge/edge_pair.h"
 
@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "analysis/defocus.h"
+#include "analysis/edge/edge_measure.h"
 
 namespace camlab::analysis {
 namespace {

@@ -1,7 +1,7 @@
 // Photon transfer, linearity and HDR merge: on synthetic frames with a known noise model
 // (exact K, read noise, clipping) and on virtual-camera exposure sweeps against the spec.
-#include "analysis/exposure.h"
-#include "analysis/exposure_report.h"
+#include "analysis/exposure/exposure.h"
+#include "analysis/exposure/exposure_report.h"
 
 #include <cmath>
 #include <filesystem>

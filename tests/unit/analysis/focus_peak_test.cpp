@@ -14,7 +14,7 @@
 #include <random>
 #include <vector>
 
-#include "analysis/focus_stack.h"
+#include "analysis/focus/focus_stack.h"
 
 namespace camlab::analysis {
 namespace {

@@ -2,8 +2,8 @@
 // against a direct computation, flags on flat and end-peaked stacks, and end to end on
 // virtual-camera focus sweeps of textured targets at known distances (truth: the focus
 // position whose image distance equals the target's, z_i = f z_o / (z_o - f)).
-#include "analysis/focus_stack.h"
-#include "analysis/focus_report.h"
+#include "analysis/focus/focus_stack.h"
+#include "analysis/focus/focus_report.h"
 
 #include <cmath>
 #include <cstdio>

@@ -8,7 +8,7 @@
 #include <iostream>
 #include <random>
 
-#include "analysis/defocus.h"
+#include "analysis/edge/edge_measure.h"
 #include "analytic_edge.h"
 
 namespace camlab::analysis {

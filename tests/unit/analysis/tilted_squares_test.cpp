@@ -17,7 +17,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "analysis/defocus.h"
+#include "analysis/edge/edge_measure.h"
 
 namespace camlab::analysis {
 namespace {

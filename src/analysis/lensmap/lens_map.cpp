@@ -1,0 +1,389 @@
+#include "analysis/lensmap/lens_map.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numbers>
+
+#include <opencv2/core.hpp>
+
+#include "base/format.h"
+#include "image/capture_folder.h"
+
+namespace camlab::analysis {
+
+namespace {
+
+using nlohmann::json;
+
+constexpr int kMinFocusPositions = 5;
+constexpr int kMinSurfaceEdges = 5;
+
+struct ThroughFocusPoint {
+  double focus = 0;
+  double mtf50 = 0;
+};
+
+struct EdgeSeries {
+  EdgeBestFocus edge;
+  std::vector<ThroughFocusPoint> points;
+};
+
+// The vertex of the parabola 1 / MTF50^2 = a + b p + c p^2 fitted to the points around the
+// peak whose MTF50 is at least half the peak's (at least the peak and one neighbour each
+// side); lens_map.h says why 1 / MTF50^2.
+void fit_best_focus(EdgeSeries* series) {
+  EdgeBestFocus& e = series->edge;
+  auto& pts = series->points;
+  std::sort(pts.begin(), pts.end(), [](const ThroughFocusPoint& a, const ThroughFocusPoint& b) {
+    return a.focus < b.focus;
+  });
+  if (pts.size() < 3) {
+    e.status = kBestFocusTooFewPoints;
+    return;
+  }
+  const size_t peak = static_cast<size_t>(
+      std::max_element(pts.begin(), pts.end(),
+                       [](const auto& a, const auto& b) { return a.mtf50 < b.mtf50; }) -
+      pts.begin());
+  e.peak_mtf50_cy_px = pts[peak].mtf50;
+  if (peak == 0 || peak + 1 == pts.size()) {
+    e.status = kBestFocusAtSweepEnd;
+    e.best_focus = pts[peak].focus;
+    return;
+  }
+  size_t lo = peak - 1, hi = peak + 1;
+  while (lo > 0 && pts[lo - 1].mtf50 >= 0.5 * pts[peak].mtf50) --lo;
+  while (hi + 1 < pts.size() && pts[hi + 1].mtf50 >= 0.5 * pts[peak].mtf50) ++hi;
+  // Centred and scaled for the normal equations' conditioning.
+  const double p0 = pts[peak].focus;
+  const double scale = std::max(pts[hi].focus - p0, p0 - pts[lo].focus);
+  cv::Mat a(static_cast<int>(hi - lo + 1), 3, CV_64F), y(a.rows, 1, CV_64F);
+  for (size_t i = lo; i <= hi; ++i) {
+    const double t = (pts[i].focus - p0) / scale;
+    const int r = static_cast<int>(i - lo);
+    a.at<double>(r, 0) = 1;
+    a.at<double>(r, 1) = t;
+    a.at<double>(r, 2) = t * t;
+    y.at<double>(r) = 1 / (pts[i].mtf50 * pts[i].mtf50);
+  }
+  cv::Mat coef;
+  e.points = a.rows;
+  if (!cv::solve(a, y, coef, cv::DECOMP_SVD) || !(coef.at<double>(2) > 0)) {
+    e.status = kBestFocusNotAPeak;
+    e.best_focus = p0;
+    return;
+  }
+  const double vertex = -coef.at<double>(1) / (2 * coef.at<double>(2));
+  e.best_focus = p0 + vertex * scale;
+  // A vertex outside the fitted points is an extrapolation, not a measured peak.
+  if (!(e.best_focus >= pts[lo].focus && e.best_focus <= pts[hi].focus)) {
+    e.status = kBestFocusNotAPeak;
+    e.best_focus = p0;
+  }
+}
+
+// Least squares of `rows` (each: design row, value); the smallest singular value relative
+// to the largest tells whether the columns are told apart by the data.
+Result<std::vector<double>> least_squares(const std::vector<std::vector<double>>& rows,
+                                          const std::vector<double>& values, const char* what) {
+  const int n = static_cast<int>(rows.size()), k = static_cast<int>(rows.front().size());
+  cv::Mat a(n, k, CV_64F), y(n, 1, CV_64F);
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < k; ++j) a.at<double>(i, j) = rows[i][j];
+    y.at<double>(i) = values[i];
+  }
+  cv::SVD svd(a, cv::SVD::NO_UV);
+  const double largest = svd.w.at<double>(0), smallest = svd.w.at<double>(k - 1);
+  if (!(smallest > 1e-6 * largest))
+    return make_error("singular",
+                      std::string("the edges do not spread over the field enough to fit ") + what +
+                          ": put edges at several distances from the centre and on " +
+                          "both sides of it");
+  cv::Mat coef;
+  cv::solve(a, y, coef, cv::DECOMP_SVD);
+  return std::vector<double>(coef.begin<double>(), coef.end<double>());
+}
+
+struct SurfaceFit {
+  std::vector<double> all, by_class;  // coefficients; by_class empty when not fitted
+  std::vector<double> residual;       // per edge of the surface, NaN where not used
+};
+
+// One least-squares pass over the edges whose status is ok.
+Result<SurfaceFit> fit_once(const FocusSurface& surface, double width_px, double height_px) {
+  const double cx = 0.5 * (width_px - 1), cy = 0.5 * (height_px - 1);
+  const double half_diagonal = 0.5 * std::hypot(width_px, height_px);
+  std::vector<std::vector<double>> all_rows, class_rows;
+  std::vector<double> all_values, class_values;
+  std::vector<size_t> all_edge, class_edge;
+  int sagittal = 0, meridional = 0;
+  for (size_t k = 0; k < surface.edges.size(); ++k) {
+    const EdgeBestFocus& e = surface.edges[k];
+    if (e.status != kBestFocusOk) continue;
+    const double u = (e.centre_x_px - cx) / half_diagonal, v = (e.centre_y_px - cy) / half_diagonal;
+    const double rho2 = u * u + v * v;
+    all_rows.push_back({1, u, v, rho2});
+    all_values.push_back(e.best_focus);
+    all_edge.push_back(k);
+    if (e.field == "sagittal" || e.field == "meridional") {
+      const bool s = e.field == "sagittal";
+      (s ? sagittal : meridional)++;
+      class_rows.push_back({1, u, v, s ? rho2 : 0, s ? 0 : rho2});
+      class_values.push_back(e.best_focus);
+      class_edge.push_back(k);
+    }
+  }
+  if (static_cast<int>(all_rows.size()) < kMinSurfaceEdges)
+    return make_error("too_few_samples",
+                      format_printf("%zu edge(s) have a best focus at f/%g; the surface needs %d",
+                                    all_rows.size(), surface.f_number, kMinSurfaceEdges));
+  SurfaceFit fit;
+  CAMLAB_ASSIGN(fit.all, least_squares(all_rows, all_values, "tilt and field curvature"));
+  fit.residual.assign(surface.edges.size(), std::nan(""));
+  auto residuals = [&](const auto& rows, const auto& values, const auto& edge, const auto& c) {
+    for (size_t i = 0; i < rows.size(); ++i) {
+      double at = 0;
+      for (size_t j = 0; j < c.size(); ++j) at += rows[i][j] * c[j];
+      fit.residual[edge[i]] = values[i] - at;
+    }
+  };
+  residuals(all_rows, all_values, all_edge, fit.all);
+  // Sagittal and meridional curvatures apart only when each class has edges enough; then
+  // the residuals are about the two surfaces (the astigmatism is no scatter).
+  if (sagittal >= 3 && meridional >= 3)
+    if (auto c = least_squares(class_rows, class_values, "sagittal and meridional curvature")) {
+      fit.by_class = std::move(*c);
+      residuals(class_rows, class_values, class_edge, fit.by_class);
+    }
+  return fit;
+}
+
+// The surface through the edges' best foci, an edge whose best focus lies off it by more
+// than 5 robust standard deviations (and 0.2% of the sweep's span) left out and the
+// surface fitted again: an edge the finder placed on a corner or a neighbour's shadow
+// must not bend the surface.
+Result<FocusSurface> fit_surface(FocusSurface surface, double width_px, double height_px,
+                                 double focus_span) {
+  SurfaceFit fit;
+  for (int round = 0; round < 3; ++round) {
+    CAMLAB_ASSIGN(fit, fit_once(surface, width_px, height_px));
+    std::vector<double> magnitude;
+    for (double r : fit.residual)
+      if (std::isfinite(r)) magnitude.push_back(std::fabs(r));
+    std::nth_element(magnitude.begin(), magnitude.begin() + magnitude.size() / 2, magnitude.end());
+    const double sigma = 1.4826 * magnitude[magnitude.size() / 2];
+    const double bound = std::max(5 * sigma, 0.002 * focus_span);
+    bool dropped = false;
+    for (size_t k = 0; k < surface.edges.size(); ++k)
+      if (std::isfinite(fit.residual[k]) && std::fabs(fit.residual[k]) > bound) {
+        surface.edges[k].status = kBestFocusOffSurface;
+        dropped = true;
+      }
+    if (!dropped) break;
+  }
+  double sum2 = 0;
+  int used = 0;
+  for (double r : fit.residual)
+    if (std::isfinite(r)) {
+      sum2 += r * r;
+      ++used;
+    }
+  surface.edges_used = used;
+  surface.rms_residual = std::sqrt(sum2 / std::max(used, 1));
+  // With the classes apart, the two-surface fit gives the axis and the tilt too (one
+  // surface through astigmatic edges bends them by the classes' placement), and the field
+  // curvature is the medial surface's, halfway between the two.
+  const std::vector<double>& c = fit.by_class.empty() ? fit.all : fit.by_class;
+  surface.centre_focus = c[0];
+  surface.tilt_x = c[1];
+  surface.tilt_y = c[2];
+  surface.curvature = fit.all[3];
+  if (!fit.by_class.empty()) {
+    surface.curvature_sagittal = fit.by_class[3];
+    surface.curvature_meridional = fit.by_class[4];
+    surface.curvature = 0.5 * (fit.by_class[3] + fit.by_class[4]);
+  }
+  return surface;
+}
+
+json number_or_null(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
+
+}  // namespace
+
+Result<std::vector<FocusSurface>> focus_surfaces(const json& sfr_report) {
+  const json size = sfr_report.value("size_px", json());
+  if (!size.is_array() || size.size() != 2 || !size[0].is_number() || !size[1].is_number())
+    return make_error("invalid_argument", "the SFR report gives no image size (size_px)");
+  // f-number -> edge name -> its series; f-number -> the focus positions.
+  std::map<double, std::map<std::string, EdgeSeries>> groups;
+  std::map<double, std::vector<double>> positions;
+  for (const json& frame : sfr_report.value("frames", json::array())) {
+    const json settings = frame.value("settings", json::object());
+    if (!settings.contains("focus_position") || !settings["focus_position"].is_number()) continue;
+    const double focus = settings["focus_position"].get<double>();
+    const double n = settings.contains("f_number") && settings["f_number"].is_number()
+                         ? std::round(settings["f_number"].get<double>() * 1000) / 1000
+                         : 0.0;
+    positions[n].push_back(focus);
+    for (const json& e : frame.value("edges", json::array())) {
+      const std::string name = e.value("name", std::string());
+      EdgeSeries& series = groups[n][name];
+      series.edge.name = name;
+      // Where the edge is, from any frame's fit (a flagged fit still places it).
+      const json centre = e.value("centre_px", json::array());
+      if (centre.size() == 2 && centre[0].is_number() && centre[1].is_number() &&
+          (series.points.empty() || series.edge.field.empty())) {
+        series.edge.centre_x_px = centre[0].get<double>();
+        series.edge.centre_y_px = centre[1].get<double>();
+        series.edge.field = e.value("field", std::string());
+      }
+      if (e.value("status", std::string()) != "ok" || !e.contains("mtf50_cy_px") ||
+          !e["mtf50_cy_px"].is_number())
+        continue;
+      const double mtf50 = e["mtf50_cy_px"].get<double>();
+      if (!(mtf50 > 0)) continue;
+      // The measured frames' placement (the fit's own centre) wins over a flagged one's.
+      if (series.points.empty() && centre.size() == 2 && centre[0].is_number() &&
+          centre[1].is_number()) {
+        series.edge.centre_x_px = centre[0].get<double>();
+        series.edge.centre_y_px = centre[1].get<double>();
+        series.edge.field = e.value("field", std::string());
+      }
+      series.points.push_back({focus, mtf50});
+    }
+  }
+  std::vector<FocusSurface> out;
+  std::string why;
+  for (auto& [n, edges] : groups) {
+    auto& p = positions[n];
+    std::sort(p.begin(), p.end());
+    const int distinct = static_cast<int>(std::unique(p.begin(), p.end()) - p.begin());
+    if (distinct < kMinFocusPositions) {
+      why = format_printf("%d focus position(s) at f/%g; a focus sweep needs %d", distinct, n,
+                          kMinFocusPositions);
+      continue;
+    }
+    FocusSurface surface;
+    surface.f_number = n;
+    for (auto& [name, series] : edges) {
+      fit_best_focus(&series);
+      surface.edges.push_back(series.edge);
+    }
+    auto fitted = fit_surface(std::move(surface), size[0].get<double>(), size[1].get<double>(),
+                              p[distinct - 1] - p[0]);
+    if (!fitted) return fitted.error();
+    out.push_back(std::move(*fitted));
+  }
+  if (out.empty())
+    return make_error("too_few_samples",
+                      why.empty() ? "no frame of the capture has a focus position" : why);
+  return out;
+}
+
+Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
+                                       const LensMapOptions& options) {
+  SfrImageReport sfr;
+  CAMLAB_ASSIGN(sfr, analyze_sfr_folder(dir, options.sfr));
+  std::vector<FocusSurface> surfaces;
+  CAMLAB_ASSIGN(surfaces, focus_surfaces(sfr.report));
+  // Physical units from the camera spec the capture records, unless given.
+  double extension_mm = options.extension_mm_per_step;
+  // The SFR report's pitch is null when neither the option nor the camera spec gave one.
+  const json& report_pitch = sfr.report["pixel_pitch_um"];
+  double pitch_um = options.pixel_pitch_um > 0 ? options.pixel_pitch_um
+                    : report_pitch.is_number() ? report_pitch.get<double>()
+                                               : 0.0;
+  if (!(extension_mm > 0)) {
+    if (auto folder = image::CaptureFolder::open(dir)) {
+      const json camera =
+          folder->manifest().value("source", json::object()).value("camera_spec", json::object());
+      const json focus = camera.is_object()
+                             ? camera.value("lens", json::object()).value("focus", json::object())
+                             : json::object();
+      if (focus.is_object() && focus.contains("extension_mm_per_step") &&
+          focus["extension_mm_per_step"].is_number())
+        extension_mm = focus["extension_mm_per_step"].get<double>();
+    }
+  }
+  const double width = sfr.report["size_px"][0].get<double>();
+  const double height = sfr.report["size_px"][1].get<double>();
+  const double half_diagonal_mm = 0.5 * std::hypot(width, height) * pitch_um * 1e-3;
+  const bool physical = extension_mm > 0 && pitch_um > 0;
+  LensMapReport out;
+  out.text =
+      "lensmap: " + dir.string() + ", best focus from MTF50 through focus, " +
+      std::to_string(surfaces.size()) + " f-number(s)" +
+      (physical ? format_printf(" (%.4g mm a focus step, %.4g um pixels)", extension_mm, pitch_um)
+                : std::string(" (focus steps only: no lens extension or pixel pitch)")) +
+      "\n";
+  json list = json::array();
+  for (const FocusSurface& s : surfaces) {
+    json edges = json::array();
+    std::map<std::string, int> left_out;
+    for (const EdgeBestFocus& e : s.edges) {
+      json j = {{"name", e.name},
+                {"centre_px", {e.centre_x_px, e.centre_y_px}},
+                {"field", e.field},
+                {"status", e.status},
+                {"peak_mtf50_cy_px", e.peak_mtf50_cy_px}};
+      if (e.status == kBestFocusOk) {
+        j["best_focus"] = e.best_focus;
+        j["points"] = e.points;
+      } else {
+        ++left_out[e.status];
+      }
+      edges.push_back(std::move(j));
+    }
+    json surface = {{"f_number", s.f_number > 0 ? json(s.f_number) : json(nullptr)},
+                    {"edges_used", s.edges_used},
+                    {"left_out", left_out},
+                    {"centre_focus", s.centre_focus},
+                    {"tilt_x_per_half_diagonal", s.tilt_x},
+                    {"tilt_y_per_half_diagonal", s.tilt_y},
+                    {"curvature_at_corner", s.curvature},
+                    {"curvature_sagittal_at_corner", number_or_null(s.curvature_sagittal)},
+                    {"curvature_meridional_at_corner", number_or_null(s.curvature_meridional)},
+                    {"rms_residual", s.rms_residual},
+                    {"edges", std::move(edges)}};
+    std::string astig = "-";
+    if (s.curvature_sagittal && s.curvature_meridional) {
+      const double a = *s.curvature_sagittal - *s.curvature_meridional;
+      surface["astigmatism_at_corner"] = a;
+      astig = format_printf("%.3f", a);
+    }
+    out.text += format_printf(
+        "f/%g: %d edge(s); best focus on the axis %.3f, tilt %.3f right %.3f down, curvature "
+        "%.3f, astigmatism %s at the corner (focus units), rms %.3f\n",
+        s.f_number, s.edges_used, s.centre_focus, s.tilt_x, s.tilt_y, s.curvature, astig.c_str(),
+        s.rms_residual);
+    if (physical) {
+      // The lens moves extension_mm a unit; the best-focus surface is where the sensor would
+      // have to be, so a focus difference is a sensor-side distance of the same size.
+      const double deg = 180 / std::numbers::pi;
+      json units = {{"curvature_um", s.curvature * extension_mm * 1e3},
+                    {"tilt_x_deg", std::atan(s.tilt_x * extension_mm / half_diagonal_mm) * deg},
+                    {"tilt_y_deg", std::atan(s.tilt_y * extension_mm / half_diagonal_mm) * deg}};
+      if (surface.contains("astigmatism_at_corner"))
+        units["astigmatism_um"] =
+            surface["astigmatism_at_corner"].get<double>() * extension_mm * 1e3;
+      out.text +=
+          format_printf("  at the sensor: curvature %.1f um, tilt %.4f deg x, %.4f deg y\n",
+                        units["curvature_um"].get<double>(), units["tilt_x_deg"].get<double>(),
+                        units["tilt_y_deg"].get<double>());
+      surface["at_sensor"] = std::move(units);
+    }
+    list.push_back(std::move(surface));
+  }
+  out.report = {{"capture", dir.string()},
+                {"method",
+                 "best focus per edge: vertex of 1/MTF50^2 against focus (points above half "
+                 "the peak); surface p0 + tx u + ty v + c rho^2 over the field (half diagonal "
+                 "= 1)"},
+                {"extension_mm_per_step", extension_mm > 0 ? json(extension_mm) : json(nullptr)},
+                {"pixel_pitch_um", pitch_um > 0 ? json(pitch_um) : json(nullptr)},
+                {"surfaces", std::move(list)}};
+  return out;
+}
+
+}  // namespace camlab::analysis

@@ -1,0 +1,92 @@
+// `camlab analyze lensmap`: the lens across its field from a focus sweep. Every edge's
+// MTF50 through focus (the SFR of sfr/sfr_image.h, the same edges on every frame) gives
+// that field position's best focus; the best foci over the field give the best-focus
+// surface: its focus on the axis, its tilt, its curvature (field curvature) and, from the
+// edges the field classes apart, the sagittal and meridional surfaces' difference
+// (astigmatism). One surface per f-number of the sweep.
+//
+// Best focus of one edge: blur widths add in quadrature (a Gaussian blur of the lens's own
+// width sigma_0 and a defocus blur growing linearly with the distance from best focus), so
+// 1 / MTF50^2, proportional to the blur's variance, is a parabola in the focus position,
+// sigma_0^2 + k^2 (p - p_best)^2: fitted by least squares to the points of the sweep whose
+// MTF50 is at least half the edge's highest, its vertex is the best focus. Exact for a
+// Gaussian blur; for a lens's disk-shaped defocus blur the core of the curve (where the
+// fit looks) is close to it (docs/analysis.md, "Lens map").
+//
+// The surface: best focus p(u, v) = p0 + t_x u + t_y v + c rho^2, u and v the field
+// coordinates relative to the image centre in units of the half diagonal (rho = 1 at the
+// corner); with the edges classed sagittal or meridional, c is fitted once for each class
+// (c_s, c_m) and their difference is the astigmatism at the corner. Positions are in the
+// sweep's focus units (V4L2 focus_absolute steps); with the camera's lens extension per
+// step and pixel pitch (a capture of the virtual camera carries both) also in micrometres
+// at the sensor and the tilt in degrees.
+//
+// Reentrant.
+#pragma once
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "analysis/sfr/sfr_image.h"
+#include "base/result.h"
+
+namespace camlab::analysis {
+
+// Why an edge has no best focus.
+inline constexpr std::string_view kBestFocusOk = "ok";
+inline constexpr std::string_view kBestFocusTooFewPoints = "too_few_points";
+inline constexpr std::string_view kBestFocusAtSweepEnd = "peak_at_sweep_end";
+inline constexpr std::string_view kBestFocusNotAPeak = "not_a_peak";
+inline constexpr std::string_view kBestFocusOffSurface = "off_surface";  // left out of the fit
+
+struct EdgeBestFocus {
+  std::string name;
+  double centre_x_px = 0, centre_y_px = 0;
+  std::string field;  // sagittal, meridional, oblique or axial (sfr_image.h)
+  std::string status{kBestFocusOk};
+  double best_focus = 0;  // focus position, the sweep's units
+  double peak_mtf50_cy_px = 0;
+  int points = 0;  // through-focus points the parabola was fitted to
+};
+
+struct FocusSurface {
+  double f_number = 0;  // 0: the sweep's frames give none
+  int edges_used = 0;
+  double centre_focus = 0;        // p0: best focus on the axis
+  double tilt_x = 0, tilt_y = 0;  // focus units per half diagonal, to the right / down
+  // c: best focus at the corner minus on the axis; with the classes apart, the medial
+  // surface's (c_s + c_m) / 2.
+  double curvature = 0;
+  std::optional<double> curvature_sagittal, curvature_meridional;  // c_s, c_m
+  double rms_residual = 0;  // of the edges' best foci about the surface (the two, when fitted)
+  std::vector<EdgeBestFocus> edges;
+};
+
+struct LensMapOptions {
+  SfrImageOptions sfr;
+  // Sensor-side lens movement per focus unit (mm) and pixel pitch (um): 0 reads them from
+  // the capture's camera spec when it has them; without them the surface is in focus units.
+  double extension_mm_per_step = 0;
+  double pixel_pitch_um = 0;
+};
+
+struct LensMapReport {
+  nlohmann::json report;
+  std::string text;
+};
+
+// The lens map of an SFR report of a capture folder (analyze_sfr_folder's "frames", with
+// each frame's settings and "size_px"). Errors: "too_few_samples" (fewer than 5 focus
+// positions at every f-number, or fewer than 5 edges with a best focus), "singular" (the
+// edges do not spread over the field enough to tell tilt and curvature apart).
+Result<std::vector<FocusSurface>> focus_surfaces(const nlohmann::json& sfr_report);
+
+// The whole run on a capture folder: SFR of every frame, the surfaces, the report.
+Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
+                                       const LensMapOptions& options);
+
+}  // namespace camlab::analysis

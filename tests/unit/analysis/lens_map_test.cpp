@@ -1,0 +1,236 @@
+// The lens map (src/analysis/lensmap/lens_map.h) against a focus sweep drawn by a
+// generator that shares nothing with the SFR, the edge finder or the renderer: dark squares
+// across the field whose sides run along and across the radius, each side blurred by a
+// Gaussian whose width follows a known best-focus surface (tilted, curved, and with the
+// sagittal and meridional surfaces apart), evaluated in closed form (a Gaussian-blurred
+// square is a product of two error-function steps in the square's own axes) at 2 x 2
+// points a pixel, with noise.
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+#include <random>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "analysis/lensmap/lens_map.h"
+#include "image/capture_folder.h"
+
+namespace camlab::analysis {
+namespace {
+namespace lens_map_test {
+
+constexpr int kWidth = 1200, kHeight = 960;
+constexpr double kHalfSide = 50;  // px, of each square
+
+// The truth: best focus (in focus steps) for the blur across meridional edges (sides at a
+// right angle to the radius) and across sagittal ones (sides along the radius).
+struct Surface {
+  double centre = 7, tilt_x = 0.6, tilt_y = -0.4;
+  double curvature_meridional = 1.5, curvature_sagittal = 2.1;
+  double sigma0_px = 1.0;    // the lens's blur in focus
+  double px_per_step = 0.8;  // defocus blur growth
+  double at(double u, double v, bool sagittal) const {
+    const double c = sagittal ? curvature_sagittal : curvature_meridional;
+    return centre + tilt_x * u + tilt_y * v + c * (u * u + v * v);
+  }
+  double sigma_px(double step, double best) const {
+    const double d = px_per_step * (step - best);
+    return std::sqrt(sigma0_px * sigma0_px + d * d);
+  }
+};
+
+double phi(double x) { return 0.5 * std::erfc(-x / std::numbers::sqrt2); }
+
+cv::Mat draw_frame(const Surface& truth, double step, unsigned seed) {
+  const double cx = 0.5 * (kWidth - 1), cy = 0.5 * (kHeight - 1);
+  const double half_diagonal = 0.5 * std::hypot(kWidth, kHeight);
+  const double light = 3000, dark = 600;
+  cv::Mat image(kHeight, kWidth, CV_64F, cv::Scalar(light));
+  // A 4 x 4 grid, no square on an axis through the centre (its sides would be near the
+  // pixel axes, which the SFR flags).
+  for (double ox : {-450.0, -150.0, 150.0, 450.0})
+    for (double oy : {-390.0, -130.0, 130.0, 390.0}) {
+      const double sx = cx + ox, sy = cy + oy;
+      const double r = std::hypot(ox, oy);
+      const double rx = ox / r, ry = oy / r;  // radial unit vector; tangential (-ry, rx)
+      const int reach = static_cast<int>(kHalfSide * std::numbers::sqrt2 + 40);
+      for (int y = std::max(0, static_cast<int>(sy) - reach);
+           y <= std::min(kHeight - 1, static_cast<int>(sy) + reach); ++y)
+        for (int x = std::max(0, static_cast<int>(sx) - reach);
+             x <= std::min(kWidth - 1, static_cast<int>(sx) + reach); ++x) {
+          const double u = (x - cx) / half_diagonal, v = (y - cy) / half_diagonal;
+          // Across a meridional side the blur is along the radius; across a sagittal one,
+          // along the tangent.
+          const double sigma_r = truth.sigma_px(step, truth.at(u, v, false));
+          const double sigma_t = truth.sigma_px(step, truth.at(u, v, true));
+          double cover = 0;
+          for (double dy : {-0.25, 0.25})
+            for (double dx : {-0.25, 0.25}) {
+              const double px = x + dx - sx, py = y + dy - sy;
+              const double a = px * rx + py * ry, b = -px * ry + py * rx;
+              cover += (phi((kHalfSide - a) / sigma_r) - phi((-kHalfSide - a) / sigma_r)) *
+                       (phi((kHalfSide - b) / sigma_t) - phi((-kHalfSide - b) / sigma_t));
+            }
+          image.at<double>(y, x) -= (light - dark) * cover / 4;
+        }
+    }
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0, (light - dark) / 200);  // contrast-to-noise 200
+  cv::Mat out(kHeight, kWidth, CV_16U);
+  for (int y = 0; y < kHeight; ++y)
+    for (int x = 0; x < kWidth; ++x)
+      out.at<uint16_t>(y, x) = cv::saturate_cast<uint16_t>(image.at<double>(y, x) + noise(rng));
+  return out;
+}
+
+std::filesystem::path fresh_dir(const std::string& name) {
+  auto dir = std::filesystem::temp_directory_path() /
+             ("camlab_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  return dir;
+}
+
+// A focus sweep 0..14 at one f-number into a capture folder; `source` describes the camera.
+std::filesystem::path write_sweep(const Surface& truth, const std::string& name,
+                                  const nlohmann::json& source) {
+  const auto dir = fresh_dir(name);
+  auto writer =
+      image::CaptureFolderWriter::create(dir, "focus_stack", source, nlohmann::json::object());
+  EXPECT_TRUE(writer.ok());
+  for (int step = 0; step <= 14; ++step) {
+    image::FrameSidecar side;
+    side.sequence = static_cast<uint64_t>(step);
+    side.clock = "virtual";
+    side.pixel_format = "Y16";
+    side.bit_depth = 12;
+    side.settings = {{"focus_position", step}, {"f_number", 2.8}};
+    side.labels = {{"sweep_index", step}};
+    EXPECT_TRUE(
+        writer->add_frame(draw_frame(truth, step, 17u + static_cast<unsigned>(step)), side).ok());
+  }
+  EXPECT_TRUE(writer->finish().ok());
+  return dir;
+}
+
+TEST(LensMap, BestFocusSurfaceIsTheTruthsTiltCurvatureAndAstigmatism) {
+  const Surface truth;
+  const auto dir = write_sweep(truth, "lensmap", {{"backend", "unknown"}});
+  auto map = analyze_lens_map(dir, LensMapOptions{});
+  ASSERT_TRUE(map.ok()) << map.error().message;
+  std::printf("%s", map->text.c_str());
+  const auto& surfaces = map->report["surfaces"];
+  ASSERT_EQ(surfaces.size(), 1u);
+  const auto& s = surfaces[0];
+  EXPECT_EQ(s["f_number"].get<double>(), 2.8);
+  // 16 squares, 4 sides each: nearly every side measured (a side the finder cut short or
+  // placed by a corner can be flagged or left off the surface).
+  EXPECT_GE(s["edges_used"].get<int>(), 54) << s.dump();
+  // Each edge's best focus against the truth at its centre, for its class.
+  const double cx = 0.5 * (kWidth - 1), cy = 0.5 * (kHeight - 1);
+  const double half_diagonal = 0.5 * std::hypot(kWidth, kHeight);
+  double worst = 0;
+  for (const auto& e : s["edges"]) {
+    if (e["status"] != "ok") continue;
+    const std::string field = e["field"];
+    if (field != "sagittal" && field != "meridional") continue;
+    const double u = (e["centre_px"][0].get<double>() - cx) / half_diagonal;
+    const double v = (e["centre_px"][1].get<double>() - cy) / half_diagonal;
+    worst = std::max(
+        worst, std::fabs(e["best_focus"].get<double>() - truth.at(u, v, field == "sagittal")));
+  }
+  std::printf(
+      "worst edge best focus error %.4f steps; curvature sagittal %.4f (truth %.1f), "
+      "meridional %.4f (truth %.1f)\n",
+      worst, s["curvature_sagittal_at_corner"].get<double>(), truth.curvature_sagittal,
+      s["curvature_meridional_at_corner"].get<double>(), truth.curvature_meridional);
+  EXPECT_LT(worst, 0.1);
+  EXPECT_NEAR(s["tilt_x_per_half_diagonal"].get<double>(), truth.tilt_x, 0.02);
+  EXPECT_NEAR(s["tilt_y_per_half_diagonal"].get<double>(), truth.tilt_y, 0.02);
+  // Field curvature within 5%, the astigmatic difference within 0.05 focus step.
+  EXPECT_NEAR(s["curvature_sagittal_at_corner"].get<double>(), truth.curvature_sagittal,
+              0.05 * truth.curvature_sagittal);
+  EXPECT_NEAR(s["curvature_meridional_at_corner"].get<double>(), truth.curvature_meridional,
+              0.05 * truth.curvature_meridional);
+  EXPECT_NEAR(s["astigmatism_at_corner"].get<double>(),
+              truth.curvature_sagittal - truth.curvature_meridional, 0.05);
+  EXPECT_FALSE(s.contains("at_sensor"));  // no lens extension or pixel pitch known
+  std::filesystem::remove_all(dir);
+}
+
+// With the camera's focus step and pixel pitch, the surface is also at the sensor: the
+// tilt in degrees is the focus difference across the field over the field's size.
+TEST(LensMap, TheCamerasFocusStepAndPixelPitchGiveMicrometresAndDegrees) {
+  Surface truth;
+  truth.curvature_sagittal = truth.curvature_meridional = 1.8;
+  const nlohmann::json source = {{"backend", "virtual"},
+                                 {"camera_spec",
+                                  {{"sensor", {{"pixel_pitch_um", 3.0}}},
+                                   {"lens", {{"focus", {{"extension_mm_per_step", 0.01}}}}}}}};
+  const auto dir = write_sweep(truth, "lensmap_units", source);
+  auto map = analyze_lens_map(dir, LensMapOptions{});
+  ASSERT_TRUE(map.ok()) << map.error().message;
+  const auto& s = map->report["surfaces"][0];
+  std::printf("%s", map->text.c_str());
+  std::printf("curvature sagittal %.4f meridional %.4f (truth 1.8 both)\n",
+              s["curvature_sagittal_at_corner"].get<double>(),
+              s["curvature_meridional_at_corner"].get<double>());
+  ASSERT_TRUE(s.contains("at_sensor")) << s.dump();
+  const double half_diagonal_mm = 0.5 * std::hypot(kWidth, kHeight) * 3e-3;
+  const double deg = 180 / std::numbers::pi;
+  EXPECT_NEAR(s["at_sensor"]["curvature_um"].get<double>(), 1.8 * 0.01 * 1e3, 0.05 * 18);
+  EXPECT_NEAR(s["at_sensor"]["tilt_x_deg"].get<double>(),
+              std::atan(truth.tilt_x * 0.01 / half_diagonal_mm) * deg, 0.01);
+  EXPECT_NEAR(s["at_sensor"]["tilt_y_deg"].get<double>(),
+              std::atan(truth.tilt_y * 0.01 / half_diagonal_mm) * deg, 0.01);
+  // One curvature for both classes: no astigmatism.
+  EXPECT_NEAR(s["astigmatism_at_corner"].get<double>(), 0, 0.05);
+  std::filesystem::remove_all(dir);
+}
+
+// What cannot give a surface says why: too few focus positions; a sweep whose every peak
+// is at its end is no measurement of best focus.
+TEST(LensMap, TooFewFocusPositionsOrPeaksAtTheSweepsEndAreRefusedWithTheReason) {
+  using nlohmann::json;
+  auto edge = [](int k, double mtf50) {
+    json e;
+    e["name"] = "e" + std::to_string(k);
+    e["status"] = "ok";
+    e["mtf50_cy_px"] = mtf50;
+    e["centre_px"] = {100 + 150 * k, 100 + 100 * k};
+    e["field"] = "sagittal";
+    return e;
+  };
+  json report;
+  report["size_px"] = {kWidth, kHeight};
+  report["frames"] = json::array();
+  for (int step = 0; step < 4; ++step) {
+    json frame;
+    frame["settings"]["focus_position"] = step;
+    frame["edges"] = json::array({edge(0, 0.1 + 0.01 * step)});
+    report["frames"].push_back(frame);
+  }
+  auto few = focus_surfaces(report);
+  ASSERT_FALSE(few.ok());
+  EXPECT_EQ(few.error().code, ErrorCode::kTooFewSamples);
+  EXPECT_NE(few.error().message.find("4 focus position"), std::string::npos) << few.error().message;
+  // Eight positions, MTF50 rising through all of them: every edge's peak at the end.
+  report["frames"] = json::array();
+  for (int step = 0; step < 8; ++step) {
+    json frame;
+    frame["settings"]["focus_position"] = step;
+    frame["edges"] = json::array();
+    for (int k = 0; k < 6; ++k) frame["edges"].push_back(edge(k, 0.1 + 0.01 * step));
+    report["frames"].push_back(frame);
+  }
+  auto ends = focus_surfaces(report);
+  ASSERT_FALSE(ends.ok());
+  EXPECT_EQ(ends.error().code, ErrorCode::kTooFewSamples);
+  EXPECT_NE(ends.error().message.find("0 edge(s) have a best focus"), std::string::npos)
+      << ends.error().message;
+}
+
+}  // namespace lens_map_test
+}  // namespace
+}  // namespace camlab::analysis
