@@ -260,6 +260,56 @@ TEST(AnalyzeCli, SfrOfAnApertureSeriesRisesWithTheFNumber) {
   std::filesystem::remove_all(dir);
 }
 
+// `camlab analyze lensmap` on the virtual camera's thin lens: a focus sweep of the lens-map
+// chart (squares on one plane 1 m away, across the field) at f/1.4. A thin lens focuses a
+// plane square to the axis on a plane: best focus everywhere at the position that puts the
+// lens v = f d / (d - f) from the sensor, no tilt, no curvature, no astigmatism.
+TEST(AnalyzeCli, LensmapOfTheThinLensIsAFlatSurfaceAtItsFocusForTheChart) {
+  const auto dir = testing::fresh_dir("cli_lensmap");
+  const auto render = camlab::testing::run_cli(
+      "render --camera " CAMLAB_SOURCE_DIR
+      "/mock_device/examples/camera_640x480.json --scene " CAMLAB_SOURCE_DIR
+      "/mock_device/examples/scene_lensmap_chart.json --set f_number=1.4 --set exposure_us=1000 "
+      "--sweep focus_position=25:105:5 --quiet --out " +
+      dir.string());
+  ASSERT_EQ(render.exit_code, 0) << render.err;
+  const auto run = camlab::testing::run_cli("analyze lensmap " + dir.string() + " --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto report = nlohmann::json::parse(run.out);
+  ASSERT_EQ(report["surfaces"].size(), 1u);
+  const auto& s = report["surfaces"][0];
+  // The camera spec's 8 mm lens, 0.001 mm a focus step; the chart at 1000 mm.
+  const double f_mm = 8, d_mm = 1000, step_mm = 0.001;
+  const double truth_position = (f_mm * d_mm / (d_mm - f_mm) - f_mm) / step_mm;  // 64.52
+  std::printf(
+      "best focus on the axis %.3f (thin lens %.3f), tilt %.3f %.3f, curvature %.3f, "
+      "astigmatism %.3f, %d edges\n",
+      s["centre_focus"].get<double>(), truth_position, s["tilt_x_per_half_diagonal"].get<double>(),
+      s["tilt_y_per_half_diagonal"].get<double>(), s["curvature_at_corner"].get<double>(),
+      s["astigmatism_at_corner"].get<double>(), s["edges_used"].get<int>());
+  EXPECT_GE(s["edges_used"].get<int>(), 20);
+  EXPECT_NEAR(s["centre_focus"].get<double>(), truth_position, 0.3);
+  EXPECT_NEAR(s["tilt_x_per_half_diagonal"].get<double>(), 0, 0.3);
+  EXPECT_NEAR(s["tilt_y_per_half_diagonal"].get<double>(), 0, 0.3);
+  EXPECT_NEAR(s["curvature_at_corner"].get<double>(), 0, 0.3);
+  EXPECT_NEAR(s["astigmatism_at_corner"].get<double>(), 0, 0.3);
+  ASSERT_TRUE(s.contains("at_sensor"));  // the capture's camera spec gives step and pitch
+  EXPECT_NEAR(s["at_sensor"]["curvature_um"].get<double>(), 0, 0.3);
+  std::filesystem::remove_all(dir);
+
+  // One frame is no focus sweep: refused before any work, saying what is needed.
+  const auto single = camlab::testing::run_cli(
+      "render --camera " CAMLAB_SOURCE_DIR
+      "/mock_device/examples/camera_640x480.json --scene " CAMLAB_SOURCE_DIR
+      "/mock_device/examples/scene_lensmap_chart.json --quiet --out " +
+      dir.string());
+  ASSERT_EQ(single.exit_code, 0) << single.err;
+  const auto refused = camlab::testing::run_cli("analyze lensmap " + dir.string());
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_NE(refused.err.find("needs a focus sweep"), std::string::npos) << refused.err;
+  std::filesystem::remove_all(dir);
+}
+
 // Per colour channel on the RGGB example camera (raw mosaic frames), each channel on its
 // own sites: without longitudinal colour the three agree on every defocused edge (the
 // blur is one disk); with the example's chromatic focus shift (R +0.02 mm, B -0.015 mm)
