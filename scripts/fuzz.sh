@@ -6,8 +6,8 @@
 #   scripts/fuzz.sh [SECONDS_EACH] [HARNESS...] [HARNESS=SECONDS...]
 #
 # Default: 15 s each, every harness (the ones named, when some are). HARNESS=SECONDS gives
-# one harness its own time (ctest gives the two whose coverage stops
-# growing within a second or two, corners_vnl and broker_protocol, less than the others).
+# one harness its own time: ctest gives corners_vnl and broker_protocol, whose coverage
+# stops growing within a second or two, less than the others.
 #
 # CAMLAB_FUZZ_BUILD_DIR (default build/fuzz) holds the build, the corpus each run grows
 # (corpus/NAME, never the checked-in one) and any crashing input (artifacts/).

@@ -144,12 +144,13 @@ void add_compute_routes(Router& router, const ServiceContext& context) {
               [context](const ApiRequest& request, const PathParams&, Reply reply) {
                 post_calibration(context, request, std::move(reply));
               }});
-  router.add({"POST", "/v1/analyses",
-              "Queue an analysis (defocus, exposure, focus, sfr) of a capture: 202 with the job; "
-              "the result holds the report",
-              [context](const ApiRequest& request, const PathParams&, Reply reply) {
-                post_analysis(context, request, std::move(reply));
-              }});
+  router.add(
+      {"POST", "/v1/analyses",
+       "Queue an analysis (defocus, exposure, focus, sfr, lensmap) of a capture: 202 with the job; "
+       "the result holds the report",
+       [context](const ApiRequest& request, const PathParams&, Reply reply) {
+         post_analysis(context, request, std::move(reply));
+       }});
 }
 
 }  // namespace camlab::service

@@ -230,26 +230,20 @@ Result<std::vector<FocusSurface>> focus_surfaces(const json& sfr_report) {
       const std::string name = e.value("name", std::string());
       EdgeSeries& series = groups[n][name];
       series.edge.name = name;
-      // Where the edge is, from any frame's fit (a flagged fit still places it).
+      const bool measured = e.value("status", std::string()) == kSfrOk &&
+                            e.contains("mtf50_cy_px") && e["mtf50_cy_px"].is_number() &&
+                            e["mtf50_cy_px"].get<double>() > 0;
+      // Where the edge is: its first measured fit's centre, until then any fit's (a flagged
+      // fit still places it).
       const json centre = e.value("centre_px", json::array());
       if (centre.size() == 2 && centre[0].is_number() && centre[1].is_number() &&
-          (series.points.empty() || series.edge.field.empty())) {
+          (series.edge.field.empty() || (measured && series.points.empty()))) {
         series.edge.centre_x_px = centre[0].get<double>();
         series.edge.centre_y_px = centre[1].get<double>();
         series.edge.field = e.value("field", std::string());
       }
-      if (e.value("status", std::string()) != "ok" || !e.contains("mtf50_cy_px") ||
-          !e["mtf50_cy_px"].is_number())
-        continue;
+      if (!measured) continue;
       const double mtf50 = e["mtf50_cy_px"].get<double>();
-      if (!(mtf50 > 0)) continue;
-      // The measured frames' placement (the fit's own centre) wins over a flagged one's.
-      if (series.points.empty() && centre.size() == 2 && centre[0].is_number() &&
-          centre[1].is_number()) {
-        series.edge.centre_x_px = centre[0].get<double>();
-        series.edge.centre_y_px = centre[1].get<double>();
-        series.edge.field = e.value("field", std::string());
-      }
       series.points.push_back({focus, mtf50});
     }
   }

@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "fresh_dir.h"
 #include "image/capture_folder.h"
 #include "mock_device/render/renderer.h"
 #include "mock_device/spec/camera_spec.h"
@@ -26,14 +27,6 @@ inline mock::Renderer make_renderer(const nlohmann::json& camera, const nlohmann
   auto r = mock::Renderer::create(std::move(*c), std::move(*s));
   if (!r) throw std::runtime_error(r.error().message);
   return std::move(*r);
-}
-
-// A fresh, empty directory under the temp dir.
-inline std::filesystem::path fresh_dir(const std::string& name) {
-  auto dir = std::filesystem::temp_directory_path() /
-             ("camlab_analysis_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  return dir;
 }
 
 inline void render_frames(mock::Renderer& renderer, const std::filesystem::path& dir,

@@ -10,11 +10,10 @@
 #include <numbers>
 #include <random>
 
-#include <unistd.h>
-
 #include <gtest/gtest.h>
 
 #include "analysis/lensmap/lens_map.h"
+#include "fresh_dir.h"
 #include "image/capture_folder.h"
 
 namespace camlab::analysis {
@@ -85,17 +84,10 @@ cv::Mat draw_frame(const Surface& truth, double step, unsigned seed) {
   return out;
 }
 
-std::filesystem::path fresh_dir(const std::string& name) {
-  auto dir = std::filesystem::temp_directory_path() /
-             ("camlab_" + name + "_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(dir);
-  return dir;
-}
-
 // A focus sweep 0..14 at one f-number into a capture folder; `source` describes the camera.
 std::filesystem::path write_sweep(const Surface& truth, const std::string& name,
                                   const nlohmann::json& source) {
-  const auto dir = fresh_dir(name);
+  const auto dir = testing::fresh_dir(name);
   auto writer =
       image::CaptureFolderWriter::create(dir, "focus_stack", source, nlohmann::json::object());
   EXPECT_TRUE(writer.ok());
