@@ -4,17 +4,28 @@
 # sanitizer report, timeout or failed check, and prints each harness's figures.
 #
 #   scripts/fuzz.sh [SECONDS_EACH] [HARNESS...] [HARNESS=SECONDS...]
+#   scripts/fuzz.sh --build-only
+#   scripts/fuzz.sh --pack [HARNESS...]
 #
 # Default: 15 s each, every harness (the ones named, when some are). HARNESS=SECONDS gives
-# one harness its own time: ctest gives corners_vnl and broker_protocol, whose coverage
-# stops growing within a second or two, less than the others.
+# one harness its own time. --build-only builds the harnesses and runs none (the README's
+# test command builds them with everything else, so that ctest only fuzzes). --pack merges
+# the checked-in seeds and the grown corpus into the smallest set with the same coverage
+# (libFuzzer's -merge=1) and writes it to tests/fuzz/corpus/NAME.tar.gz, which every run
+# starts from.
 #
 # CAMLAB_FUZZ_BUILD_DIR (default build/fuzz) holds the build, the corpus each run grows
-# (corpus/NAME, never the checked-in one) and any crashing input (artifacts/).
+# (corpus/NAME, never the checked-in one; unpacked from NAME.tar.gz when empty) and any
+# crashing input (artifacts/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-seconds="${1:-15}"
-shift || true
+mode=fuzz
+case "${1:-}" in
+  --build-only) mode=build; shift ;;
+  --pack) mode=pack; shift ;;
+esac
+seconds=15
+if [ "$mode" = fuzz ] && [ $# -gt 0 ]; then seconds="$1"; shift; fi
 build_dir="${CAMLAB_FUZZ_BUILD_DIR:-build/fuzz}"
 all=(api_request camera_spec scene_spec corners_vnl frame_journal capture_folder broker_protocol)
 # Plain names choose the harnesses (every one when none is named); NAME=SECONDS sets a time.
@@ -46,6 +57,7 @@ build_start=$SECONDS
 cmake --build "$build_dir" -j "$(nproc)" "${targets[@]}" >"$build_dir/build.log" 2>&1 ||
   { cat "$build_dir/build.log" >&2; exit 1; }
 echo "fuzz: built ${#harnesses[@]} harnesses with $cxx in $((SECONDS - build_start)) s"
+[ "$mode" != build ] || exit 0
 
 mkdir -p "$build_dir/artifacts"
 # The capture_folder harness writes its folders here (tmpfs when there is one), removed at exit.
@@ -54,6 +66,22 @@ scratch_base=/dev/shm
 CAMLAB_FUZZ_SCRATCH=$(mktemp -d "$scratch_base/camlab-fuzz-XXXXXX")
 export CAMLAB_FUZZ_SCRATCH
 trap 'rm -rf "$CAMLAB_FUZZ_SCRATCH"' EXIT
+
+if [ "$mode" = pack ]; then
+  for h in "${harnesses[@]}"; do
+    merged="$CAMLAB_FUZZ_SCRATCH/merged-$h"
+    mkdir -p "$merged" "$build_dir/corpus/$h"
+    "$build_dir/fuzz_$h" -merge=1 -timeout=10 -rss_limit_mb=2048 -max_len=16384 "$merged" \
+      "tests/fuzz/corpus/$h" "$build_dir/corpus/$h" >"$build_dir/$h-merge.log" 2>&1 ||
+      { tail -n 30 "$build_dir/$h-merge.log" >&2; exit 1; }
+    # Reproducible bytes: sorted names, no owners or times, gzip without a name or time.
+    tar -C "$merged" --sort=name --owner=0 --group=0 --numeric-owner --mtime=@0 -cf - . |
+      gzip -9n >"tests/fuzz/corpus/$h.tar.gz"
+    echo "fuzz: packed $(ls "$merged" | wc -l) inputs of $h into tests/fuzz/corpus/$h.tar.gz" \
+      "($(stat -c %s "tests/fuzz/corpus/$h.tar.gz") bytes)"
+  done
+  exit 0
+fi
 failed=0
 printf '%-16s %6s %10s %8s %6s %7s %8s  %s\n' harness seconds execs exec/s cov ft corpus result
 for h in "${harnesses[@]}"; do
@@ -61,6 +89,10 @@ for h in "${harnesses[@]}"; do
   work="$build_dir/corpus/$h"
   log="$build_dir/$h.log"
   mkdir -p "$work"
+  # A fresh build starts from the packed corpus (--pack), not from the seeds alone.
+  if [ -f "$seeds.tar.gz" ] && [ -z "$(ls -A "$work")" ]; then
+    tar -C "$work" -xzf "$seeds.tar.gz"
+  fi
   status=ok
   # The grown corpus first (libFuzzer adds new inputs there), the checked-in seeds second.
   # -timeout: an input that takes 10 s is a hang; -rss_limit_mb: a blow-up is a finding.
