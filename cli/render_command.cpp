@@ -22,7 +22,7 @@ struct RenderArgs {
   std::string camera_path;
   std::string scene_path;
   std::string out_dir;
-  std::string sweep;
+  std::vector<std::string> sweeps;  // at most two: the second varies inside the first
   std::vector<std::string> sets;
   std::vector<int> views;
   int repeats = 1;
@@ -48,9 +48,12 @@ void run_render(const RenderArgs& args) {
   mock::RenderCaptureRequest request;
   request.out_dir = args.out_dir;
   request.base = settings_from_sets(errors, *renderer, args.sets);
-  if (!args.sweep.empty()) {
-    request.sweep = errors.take(mock::parse_sweep(args.sweep));
-  }
+  if (args.sweeps.size() > 2)
+    errors.fail(make_error("invalid_argument",
+                           "--sweep given " + std::to_string(args.sweeps.size()) +
+                               " times; at most two (a grid: the second varies inside the first)"));
+  if (!args.sweeps.empty()) request.sweep = errors.take(mock::parse_sweep(args.sweeps[0]));
+  if (args.sweeps.size() == 2) request.inner_sweep = errors.take(mock::parse_sweep(args.sweeps[1]));
   request.repeats = args.repeats;
   request.views = args.views;
   request.options.seed = args.seed;
@@ -105,11 +108,13 @@ void register_render_command(CLI::App& app) {
   cmd->add_option("--out", args->out_dir, "output capture folder (must not exist or be empty)")
       ->required();
   cmd->add_option(
-      "--sweep", args->sweep,
-      "vary one setting: exposure_us=1000,2000,4000 | f_number=2:11.4:stops (f/2, 2.83, 4,\n"
-      "5.66, 8, 11.3: start:stop:stops, half-stops, third-stops or xRATIO multiply)\n"
-      "| exposure_us=1000:16000:stops (x2) | focus_position=0:200:20 (start:stop:step adds)\n"
-      "| focus_m=0.5,1,2 | gain=1,2,4 (linear)");
+         "--sweep", args->sweeps,
+         "vary one setting: exposure_us=1000,2000,4000 | f_number=2:11.4:stops (f/2, 2.83, 4,\n"
+         "5.66, 8, 11.3: start:stop:stops, half-stops, third-stops or xRATIO multiply)\n"
+         "| exposure_us=1000:16000:stops (x2) | focus_position=0:200:20 (start:stop:step adds)\n"
+         "| focus_m=0.5,1,2 | gain=1,2,4 (linear). Twice for a grid, the second inside the first:\n"
+         "--sweep f_number=1.4:5.6:stops --sweep focus_position=10:120:5 (a lens map's capture)")
+      ->allow_extra_args(false);
   cmd->add_option("--set", args->sets,
                   "fix a setting for every frame, e.g. --set exposure_us=5000 --set f_number=2.8;\n"
                   "names as for --sweep; defaults come from the camera spec's controls");

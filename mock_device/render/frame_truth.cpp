@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include "image/cameramodel_file.h"
+#include "mock_device/render/field_focus.h"
 #include "mock_device/spec/mrcal_api.h"
 #include "optics/optics.h"
 
@@ -127,6 +128,53 @@ double expected_dn(const SensorSpec& sensor, double electrons, double gain) {
   return std::clamp(dn, 0.0, max_dn);
 }
 
+// A target's blur with a tilted or curved focus surface (field_focus.h): at its origin,
+// through the surface's offset at the origin's image point; min and max over the offsets
+// the surface takes anywhere on the imager (every point of the target is imaged with one
+// of them), 0 when some offset puts the target's plane of focus on it.
+CocRange coc_on_focus_surface(const TruthInputs& in, const TargetSurface& surface, int channel) {
+  const CameraSpec& camera = *in.camera;
+  const FieldFocus field = *make_field_focus(camera, in.lens_to_sensor_mm);
+  const double pitch_um = camera.sensor.pixel_pitch_um;
+  double delta_lo, delta_hi;
+  field.offset_range_mm(0, camera.sensor.width_px, 0, camera.sensor.height_px, &delta_lo,
+                        &delta_hi);
+  double delta_origin = 0;
+  const auto origin = project_points(camera, in.intrinsics, {surface.to_camera(0, 0)}, false);
+  if (!origin[0].is_null())
+    delta_origin =
+        field.offset_mm(origin[0][0].get<double>() + 0.5, origin[0][1].get<double>() + 0.5);
+  CocRange range;
+  range.min_px = INFINITY;
+  range.max_px = 0;
+  std::array<double, 2> focus_mm = {0, 0};
+  int k = 0;
+  for (double delta : {delta_origin, delta_lo, delta_hi}) {
+    auto optics = channel_optics(camera, channel, in.f_number, in.lens_to_sensor_mm - delta);
+    if (!optics) continue;
+    const CocRange c = predicted_coc(*optics, pitch_um, surface);
+    if (k == 0) range.at_origin_px = c.at_origin_px;
+    range.min_px = std::min(range.min_px, c.min_px);
+    range.max_px = std::max(range.max_px, c.max_px);
+    if (k > 0) focus_mm[static_cast<size_t>(k - 1)] = optics->focus_distance_mm;
+    ++k;
+  }
+  // The planes of focus between the extremes: finite and in front of the lens at both ends
+  // (the offsets do not cross infinity), a target whose depths meet them is sharp there.
+  const TargetSpec& t = surface.spec();
+  double z_min = INFINITY, z_max = -INFINITY;
+  for (double u : {t.x_min_m(), t.x_max_m()})
+    for (double v : {t.y_min_m(), t.y_max_m()}) {
+      const double z = surface.to_camera(u, v)[2] * 1e3;
+      z_min = std::min(z_min, z);
+      z_max = std::max(z_max, z);
+    }
+  const double s_lo = std::min(focus_mm[0], focus_mm[1]), s_hi = std::max(focus_mm[0], focus_mm[1]);
+  if (s_lo > 0 && std::isfinite(s_hi) && z_min <= s_hi && s_lo <= z_max) range.min_px = 0;
+  if (!std::isfinite(range.min_px)) range.min_px = 0;
+  return range;
+}
+
 // truth.channels: for each colour its optics, its predicted CoC of each target, and the
 // expected DN of each target's dark and light parts and of the background.
 nlohmann::json channels_truth(const TruthInputs& in) {
@@ -140,7 +188,9 @@ nlohmann::json channels_truth(const TruthInputs& in) {
     for (const auto& surface : *in.surfaces) {
       const TargetSpec& spec = surface.spec();
       const double distance_mm = surface.to_camera(0, 0)[2] * 1e3;
-      const CocRange coc = predicted_coc(ch.optics, camera.sensor.pixel_pitch_um, surface);
+      const CocRange coc = camera.lens.field_focus.flat()
+                               ? predicted_coc(ch.optics, camera.sensor.pixel_pitch_um, surface)
+                               : coc_on_focus_surface(in, surface, c);
       auto z_i = ch.optics.image_distance_mm(distance_mm);
       const double dark = spec.dark.rgb[static_cast<size_t>(c)];
       const double light = spec.light.rgb[static_cast<size_t>(c)];
@@ -183,7 +233,9 @@ nlohmann::json make_frame_truth(const TruthInputs& in) {
     const TargetSpec& spec = surface.spec();
     const RtCamTarget& rt = in.scene->pose(spec, in.view);
     const auto origin = surface.to_camera(0, 0);
-    const CocRange coc = predicted_coc(camera, surface, in.f_number, in.focus_distance_mm);
+    const CocRange coc = camera.lens.field_focus.flat()
+                             ? predicted_coc(camera, surface, in.f_number, in.focus_distance_mm)
+                             : coc_on_focus_surface(in, surface, kGrey);
     nlohmann::json target = {
         {"name", spec.name},
         {"type", target_type_name(spec.type)},
@@ -261,6 +313,19 @@ nlohmann::json make_frame_truth(const TruthInputs& in) {
       {"view", in.view},
       {"targets", std::move(targets)},
   };
+  if (const FieldFocusSpec& ff = camera.lens.field_focus; !ff.flat()) {
+    // Where each sensor point is sharp, relative to the thin lens (field_focus.h); the
+    // targets' coc_px above are through it.
+    const double half_diagonal_mm =
+        0.5 * std::hypot(camera.sensor.width_px, camera.sensor.height_px) * pitch_mm;
+    truth["field_focus"] = {{"tilt_x_deg", ff.tilt_x_deg},
+                            {"tilt_y_deg", ff.tilt_y_deg},
+                            {"curvature_sag_um", ff.curvature_sag_um},
+                            {"half_diagonal_mm", half_diagonal_mm},
+                            {"offset_mm",
+                             "X tan(tilt_x) + Y tan(tilt_y) + sag (X^2 + Y^2) / half_diagonal^2, "
+                             "X and Y in mm from the principal point"}};
+  }
   if (camera.sensor.is_colour()) {
     truth["cfa"] = camera.sensor.cfa;
     truth["channels"] = channels_truth(in);

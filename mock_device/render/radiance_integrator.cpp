@@ -48,6 +48,16 @@ double inverse_focus(const ChannelSetup& c) {
   return std::isfinite(c.focus_distance_m) ? 1 / c.focus_distance_m : 0.0;
 }
 
+// Channel c as the pixel whose centre is at corner coordinates (x + 0.5, y + 0.5) sees it:
+// its own plane of focus on a tilted or curved focus surface, the channel's otherwise.
+ChannelSetup channel_at_pixel(const IntegratorSetup& s, const ChannelSetup& c, int x, int y) {
+  if (!s.field_focus) return c;
+  ChannelSetup at = c;
+  const double q = s.field_focus->inverse_focus_m(c.focal_mm, x + 0.5, y + 0.5);
+  at.focus_distance_m = q == 0 ? INFINITY : 1 / q;
+  return at;
+}
+
 int largest_grid(const IntegratorSetup& s) {
   int max_n = s.pixel_grid * s.pixel_grid;
   for (const ChannelSetup& c : s.channels) max_n = std::max(max_n, c.lens_grid * c.lens_grid);
@@ -69,7 +79,7 @@ void integrate_rows_uniform(const IntegratorSetup& s, int first_row, int row_ste
         continue;
       }
       const int channel = cell[static_cast<size_t>(2 * (y & 1) + (x & 1))];
-      const ChannelSetup& c = s.channels[static_cast<size_t>(channel)];
+      const ChannelSetup c = channel_at_pixel(s, s.channels[static_cast<size_t>(channel)], x, y);
       const auto trace = [&](const double* o, const double* d) {
         return trace_ray(*s.surfaces, nullptr, 0, c.background_reflectance, o, d, channel);
       };
@@ -92,6 +102,35 @@ struct AdaptiveContext {
   std::array<double, 4> q;  // 1/s by channel
   double q_min, q_max;      // over the channels of the cell
   RegionValues background;
+
+  // 1/s of `channel` at corner coordinates (x, y): the channel's own without a focus
+  // surface.
+  double q_at(int channel, double x, double y) const {
+    const IntegratorSetup& s = *setup;
+    return s.field_focus ? s.field_focus->inverse_focus_m(
+                               s.channels[static_cast<size_t>(channel)].focal_mm, x, y)
+                         : q[static_cast<size_t>(channel)];
+  }
+  // The range of 1/s over the cell's channels and the corners' rectangle [x0, x1] x [y0, y1].
+  void q_range(double x0, double x1, double y0, double y1, double* lo, double* hi) const {
+    const IntegratorSetup& s = *setup;
+    if (!s.field_focus) {
+      *lo = q_min;
+      *hi = q_max;
+      return;
+    }
+    double delta_lo, delta_hi;
+    s.field_focus->offset_range_mm(x0, x1, y0, y1, &delta_lo, &delta_hi);
+    *lo = INFINITY;
+    *hi = -INFINITY;
+    for (int channel : cell)
+      for (double delta : {delta_lo, delta_hi}) {
+        const double v = s.field_focus->inverse_focus_at_offset_m(
+            s.channels[static_cast<size_t>(channel)].focal_mm, delta);
+        *lo = std::min(*lo, v);
+        *hi = std::max(*hi, v);
+      }
+  }
 };
 
 // The mean coverage of the edge's positive side over pixel (x, y) from its corners' edge
@@ -219,13 +258,14 @@ void fill_edge_region(const AdaptiveContext& ctx, const Footprint& fp, int x0, i
     float* row = out.ptr<float>(y);
     for (int x = x0; x < x1; ++x) {
       const int channel = channel_at(ctx, x, y);
-      const double q = ctx.q[static_cast<size_t>(channel)];
+      const double q = ctx.q_at(channel, x + 0.5, y + 0.5);
       EdgeTerms* t = terms[channel];
       if (!done[channel]) {
         for (int j = y0; j <= y1; ++j)
           for (int i = x0; i <= x1; ++i)
             t[(i - x0) + kSide * (j - y0)] =
-                aperture_edge_terms(fp.edge, rays.xn(i, j), rays.yn(i, j), s.aperture_radius_m, q);
+                aperture_edge_terms(fp.edge, rays.xn(i, j), rays.yn(i, j), s.aperture_radius_m,
+                                    ctx.q_at(channel, i, j));
         done[channel] = true;
       }
       const int k = (x - x0) + kSide * (y - y0);
@@ -260,8 +300,8 @@ void integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candid
     return;
   }
   const int channel = channel_at(ctx, x, y);
-  const ChannelSetup& c = s.channels[static_cast<size_t>(channel)];
-  const double q = ctx.q[static_cast<size_t>(channel)];
+  const ChannelSetup c = channel_at_pixel(s, s.channels[static_cast<size_t>(channel)], x, y);
+  const double q = ctx.q_at(channel, x + 0.5, y + 0.5);
   const PixelCorners corners(rays, x, y);
   FootprintQuery query;
   query.mx0 = std::min({corners.x[0], corners.x[1], corners.x[2], corners.x[3]});
@@ -403,8 +443,7 @@ void integrate_region(const AdaptiveContext& ctx, int x0, int x1, int y0, int y1
   int hit_count = candidate_count;
   if (valid) {
     query.aperture_radius_m = s.aperture_radius_m;
-    query.q_min = ctx.q_min;
-    query.q_max = ctx.q_max;
+    ctx.q_range(x0, x1, y0, y1, &query.q_min, &query.q_max);
     const Footprint fp = classify_footprint(query, ctx.targets, candidates, candidate_count,
                                             ctx.background, hits, &hit_count);
     if (fp.kind == Footprint::kFlat) return fill_flat_region(ctx, fp.flat, x0, x1, y0, y1, out, st);

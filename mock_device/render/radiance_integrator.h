@@ -16,7 +16,9 @@
 //
 // A pixel sees one channel: grey on a monochrome sensor, its own colour on a Bayer
 // sensor, so a colour frame costs what a grey one does. Each channel has its own plane of
-// focus (longitudinal chromatic aberration) and its own lens sample count.
+// focus (longitudinal chromatic aberration) and its own lens sample count; with a focus
+// surface (field_focus.h) each pixel's plane of focus is its own, and a block's rays are
+// classified over the range of planes its pixels focus on.
 //
 // A light field (setup.cells): every pixel is integrated once per sub-aperture, with the
 // aperture disk replaced by that cell of it (aperture_region.h). The classification of
@@ -31,6 +33,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -38,6 +41,7 @@
 
 #include "mock_device/render/aperture_region.h"
 #include "mock_device/render/chief_ray_table.h"
+#include "mock_device/render/field_focus.h"
 #include "mock_device/render/target_surface.h"
 
 namespace camlab::mock {
@@ -51,11 +55,17 @@ struct ChannelSetup {
   // that far behind the lens).
   double focus_distance_m = 0;
   int lens_grid = 0;  // k: k x k stratified lens samples; 0 = pinhole
+  // The channel's focal length, read with a focus surface only (IntegratorSetup::
+  // field_focus), where each pixel's plane of focus is its own.
+  double focal_mm = 0;
 };
 
 struct IntegratorSetup {
   const ChiefRayTable* rays = nullptr;
   const std::vector<TargetSurface>* surfaces = nullptr;
+  // A tilted or curved best-focus surface (field_focus.h): each pixel's plane of focus
+  // from its place on the sensor instead of the channel's focus_distance_m. None: flat.
+  std::optional<FieldFocus> field_focus;
   double aperture_radius_m = 0;          // A / 2, the same for every channel
   std::array<ChannelSetup, 4> channels;  // by channel, kRed .. kGrey
   // The channel each pixel sees: a Bayer order ("RGGB" ...: the top-left 2x2 pixels,

@@ -152,13 +152,31 @@ Result<RenderCaptureSummary> render_capture(Renderer& renderer,
 
   // Every setting is checked before the first frame, so a bad value loses no work.
   std::vector<RenderSettings> settings_list;
+  if (request.inner_sweep &&
+      (!request.sweep || request.sweep->parameter == request.inner_sweep->parameter))
+    return make_error("invalid_argument", "a second sweep (" + request.inner_sweep->parameter +
+                                              ") needs a first one of another setting");
   if (request.sweep) {
+    std::vector<RenderSettings> outer;
     for (double value : request.sweep->values) {
       RenderSettings s = request.base;
       if (Status ok = apply_setting(renderer, request.sweep->parameter, value, &s); !ok)
         return make_error(ok.error().code,
                           "sweep " + request.sweep->parameter + ": " + ok.error().message);
-      settings_list.push_back(s);
+      outer.push_back(s);
+    }
+    for (const RenderSettings& o : outer) {
+      if (!request.inner_sweep) {
+        settings_list.push_back(o);
+        continue;
+      }
+      for (double value : request.inner_sweep->values) {
+        RenderSettings s = o;
+        if (Status ok = apply_setting(renderer, request.inner_sweep->parameter, value, &s); !ok)
+          return make_error(ok.error().code,
+                            "sweep " + request.inner_sweep->parameter + ": " + ok.error().message);
+        settings_list.push_back(s);
+      }
     }
   } else {
     if (Status ok = renderer.validate(request.base); !ok) return ok.error();
@@ -181,6 +199,9 @@ Result<RenderCaptureSummary> render_capture(Renderer& renderer,
   if (request.sweep)
     parameters["sweep"] = {{"parameter", request.sweep->parameter},
                            {"values", request.sweep->values}};
+  if (request.inner_sweep)
+    parameters["inner_sweep"] = {{"parameter", request.inner_sweep->parameter},
+                                 {"values", request.inner_sweep->values}};
   auto writer = image::CaptureFolderWriter::create(request.out_dir, "render", source, parameters);
   if (!writer) return writer.error();
 

@@ -37,6 +37,10 @@ struct RenderCaptureRequest {
   std::filesystem::path out_dir;
   RenderSettings base;
   std::optional<Sweep> sweep;
+  // A second setting varied inside the first (a grid: every value of `sweep` x every value
+  // of this one, e.g. f-numbers x focus positions for a lens map); needs `sweep`, and
+  // another setting than it.
+  std::optional<Sweep> inner_sweep;
   int repeats = 1;         // frames per setting (noise statistics need pairs)
   std::vector<int> views;  // empty: every view of the scene
   RenderOptions options;   // seed etc.; frame_number is set per frame

@@ -262,12 +262,38 @@ Result<Renderer::FramePlan> Renderer::plan_frame(const RenderSettings& settings,
           ? std::max(1, static_cast<int>(std::lround(std::sqrt(options.pixel_samples))))
           : 4;
   const SensorSpec& sensor = camera_.sensor;
+  // A tilted or curved focus surface: each pixel focuses as the lens would at z_s - delta,
+  // so the blur a channel can give spans the surface's offsets over the imager.
+  std::array<double, 2> deltas_mm = {0, 0};
+  setup.field_focus = make_field_focus(camera_, plan.lens_to_sensor_mm);
+  if (setup.field_focus)
+    setup.field_focus->offset_range_mm(0, sensor.width_px, 0, sensor.height_px, &deltas_mm[0],
+                                       &deltas_mm[1]);
+  // The largest blur (px) a channel gives any target.
+  auto largest_coc_px = [&](int channel) -> Result<double> {
+    double largest = 0;
+    if (!setup.field_focus && channel == kGrey) {
+      for (const auto& surface : surfaces)
+        largest =
+            std::max(largest, predicted_coc(camera_, surface, settings.f_number, *focus_mm).max_px);
+      return largest;
+    }
+    for (double delta_mm : deltas_mm) {
+      auto optics =
+          channel_optics(camera_, channel, settings.f_number, plan.lens_to_sensor_mm - delta_mm);
+      if (!optics) return optics.error();
+      for (const auto& surface : surfaces)
+        largest = std::max(largest, predicted_coc(*optics, sensor.pixel_pitch_um, surface).max_px);
+    }
+    return largest;
+  };
   std::array<int, 3> lens_grids = {0, 0, 0};
   if (!sensor.is_colour()) {
-    for (const auto& surface : surfaces)
-      stats.max_coc_px = std::max(
-          stats.max_coc_px, predicted_coc(camera_, surface, settings.f_number, *focus_mm).max_px);
+    auto largest = largest_coc_px(kGrey);
+    if (!largest) return largest.error();
+    stats.max_coc_px = *largest;
     ChannelSetup& grey = setup.channels[kGrey];
+    grey.focal_mm = lens.focal_mm;
     grey.background_reflectance = scene_.background.grey;
     grey.focus_distance_m = *focus_mm * 1e-3;
     grey.lens_grid = lens_grid_for(stats.max_coc_px);
@@ -281,12 +307,12 @@ Result<Renderer::FramePlan> Renderer::plan_frame(const RenderSettings& settings,
     for (int c = 0; c < 3; ++c) {
       auto optics = channel_optics(camera_, c, settings.f_number, plan.lens_to_sensor_mm);
       if (!optics) return optics.error();
-      double max_coc_px = 0;
-      for (const auto& surface : surfaces)
-        max_coc_px =
-            std::max(max_coc_px, predicted_coc(*optics, sensor.pixel_pitch_um, surface).max_px);
+      auto largest = largest_coc_px(c);
+      if (!largest) return largest.error();
+      const double max_coc_px = *largest;
       stats.max_coc_px = std::max(stats.max_coc_px, max_coc_px);
       ChannelSetup& channel = setup.channels[static_cast<size_t>(c)];
+      channel.focal_mm = optics->focal_mm;
       channel.background_reflectance = scene_.background.rgb[static_cast<size_t>(c)];
       channel.focus_distance_m = optics->focus_distance_mm * 1e-3;
       channel.lens_grid = lens_grid_for(max_coc_px);

@@ -131,6 +131,16 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
     for (int c = 0; c < 3; ++c) lens.chromatic_focus_shift_mm[c] = shift[c];
   }
 
+  // Tilt and curvature of the best-focus surface. Bounds far beyond real lenses (a module's
+  // tilt is a few tenths of a degree, its curvature tens of um) that keep every point's
+  // lens-to-sensor distance a thin lens's.
+  JsonFields field = f.child("field_focus");
+  CAMLAB_ASSIGN(lens.field_focus.tilt_x_deg, field.number("tilt_x_deg", -5, 5, 0.0));
+  CAMLAB_ASSIGN(lens.field_focus.tilt_y_deg, field.number("tilt_y_deg", -5, 5, 0.0));
+  const double sag_bound_um = 100 * lens.focal_mm;  // a tenth of f
+  CAMLAB_ASSIGN(lens.field_focus.curvature_sag_um,
+                field.number("curvature_sag_um", -sag_bound_um, sag_bound_um, 0.0));
+
   JsonFields iris = f.child("iris");
   if (iris.has("f_numbers")) {
     CAMLAB_ASSIGN(lens.iris.f_numbers,
@@ -199,6 +209,10 @@ Result<LightFieldSpec> parse_lightfield(const JsonFields& f, const SensorSpec& s
                                          ": light fields are rendered for monochrome sensors "
                                          "(a raw lenslet image's colour filters do not follow "
                                          "the views' pixels)");
+  if (!lens.field_focus.flat())
+    return make_error("unsupported", f.path() +
+                                         ": light fields are rendered with a flat focus "
+                                         "surface; leave camera.lens.field_focus out");
   if (lens.model != "LENSMODEL_PINHOLE")
     return make_error("unsupported",
                       f.path() + ": a light-field camera needs lens.model LENSMODEL_PINHOLE, not " +

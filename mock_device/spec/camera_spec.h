@@ -56,6 +56,20 @@ struct FocusSpec {
   double extension_mm_per_step = 0;
 };
 
+// A best-focus surface that is not flat (mock_device/render/field_focus.h): a sensor point
+// (X, Y) mm from the principal point is sharp when the lens sits
+//   delta = X tan(tilt_x) + Y tan(tilt_y) + sag (X^2 + Y^2) / R^2
+// farther from the sensor than the thin lens's image distance (R: the imager's half
+// diagonal). A sensor tilted by an angle a about the y axis is tilt_x = -a; a lens's
+// Petzval field curvature is a negative sag (the corners focus closer to the lens).
+// Astigmatism is not modelled: each point's rays converge on one point.
+struct FieldFocusSpec {
+  double tilt_x_deg = 0;        // the surface rises to the right (+x)
+  double tilt_y_deg = 0;        // ... downward (+y)
+  double curvature_sag_um = 0;  // delta at the imager's corner, less its tilt
+  bool flat() const { return tilt_x_deg == 0 && tilt_y_deg == 0 && curvature_sag_um == 0; }
+};
+
 struct LensSpec {
   double focal_mm = 0;
   std::string model = "LENSMODEL_PINHOLE";  // any mrcal lens model name (configured)
@@ -73,6 +87,7 @@ struct LensSpec {
   // channel is a thin lens of focal length f_c = focal_mm + shift_c sharing the nominal
   // aperture (A = focal_mm / N); docs/virtual-camera.md.
   std::array<double, 3> chromatic_focus_shift_mm = {0, 0, 0};
+  FieldFocusSpec field_focus;
 
   // Channel c's focal length (c = 0, 1, 2 for R, G, B).
   double channel_focal_mm(int c) const { return focal_mm + chromatic_focus_shift_mm[c]; }

@@ -83,10 +83,19 @@ void fit_best_focus(EdgeSeries* series) {
   }
 }
 
+// Coefficients of a linear least-squares fit and their covariance, s^2 (A^T A)^-1 with s^2
+// the residuals' variance (RSS / (n - k)): the scatter of the edges' best foci about the
+// surface is what makes the coefficients uncertain.
+struct LinearFit {
+  std::vector<double> coef;
+  cv::Mat covariance;  // k x k, CV_64F
+  double variance(int i) const { return covariance.at<double>(i, i); }
+};
+
 // Least squares of `rows` (each: design row, value); the smallest singular value relative
 // to the largest tells whether the columns are told apart by the data.
-Result<std::vector<double>> least_squares(const std::vector<std::vector<double>>& rows,
-                                          const std::vector<double>& values, const char* what) {
+Result<LinearFit> least_squares(const std::vector<std::vector<double>>& rows,
+                                const std::vector<double>& values, const char* what) {
   const int n = static_cast<int>(rows.size()), k = static_cast<int>(rows.front().size());
   cv::Mat a(n, k, CV_64F), y(n, 1, CV_64F);
   for (int i = 0; i < n; ++i) {
@@ -102,12 +111,18 @@ Result<std::vector<double>> least_squares(const std::vector<std::vector<double>>
                           "both sides of it");
   cv::Mat coef;
   cv::solve(a, y, coef, cv::DECOMP_SVD);
-  return std::vector<double>(coef.begin<double>(), coef.end<double>());
+  LinearFit fit;
+  fit.coef.assign(coef.begin<double>(), coef.end<double>());
+  const cv::Mat residual = a * coef - y;
+  const double variance = n > k ? residual.dot(residual) / (n - k) : 0.0;
+  fit.covariance = variance * (a.t() * a).inv(cv::DECOMP_SVD);
+  return fit;
 }
 
 struct SurfaceFit {
   std::vector<double> all, by_class;  // coefficients; by_class empty when not fitted
-  std::vector<double> residual;       // per edge of the surface, NaN where not used
+  cv::Mat all_covariance, by_class_covariance;
+  std::vector<double> residual;  // per edge of the surface, NaN where not used
 };
 
 // One least-squares pass over the edges whose status is ok.
@@ -139,7 +154,10 @@ Result<SurfaceFit> fit_once(const FocusSurface& surface, double width_px, double
                       format_printf("%zu edge(s) have a best focus at f/%g; the surface needs %d",
                                     all_rows.size(), surface.f_number, kMinSurfaceEdges));
   SurfaceFit fit;
-  CAMLAB_ASSIGN(fit.all, least_squares(all_rows, all_values, "tilt and field curvature"));
+  LinearFit all;
+  CAMLAB_ASSIGN(all, least_squares(all_rows, all_values, "tilt and field curvature"));
+  fit.all = std::move(all.coef);
+  fit.all_covariance = all.covariance;
   fit.residual.assign(surface.edges.size(), std::nan(""));
   auto residuals = [&](const auto& rows, const auto& values, const auto& edge, const auto& c) {
     for (size_t i = 0; i < rows.size(); ++i) {
@@ -153,7 +171,8 @@ Result<SurfaceFit> fit_once(const FocusSurface& surface, double width_px, double
   // the residuals are about the two surfaces (the astigmatism is no scatter).
   if (sagittal >= 3 && meridional >= 3)
     if (auto c = least_squares(class_rows, class_values, "sagittal and meridional curvature")) {
-      fit.by_class = std::move(*c);
+      fit.by_class = std::move(c->coef);
+      fit.by_class_covariance = c->covariance;
       residuals(class_rows, class_values, class_edge, fit.by_class);
     }
   return fit;
@@ -194,15 +213,25 @@ Result<FocusSurface> fit_surface(FocusSurface surface, double width_px, double h
   // With the classes apart, the two-surface fit gives the axis and the tilt too (one
   // surface through astigmatic edges bends them by the classes' placement), and the field
   // curvature is the medial surface's, halfway between the two.
-  const std::vector<double>& c = fit.by_class.empty() ? fit.all : fit.by_class;
+  const bool by_class = !fit.by_class.empty();
+  const std::vector<double>& c = by_class ? fit.by_class : fit.all;
+  const cv::Mat& cov = by_class ? fit.by_class_covariance : fit.all_covariance;
+  auto var = [&](int i, int j) { return cov.at<double>(i, j); };
   surface.centre_focus = c[0];
   surface.tilt_x = c[1];
   surface.tilt_y = c[2];
   surface.curvature = fit.all[3];
-  if (!fit.by_class.empty()) {
+  surface.sigma.centre_focus = std::sqrt(var(0, 0));
+  surface.sigma.tilt_x = std::sqrt(var(1, 1));
+  surface.sigma.tilt_y = std::sqrt(var(2, 2));
+  surface.sigma.curvature = std::sqrt(fit.all_covariance.at<double>(3, 3));
+  if (by_class) {
     surface.curvature_sagittal = fit.by_class[3];
     surface.curvature_meridional = fit.by_class[4];
     surface.curvature = 0.5 * (fit.by_class[3] + fit.by_class[4]);
+    // (c_s + c_m) / 2 and c_s - c_m from the two coefficients' covariance.
+    surface.sigma.curvature = 0.5 * std::sqrt(var(3, 3) + var(4, 4) + 2 * var(3, 4));
+    surface.sigma.astigmatism = std::sqrt(var(3, 3) + var(4, 4) - 2 * var(3, 4));
   }
   return surface;
 }
@@ -339,32 +368,54 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
                     {"curvature_sagittal_at_corner", number_or_null(s.curvature_sagittal)},
                     {"curvature_meridional_at_corner", number_or_null(s.curvature_meridional)},
                     {"rms_residual", s.rms_residual},
+                    {"standard_errors",
+                     {{"centre_focus", s.sigma.centre_focus},
+                      {"tilt_x_per_half_diagonal", s.sigma.tilt_x},
+                      {"tilt_y_per_half_diagonal", s.sigma.tilt_y},
+                      {"curvature_at_corner", s.sigma.curvature},
+                      {"astigmatism_at_corner", number_or_null(s.sigma.astigmatism)}}},
                     {"edges", std::move(edges)}};
     std::string astig = "-";
     if (s.curvature_sagittal && s.curvature_meridional) {
       const double a = *s.curvature_sagittal - *s.curvature_meridional;
       surface["astigmatism_at_corner"] = a;
-      astig = format_printf("%.3f", a);
+      astig = format_printf("%.3f +- %.3f", a, s.sigma.astigmatism.value_or(0));
     }
     out.text += format_printf(
-        "f/%g: %d edge(s); best focus on the axis %.3f, tilt %.3f right %.3f down, curvature "
-        "%.3f, astigmatism %s at the corner (focus units), rms %.3f\n",
-        s.f_number, s.edges_used, s.centre_focus, s.tilt_x, s.tilt_y, s.curvature, astig.c_str(),
-        s.rms_residual);
+        "f/%g: %d edge(s); best focus on the axis %.3f +- %.3f, tilt %.3f +- %.3f right %.3f +- "
+        "%.3f down, curvature %.3f +- %.3f, astigmatism %s at the corner (focus units, 1 sigma), "
+        "rms %.3f\n",
+        s.f_number, s.edges_used, s.centre_focus, s.sigma.centre_focus, s.tilt_x, s.sigma.tilt_x,
+        s.tilt_y, s.sigma.tilt_y, s.curvature, s.sigma.curvature, astig.c_str(), s.rms_residual);
     if (physical) {
       // The lens moves extension_mm a unit; the best-focus surface is where the sensor would
       // have to be, so a focus difference is a sensor-side distance of the same size.
       const double deg = 180 / std::numbers::pi;
+      // d atan(t k) / dt = k / (1 + (t k)^2), k = extension / half diagonal.
+      const double k = extension_mm / half_diagonal_mm;
+      auto tilt_deg_sigma = [&](double t, double sigma) {
+        return k / (1 + t * k * t * k) * sigma * deg;
+      };
       json units = {{"curvature_um", s.curvature * extension_mm * 1e3},
-                    {"tilt_x_deg", std::atan(s.tilt_x * extension_mm / half_diagonal_mm) * deg},
-                    {"tilt_y_deg", std::atan(s.tilt_y * extension_mm / half_diagonal_mm) * deg}};
-      if (surface.contains("astigmatism_at_corner"))
+                    {"tilt_x_deg", std::atan(s.tilt_x * k) * deg},
+                    {"tilt_y_deg", std::atan(s.tilt_y * k) * deg},
+                    {"standard_errors",
+                     {{"curvature_um", s.sigma.curvature * extension_mm * 1e3},
+                      {"tilt_x_deg", tilt_deg_sigma(s.tilt_x, s.sigma.tilt_x)},
+                      {"tilt_y_deg", tilt_deg_sigma(s.tilt_y, s.sigma.tilt_y)}}}};
+      if (surface.contains("astigmatism_at_corner")) {
         units["astigmatism_um"] =
             surface["astigmatism_at_corner"].get<double>() * extension_mm * 1e3;
-      out.text +=
-          format_printf("  at the sensor: curvature %.1f um, tilt %.4f deg x, %.4f deg y\n",
-                        units["curvature_um"].get<double>(), units["tilt_x_deg"].get<double>(),
-                        units["tilt_y_deg"].get<double>());
+        units["standard_errors"]["astigmatism_um"] =
+            s.sigma.astigmatism.value_or(0) * extension_mm * 1e3;
+      }
+      out.text += format_printf(
+          "  at the sensor: curvature %.1f +- %.1f um, tilt %.4f +- %.4f deg x, %.4f +- %.4f "
+          "deg y\n",
+          units["curvature_um"].get<double>(),
+          units["standard_errors"]["curvature_um"].get<double>(), units["tilt_x_deg"].get<double>(),
+          units["standard_errors"]["tilt_x_deg"].get<double>(), units["tilt_y_deg"].get<double>(),
+          units["standard_errors"]["tilt_y_deg"].get<double>());
       surface["at_sensor"] = std::move(units);
     }
     list.push_back(std::move(surface));

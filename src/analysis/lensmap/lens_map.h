@@ -63,6 +63,12 @@ struct FocusSurface {
   double curvature = 0;
   std::optional<double> curvature_sagittal, curvature_meridional;  // c_s, c_m
   double rms_residual = 0;  // of the edges' best foci about the surface (the two, when fitted)
+  // 1-sigma standard errors of the above, from the edges' scatter about the surface (the
+  // least-squares covariance): the same units.
+  struct StandardErrors {
+    double centre_focus = 0, tilt_x = 0, tilt_y = 0, curvature = 0;
+    std::optional<double> astigmatism;  // of c_s - c_m
+  } sigma;
   std::vector<EdgeBestFocus> edges;
 };
 

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "analysis/edge/edge_spread.h"
+#include "edge_truth.h"
 #include "optics/optics.h"
 #include "test_specs.h"
 
@@ -59,12 +60,7 @@ TEST_P(DefocusRender, MeasuredBlurDiameterMatchesTheThinLensCoc) {
   ASSERT_TRUE(coc_mm.ok());
   EXPECT_NEAR(predicted_px, *coc_mm / pitch_mm, 1e-9);
 
-  const auto& middle = target["edge_px"]["middle"];
-  const auto& start = target["edge_px"]["start"];
-  const auto& end = target["edge_px"]["end"];
-  analysis::EdgeLine guess{middle[0].get<double>(), middle[1].get<double>(),
-                           std::atan2(end[1].get<double>() - start[1].get<double>(),
-                                      end[0].get<double>() - start[0].get<double>())};
+  const analysis::EdgeLine guess = testing::edge_line_of_truth(target);
   analysis::EdgeFitOptions fit_options;
   fit_options.half_width_px = predicted_px / 2 + 10;
   fit_options.half_length_px = 100;
