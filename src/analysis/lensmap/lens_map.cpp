@@ -1,6 +1,7 @@
 #include "analysis/lensmap/lens_map.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -18,6 +19,7 @@ using nlohmann::json;
 
 constexpr int kMinFocusPositions = 5;
 constexpr int kMinSurfaceEdges = 5;
+constexpr const char* kChannelNames[3] = {"R", "G", "B"};
 
 struct ThroughFocusPoint {
   double focus = 0;
@@ -238,14 +240,73 @@ Result<FocusSurface> fit_surface(FocusSurface surface, double width_px, double h
 
 json number_or_null(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
 
+// Each colour channel's best focus: its edges' best foci (placed where the luminance found
+// them), its own surface through them, and R and B against G edge by edge.
+std::vector<ChannelFocus> channel_foci(const FocusSurface& luminance,
+                                       std::array<std::map<std::string, EdgeSeries>, 3>* series,
+                                       double width_px, double height_px, double focus_span) {
+  std::array<std::map<std::string, EdgeBestFocus>, 3> best;
+  std::vector<ChannelFocus> out;
+  for (int c = 0; c < 3; ++c) {
+    FocusSurface surface;
+    for (const EdgeBestFocus& place : luminance.edges) {
+      auto it = (*series)[static_cast<size_t>(c)].find(place.name);
+      if (it == (*series)[static_cast<size_t>(c)].end()) continue;
+      EdgeSeries& s = it->second;
+      s.edge.centre_x_px = place.centre_x_px;
+      s.edge.centre_y_px = place.centre_y_px;
+      s.edge.field = place.field;
+      fit_best_focus(&s);
+      // An edge the luminance's surface left out stays out of the channel's too.
+      if (place.status == kBestFocusOffSurface && s.edge.status == kBestFocusOk)
+        s.edge.status = kBestFocusOffSurface;
+      surface.edges.push_back(s.edge);
+      best[static_cast<size_t>(c)][place.name] = s.edge;
+    }
+    ChannelFocus f;
+    f.channel = kChannelNames[c];
+    if (auto fitted = fit_surface(std::move(surface), width_px, height_px, focus_span)) {
+      f.edges_used = fitted->edges_used;
+      f.centre_focus = fitted->centre_focus;
+      f.centre_focus_sigma = fitted->sigma.centre_focus;
+      // Edges the channel's own surface left out stay out of the differences.
+      for (const EdgeBestFocus& e : fitted->edges)
+        best[static_cast<size_t>(c)][e.name].status = e.status;
+    }
+    out.push_back(f);
+  }
+  for (int c : {0, 2}) {
+    std::vector<double> d;
+    for (const auto& [name, e] : best[static_cast<size_t>(c)]) {
+      auto g = best[1].find(name);
+      if (e.status == kBestFocusOk && g != best[1].end() && g->second.status == kBestFocusOk)
+        d.push_back(e.best_focus - g->second.best_focus);
+    }
+    if (d.size() < 3) continue;
+    double mean = 0;
+    for (double v : d) mean += v;
+    mean /= static_cast<double>(d.size());
+    double ss = 0;
+    for (double v : d) ss += (v - mean) * (v - mean);
+    ChannelFocus& f = out[static_cast<size_t>(c)];
+    f.minus_green = mean;
+    f.minus_green_sigma =
+        std::sqrt(ss / static_cast<double>(d.size() - 1) / static_cast<double>(d.size()));
+    f.edges_paired = static_cast<int>(d.size());
+  }
+  return out;
+}
+
 }  // namespace
 
 Result<std::vector<FocusSurface>> focus_surfaces(const json& sfr_report) {
   const json size = sfr_report.value("size_px", json());
   if (!size.is_array() || size.size() != 2 || !size[0].is_number() || !size[1].is_number())
     return make_error("invalid_argument", "the SFR report gives no image size (size_px)");
-  // f-number -> edge name -> its series; f-number -> the focus positions.
+  // f-number -> edge name -> its series; f-number -> the focus positions. The same per
+  // colour channel (index 0, 1, 2: R, G, B) when the frames are colour.
   std::map<double, std::map<std::string, EdgeSeries>> groups;
+  std::map<double, std::array<std::map<std::string, EdgeSeries>, 3>> channel_groups;
   std::map<double, std::vector<double>> positions;
   for (const json& frame : sfr_report.value("frames", json::array())) {
     const json settings = frame.value("settings", json::object());
@@ -271,6 +332,18 @@ Result<std::vector<FocusSurface>> focus_surfaces(const json& sfr_report) {
         series.edge.centre_y_px = centre[1].get<double>();
         series.edge.field = e.value("field", std::string());
       }
+      const json channels = e.value("channels", json());
+      if (channels.is_object())
+        for (int c = 0; c < 3; ++c) {
+          const json ch = channels.value(kChannelNames[c], json());
+          EdgeSeries& cs = channel_groups[n][static_cast<size_t>(c)][name];
+          cs.edge.name = name;
+          if (!ch.is_object() || ch.value("status", std::string()) != kSfrOk ||
+              !ch.contains("mtf50_cy_px") || !ch["mtf50_cy_px"].is_number() ||
+              !(ch["mtf50_cy_px"].get<double>() > 0))
+            continue;
+          cs.points.push_back({focus, ch["mtf50_cy_px"].get<double>()});
+        }
       if (!measured) continue;
       const double mtf50 = e["mtf50_cy_px"].get<double>();
       series.points.push_back({focus, mtf50});
@@ -296,6 +369,9 @@ Result<std::vector<FocusSurface>> focus_surfaces(const json& sfr_report) {
     auto fitted = fit_surface(std::move(surface), size[0].get<double>(), size[1].get<double>(),
                               p[distinct - 1] - p[0]);
     if (!fitted) return fitted.error();
+    if (auto it = channel_groups.find(n); it != channel_groups.end())
+      fitted->channels = channel_foci(*fitted, &it->second, size[0].get<double>(),
+                                      size[1].get<double>(), p[distinct - 1] - p[0]);
     out.push_back(std::move(*fitted));
   }
   if (out.empty())
@@ -375,6 +451,28 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
                       {"curvature_at_corner", s.sigma.curvature},
                       {"astigmatism_at_corner", number_or_null(s.sigma.astigmatism)}}},
                     {"edges", std::move(edges)}};
+    std::string colour_text;  // after the surface's lines
+    if (!s.channels.empty()) {
+      json channels = json::array();
+      std::string colour;
+      for (const ChannelFocus& c : s.channels) {
+        channels.push_back(
+            {{"channel", c.channel},
+             {"edges_used", c.edges_used},
+             {"centre_focus", c.centre_focus},
+             {"centre_focus_standard_error", c.centre_focus_sigma},
+             {"focus_minus_green", number_or_null(c.minus_green)},
+             {"focus_minus_green_standard_error", number_or_null(c.minus_green_sigma)},
+             {"edges_paired", c.edges_paired}});
+        if (c.minus_green)
+          colour += format_printf(" %s %+.3f +- %.3f (%d edges)", c.channel.c_str(), *c.minus_green,
+                                  c.minus_green_sigma.value_or(0), c.edges_paired);
+      }
+      surface["channels"] = std::move(channels);
+      if (!colour.empty())
+        colour_text = format_printf(
+            "  longitudinal colour, best focus minus green's (focus units):%s\n", colour.c_str());
+    }
     std::string astig = "-";
     if (s.curvature_sagittal && s.curvature_meridional) {
       const double a = *s.curvature_sagittal - *s.curvature_meridional;
@@ -416,8 +514,15 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
           units["standard_errors"]["curvature_um"].get<double>(), units["tilt_x_deg"].get<double>(),
           units["standard_errors"]["tilt_x_deg"].get<double>(), units["tilt_y_deg"].get<double>(),
           units["standard_errors"]["tilt_y_deg"].get<double>());
+      for (const ChannelFocus& c : s.channels)
+        if (c.minus_green) {
+          units["longitudinal_colour_um"][c.channel] = *c.minus_green * extension_mm * 1e3;
+          units["standard_errors"]["longitudinal_colour_um"][c.channel] =
+              c.minus_green_sigma.value_or(0) * extension_mm * 1e3;
+        }
       surface["at_sensor"] = std::move(units);
     }
+    out.text += colour_text;
     list.push_back(std::move(surface));
   }
   out.report = {{"capture", dir.string()},

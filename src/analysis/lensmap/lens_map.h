@@ -3,7 +3,9 @@
 // that field position's best focus; the best foci over the field give the best-focus
 // surface: its focus on the axis, its tilt, its curvature (field curvature) and, from the
 // edges the field classes apart, the sagittal and meridional surfaces' difference
-// (astigmatism). One surface per f-number of the sweep.
+// (astigmatism); on colour frames, each channel's best focus and R's and B's against G's
+// (longitudinal colour). One surface per f-number of the sweep, each number with its
+// standard error.
 //
 // Best focus of one edge: blur widths add in quadrature (a Gaussian blur of the lens's own
 // width sigma_0 and a defocus blur growing linearly with the distance from best focus), so
@@ -53,6 +55,18 @@ struct EdgeBestFocus {
   int points = 0;  // through-focus points the parabola was fitted to
 };
 
+// One colour channel's best focus (colour frames: the SFR of each channel on its own
+// sites, sfr_image.h). Longitudinal colour is the channel's best focus minus green's, the
+// mean over the edges both measured of their per-edge difference: what the edges share
+// (their place, their shape) cancels, so it is far tighter than the two surfaces' axes.
+struct ChannelFocus {
+  std::string channel;  // R, G or B
+  int edges_used = 0;
+  double centre_focus = 0, centre_focus_sigma = 0;       // the channel's own surface on the axis
+  std::optional<double> minus_green, minus_green_sigma;  // R and B: focus units
+  int edges_paired = 0;                                  // edges in the difference
+};
+
 struct FocusSurface {
   double f_number = 0;  // 0: the sweep's frames give none
   int edges_used = 0;
@@ -69,6 +83,7 @@ struct FocusSurface {
     double centre_focus = 0, tilt_x = 0, tilt_y = 0, curvature = 0;
     std::optional<double> astigmatism;  // of c_s - c_m
   } sigma;
+  std::vector<ChannelFocus> channels;  // colour frames: R, G, B; else empty
   std::vector<EdgeBestFocus> edges;
 };
 
