@@ -23,6 +23,28 @@ nlohmann::json read_json(const std::filesystem::path& path) {
   return nlohmann::json::parse(in);
 }
 
+// A lens-map capture of the example chart (squares on a plane 1 m away) into `dir`: the
+// f-numbers x 15 focus positions 7 steps apart (15 to 113), 1 ms exposures. Returns the
+// frame count, or -1 with the failure added.
+int render_lens_map_capture(const nlohmann::json& camera, const std::filesystem::path& dir,
+                            const std::vector<double>& f_numbers, uint64_t seed) {
+  const nlohmann::json scene =
+      read_json(CAMLAB_SOURCE_DIR "/mock_device/examples/scene_lensmap_chart.json");
+  auto renderer = testing::make_renderer(camera, scene);
+  mock::RenderCaptureRequest req;
+  req.out_dir = dir;
+  req.base = renderer.default_settings();
+  req.base.exposure_us = 1000;
+  req.sweep = mock::Sweep{"f_number", f_numbers};
+  std::vector<double> positions;
+  for (int p = 15; p <= 113; p += 7) positions.push_back(p);
+  req.inner_sweep = mock::Sweep{"focus_position", positions};
+  req.options.seed = seed;
+  auto rendered = mock::render_capture(renderer, req);
+  EXPECT_TRUE(rendered.ok()) << rendered.error().message;
+  return rendered.ok() ? rendered->frames : -1;
+}
+
 TEST(LensMapCapture, TiltedCurvedFocusSurfaceOfTheVirtualLensIsFoundAtEveryAperture) {
   // The example 8 mm lens (4 um pixels, 640 x 480: half diagonal 1.6 mm; 1 um of lens
   // travel a focus step) with its best-focus surface rising 0.4 deg to the right, falling
@@ -31,22 +53,8 @@ TEST(LensMapCapture, TiltedCurvedFocusSurfaceOfTheVirtualLensIsFoundAtEveryApert
   const double tilt_x_deg = 0.4, tilt_y_deg = -0.25, sag_um = -15;
   camera["lens"]["field_focus"] = {
       {"tilt_x_deg", tilt_x_deg}, {"tilt_y_deg", tilt_y_deg}, {"curvature_sag_um", sag_um}};
-  const nlohmann::json scene =
-      read_json(CAMLAB_SOURCE_DIR "/mock_device/examples/scene_lensmap_chart.json");
-  auto renderer = testing::make_renderer(camera, scene);
   const auto dir = testing::fresh_dir("lens_map_capture");
-  mock::RenderCaptureRequest req;
-  req.out_dir = dir;
-  req.base = renderer.default_settings();
-  req.base.exposure_us = 1000;
-  req.sweep = mock::Sweep{"f_number", {1.4, 2, 2.8, 4, 5.6}};
-  std::vector<double> positions;
-  for (int p = 15; p <= 113; p += 7) positions.push_back(p);  // 15 positions
-  req.inner_sweep = mock::Sweep{"focus_position", positions};
-  req.options.seed = 3;
-  auto rendered = mock::render_capture(renderer, req);
-  ASSERT_TRUE(rendered.ok()) << rendered.error().message;
-  ASSERT_EQ(rendered->frames, 75);
+  ASSERT_EQ(render_lens_map_capture(camera, dir, {1.4, 2, 2.8, 4, 5.6}, 3), 75);
 
   // The frames' truth records the surface the renderer used.
   const auto first = read_json(dir / "frame_000000.json");
@@ -124,20 +132,8 @@ TEST(LensMapCapture, TiltedCurvedFocusSurfaceOfTheVirtualLensIsFoundAtEveryApert
 TEST(LensMapCapture, LongitudinalColourIsEachChannelsThinLensFocusAgainstGreens) {
   const nlohmann::json camera =
       read_json(CAMLAB_SOURCE_DIR "/mock_device/examples/camera_colour_640x480.json");
-  const nlohmann::json scene =
-      read_json(CAMLAB_SOURCE_DIR "/mock_device/examples/scene_lensmap_chart.json");
-  auto renderer = testing::make_renderer(camera, scene);
   const auto dir = testing::fresh_dir("lens_map_colour");
-  mock::RenderCaptureRequest req;
-  req.out_dir = dir;
-  req.base = renderer.default_settings();
-  req.base.exposure_us = 1000;
-  req.sweep = mock::Sweep{"f_number", {2, 2.8}};
-  std::vector<double> positions;
-  for (int p = 15; p <= 113; p += 7) positions.push_back(p);
-  req.inner_sweep = mock::Sweep{"focus_position", positions};
-  req.options.seed = 4;
-  ASSERT_TRUE(mock::render_capture(renderer, req).ok());
+  ASSERT_EQ(render_lens_map_capture(camera, dir, {2, 2.8}, 4), 30);
   auto map = analyze_lens_map(dir, LensMapOptions{});
   ASSERT_TRUE(map.ok()) << map.error().message;
 
