@@ -203,7 +203,8 @@ void add_camera_routes(Router& router, const ServiceContext& context) {
                 put_controls(context, request, params, std::move(reply));
               }});
   router.add({"POST", "/v1/cameras/{id}/captures",
-              "Queue a capture (single, bracket, focus_stack, aperture_series): 202 with the job",
+              "Queue a capture (single, bracket, focus_stack, aperture_series, lens_map): 202 with "
+              "the job",
               [context](const ApiRequest& request, const PathParams& params, Reply reply) {
                 post_capture(context, request, params, std::move(reply));
               }});

@@ -140,12 +140,15 @@ json schemas() {
         {"description",
          "single: {}; bracket: exposures_us[] (+ gain) or base_exposure_us + ev_steps[]; "
          "focus_stack: positions[] "
-         "or start/stop/step; aperture_series: f_numbers[] or iris_positions[]. Common: repeats, "
+         "or start/stop/step; aperture_series: f_numbers[] or iris_positions[]; lens_map: an "
+         "aperture series' fields and a focus stack's (every stop x every position, the focus "
+         "stepped inside each stop). Common: repeats, "
          "format "
          "{fourcc, width, height}, controls {name: value}."},
         {"properties",
          {{"kind",
-           {{"type", "string"}, {"enum", {"single", "bracket", "focus_stack", "aperture_series"}}}},
+           {{"type", "string"},
+            {"enum", {"single", "bracket", "focus_stack", "aperture_series", "lens_map"}}}},
           {"exposures_us", {{"type", "array"}, {"items", {{"type", "number"}}}}},
           {"base_exposure_us", {{"type", "number"}}},
           {"ev_steps", {{"type", "array"}, {"items", {{"type", "number"}}}}},

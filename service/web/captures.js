@@ -1,6 +1,7 @@
-// The capture form: single frames, exposure brackets, focus stacks and aperture series, as
-// POST /v1/cameras/{id}/captures takes them (docs/capture-api.md). camlabd checks every value
-// against the camera's ranges and says what is allowed; the page only parses lists.
+// The capture form: single frames, exposure brackets, focus stacks, aperture series and lens
+// maps (f-stops x focus positions), as POST /v1/cameras/{id}/captures takes them
+// (docs/capture-api.md). camlabd checks every value against the camera's ranges and says
+// what is allowed; the page only parses lists.
 
 import { api, enc } from './api.js';
 
@@ -25,6 +26,11 @@ export function captureRequest(form) {
     request.step = Number(form.querySelector('#focus-step').value);
   } else if (kind === 'aperture_series') {
     request.f_numbers = numbers(form.querySelector('#aperture-f-numbers').value, 'f-numbers');
+  } else if (kind === 'lens_map') {
+    request.f_numbers = numbers(form.querySelector('#lens-map-f-numbers').value, 'f-numbers');
+    request.start = Number(form.querySelector('#lens-map-start').value);
+    request.stop = Number(form.querySelector('#lens-map-stop').value);
+    request.step = Number(form.querySelector('#lens-map-step').value);
   }
   return request;
 }

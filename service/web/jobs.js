@@ -12,7 +12,10 @@ const ANALYSES = {
   bracket: [['exposure', 'Analyse exposure: linearity, photon transfer, HDR']],
   focus_stack: [['focus', 'Analyse the focus stack: depth from focus'],
     ['defocus', 'Analyse defocus: V-curve of blur against focus']],
-  aperture_series: [['defocus', 'Analyse defocus: CoC against f-number']],
+  aperture_series: [['defocus', 'Analyse defocus: CoC against f-number'],
+    ['sfr', 'Analyse SFR: MTF50 of every edge per f-stop']],
+  lens_map: [['lensmap', 'Analyse the lens map: best-focus surface, tilt, curvature per f-stop'],
+    ['sfr', 'Analyse SFR: MTF50 of every edge per frame']],
   single: [],
 };
 const MAX_THUMBNAILS = 24;

@@ -65,6 +65,12 @@ class PlanBuilder {
   Status build_bracket();
   Status build_focus_stack();
   Status build_aperture_series();
+  Status build_lens_map();
+
+  // One stepped control's values: the value and what it stands for (a step's `requested`).
+  using ControlSteps = std::vector<std::pair<int64_t, json>>;
+  Result<ControlSteps> focus_steps(const device::ControlInfo& c) const;
+  Result<ControlSteps> iris_steps(const device::ControlInfo& c) const;
 
   Result<const device::ControlInfo*> require_control(const std::string& name,
                                                      const std::string& kind) const;
@@ -409,10 +415,7 @@ Status PlanBuilder::build_bracket() {
   return {};
 }
 
-Status PlanBuilder::build_focus_stack() {
-  if (Status s = check_fields({"positions", "start", "stop", "step"}); !s) return s;
-  const device::ControlInfo* c = nullptr;
-  CAMLAB_ASSIGN(c, require_control(kFocus, "a focus stack"));
+Result<PlanBuilder::ControlSteps> PlanBuilder::focus_steps(const device::ControlInfo& c) const {
   std::vector<int64_t> positions;
   const bool explicit_list = request_.contains("positions");
   const bool range =
@@ -420,7 +423,7 @@ Status PlanBuilder::build_focus_stack() {
   if (explicit_list == range)
     return invalid("a focus stack needs either positions, or start, stop and step");
   if (explicit_list) {
-    CAMLAB_ASSIGN(positions, control_values("positions", *c));
+    CAMLAB_ASSIGN(positions, control_values("positions", c));
   } else {
     if (!request_.contains("start") || !request_.contains("stop") || !request_.contains("step"))
       return invalid("a focus range needs start, stop and step");
@@ -428,8 +431,8 @@ Status PlanBuilder::build_focus_stack() {
     CAMLAB_ASSIGN(start, integer(request_["start"], "start"));
     CAMLAB_ASSIGN(stop, integer(request_["stop"], "stop"));
     CAMLAB_ASSIGN(step, integer(request_["step"], "step"));
-    if (Status s = check_value(*c, start, "start"); !s) return s;
-    if (Status s = check_value(*c, stop, "stop"); !s) return s;
+    if (Status s = check_value(c, start, "start"); !s) return s.error();
+    if (Status s = check_value(c, stop, "stop"); !s) return s.error();
     if (step == 0 || (stop > start && step < 0) || (stop < start && step > 0))
       return invalid("step = " + std::to_string(step) + " does not lead from start = " +
                      std::to_string(start) + " to stop = " + std::to_string(stop));
@@ -441,34 +444,33 @@ Status PlanBuilder::build_focus_stack() {
                      std::to_string(kMaxStepsPerPlan));
     for (int64_t i = 0; i < count; ++i) {
       const int64_t p = start + i * step;
-      if (Status s = check_value(*c, p, "start + " + std::to_string(i) + " x step"); !s) return s;
+      if (Status s = check_value(c, p, "start + " + std::to_string(i) + " x step"); !s)
+        return s.error();
       positions.push_back(p);
     }
   }
+  ControlSteps out;
   for (int64_t p : positions) {
     json requested = {{"focus_position", p}};
     add_physical_focus(traits_, p, &requested);
-    add_step({{kFocus, p}}, std::move(requested));
+    out.emplace_back(p, std::move(requested));
   }
-  if (find_control(kFocusAuto)) return add_fixed(kFocusAuto, 0, "a focus stack");
-  return {};
+  return out;
 }
 
-Status PlanBuilder::build_aperture_series() {
-  if (Status s = check_fields({"f_numbers", "iris_positions"}); !s) return s;
-  const device::ControlInfo* c = nullptr;
-  CAMLAB_ASSIGN(c, require_control(kIris, "an aperture series"));
+Result<PlanBuilder::ControlSteps> PlanBuilder::iris_steps(const device::ControlInfo& c) const {
   const bool by_f_number = request_.contains("f_numbers");
   if (by_f_number == request_.contains("iris_positions"))
     return invalid("an aperture series needs either f_numbers or iris_positions");
   const auto& table = traits_.f_number_by_iris_position;
+  ControlSteps out;
   if (by_f_number) {
     if (table.empty())
       return make_error(
           "unsupported",
           "this camera's iris positions have no known f-numbers; ask for iris_positions");
     std::string stops;
-    for (int64_t p = c->minimum; p <= c->maximum && p < static_cast<int64_t>(table.size()); ++p)
+    for (int64_t p = c.minimum; p <= c.maximum && p < static_cast<int64_t>(table.size()); ++p)
       if (p >= 0)
         stops += (stops.empty() ? "f/" : ", f/") + number_text(table[static_cast<size_t>(p)]);
     std::vector<json> items;
@@ -479,8 +481,8 @@ Status PlanBuilder::build_aperture_series() {
       CAMLAB_ASSIGN(n, number(items[i], field));
       if (!(n > 0)) return invalid(field + " must be positive");
       int64_t best = -1;
-      for (int64_t p = std::max<int64_t>(c->minimum, 0);
-           p <= c->maximum && p < static_cast<int64_t>(table.size()); ++p)
+      for (int64_t p = std::max<int64_t>(c.minimum, 0);
+           p <= c.maximum && p < static_cast<int64_t>(table.size()); ++p)
         if (std::abs(table[static_cast<size_t>(p)] / n - 1) <= kFNumberTolerance &&
             (best < 0 || std::abs(table[static_cast<size_t>(p)] - n) <
                              std::abs(table[static_cast<size_t>(best)] - n)))
@@ -488,29 +490,80 @@ Status PlanBuilder::build_aperture_series() {
       if (best < 0)
         return out_of_range(field + " = f/" + number_text(n) +
                             " is not one of this lens's iris stops: " + stops);
-      add_step({{kIris, best}},
-               {{"f_number", table[static_cast<size_t>(best)]}, {"iris_position", best}});
+      out.emplace_back(
+          best, json{{"f_number", table[static_cast<size_t>(best)]}, {"iris_position", best}});
     }
   } else {
     std::vector<int64_t> positions;
-    CAMLAB_ASSIGN(positions, control_values("iris_positions", *c));
+    CAMLAB_ASSIGN(positions, control_values("iris_positions", c));
     for (int64_t p : positions) {
       json requested = {{"iris_position", p}};
       if (p >= 0 && p < static_cast<int64_t>(table.size()))
         requested["f_number"] = table[static_cast<size_t>(p)];
-      add_step({{kIris, p}}, std::move(requested));
+      out.emplace_back(p, std::move(requested));
     }
   }
+  return out;
+}
+
+Status PlanBuilder::build_focus_stack() {
+  if (Status s = check_fields({"positions", "start", "stop", "step"}); !s) return s;
+  const device::ControlInfo* c = nullptr;
+  CAMLAB_ASSIGN(c, require_control(kFocus, "a focus stack"));
+  ControlSteps focus;
+  CAMLAB_ASSIGN(focus, focus_steps(*c));
+  for (auto& [p, requested] : focus) add_step({{kFocus, p}}, std::move(requested));
+  if (find_control(kFocusAuto)) return add_fixed(kFocusAuto, 0, "a focus stack");
+  return {};
+}
+
+Status PlanBuilder::build_aperture_series() {
+  if (Status s = check_fields({"f_numbers", "iris_positions"}); !s) return s;
+  const device::ControlInfo* c = nullptr;
+  CAMLAB_ASSIGN(c, require_control(kIris, "an aperture series"));
+  ControlSteps iris;
+  CAMLAB_ASSIGN(iris, iris_steps(*c));
+  for (auto& [p, requested] : iris) add_step({{kIris, p}}, std::move(requested));
   // Aperture priority would undo the series by changing the exposure time.
   if (find_control(kExposureAuto))
     return add_fixed(kExposureAuto, V4L2_EXPOSURE_MANUAL, "an aperture series");
   return {};
 }
 
+// A lens map's grid: every iris stop x every focus position, the focus stepped inside each
+// stop (one iris move per stop; the lens map reads one focus sweep per f-number).
+Status PlanBuilder::build_lens_map() {
+  if (Status s =
+          check_fields({"f_numbers", "iris_positions", "positions", "start", "stop", "step"});
+      !s)
+    return s;
+  const device::ControlInfo *focus_control = nullptr, *iris_control = nullptr;
+  CAMLAB_ASSIGN(focus_control, require_control(kFocus, "a lens map"));
+  CAMLAB_ASSIGN(iris_control, require_control(kIris, "a lens map"));
+  ControlSteps focus, iris;
+  CAMLAB_ASSIGN(iris, iris_steps(*iris_control));
+  CAMLAB_ASSIGN(focus, focus_steps(*focus_control));
+  if (iris.size() * focus.size() > static_cast<size_t>(kMaxStepsPerPlan))
+    return invalid(std::to_string(iris.size()) + " stops x " + std::to_string(focus.size()) +
+                   " focus positions = " + std::to_string(iris.size() * focus.size()) +
+                   " steps; at most " + std::to_string(kMaxStepsPerPlan));
+  for (const auto& [stop, stop_requested] : iris)
+    for (const auto& [position, focus_requested] : focus) {
+      json requested = stop_requested;
+      requested.update(focus_requested);
+      add_step({{kIris, stop}, {kFocus, position}}, std::move(requested));
+    }
+  if (find_control(kFocusAuto))
+    if (Status s = add_fixed(kFocusAuto, 0, "a lens map"); !s) return s;
+  if (find_control(kExposureAuto))
+    return add_fixed(kExposureAuto, V4L2_EXPOSURE_MANUAL, "a lens map");
+  return {};
+}
+
 Result<CapturePlan> PlanBuilder::build() {
   if (!request_.is_object()) return invalid("the capture request must be a JSON object");
   if (!request_.contains("kind") || !request_["kind"].is_string())
-    return invalid("kind is required: single, bracket, focus_stack or aperture_series");
+    return invalid("kind is required: single, bracket, focus_stack, aperture_series or lens_map");
   plan_.kind = request_["kind"].get<std::string>();
   if (request_.contains("repeats")) {
     int64_t repeats = 0;
@@ -539,9 +592,11 @@ Result<CapturePlan> PlanBuilder::build() {
     built = build_focus_stack();
   else if (plan_.kind == "aperture_series")
     built = build_aperture_series();
+  else if (plan_.kind == "lens_map")
+    built = build_lens_map();
   else
     return invalid("unknown kind '" + plan_.kind +
-                   "' (single, bracket, focus_stack, aperture_series)");
+                   "' (single, bracket, focus_stack, aperture_series, lens_map)");
   if (!built) return built.error();
   for (const auto& step : plan_.steps)
     for (const auto& [name, value] : step.controls)

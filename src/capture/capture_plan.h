@@ -11,6 +11,9 @@
 //                    {"kind": "focus_stack", "start": 0, "stop": 100, "step": 10}
 //   aperture_series  {"kind": "aperture_series", "f_numbers": [2, 2.8, 4]} or
 //                    {"kind": "aperture_series", "iris_positions": [...]}
+//   lens_map         an aperture series' stops x a focus stack's positions, the focus
+//                    stepped inside each stop: {"kind": "lens_map", "f_numbers": [2, 4],
+//                    "start": 15, "stop": 113, "step": 7}
 // Common optional fields: "repeats" (>= 1, pairs for noise statistics), "format"
 // ({"fourcc": "Y16 ", "width": 640, "height": 480, "frame_interval_us": 33333}),
 // "exposure_us" and "gain" (fixed, for the kinds that do not step them), "controls"
@@ -78,7 +81,7 @@ struct CaptureStep {
 };
 
 struct CapturePlan {
-  std::string kind;  // "single", "bracket", "focus_stack", "aperture_series"
+  std::string kind;  // "single", "bracket", "focus_stack", "aperture_series", "lens_map"
   // Resolved by plan_capture to a format the camera lists: a request without one gets the
   // camera's deepest greyscale format (Y16, else GREY, else the first) at its largest size.
   // interval.denominator == 0: the driver's default frame interval.

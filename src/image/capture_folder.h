@@ -104,7 +104,7 @@ class CaptureFolderWriter {
 
   // Creates `dir` (which must not exist, or be empty), its manifest and an empty journal.
   // `kind` says what made the capture ("render", "single", "bracket", "focus_stack",
-  // "aperture_series"); `source` describes the camera; `parameters` the request.
+  // "aperture_series", "lens_map"); `source` describes the camera; `parameters` the request.
   static Result<CaptureFolderWriter> create(const std::filesystem::path& dir,
                                             const std::string& kind, const nlohmann::json& source,
                                             const nlohmann::json& parameters,

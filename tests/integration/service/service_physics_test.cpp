@@ -1,7 +1,8 @@
 // camlabd's captures on the in-process virtual camera against the physics the camera
 // spec implies: exposure brackets linear in T (control latency 3 frames in the spec, so
 // a frame kept too early would show the previous exposure), a focus stack whose sharpest
-// frame is the one the thin lens puts in focus, an aperture series falling as 1/N^2.
+// frame is the one the thin lens puts in focus, an aperture series falling as 1/N^2, a
+// lens map's grid finding the camera's focus surface.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -81,6 +82,60 @@ TEST_F(ServicePhysics, ApertureSeriesSignalFallsAsOneOverNSquared) {
     signal_n2.push_back(signal * n * n);
   }
   for (int i = 1; i < 4; ++i) EXPECT_NEAR(signal_n2[i] / signal_n2[0], 1.0, 0.02) << "frame " << i;
+}
+
+// A lens-map capture (iris stops x focus positions) through camlabd's camera worker on the
+// example camera whose focus surface is tilted 0.4 deg right, -0.25 deg down and curved
+// -15 um at the corner, of the lens-map chart; then the lensmap analysis job on it finds
+// that surface at each stop.
+TEST(ServiceLensMap, ALensMapCaptureAndItsAnalysisFindTheCamerasFocusSurface) {
+  const fs::path dir = fresh_test_dir("service_lens_map");
+  Daemon daemon;
+  ASSERT_TRUE(daemon.start(
+      dir, {"--no-scan", "--camera-spec",
+            CAMLAB_SOURCE_DIR "/mock_device/examples/camera_640x480_field_focus.json", "--scene",
+            CAMLAB_SOURCE_DIR "/mock_device/examples/scene_lensmap_chart.json"}))
+      << daemon.log();
+  const std::string camera = "/v1/cameras/" + url_segment(daemon.camera_id());
+  // A focus stack's fields with an aperture series': refused fields are named.
+  auto bad = daemon.post(camera + "/captures", {{"kind", "lens_map"}, {"start", 15}});
+  EXPECT_EQ(bad.status, 400) << bad.body;
+  auto r = daemon.post(camera + "/captures", {{"kind", "lens_map"},
+                                              {"f_numbers", {1.4, 2.8}},
+                                              {"start", 15},
+                                              {"stop", 113},
+                                              {"step", 7},
+                                              {"exposure_us", 1000}});
+  ASSERT_EQ(r.status, 202) << r.body;
+  const int64_t capture_id = r.json()["id"];
+  const json capture = daemon.wait_finished(capture_id, std::chrono::seconds(120));
+  ASSERT_EQ(capture["state"], "succeeded") << capture.dump();
+  // The grid's order: the focus stepped inside each stop.
+  const DownloadedFrame first = download_frame(daemon, capture_id, 0);
+  const DownloadedFrame second = download_frame(daemon, capture_id, 1);
+  EXPECT_EQ(first.sidecar["settings"]["focus_position"], 15);
+  EXPECT_EQ(second.sidecar["settings"]["focus_position"], 22);
+  EXPECT_NEAR(first.sidecar["settings"]["f_number"].get<double>(), 1.4, 1e-9);
+  EXPECT_NEAR(second.sidecar["settings"]["f_number"].get<double>(), 1.4, 1e-9);
+
+  auto analysis = daemon.post("/v1/analyses", {{"kind", "lensmap"}, {"job", capture_id}});
+  ASSERT_EQ(analysis.status, 202) << analysis.body;
+  const json job = daemon.wait_finished(analysis.json()["id"], std::chrono::seconds(120));
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  const json& surfaces = job["result"]["report"]["surfaces"];
+  ASSERT_EQ(surfaces.size(), 2u) << job.dump().substr(0, 2000);
+  for (const json& s : surfaces) {
+    const json& at_sensor = s["at_sensor"];
+    std::printf("f/%g: tilt %.4f %.4f deg, curvature %.2f um, astigmatism %.2f um\n",
+                s["f_number"].get<double>(), at_sensor["tilt_x_deg"].get<double>(),
+                at_sensor["tilt_y_deg"].get<double>(), at_sensor["curvature_um"].get<double>(),
+                at_sensor["astigmatism_um"].get<double>());
+    EXPECT_NEAR(at_sensor["tilt_x_deg"].get<double>(), 0.4, 0.05);
+    EXPECT_NEAR(at_sensor["tilt_y_deg"].get<double>(), -0.25, 0.05);
+    EXPECT_NEAR(at_sensor["curvature_um"].get<double>(), -15, 1.5);
+  }
+  daemon.stop(SIGTERM);
+  fs::remove_all(dir);
 }
 
 }  // namespace

@@ -136,6 +136,47 @@ TEST_F(CapturePlanTest, ApertureSeriesMatchesFNumbersToIrisStops) {
   expect_error({{"kind", "aperture_series"}, {"iris_positions", {9}}}, "out_of_range", "[0, 7]");
 }
 
+TEST_F(CapturePlanTest, LensMapIsEveryStopTimesEveryFocusPositionFocusInside) {
+  auto p = plan({{"kind", "lens_map"},
+                 {"f_numbers", {2, 5.6}},
+                 {"start", 0},
+                 {"stop", 100},
+                 {"step", 50},
+                 {"exposure_us", 2000}});
+  ASSERT_TRUE(p.ok()) << p.error().message;
+  ASSERT_EQ(p->steps.size(), 6u);
+  const int64_t iris[6] = {6, 6, 6, 3, 3, 3}, focus[6] = {0, 50, 100, 0, 50, 100};
+  for (size_t i = 0; i < 6; ++i) {
+    EXPECT_EQ(p->steps[i].controls.at("iris_absolute"), iris[i]) << i;
+    EXPECT_EQ(p->steps[i].controls.at("focus_absolute"), focus[i]) << i;
+    EXPECT_EQ(p->steps[i].requested["focus_position"], focus[i]) << i;
+    EXPECT_EQ(p->steps[i].labels["step_index"], static_cast<int>(i));
+  }
+  EXPECT_EQ(p->steps[4].requested["f_number"], 5.6);
+  EXPECT_NEAR(p->steps[5].requested["focus_distance_m"].get<double>(), 0.648, 1e-9);
+  EXPECT_EQ(p->fixed_controls.at("focus_automatic_continuous"), 0);
+  EXPECT_EQ(p->fixed_controls.at("auto_exposure"), 1);
+  // Each half is checked as its own kind checks it, and both halves are needed.
+  expect_error({{"kind", "lens_map"}, {"f_numbers", {3}}, {"positions", {0}}}, "out_of_range",
+               "f/16, f/11");
+  expect_error({{"kind", "lens_map"}, {"f_numbers", {2}}, {"positions", {5000}}}, "out_of_range",
+               "[0, 2000]");
+  expect_error({{"kind", "lens_map"}, {"positions", {0, 10}}}, "invalid_request",
+               "f_numbers or iris_positions");
+  expect_error({{"kind", "lens_map"}, {"f_numbers", {2}}}, "invalid_request",
+               "positions, or start, stop and step");
+  expect_error(
+      {{"kind", "lens_map"}, {"f_numbers", {2}}, {"positions", {0}}, {"exposures_us", {1}}},
+      "invalid_request");
+  // 8 stops x 126 positions: over the 1000 steps a capture may have.
+  expect_error({{"kind", "lens_map"},
+                {"iris_positions", {0, 1, 2, 3, 4, 5, 6, 7}},
+                {"start", 0},
+                {"stop", 1250},
+                {"step", 10}},
+               "invalid_request", "at most 1000");
+}
+
 TEST_F(CapturePlanTest, MalformedRequestsAreInvalid) {
   expect_error(json::array(), "invalid_request");
   expect_error({{"repeats", 1}}, "invalid_request", "kind is required");
