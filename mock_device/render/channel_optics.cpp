@@ -7,6 +7,12 @@
 
 namespace camlab::mock {
 
+double channel_image_scale(const CameraSpec& camera, int channel) {
+  if (channel < 0 || channel > 2) return 1;
+  const double half_diagonal_px = 0.5 * std::hypot(camera.sensor.width_px, camera.sensor.height_px);
+  return 1 + camera.lens.lateral_colour_px[static_cast<size_t>(channel)] / half_diagonal_px;
+}
+
 Result<ChannelOptics> channel_optics(const CameraSpec& camera, int channel, double f_number,
                                      double lens_to_sensor_mm) {
   ChannelOptics o;

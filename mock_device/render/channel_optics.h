@@ -39,6 +39,10 @@ struct ChannelOptics {
   double coc_mm(double object_mm) const;
 };
 
+// Channel c's image scale about the principal point (lateral colour,
+// lens.lateral_colour_px): 1 + shift / half diagonal (px); 1 for kGrey.
+double channel_image_scale(const CameraSpec& camera, int channel);
+
 // `channel` kRed, kGreen, kBlue or kGrey; lens_to_sensor_mm >= the nominal focal length.
 Result<ChannelOptics> channel_optics(const CameraSpec& camera, int channel, double f_number,
                                      double lens_to_sensor_mm);

@@ -210,6 +210,10 @@ nlohmann::json channels_truth(const TruthInputs& in) {
     channels[kNames[c]] = {
         {"focal_mm", ch.optics.focal_mm},
         {"focus_shift_mm", camera.lens.chromatic_focus_shift_mm[static_cast<size_t>(c)]},
+        // Lateral colour: the channel's image is this times the nominal one about the
+        // principal point (lens.lateral_colour_px at the half diagonal).
+        {"lateral_colour_px", camera.lens.lateral_colour_px[static_cast<size_t>(c)]},
+        {"image_scale", channel_image_scale(camera, c)},
         // null at infinity; negative beyond it (channel_optics.h)
         {"focus_distance_m", std::isfinite(s_mm) ? nlohmann::json(s_mm / 1e3) : nullptr},
         {"quantum_efficiency", ch.quantum_efficiency},

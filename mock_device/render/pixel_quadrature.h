@@ -28,14 +28,15 @@ inline bool pixel_valid(const ChiefRayTable& rays, int x, int y) {
          rays.valid(x + 1, y + 1);
 }
 
-// One pixel's chief rays at its corners (00, 10, 01, 11) in normalised coordinates.
+// One pixel's chief rays at its corners (00, 10, 01, 11) in normalised coordinates, times
+// `scale` (a colour channel's ChannelSetup::ray_scale: lateral colour).
 struct PixelCorners {
   double x[4], y[4];
-  PixelCorners(const ChiefRayTable& rays, int px, int py) {
+  PixelCorners(const ChiefRayTable& rays, int px, int py, double scale = 1) {
     const int ix[4] = {px, px + 1, px, px + 1}, iy[4] = {py, py, py + 1, py + 1};
     for (int i = 0; i < 4; ++i) {
-      x[i] = rays.xn(ix[i], iy[i]);
-      y[i] = rays.yn(ix[i], iy[i]);
+      x[i] = rays.xn(ix[i], iy[i]) * scale;
+      y[i] = rays.yn(ix[i], iy[i]) * scale;
     }
   }
   // The chief ray at (a, b) inside the pixel, bilinear in the corners.
@@ -81,7 +82,7 @@ template <class Trace>
 double sample_pixel(const IntegratorSetup& s, int x, int y, const ChannelSetup& c, int lens_grid,
                     int area_grid, int* strata, Trace&& trace) {
   const ChiefRayTable& rays = *s.rays;
-  const PixelCorners corners(rays, x, y);
+  const PixelCorners corners(rays, x, y, c.ray_scale);
   const bool lens = lens_grid > 0;
   const int grid = lens ? lens_grid : area_grid;
   const int n = grid * grid;
@@ -115,7 +116,7 @@ template <class Trace>
 void sample_pixel_cells(const IntegratorSetup& s, int x, int y, const ChannelSetup& c, int grid,
                         int* strata, Trace&& trace, float* dst) {
   const ChiefRayTable& rays = *s.rays;
-  const PixelCorners corners(rays, x, y);
+  const PixelCorners corners(rays, x, y, c.ray_scale);
   const int n = grid * grid;
   SplitMix64 rng(mix_seed(s.seed, static_cast<uint64_t>(y) * rays.width_px() + x));
   const std::vector<ApertureRegion>& cells = *s.cells;

@@ -102,6 +102,11 @@ struct AdaptiveContext {
   std::array<double, 4> q;  // 1/s by channel
   double q_min, q_max;      // over the channels of the cell
   RegionValues background;
+  double scale_min = 1, scale_max = 1;  // ray_scale over the channels of the cell
+
+  double ray_scale(int channel) const {
+    return setup->channels[static_cast<size_t>(channel)].ray_scale;
+  }
 
   // 1/s of `channel` at corner coordinates (x, y): the channel's own without a focus
   // surface.
@@ -133,6 +138,10 @@ struct AdaptiveContext {
   }
 };
 
+int channel_at(const AdaptiveContext& ctx, int x, int y) {
+  return ctx.cell[static_cast<size_t>(2 * (y & 1) + (x & 1))];
+}
+
 // The mean coverage of the edge's positive side over pixel (x, y) from its corners' edge
 // terms, sampling the pixel's area (exact in the lens) where the closed form is not
 // accurate enough.
@@ -154,7 +163,7 @@ double edge_coverage_of_pixel(const AdaptiveContext& ctx, const EdgeTerms corner
   ++st.edge_sampled_pixels;
   const int grid = kEdgeAreaGrid;
   st.evaluations += grid * grid;
-  const PixelCorners corners(rays, x, y);
+  const PixelCorners corners(rays, x, y, ctx.ray_scale(channel_at(ctx, x, y)));
   SplitMix64 rng(mix_seed(s.seed, static_cast<uint64_t>(y) * rays.width_px() + x));
   double sum = 0;
   for (int k = 0; k < grid * grid; ++k) {
@@ -207,7 +216,7 @@ void edge_coverage_of_pixel_cells(const AdaptiveContext& ctx, const EdgeTerms co
   ++st.edge_sampled_pixels;
   const int grid = kEdgeAreaGrid;
   st.evaluations += static_cast<long>(grid * grid * n);
-  const PixelCorners corners(rays, x, y);
+  const PixelCorners corners(rays, x, y, ctx.ray_scale(channel_at(ctx, x, y)));
   SplitMix64 rng(mix_seed(s.seed, static_cast<uint64_t>(y) * rays.width_px() + x));
   std::fill(cov, cov + n, 0.0);
   for (int k = 0; k < grid * grid; ++k) {
@@ -240,10 +249,6 @@ void fill_edge_pixel(const AdaptiveContext& ctx, const EdgeTerms corners_terms[4
   for (size_t k = 0; k < n; ++k) dst[k] = static_cast<float>(lo + (hi - lo) * cov[k]);
 }
 
-int channel_at(const AdaptiveContext& ctx, int x, int y) {
-  return ctx.cell[static_cast<size_t>(2 * (y & 1) + (x & 1))];
-}
-
 // Pixels [x0, x1) x [y0, y1) whose rays all see one straight edge between two values:
 // the edge's terms at every pixel corner once (per channel), then each pixel's coverage.
 void fill_edge_region(const AdaptiveContext& ctx, const Footprint& fp, int x0, int x1, int y0,
@@ -261,11 +266,12 @@ void fill_edge_region(const AdaptiveContext& ctx, const Footprint& fp, int x0, i
       const double q = ctx.q_at(channel, x + 0.5, y + 0.5);
       EdgeTerms* t = terms[channel];
       if (!done[channel]) {
+        const double scale = ctx.ray_scale(channel);
         for (int j = y0; j <= y1; ++j)
           for (int i = x0; i <= x1; ++i)
             t[(i - x0) + kSide * (j - y0)] =
-                aperture_edge_terms(fp.edge, rays.xn(i, j), rays.yn(i, j), s.aperture_radius_m,
-                                    ctx.q_at(channel, i, j));
+                aperture_edge_terms(fp.edge, rays.xn(i, j) * scale, rays.yn(i, j) * scale,
+                                    s.aperture_radius_m, ctx.q_at(channel, i, j));
         done[channel] = true;
       }
       const int k = (x - x0) + kSide * (y - y0);
@@ -302,7 +308,7 @@ void integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candid
   const int channel = channel_at(ctx, x, y);
   const ChannelSetup c = channel_at_pixel(s, s.channels[static_cast<size_t>(channel)], x, y);
   const double q = ctx.q_at(channel, x + 0.5, y + 0.5);
-  const PixelCorners corners(rays, x, y);
+  const PixelCorners corners(rays, x, y, c.ray_scale);
   FootprintQuery query;
   query.mx0 = std::min({corners.x[0], corners.x[1], corners.x[2], corners.x[3]});
   query.mx1 = std::max({corners.x[0], corners.x[1], corners.x[2], corners.x[3]});
@@ -439,6 +445,14 @@ void integrate_region(const AdaptiveContext& ctx, int x0, int x1, int y0, int y1
         query.my1 = std::max<double>(query.my1, rays.yn(i, j));
       }
   }
+  // Lateral colour: the box of the region's rays as the cell's channels see them.
+  if (ctx.scale_min != 1 || ctx.scale_max != 1) {
+    const double x0n = query.mx0, x1n = query.mx1, y0n = query.my0, y1n = query.my1;
+    query.mx0 = std::min(x0n * ctx.scale_min, x0n * ctx.scale_max);
+    query.mx1 = std::max(x1n * ctx.scale_min, x1n * ctx.scale_max);
+    query.my0 = std::min(y0n * ctx.scale_min, y0n * ctx.scale_max);
+    query.my1 = std::max(y1n * ctx.scale_min, y1n * ctx.scale_max);
+  }
   int* hits = scratch.hits[level].data();
   int hit_count = candidate_count;
   if (valid) {
@@ -506,7 +520,10 @@ cv::Mat integrate_reflectance(const IntegratorSetup& setup, IntegratorStats* sta
     ctx.background.by_channel[c] = setup.channels[static_cast<size_t>(c)].background_reflectance;
   }
   ctx.q_min = ctx.q_max = ctx.q[static_cast<size_t>(ctx.cell[0])];
+  ctx.scale_min = ctx.scale_max = ctx.ray_scale(ctx.cell[0]);
   for (int channel : ctx.cell) {
+    ctx.scale_min = std::min(ctx.scale_min, ctx.ray_scale(channel));
+    ctx.scale_max = std::max(ctx.scale_max, ctx.ray_scale(channel));
     ctx.q_min = std::min(ctx.q_min, ctx.q[static_cast<size_t>(channel)]);
     ctx.q_max = std::max(ctx.q_max, ctx.q[static_cast<size_t>(channel)]);
   }

@@ -58,6 +58,10 @@ struct ChannelSetup {
   // The channel's focal length, read with a focus surface only (IntegratorSetup::
   // field_focus), where each pixel's plane of focus is its own.
   double focal_mm = 0;
+  // Lateral colour: the channel sees through the chief rays' normalised coordinates times
+  // this (1 / the channel's image scale), so its image is 1 / ray_scale times the
+  // nominal one about the principal point.
+  double ray_scale = 1;
 };
 
 struct IntegratorSetup {

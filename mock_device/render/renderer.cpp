@@ -313,6 +313,7 @@ Result<Renderer::FramePlan> Renderer::plan_frame(const RenderSettings& settings,
       stats.max_coc_px = std::max(stats.max_coc_px, max_coc_px);
       ChannelSetup& channel = setup.channels[static_cast<size_t>(c)];
       channel.focal_mm = optics->focal_mm;
+      channel.ray_scale = 1 / channel_image_scale(camera_, c);
       channel.background_reflectance = scene_.background.rgb[static_cast<size_t>(c)];
       channel.focus_distance_m = optics->focus_distance_mm * 1e-3;
       channel.lens_grid = lens_grid_for(max_coc_px);

@@ -131,6 +131,17 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
     for (int c = 0; c < 3; ++c) lens.chromatic_focus_shift_mm[c] = shift[c];
   }
 
+  if (f.has("lateral_colour_px")) {
+    if (!sensor.is_colour())
+      return make_error("invalid_argument",
+                        f.path_of("lateral_colour_px") +
+                            " needs a colour sensor (camera.sensor.cfa): a monochrome sensor "
+                            "sees every colour at once, which the virtual camera does not model");
+    // A real lens's lateral colour is a few pixels at the corner at most.
+    std::vector<double> shift;
+    CAMLAB_ASSIGN(shift, f.numbers("lateral_colour_px", 3, 3, -20, 20));
+    for (int c = 0; c < 3; ++c) lens.lateral_colour_px[static_cast<size_t>(c)] = shift[c];
+  }
   // Tilt and curvature of the best-focus surface. Bounds far beyond real lenses (a module's
   // tilt is a few tenths of a degree, its curvature tens of um) that keep every point's
   // lens-to-sensor distance a thin lens's.

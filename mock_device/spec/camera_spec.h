@@ -87,6 +87,11 @@ struct LensSpec {
   // channel is a thin lens of focal length f_c = focal_mm + shift_c sharing the nominal
   // aperture (A = focal_mm / N); docs/virtual-camera.md.
   std::array<double, 3> chromatic_focus_shift_mm = {0, 0, 0};
+  // Lateral chromatic aberration (colour sensors): how far each channel's image lies
+  // radially outward (+) of the nominal one at the imager's corner (the half diagonal),
+  // in px, growing in proportion to the distance from the principal point: channel c's
+  // image scale is 1 + lateral_colour_px[c] / half_diagonal_px.
+  std::array<double, 3> lateral_colour_px = {0, 0, 0};
   FieldFocusSpec field_focus;
 
   // Channel c's focal length (c = 0, 1, 2 for R, G, B).

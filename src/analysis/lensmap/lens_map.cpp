@@ -240,6 +240,70 @@ Result<FocusSurface> fit_surface(FocusSurface surface, double width_px, double h
 
 json number_or_null(const std::optional<double>& v) { return v ? json(*v) : json(nullptr); }
 
+// One edge fit's lateral-colour samples: for R and B, (r.n, (o_c - o_G).n) with n the
+// edge's normal, r its centre from the image centre and o the channels' offsets across the
+// luminance's line (offset_px); both change sign with n, so its direction does not matter.
+void add_lateral_samples(const json& edge, const json& channels, double centre_x, double centre_y,
+                         std::array<std::vector<std::pair<double, double>>, 2>* samples) {
+  const json centre = edge.value("centre_px", json());
+  if (!centre.is_array() || centre.size() != 2 || !centre[0].is_number() ||
+      !centre[1].is_number() || !edge.contains("angle_deg") || !edge["angle_deg"].is_number())
+    return;
+  auto offset = [&](const char* name) -> std::optional<std::array<double, 2>> {
+    const json c = channels.value(name, json());
+    if (!c.is_object() || c.value("status", std::string()) != kSfrOk) return std::nullopt;
+    const json o = c.value("offset_px", json());
+    if (!o.is_array() || o.size() != 2 || !o[0].is_number() || !o[1].is_number())
+      return std::nullopt;
+    return std::array<double, 2>{o[0].get<double>(), o[1].get<double>()};
+  };
+  const auto green = offset("G");
+  if (!green) return;
+  const double a = edge["angle_deg"].get<double>() * std::numbers::pi / 180;
+  const double nx = -std::sin(a), ny = std::cos(a);
+  const double r_n =
+      (centre[0].get<double>() - centre_x) * nx + (centre[1].get<double>() - centre_y) * ny;
+  for (int k = 0; k < 2; ++k)
+    if (const auto c = offset(k == 0 ? "R" : "B"))
+      (*samples)[static_cast<size_t>(k)].emplace_back(
+          r_n, ((*c)[0] - (*green)[0]) * nx + ((*c)[1] - (*green)[1]) * ny);
+}
+
+// The channel's image scale against green's, s, from d = s r.n over the samples (least
+// squares through the origin; samples more than 5 robust deviations off refitted once),
+// given as the radial shift at the corner, s x half diagonal, with its standard error.
+void fit_lateral_colour(const std::vector<std::pair<double, double>>& samples,
+                        double half_diagonal_px, ChannelFocus* channel) {
+  std::vector<std::pair<double, double>> used = samples;
+  double s = 0, sigma = 0;
+  size_t fitted = 0;  // samples in the last fit
+  for (int round = 0; round < 2; ++round) {
+    if (used.size() < 5) return;
+    fitted = used.size();
+    double sxx = 0, sxd = 0;
+    for (const auto& [x, d] : used) sxx += x * x, sxd += x * d;
+    if (!(sxx > 0)) return;
+    s = sxd / sxx;
+    std::vector<double> residual;
+    double ss = 0;
+    for (const auto& [x, d] : used) {
+      residual.push_back(std::fabs(d - s * x));
+      ss += (d - s * x) * (d - s * x);
+    }
+    sigma = std::sqrt(ss / static_cast<double>(used.size() - 1) / sxx);
+    std::nth_element(residual.begin(), residual.begin() + residual.size() / 2, residual.end());
+    const double bound = 5 * 1.4826 * residual[residual.size() / 2];
+    std::vector<std::pair<double, double>> kept;
+    for (const auto& [x, d] : used)
+      if (std::fabs(d - s * x) <= bound) kept.emplace_back(x, d);
+    if (kept.size() == used.size()) break;
+    used = std::move(kept);
+  }
+  channel->lateral_px_at_corner = s * half_diagonal_px;
+  channel->lateral_px_sigma = sigma * half_diagonal_px;
+  channel->lateral_samples = static_cast<int>(fitted);
+}
+
 // Each colour channel's best focus: its edges' best foci (placed where the luminance found
 // them), its own surface through them, and R and B against G edge by edge.
 std::vector<ChannelFocus> channel_foci(const FocusSurface& luminance,
@@ -307,6 +371,11 @@ Result<std::vector<FocusSurface>> focus_surfaces(const json& sfr_report) {
   // colour channel (index 0, 1, 2: R, G, B) when the frames are colour.
   std::map<double, std::map<std::string, EdgeSeries>> groups;
   std::map<double, std::array<std::map<std::string, EdgeSeries>, 3>> channel_groups;
+  // f-number -> R and B (0, 1) -> (the edge's distance from the centre along its normal,
+  // the channel's offset across the edge from green's), per measured edge fit.
+  std::map<double, std::array<std::vector<std::pair<double, double>>, 2>> lateral;
+  const double centre_x = 0.5 * (size[0].get<double>() - 1),
+               centre_y = 0.5 * (size[1].get<double>() - 1);
   std::map<double, std::vector<double>> positions;
   for (const json& frame : sfr_report.value("frames", json::array())) {
     const json settings = frame.value("settings", json::object());
@@ -333,6 +402,8 @@ Result<std::vector<FocusSurface>> focus_surfaces(const json& sfr_report) {
         series.edge.field = e.value("field", std::string());
       }
       const json channels = e.value("channels", json());
+      if (channels.is_object() && measured)
+        add_lateral_samples(e, channels, centre_x, centre_y, &lateral[n]);
       if (channels.is_object())
         for (int c = 0; c < 3; ++c) {
           const json ch = channels.value(kChannelNames[c], json());
@@ -369,9 +440,14 @@ Result<std::vector<FocusSurface>> focus_surfaces(const json& sfr_report) {
     auto fitted = fit_surface(std::move(surface), size[0].get<double>(), size[1].get<double>(),
                               p[distinct - 1] - p[0]);
     if (!fitted) return fitted.error();
-    if (auto it = channel_groups.find(n); it != channel_groups.end())
+    if (auto it = channel_groups.find(n); it != channel_groups.end()) {
       fitted->channels = channel_foci(*fitted, &it->second, size[0].get<double>(),
                                       size[1].get<double>(), p[distinct - 1] - p[0]);
+      const double half_diagonal = 0.5 * std::hypot(size[0].get<double>(), size[1].get<double>());
+      for (int k = 0; k < 2; ++k)
+        fit_lateral_colour(lateral[n][static_cast<size_t>(k)], half_diagonal,
+                           &fitted->channels[static_cast<size_t>(2 * k)]);
+    }
     out.push_back(std::move(*fitted));
   }
   if (out.empty())
@@ -454,7 +530,7 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
     std::string colour_text;  // after the surface's lines
     if (!s.channels.empty()) {
       json channels = json::array();
-      std::string colour;
+      std::string colour, lateral;
       for (const ChannelFocus& c : s.channels) {
         channels.push_back(
             {{"channel", c.channel},
@@ -463,15 +539,25 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
              {"centre_focus_standard_error", c.centre_focus_sigma},
              {"focus_minus_green", number_or_null(c.minus_green)},
              {"focus_minus_green_standard_error", number_or_null(c.minus_green_sigma)},
-             {"edges_paired", c.edges_paired}});
+             {"edges_paired", c.edges_paired},
+             {"lateral_colour_px_at_corner", number_or_null(c.lateral_px_at_corner)},
+             {"lateral_colour_px_standard_error", number_or_null(c.lateral_px_sigma)},
+             {"lateral_samples", c.lateral_samples}});
         if (c.minus_green)
           colour += format_printf(" %s %+.3f +- %.3f (%d edges)", c.channel.c_str(), *c.minus_green,
                                   c.minus_green_sigma.value_or(0), c.edges_paired);
+        if (c.lateral_px_at_corner)
+          lateral += format_printf(" %s %+.3f +- %.3f px (%d edge fits)", c.channel.c_str(),
+                                   *c.lateral_px_at_corner, c.lateral_px_sigma.value_or(0),
+                                   c.lateral_samples);
       }
       surface["channels"] = std::move(channels);
       if (!colour.empty())
         colour_text = format_printf(
             "  longitudinal colour, best focus minus green's (focus units):%s\n", colour.c_str());
+      if (!lateral.empty())
+        colour_text += format_printf(
+            "  lateral colour, image outward of green's at the corner:%s\n", lateral.c_str());
     }
     std::string astig = "-";
     if (s.curvature_sagittal && s.curvature_meridional) {

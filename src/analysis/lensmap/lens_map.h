@@ -65,6 +65,12 @@ struct ChannelFocus {
   double centre_focus = 0, centre_focus_sigma = 0;       // the channel's own surface on the axis
   std::optional<double> minus_green, minus_green_sigma;  // R and B: focus units
   int edges_paired = 0;                                  // edges in the difference
+  // Lateral colour (R and B): how far the channel's image lies radially outward of green's
+  // at the imager's corner (px), fitted over every frame's edges as s r.n: each edge's
+  // offset across its line from green's (the SFR's per-channel offset_px) against its
+  // distance from the centre along its normal.
+  std::optional<double> lateral_px_at_corner, lateral_px_sigma;
+  int lateral_samples = 0;  // edge fits (frames x edges) in the fit
 };
 
 struct FocusSurface {

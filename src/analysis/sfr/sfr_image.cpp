@@ -156,6 +156,8 @@ Status channel_sfr(const cv::Mat& stored, const image::FrameSidecar& side, const
         c["mtf50_cy_px"] = optional_number(r->mtf50_cy_px);
         c["mtf30_cy_px"] = optional_number(r->mtf30_cy_px);
         c["mtf10_cy_px"] = optional_number(r->mtf10_cy_px);
+        // The channel's edge off the luminance's line (lateral colour): image px.
+        c["offset_px"] = {r->offset_x_px, r->offset_y_px};
       } else {
         c["message"] = r->message;
       }

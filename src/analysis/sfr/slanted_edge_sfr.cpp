@@ -274,6 +274,19 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
                          : 0.5 * (1 + std::cos(std::numbers::pi * (u - flat_bins) / taper_bins));
     lsf[static_cast<size_t>(k)] *= w;
   }
+  {
+    // The windowed spread's centroid (the noise past the spread left out), back to a
+    // distance from the line: bin k holds d = (k + 0.5) / os - hw. d grows along the
+    // working view's +x, so along (1, -b) / norm there, (-b, 1) / norm in a transposed view.
+    double m = 0, w = 0;
+    for (int k = 0; k < bins; ++k)
+      m += k * lsf[static_cast<size_t>(k)], w += lsf[static_cast<size_t>(k)];
+    if (w > 0) {
+      const double d = (m / w + 0.5) / os - hw;
+      r.offset_x_px = d * (transposed ? -line.b : 1.0) / norm;
+      r.offset_y_px = d * (transposed ? 1.0 : -line.b) / norm;
+    }
+  }
 
   // Step 5: the SFR.
   const double bin_px = 1.0 / os;

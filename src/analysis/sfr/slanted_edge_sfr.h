@@ -63,6 +63,11 @@ struct SfrResult {
   double angle_deg = 0;  // the edge's direction in the image, (-90, 90], 0 = along +x
   double slant_deg = 0;  // off the nearest pixel axis, 0..45
   double centre_x_px = 0, centre_y_px = 0;
+  // Where the edge lies across the line it was measured on: the windowed line spread's
+  // centroid, as a vector along the line's normal (image px). ~0 on its own line; for one
+  // colour measured on the luminance's line, how far that colour's edge sits from it
+  // (lateral colour).
+  double offset_x_px = 0, offset_y_px = 0;
   double rise_10_90_px = 0;                                     // the ESF's 10-90% rise distance
   double contrast = 0;                                          // light - dark level of the ESF
   std::vector<double> frequency_cy_px, sfr;                     // the curve, 0 to 1 cycle/px

@@ -128,10 +128,14 @@ TEST(LensMapCapture, TiltedCurvedFocusSurfaceOfTheVirtualLensIsFoundAtEveryApert
 
 // Longitudinal colour on the colour example camera (RGGB raw frames): R focuses 0.02 mm
 // behind the nominal 8 mm lens and B 0.015 mm in front of it, so at 1 m R's best focus is
-// z_i,R - z_i,G = 20.32 steps beyond green's and B's 15.24 short of it.
-TEST(LensMapCapture, LongitudinalColourIsEachChannelsThinLensFocusAgainstGreens) {
-  const nlohmann::json camera =
+// z_i,R - z_i,G = 20.32 steps beyond green's and B's 15.24 short of it. With lateral
+// colour added (R's image 0.8 px outward of G's at the corner, B's 0.5 px inward), each
+// channel's edges move across their lines by that scale.
+TEST(LensMapCapture, LongitudinalAndLateralColourAreEachChannelsAgainstGreens) {
+  nlohmann::json camera =
       read_json(CAMLAB_SOURCE_DIR "/mock_device/examples/camera_colour_640x480.json");
+  const double lateral_r_px = 0.8, lateral_b_px = -0.5;
+  camera["lens"]["lateral_colour_px"] = {lateral_r_px, 0.0, lateral_b_px};
   const auto dir = testing::fresh_dir("lens_map_colour");
   ASSERT_EQ(render_lens_map_capture(camera, dir, {2, 2.8}, 4), 30);
   auto map = analyze_lens_map(dir, LensMapOptions{});
@@ -163,6 +167,16 @@ TEST(LensMapCapture, LongitudinalColourIsEachChannelsThinLensFocusAgainstGreens)
       EXPECT_NEAR(measured, truth, (n < 2.5 ? 0.03 : 0.06) * sweep_step) << name << " f/" << n;
       EXPECT_NEAR(s["at_sensor"]["longitudinal_colour_um"][name].get<double>(),
                   truth * step_mm * 1e3, 1e-9 + 1e3 * step_mm * 8 * sigma);
+      // Lateral colour: within 4 standard errors and 0.02 px (the issue's bound).
+      const double lateral_truth = name == "R" ? lateral_r_px : lateral_b_px;
+      const double lateral = c["lateral_colour_px_at_corner"].get<double>();
+      const double lateral_sigma = c["lateral_colour_px_standard_error"].get<double>();
+      std::printf("f/%.1f %s: lateral colour %.4f +- %.4f px at the corner (truth %.1f), %d fits\n",
+                  n, name.c_str(), lateral, lateral_sigma, lateral_truth,
+                  c["lateral_samples"].get<int>());
+      EXPECT_NEAR(lateral, lateral_truth, 4 * lateral_sigma) << name << " f/" << n;
+      EXPECT_NEAR(lateral, lateral_truth, 0.02) << name << " f/" << n;
+      EXPECT_GE(c["lateral_samples"].get<int>(), 300) << name << " f/" << n;
     }
   }
   std::filesystem::remove_all(dir);
