@@ -89,6 +89,7 @@ void run_lensmap(const AnalyzeArgs& args) {
   o.sfr.min_edge_length_px = args.min_edge_px;
   o.lensmap.pixel_pitch_um = args.pixel_um;
   o.lensmap.extension_mm_per_step = args.focus_step_mm;
+  o.plots_dir = args.plots_dir;
   const auto result = errors.take(analysis::analyze("lensmap", args.dir, o));
   emit(errors, args, result.report, result.text);
 }
@@ -185,6 +186,9 @@ void register_analyze_command(CLI::App& app) {
       ->check(CLI::ExistingDirectory);
   lensmap->add_flag("--json", args->json, "print the report as JSON");
   lensmap->add_option("--report", args->report_path, "also write the JSON report to this file");
+  lensmap->add_option("--plots", args->plots_dir,
+                      "write PNG plots into this folder: per f-number the best-focus surface "
+                      "over the imager and every edge's MTF50 through focus");
   lensmap
       ->add_option("--pixel-um", args->pixel_um,
                    "pixel pitch in micrometres (default: the capture's camera spec's)")

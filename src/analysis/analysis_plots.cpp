@@ -204,4 +204,82 @@ Result<Paths> write_focus_plots(const fs::path& dir, const FocusReport& r) {
   return written;
 }
 
+Result<Paths> write_lens_map_plots(const fs::path& dir, const nlohmann::json& report) {
+  if (Status s = make_dir(dir); !s) return s.error();
+  Paths written;
+  const nlohmann::json& size = report["size_px"];
+  if (!size.is_array() || size.size() != 2) return written;
+  const double width = size[0].get<double>(), height = size[1].get<double>();
+  const double cx = 0.5 * (width - 1), cy = 0.5 * (height - 1);
+  const double half_diagonal = 0.5 * std::hypot(width, height);
+  for (const nlohmann::json& s : report["surfaces"]) {
+    const double n = s["f_number"].is_number() ? s["f_number"].get<double>() : 0.0;
+    std::string tag = n > 0 ? format_printf("f%.3g", n) : std::string("f-");
+    std::replace(tag.begin(), tag.end(), '.', '_');
+    const std::string stop = n > 0 ? format_printf("f/%.3g", n) : std::string("unknown f-number");
+
+    // The surface p0 + tx u + ty v + c rho^2 on a grid over the imager (the medial surface
+    // when sagittal and meridional are apart), the edges where they are.
+    PlotSpec map;
+    map.title = "best focus over the field, " + stop;
+    map.x_label = "x (px)";
+    map.y_label = "y (px)";
+    map.y_down = true;
+    map.equal_aspect = true;
+    map.x_range = std::pair<double, double>{0, width};
+    map.y_range = std::pair<double, double>{0, height};
+    PlotHeatmap heat;
+    heat.cols = 64;
+    heat.rows = std::max(2, static_cast<int>(std::lround(64 * height / width)));
+    heat.x0 = 0, heat.x1 = width, heat.y0 = 0, heat.y1 = height;
+    heat.label = "focus (steps)";
+    const double p0 = s["centre_focus"], tx = s["tilt_x_per_half_diagonal"],
+                 ty = s["tilt_y_per_half_diagonal"], c = s["curvature_at_corner"];
+    for (int j = 0; j < heat.rows; ++j)
+      for (int i = 0; i < heat.cols; ++i) {
+        const double x = (i + 0.5) * width / heat.cols, y = (j + 0.5) * height / heat.rows;
+        const double u = (x - 0.5 - cx) / half_diagonal, v = (y - 0.5 - cy) / half_diagonal;
+        heat.values.push_back(p0 + tx * u + ty * v + c * (u * u + v * v));
+      }
+    map.heatmap = heat;
+    PlotSeries used = series("edges used", false, 0xffffff),
+               left = series("left out", false, 0x0000ff);
+    used.marker_px = left.marker_px = 4;
+    for (const nlohmann::json& e : s["edges"]) {
+      PlotSeries& into = e["status"] == "ok" ? used : left;
+      into.x.push_back(e["centre_px"][0].get<double>() + 0.5);
+      into.y.push_back(e["centre_px"][1].get<double>() + 0.5);
+    }
+    for (PlotSeries* p : {&used, &left})
+      if (!p->x.empty()) map.series.push_back(*p);
+    if (Status st = plot(dir / ("lensmap_surface_" + tag + ".png"), map, &written); !st)
+      return st.error();
+
+    // MTF50 through focus: one line an edge, sagittal blue, meridional red, the rest grey;
+    // a legend entry per class.
+    PlotSpec curves;
+    curves.title = "MTF50 through focus, " + stop;
+    curves.x_label = "focus position (steps)";
+    curves.y_label = "MTF50 (cycles/px)";
+    bool labelled[3] = {false, false, false};
+    for (const nlohmann::json& e : s["edges"]) {
+      const std::string field = e.value("field", std::string());
+      const int k = field == "sagittal" ? 0 : field == "meridional" ? 1 : 2;
+      static const int colours[3] = {0xc00000, 0x0000c0, 0x808080};
+      static const char* const names[3] = {"sagittal edges", "meridional edges", "other edges"};
+      PlotSeries line = series(labelled[k] ? "" : names[k], true, colours[k]);
+      labelled[k] = true;
+      for (const nlohmann::json& point : e.value("through_focus_mtf50", nlohmann::json::array())) {
+        line.x.push_back(point[0].get<double>());
+        line.y.push_back(point[1].get<double>());
+      }
+      if (line.x.size() >= 2) curves.series.push_back(std::move(line));
+    }
+    if (!curves.series.empty())
+      if (Status st = plot(dir / ("lensmap_through_focus_" + tag + ".png"), curves, &written); !st)
+        return st.error();
+  }
+  return written;
+}
+
 }  // namespace camlab::analysis

@@ -288,7 +288,9 @@ Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& 
     lensmap.sfr = options.sfr;
     LensMapReport r;
     CAMLAB_ASSIGN(r, analyze_lens_map(dir, lensmap));
-    run.report = std::move(r.report);
+    if (!options.plots_dir.empty())
+      CAMLAB_ASSIGN(run.plots, write_lens_map_plots(options.plots_dir, r.report));
+    run.report = with_plots(std::move(r.report), run.plots);
     run.report["kind"] = "lensmap";
     run.text = std::move(r.text);
   } else {

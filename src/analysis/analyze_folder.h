@@ -63,6 +63,12 @@ Result<std::vector<std::filesystem::path>> write_exposure_plots(const std::files
 struct FocusReport;
 Result<std::vector<std::filesystem::path>> write_focus_plots(const std::filesystem::path& dir,
                                                              const FocusReport& report);
+// The lens map's (its JSON report), per f-number: lensmap_surface_fN.png, the best-focus
+// surface over the imager as a heat map with the edges on it (used, and left out), and
+// lensmap_through_focus_fN.png, every edge's MTF50 against focus, sagittal and meridional
+// apart.
+Result<std::vector<std::filesystem::path>> write_lens_map_plots(const std::filesystem::path& dir,
+                                                                const nlohmann::json& report);
 
 // The text summaries `camlab analyze` prints.
 std::string to_text(const DefocusReport& report);

@@ -40,6 +40,8 @@ void fit_best_focus(EdgeSeries* series) {
   std::sort(pts.begin(), pts.end(), [](const ThroughFocusPoint& a, const ThroughFocusPoint& b) {
     return a.focus < b.focus;
   });
+  e.through_focus.clear();
+  for (const ThroughFocusPoint& p : pts) e.through_focus.emplace_back(p.focus, p.mtf50);
   if (pts.size() < 3) {
     e.status = kBestFocusTooFewPoints;
     return;
@@ -502,6 +504,9 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
                 {"field", e.field},
                 {"status", e.status},
                 {"peak_mtf50_cy_px", e.peak_mtf50_cy_px}};
+      json through = json::array();
+      for (const auto& [focus, mtf50] : e.through_focus) through.push_back({focus, mtf50});
+      j["through_focus_mtf50"] = std::move(through);  // [focus, MTF50 cycles/px] pairs
       if (e.status == kBestFocusOk) {
         j["best_focus"] = e.best_focus;
         j["points"] = e.points;
@@ -618,6 +623,7 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
                  "= 1)"},
                 {"extension_mm_per_step", extension_mm > 0 ? json(extension_mm) : json(nullptr)},
                 {"pixel_pitch_um", pitch_um > 0 ? json(pitch_um) : json(nullptr)},
+                {"size_px", {width, height}},
                 {"surfaces", std::move(list)}};
   return out;
 }

@@ -53,6 +53,8 @@ struct EdgeBestFocus {
   double best_focus = 0;  // focus position, the sweep's units
   double peak_mtf50_cy_px = 0;
   int points = 0;  // through-focus points the parabola was fitted to
+  // The edge's MTF50 (cycles/px) at each focus position it was measured at, in focus order.
+  std::vector<std::pair<double, double>> through_focus;
 };
 
 // One colour channel's best focus (colour frames: the SFR of each channel on its own

@@ -124,6 +124,11 @@ TEST(ServiceLensMap, ALensMapCaptureAndItsAnalysisFindTheCamerasFocusSurface) {
   ASSERT_EQ(job["state"], "succeeded") << job.dump();
   const json& surfaces = job["result"]["report"]["surfaces"];
   ASSERT_EQ(surfaces.size(), 2u) << job.dump().substr(0, 2000);
+  // Its plots (the surface and the through-focus curves per stop) are the job's to fetch.
+  auto plots = daemon.get("/v1/jobs/" + std::to_string(job["id"].get<int64_t>()) + "/plots");
+  ASSERT_EQ(plots.status, 200) << plots.body;
+  EXPECT_NE(plots.body.find("lensmap_surface_f1_4.png"), std::string::npos) << plots.body;
+  EXPECT_NE(plots.body.find("lensmap_through_focus_f2_8.png"), std::string::npos) << plots.body;
   for (const json& s : surfaces) {
     const json& at_sensor = s["at_sensor"];
     std::printf("f/%g: tilt %.4f %.4f deg, curvature %.2f um, astigmatism %.2f um\n",

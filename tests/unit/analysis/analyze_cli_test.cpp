@@ -273,10 +273,27 @@ TEST(AnalyzeCli, LensmapOfTheThinLensIsAFlatSurfaceAtItsFocusForTheChart) {
       "--sweep focus_position=25:105:5 --quiet --out " +
       dir.string());
   ASSERT_EQ(render.exit_code, 0) << render.err;
-  const auto run = camlab::testing::run_cli("analyze lensmap " + dir.string() + " --json");
+  const auto plots = dir.parent_path() / "cli_lensmap_plots";
+  std::filesystem::remove_all(plots);
+  const auto run = camlab::testing::run_cli("analyze lensmap " + dir.string() + " --json --plots " +
+                                            plots.string());
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto report = nlohmann::json::parse(run.out);
   ASSERT_EQ(report["surfaces"].size(), 1u);
+  // The plots: the surface over the imager and the through-focus curves, each a PNG the
+  // report lists; every edge's curve is in the report too.
+  ASSERT_EQ(report["plots"].size(), 2u) << report["plots"].dump();
+  for (const char* name : {"lensmap_surface_f1_4.png", "lensmap_through_focus_f1_4.png"}) {
+    const cv::Mat png = cv::imread((plots / name).string());
+    EXPECT_FALSE(png.empty()) << name;
+    EXPECT_GE(png.cols, 400) << name;
+  }
+  std::filesystem::remove_all(plots);
+  for (const auto& edge : report["surfaces"][0]["edges"]) {
+    if (edge["status"] != "ok") continue;
+    EXPECT_GE(edge["through_focus_mtf50"].size(), 5u) << edge.dump();
+    EXPECT_LE(edge["through_focus_mtf50"].size(), 17u) << edge.dump();
+  }
   const auto& s = report["surfaces"][0];
   // The camera spec's 8 mm lens, 0.001 mm a focus step; the chart at 1000 mm.
   const double f_mm = 8, d_mm = 1000, step_mm = 0.001;
