@@ -122,6 +122,9 @@ json summary_json(const Tally& t) {
 std::vector<EdgeSegment> edges_in(const cv::Mat& f, const SfrImageOptions& options) {
   EdgeFinderOptions finder;
   finder.min_length_px = options.min_edge_length_px;
+  // A chart's every side: a 9 x 7 grid of squares is 252 edges (the finder's default of
+  // 64 kept only the longest quarter of them).
+  finder.max_edges = kSfrMaxEdges;
   return find_edges(f, finder);
 }
 

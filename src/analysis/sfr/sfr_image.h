@@ -17,6 +17,9 @@
 
 namespace camlab::analysis {
 
+// The most edges measured in a frame: the longest, when a frame has more.
+inline constexpr int kSfrMaxEdges = 1000;
+
 struct SfrImageOptions {
   SfrOptions sfr;
   double pixel_pitch_um = 0;       // 0: MTF in cycles/px only
