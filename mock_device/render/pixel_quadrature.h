@@ -59,6 +59,18 @@ inline void lens_ray(const IntegratorSetup& s, const ChannelSetup& c, double xn,
   const double focus_m = c.focus_distance_m;
   o[0] = lx * s.aperture_radius_m;
   o[1] = ly * s.aperture_radius_m;
+  if (!std::isnan(c.inverse_focus_meridional_m)) {
+    // Astigmatic: per unit depth the ray leaves the chief ray by -q o, q the meridional
+    // plane's for the aperture's radial component (towards the chief ray's direction) and
+    // the sagittal plane's for its tangential one: two focal lines, an elliptical blur.
+    const double r = std::hypot(xn, yn);
+    const double ex = r > 0 ? xn / r : 1, ey = r > 0 ? yn / r : 0;
+    const double radial = o[0] * ex + o[1] * ey, tangential = -o[0] * ey + o[1] * ex;
+    const double qm = c.inverse_focus_meridional_m, qs = c.inverse_focus_sagittal_m;
+    d[0] = xn - qm * radial * ex + qs * tangential * ey;
+    d[1] = yn - qm * radial * ey - qs * tangential * ex;
+    return;
+  }
   if (!std::isfinite(focus_m)) return;  // at infinity: parallel to the chief ray
   if (focus_m > 0) {
     // Towards the point where the chief ray meets the plane of focus.

@@ -53,8 +53,15 @@ double inverse_focus(const ChannelSetup& c) {
 ChannelSetup channel_at_pixel(const IntegratorSetup& s, const ChannelSetup& c, int x, int y) {
   if (!s.field_focus) return c;
   ChannelSetup at = c;
-  const double q = s.field_focus->inverse_focus_m(c.focal_mm, x + 0.5, y + 0.5);
+  const FieldFocus& field = *s.field_focus;
+  const double q = field.inverse_focus_m(c.focal_mm, x + 0.5, y + 0.5);
   at.focus_distance_m = q == 0 ? INFINITY : 1 / q;
+  if (field.astigmatic()) {
+    at.inverse_focus_sagittal_m =
+        field.inverse_focus_at_offset_m(c.focal_mm, field.offset_mm(x + 0.5, y + 0.5, +1));
+    at.inverse_focus_meridional_m =
+        field.inverse_focus_at_offset_m(c.focal_mm, field.offset_mm(x + 0.5, y + 0.5, -1));
+  }
   return at;
 }
 
@@ -103,6 +110,7 @@ struct AdaptiveContext {
   double q_min, q_max;      // over the channels of the cell
   RegionValues background;
   double scale_min = 1, scale_max = 1;  // ray_scale over the channels of the cell
+  bool astigmatic = false;              // pencils are elliptical: no closed forms
 
   double ray_scale(int channel) const {
     return setup->channels[static_cast<size_t>(channel)].ray_scale;
@@ -316,6 +324,10 @@ void integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candid
   query.my1 = std::max({corners.y[0], corners.y[1], corners.y[2], corners.y[3]});
   query.aperture_radius_m = s.aperture_radius_m;
   query.q_min = query.q_max = q;
+  if (!std::isnan(c.inverse_focus_meridional_m)) {  // the footprint spans both focal lines
+    query.q_min = std::min({q, c.inverse_focus_meridional_m, c.inverse_focus_sagittal_m});
+    query.q_max = std::max({q, c.inverse_focus_meridional_m, c.inverse_focus_sagittal_m});
+  }
   int hit_count = 0;
   const Footprint fp = classify_footprint(query, ctx.targets, candidates, candidate_count,
                                           ctx.background, hits, &hit_count);
@@ -325,7 +337,7 @@ void integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candid
     std::fill(dst, dst + n, static_cast<float>(fp.flat.by_channel[channel]));
     return;
   }
-  if (fp.kind == Footprint::kOneLine) {
+  if (fp.kind == Footprint::kOneLine && !ctx.astigmatic) {
     EdgeTerms terms[4];
     for (int i = 0; i < 4; ++i)
       terms[i] = aperture_edge_terms(fp.edge, corners.x[i], corners.y[i], s.aperture_radius_m, q);
@@ -351,7 +363,7 @@ void integrate_pixel(const AdaptiveContext& ctx, int x, int y, const int* candid
   const int rings =
       coc_px < kNegligibleCocPx ? 0 : std::max(1, static_cast<int>(std::ceil(disk_features)));
   const int points = gauss * gauss * (rings == 0 ? 1 : 4 * rings * rings);
-  if (fp.kind == Footprint::kSmooth && gauss > 0 && rings <= kMaxDiskRings &&
+  if (fp.kind == Footprint::kSmooth && !ctx.astigmatic && gauss > 0 && rings <= kMaxDiskRings &&
       points <= kMaxSmoothPoints) {
     const DiskRule& disk = disk_rule(rings);
     const GaussRule& area = kGauss[gauss];
@@ -461,7 +473,9 @@ void integrate_region(const AdaptiveContext& ctx, int x0, int x1, int y0, int y1
     const Footprint fp = classify_footprint(query, ctx.targets, candidates, candidate_count,
                                             ctx.background, hits, &hit_count);
     if (fp.kind == Footprint::kFlat) return fill_flat_region(ctx, fp.flat, x0, x1, y0, y1, out, st);
-    if (fp.kind == Footprint::kOneLine) return fill_edge_region(ctx, fp, x0, x1, y0, y1, out, st);
+    // The closed forms assume a round pencil; an astigmatic one is sampled.
+    if (fp.kind == Footprint::kOneLine && !ctx.astigmatic)
+      return fill_edge_region(ctx, fp, x0, x1, y0, y1, out, st);
     candidates = hits;
   }
   if (level == 0 && x1 - x0 > 2 && y1 - y0 > 2) {
@@ -521,6 +535,7 @@ cv::Mat integrate_reflectance(const IntegratorSetup& setup, IntegratorStats* sta
   }
   ctx.q_min = ctx.q_max = ctx.q[static_cast<size_t>(ctx.cell[0])];
   ctx.scale_min = ctx.scale_max = ctx.ray_scale(ctx.cell[0]);
+  ctx.astigmatic = setup.field_focus && setup.field_focus->astigmatic();
   for (int channel : ctx.cell) {
     ctx.scale_min = std::min(ctx.scale_min, ctx.ray_scale(channel));
     ctx.scale_max = std::max(ctx.scale_max, ctx.ray_scale(channel));

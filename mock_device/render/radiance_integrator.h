@@ -32,6 +32,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -62,6 +63,10 @@ struct ChannelSetup {
   // this (1 / the channel's image scale), so its image is 1 / ray_scale times the
   // nominal one about the principal point.
   double ray_scale = 1;
+  // An astigmatic pixel's (field_focus.h): 1 / the plane of focus (1/m) of the aperture's
+  // radial component (meridional) and of its tangential one (sagittal); NaN: stigmatic,
+  // every ray through focus_distance_m's point.
+  double inverse_focus_meridional_m = NAN, inverse_focus_sagittal_m = NAN;
 };
 
 struct IntegratorSetup {

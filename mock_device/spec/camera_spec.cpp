@@ -151,6 +151,8 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
   const double sag_bound_um = 100 * lens.focal_mm;  // a tenth of f
   CAMLAB_ASSIGN(lens.field_focus.curvature_sag_um,
                 field.number("curvature_sag_um", -sag_bound_um, sag_bound_um, 0.0));
+  CAMLAB_ASSIGN(lens.field_focus.astigmatism_um,
+                field.number("astigmatism_um", -sag_bound_um, sag_bound_um, 0.0));
 
   JsonFields iris = f.child("iris");
   if (iris.has("f_numbers")) {

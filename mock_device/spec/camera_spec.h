@@ -62,12 +62,16 @@ struct FocusSpec {
 // farther from the sensor than the thin lens's image distance (R: the imager's half
 // diagonal). A sensor tilted by an angle a about the y axis is tilt_x = -a; a lens's
 // Petzval field curvature is a negative sag (the corners focus closer to the lens).
-// Astigmatism is not modelled: each point's rays converge on one point.
+// Astigmatism parts the sagittal and meridional surfaces by astigmatism_um at the corner
+// (in proportion to rho^2), about that medial surface.
 struct FieldFocusSpec {
   double tilt_x_deg = 0;        // the surface rises to the right (+x)
   double tilt_y_deg = 0;        // ... downward (+y)
   double curvature_sag_um = 0;  // delta at the imager's corner, less its tilt
-  bool flat() const { return tilt_x_deg == 0 && tilt_y_deg == 0 && curvature_sag_um == 0; }
+  double astigmatism_um = 0;    // sagittal minus meridional delta at the corner
+  bool flat() const {
+    return tilt_x_deg == 0 && tilt_y_deg == 0 && curvature_sag_um == 0 && astigmatism_um == 0;
+  }
 };
 
 struct LensSpec {

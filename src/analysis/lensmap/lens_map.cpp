@@ -145,13 +145,21 @@ Result<SurfaceFit> fit_once(const FocusSurface& surface, double width_px, double
     all_rows.push_back({1, u, v, rho2});
     all_values.push_back(e.best_focus);
     all_edge.push_back(k);
-    if (e.field == "sagittal" || e.field == "meridional") {
-      const bool s = e.field == "sagittal";
-      (s ? sagittal : meridional)++;
-      class_rows.push_back({1, u, v, s ? rho2 : 0, s ? 0 : rho2});
-      class_values.push_back(e.best_focus);
-      class_edge.push_back(k);
+    // The share of the meridional focus in this edge's blur, cos^2 of the angle between its
+    // normal and the radius (lens_map.h); an edge on the axis, or of no known direction,
+    // half of each.
+    double meridional_share = 0.5;
+    const double rho = std::sqrt(rho2);
+    if (std::isfinite(e.angle_deg) && rho > 0.05) {
+      const double a = e.angle_deg * std::numbers::pi / 180;
+      const double cos_theta = (-std::sin(a) * u + std::cos(a) * v) / rho;
+      meridional_share = cos_theta * cos_theta;
     }
+    if (meridional_share > 0.75) ++meridional;
+    if (meridional_share < 0.25) ++sagittal;
+    class_rows.push_back({1, u, v, rho2 * (1 - meridional_share), rho2 * meridional_share});
+    class_values.push_back(e.best_focus);
+    class_edge.push_back(k);
   }
   if (static_cast<int>(all_rows.size()) < kMinSurfaceEdges)
     return make_error("too_few_samples",
@@ -322,6 +330,7 @@ std::vector<ChannelFocus> channel_foci(const FocusSurface& luminance,
       s.edge.centre_x_px = place.centre_x_px;
       s.edge.centre_y_px = place.centre_y_px;
       s.edge.field = place.field;
+      s.edge.angle_deg = place.angle_deg;
       fit_best_focus(&s);
       // An edge the luminance's surface left out stays out of the channel's too.
       if (place.status == kBestFocusOffSurface && s.edge.status == kBestFocusOk)
@@ -402,6 +411,8 @@ Result<std::vector<FocusSurface>> focus_surfaces(const json& sfr_report) {
         series.edge.centre_x_px = centre[0].get<double>();
         series.edge.centre_y_px = centre[1].get<double>();
         series.edge.field = e.value("field", std::string());
+        if (e.contains("angle_deg") && e["angle_deg"].is_number())
+          series.edge.angle_deg = e["angle_deg"].get<double>();
       }
       const json channels = e.value("channels", json());
       if (channels.is_object() && measured)

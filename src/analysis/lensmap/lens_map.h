@@ -17,15 +17,20 @@
 //
 // The surface: best focus p(u, v) = p0 + t_x u + t_y v + c rho^2, u and v the field
 // coordinates relative to the image centre in units of the half diagonal (rho = 1 at the
-// corner); with the edges classed sagittal or meridional, c is fitted once for each class
-// (c_s, c_m) and their difference is the astigmatism at the corner. Positions are in the
-// sweep's focus units (V4L2 focus_absolute steps); with the camera's lens extension per
+// corner); apart, a sagittal and a meridional curvature (c_s, c_m), their difference the
+// astigmatism at the corner. An edge whose normal makes an angle theta with the radius is
+// blurred across itself by the radial part of the pencil (meridional focus) as cos^2 theta
+// and by the tangential part (sagittal) as sin^2 theta, so its best focus is the mix
+// p0 + t_x u + t_y v + rho^2 (c_m cos^2 theta + c_s sin^2 theta): every edge tells the two
+// apart by its orientation (an oblique edge classed as either would pull them together). Positions
+// are in the sweep's focus units (V4L2 focus_absolute steps); with the camera's lens extension per
 // step and pixel pitch (a capture of the virtual camera carries both) also in micrometres
 // at the sensor and the tilt in degrees.
 //
 // Reentrant.
 #pragma once
 
+#include <cmath>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -48,7 +53,8 @@ inline constexpr std::string_view kBestFocusOffSurface = "off_surface";  // left
 struct EdgeBestFocus {
   std::string name;
   double centre_x_px = 0, centre_y_px = 0;
-  std::string field;  // sagittal, meridional, oblique or axial (sfr_image.h)
+  std::string field;       // sagittal, meridional, oblique or axial (sfr_image.h)
+  double angle_deg = NAN;  // the edge's direction in the image (sfr's angle_deg)
   std::string status{kBestFocusOk};
   double best_focus = 0;  // focus position, the sweep's units
   double peak_mtf50_cy_px = 0;

@@ -126,6 +126,34 @@ TEST(LensMapCapture, TiltedCurvedFocusSurfaceOfTheVirtualLensIsFoundAtEveryApert
   std::filesystem::remove_all(dir);
 }
 
+// An astigmatic lens: the sagittal surface 8 um beyond the meridional at the corner (about
+// the same medial surface). Every edge's best focus mixes the two by its orientation; the
+// lens map finds them apart.
+TEST(LensMapCapture, AstigmatismOfTheVirtualLensIsTheSurfacesDistanceAtTheCorner) {
+  nlohmann::json camera = read_json(CAMLAB_SOURCE_DIR "/mock_device/examples/camera_640x480.json");
+  const double astigmatism_um = 8, sag_um = -15;
+  camera["lens"]["field_focus"] = {{"curvature_sag_um", sag_um},
+                                   {"astigmatism_um", astigmatism_um}};
+  const auto dir = testing::fresh_dir("lens_map_astigmatism");
+  ASSERT_EQ(render_lens_map_capture(camera, dir, {1.4, 2.8}, 5), 30);
+  auto map = analyze_lens_map(dir, LensMapOptions{});
+  ASSERT_TRUE(map.ok()) << map.error().message;
+  ASSERT_EQ(map->report["surfaces"].size(), 2u);
+  for (const auto& s : map->report["surfaces"]) {
+    const double n = s["f_number"].get<double>();
+    const double measured = s["at_sensor"]["astigmatism_um"].get<double>();
+    const double sigma = s["at_sensor"]["standard_errors"]["astigmatism_um"].get<double>();
+    const double curvature = s["at_sensor"]["curvature_um"].get<double>();
+    std::printf(
+        "f/%.1f: astigmatism %.3f +- %.3f um (truth %.1f), curvature %.3f um (truth %.1f)\n", n,
+        measured, sigma, astigmatism_um, curvature, sag_um);
+    EXPECT_NEAR(measured, astigmatism_um, 4 * sigma) << n;
+    EXPECT_NEAR(measured, astigmatism_um, 0.15 * astigmatism_um) << n;
+    EXPECT_NEAR(curvature, sag_um, 0.05 * std::fabs(sag_um)) << n;
+  }
+  std::filesystem::remove_all(dir);
+}
+
 // Longitudinal colour on the colour example camera (RGGB raw frames): R focuses 0.02 mm
 // behind the nominal 8 mm lens and B 0.015 mm in front of it, so at 1 m R's best focus is
 // z_i,R - z_i,G = 20.32 steps beyond green's and B's 15.24 short of it. With lateral

@@ -94,6 +94,54 @@ TEST(FieldFocus, AnEdgeOffTheAxisIsBlurredByTheSurfacesOffsetThereAndSharpWhereI
   EXPECT_LT(measured_diameter_px(*surface_sharp, 1.0), 0.8);
 }
 
+// Astigmatism: the pencil's radial part focuses on the meridional surface, its tangential
+// part on the sagittal one. With the lens where the sagittal surface is sharp at an edge's
+// image point, an edge whose normal is tangential (across the radius: only the tangential
+// part blurs it) is sharp, and one whose normal is radial is blurred by the thin lens at the
+// surfaces' distance, a rho^2 / R^2; moved to the meridional surface, the other way round.
+TEST(FieldFocus, AstigmaticPencilsBlurEachEdgeByItsOwnSurface) {
+  const double astigmatism_um = 150, focal_mm = 8, f_number = 1.4, pitch_mm = 0.004,
+               step_mm = 0.001;
+  nlohmann::json camera = testing::pinhole_camera_json(256, 256);
+  camera["lens"]["field_focus"] = {{"astigmatism_um", astigmatism_um}};
+  auto z_i = optics::image_distance_mm(focal_mm, 1000);
+  ASSERT_TRUE(z_i.ok());
+  // The edge 36 mm right of the axis (its normal radial) or below it (its normal
+  // tangential); both 72 px from the centre.
+  const double rho2 =
+      std::pow(72 * pitch_mm, 2) / std::pow(0.5 * std::hypot(256, 256) * pitch_mm, 2);
+  const double split_mm = astigmatism_um * 1e-3 * rho2;  // sagittal minus meridional
+  const double blur_px = focal_mm / f_number * split_mm / *z_i / pitch_mm;
+  ASSERT_GT(blur_px, 3.5);
+  for (const bool below : {false, true}) {
+    nlohmann::json scene = off_axis_edge_scene();
+    if (below) scene["targets"][0]["pose"]["position_m"] = {0.0, 0.036, 1.0};
+    Renderer renderer = testing::make_renderer(camera, scene);
+    for (const int surface : {+1, -1}) {  // the lens at the sagittal, then the meridional
+      RenderSettings settings = renderer.default_settings();
+      settings.f_number = f_number;
+      settings.exposure_us = 3000;
+      settings.focus_position =
+          static_cast<int>(std::lround((*z_i + surface * 0.5 * split_mm - focal_mm) / step_mm));
+      RenderOptions options;
+      options.seed = 7;
+      auto frame = renderer.render(settings, 0, options);
+      ASSERT_TRUE(frame.ok()) << frame.error().message;
+      // Radial normal (right of the axis): the meridional focus blurs it; tangential normal
+      // (below): the sagittal focus.
+      const bool sharp = below ? surface == +1 : surface == -1;
+      const double measured = measured_diameter_px(*frame, sharp ? 1.0 : blur_px);
+      std::printf("edge %s, lens at the %s surface: %.2f px (thin lens %.2f)\n",
+                  below ? "below" : "right", surface > 0 ? "sagittal" : "meridional", measured,
+                  sharp ? 0.0 : blur_px);
+      if (sharp)
+        EXPECT_LT(measured, 1.2) << (below ? "below" : "right");
+      else
+        EXPECT_NEAR(measured / blur_px, 1.0, 0.1) << (below ? "below" : "right");
+    }
+  }
+}
+
 TEST(FieldFocus, ASurfaceOfNoSizeRendersAsTheFlatLens) {
   // 1e-9 deg of tilt: every pixel's plane of focus is the flat lens's to 1e-13, so the
   // per-pixel paths (uniform, adaptive, the block ranges) must give the same frame.
