@@ -53,7 +53,12 @@ std::chrono::microseconds VirtualV4l2FrameClock::interval() const {
 
 void VirtualV4l2FrameClock::start() {
   next_tick_ = Clock::now();
+  origin_ = next_tick_ - interval() * static_cast<int64_t>(next_sequence_);
   running_ = true;
+}
+
+VirtualV4l2FrameClock::Clock::time_point VirtualV4l2FrameClock::tick_of(uint64_t sequence) const {
+  return origin_ + interval() * static_cast<int64_t>(sequence);
 }
 
 void VirtualV4l2FrameClock::advance() {

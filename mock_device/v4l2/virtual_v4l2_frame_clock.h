@@ -43,6 +43,8 @@ class VirtualV4l2FrameClock {
 
   // Ticking: from start() (the first tick at once) until stop().
   bool running() const { return running_; }
+  // The next sequence number's tick is now (a restart after a slow first frame moves the
+  // grid, the frames before it with it).
   void start();
   void stop() { running_ = false; }
   Clock::time_point next_tick() const { return next_tick_; }
@@ -51,6 +53,11 @@ class VirtualV4l2FrameClock {
   void advance();
   // The sequence number of the frame starting now.
   uint64_t take_sequence() { return next_sequence_++; }
+  // When frame `sequence` starts on the running clock's grid: the tick of the frame that
+  // start() made current, plus whole intervals. A buffer's timestamp, so that timestamps
+  // and sequence numbers always tell the same gaps (a frame rendered late is still stamped
+  // on its tick).
+  Clock::time_point tick_of(uint64_t sequence) const;
 
   void drop_next_frames(int count) { drop_frames_ = count; }
   bool dropping() const { return drop_frames_ > 0; }
@@ -67,6 +74,7 @@ class VirtualV4l2FrameClock {
   uint64_t next_sequence_ = 0;
   bool running_ = false;
   Clock::time_point next_tick_{};
+  Clock::time_point origin_{};  // sequence 0's tick on the running grid
   int drop_frames_ = 0;
   bool stalled_ = false;
 };

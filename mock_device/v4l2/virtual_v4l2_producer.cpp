@@ -195,8 +195,18 @@ void VirtualV4l2Device::produce_frames() {
     done.flags = V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | V4L2_BUF_FLAG_TSTAMP_SRC_SOE |
                  (failed ? V4L2_BUF_FLAG_ERROR : 0u);
     done.field = V4L2_FIELD_NONE;
-    done.timestamp.tv_sec = start.tv_sec;
-    done.timestamp.tv_usec = start.tv_nsec / 1000;
+    // Start of exposure: in real time the frame's tick on the clock's grid (steady_clock is
+    // CLOCK_MONOTONIC), so a frame rendered late or after dropped ones is still stamped
+    // sequence x interval from the first; as fast as rendered, when its render began.
+    if (clock_.realtime()) {
+      const auto since_boot = std::chrono::duration_cast<std::chrono::microseconds>(
+          clock_.tick_of(sequence).time_since_epoch());
+      done.timestamp.tv_sec = static_cast<time_t>(since_boot.count() / 1000000);
+      done.timestamp.tv_usec = static_cast<suseconds_t>(since_boot.count() % 1000000);
+    } else {
+      done.timestamp.tv_sec = start.tv_sec;
+      done.timestamp.tv_usec = start.tv_nsec / 1000;
+    }
     done.sequence = static_cast<uint32_t>(sequence);
     queue_.complete(index, done, format_.sizeimage);
     signal_readiness();

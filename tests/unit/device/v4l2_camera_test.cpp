@@ -274,6 +274,32 @@ TEST_F(V4l2Backend, ARealtimePacedDeviceStreamsInSequence) {
   }
 }
 
+// A rig member's clock: each buffer is stamped on its frame's tick, so timestamps and
+// sequence numbers tell the same story, dropped frames included (the first buffer's time
+// plus sequence x the 10 ms interval, within 1 ms).
+TEST_F(V4l2Backend, TimestampsAreSequenceTimesTheIntervalWithFramesDropped) {
+  make_device(0, /*realtime=*/true);
+  ASSERT_TRUE(camera_->start(4).ok());
+  int64_t first_ns = -1;
+  uint64_t first_sequence = 0, gaps = 0;
+  for (int i = 0; i < 14; ++i) {
+    if (i == 4) device_->drop_next_frames(3);
+    auto frame = camera_->dequeue(2000ms);
+    ASSERT_TRUE(frame.ok()) << frame.error().message;
+    if (first_ns < 0) {
+      first_ns = frame->meta.timestamp_ns;
+      first_sequence = frame->meta.sequence;
+    }
+    gaps += frame->meta.dropped_before;
+    const int64_t expected_ns =
+        first_ns + static_cast<int64_t>(frame->meta.sequence - first_sequence) * 10'000'000;
+    EXPECT_NEAR(static_cast<double>(frame->meta.timestamp_ns - expected_ns), 0.0, 1e6)
+        << "sequence " << frame->meta.sequence;
+    ASSERT_TRUE(camera_->requeue(*frame).ok());
+  }
+  EXPECT_GE(gaps, 3u) << "the dropped frames show as sequence gaps";
+}
+
 TEST(V4l2BackendOpen, MissingDeviceIsNoDevice) {
   auto io = std::make_shared<mock::VirtualV4l2Io>(
       std::vector<std::shared_ptr<mock::VirtualV4l2Device>>{});

@@ -74,6 +74,28 @@ TEST(VirtualV4l2FrameClock, LateTicksCostSequenceNumbers) {
   EXPECT_FALSE(clock.running());
 }
 
+// Timestamps: every frame's tick is the grid's, whatever ticks were missed before it; a
+// restart (after a slow first frame) moves the grid so that the next frame's tick is now.
+TEST(VirtualV4l2FrameClock, EachSequenceNumbersTickIsOnTheGrid) {
+  VirtualV4l2FrameClock clock(20000, true);
+  clock.start();
+  const auto zero = clock.tick_of(0);
+  EXPECT_EQ(zero, clock.next_tick());
+  clock.advance();  // the first frame's tick is the start
+  EXPECT_EQ(clock.take_sequence(), 0u);
+  std::this_thread::sleep_until(clock.next_tick() + std::chrono::milliseconds(50));
+  clock.advance();  // late: two ticks lost
+  const uint64_t late = clock.take_sequence();
+  EXPECT_GE(late, 2u);
+  EXPECT_EQ(clock.tick_of(late), zero + std::chrono::milliseconds(20) * static_cast<int>(late));
+  EXPECT_LE(clock.tick_of(late), VirtualV4l2FrameClock::Clock::now());
+  // A restart: the next frame's tick is now, and the grid keeps one interval per number.
+  clock.start();
+  const uint64_t next = clock.next_sequence();
+  EXPECT_EQ(clock.tick_of(next), clock.next_tick());
+  EXPECT_EQ(clock.tick_of(next) - clock.tick_of(next - 1), std::chrono::milliseconds(20));
+}
+
 TEST(VirtualV4l2FrameClock, DropsAndStallsAreFaultsForTests) {
   VirtualV4l2FrameClock clock(10000, true);
   EXPECT_FALSE(clock.take_drop());
