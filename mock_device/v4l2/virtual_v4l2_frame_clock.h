@@ -37,8 +37,12 @@ class VirtualV4l2FrameClock {
   std::chrono::microseconds interval() const;
   bool realtime() const { return realtime_; }
 
-  // STREAMON: frames count from 0 again.
-  void restart_sequence() { next_sequence_ = 0; }
+  // STREAMON: frames count from 0 again. A clock still running (a STREAMOFF and STREAMON
+  // between two of the producer's looks) keeps its ticks: the next one is frame 0's.
+  void restart_sequence() {
+    next_sequence_ = 0;
+    origin_ = next_tick_;
+  }
   uint64_t next_sequence() const { return next_sequence_; }
 
   // Ticking: from start() (the first tick at once) until stop().

@@ -94,6 +94,15 @@ TEST(VirtualV4l2FrameClock, EachSequenceNumbersTickIsOnTheGrid) {
   const uint64_t next = clock.next_sequence();
   EXPECT_EQ(clock.tick_of(next), clock.next_tick());
   EXPECT_EQ(clock.tick_of(next) - clock.tick_of(next - 1), std::chrono::milliseconds(20));
+  // A new stream while the clock still runs (STREAMOFF and STREAMON between two ticks):
+  // frame 0 is the next tick's, not the old stream's first (whose time would put every
+  // frame before any control written now: camlabd's settle tracker then kept none).
+  clock.advance();
+  clock.take_sequence();
+  clock.restart_sequence();
+  EXPECT_EQ(clock.next_sequence(), 0u);
+  EXPECT_EQ(clock.tick_of(0), clock.next_tick());
+  EXPECT_GT(clock.tick_of(0), zero);
 }
 
 TEST(VirtualV4l2FrameClock, DropsAndStallsAreFaultsForTests) {
