@@ -264,11 +264,14 @@ Result<Renderer::FramePlan> Renderer::plan_frame(const RenderSettings& settings,
   const SensorSpec& sensor = camera_.sensor;
   // A tilted or curved focus surface: each pixel focuses as the lens would at z_s - delta,
   // so the blur a channel can give spans the surface's offsets over the imager.
-  std::array<double, 2> deltas_mm = {0, 0};
+  // The surface's offsets that bound the blur: none without one, else its extremes.
+  std::vector<double> deltas_mm = {0};
   setup.field_focus = make_field_focus(camera_, plan.lens_to_sensor_mm);
-  if (setup.field_focus)
+  if (setup.field_focus) {
+    deltas_mm.resize(2);
     setup.field_focus->offset_range_mm(0, sensor.width_px, 0, sensor.height_px, &deltas_mm[0],
                                        &deltas_mm[1]);
+  }
   // The largest blur (px) a channel gives any target.
   auto largest_coc_px = [&](int channel) -> Result<double> {
     double largest = 0;

@@ -117,12 +117,15 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
   CAMLAB_ASSIGN(lens.f_number_min, f.number("f_number_min", 0.5, 128, 2.0));
   CAMLAB_ASSIGN(lens.f_number_max, f.number("f_number_max", lens.f_number_min, 128, 16.0));
   CAMLAB_ASSIGN(lens.baseline_blur_sigma_px, f.number("baseline_blur_sigma_px", 0, 50, 0.0));
+  // Colour aberrations need colour channels.
+  auto needs_colour = [&](const char* key) {
+    return make_error("invalid_argument",
+                      f.path_of(key) +
+                          " needs a colour sensor (camera.sensor.cfa): a monochrome sensor "
+                          "sees every colour at once, which the virtual camera does not model");
+  };
   if (f.has("chromatic_focus_shift_mm")) {
-    if (!sensor.is_colour())
-      return make_error("invalid_argument",
-                        f.path_of("chromatic_focus_shift_mm") +
-                            " needs a colour sensor (camera.sensor.cfa): a monochrome sensor "
-                            "sees every colour at once, which the virtual camera does not model");
+    if (!sensor.is_colour()) return needs_colour("chromatic_focus_shift_mm");
     // Real lenses shift a few tenths of a percent of f; a tenth of f is far beyond any
     // lens and keeps every channel's focal length positive.
     const double bound_mm = 0.1 * lens.focal_mm;
@@ -132,11 +135,7 @@ Result<LensSpec> parse_lens(const JsonFields& f, const SensorSpec& sensor) {
   }
 
   if (f.has("lateral_colour_px")) {
-    if (!sensor.is_colour())
-      return make_error("invalid_argument",
-                        f.path_of("lateral_colour_px") +
-                            " needs a colour sensor (camera.sensor.cfa): a monochrome sensor "
-                            "sees every colour at once, which the virtual camera does not model");
+    if (!sensor.is_colour()) return needs_colour("lateral_colour_px");
     // A real lens's lateral colour is a few pixels at the corner at most.
     std::vector<double> shift;
     CAMLAB_ASSIGN(shift, f.numbers("lateral_colour_px", 3, 3, -20, 20));
