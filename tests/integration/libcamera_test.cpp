@@ -26,6 +26,7 @@
 #ifdef CAMLAB_HAVE_LIBCAMERA
 #include "device/device_registry.h"
 #include "device/libcamera/libcamera_camera.h"
+#include "suite_main.h"
 #endif
 
 namespace {
@@ -299,5 +300,5 @@ int main(int argc, char** argv) {
   if (argc > 1 && std::string(argv[1]) == "--libcamera-child") return run_child();
 #endif
   ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
+  return camlab::testing::run_all_tests_and_summarise();
 }

@@ -21,6 +21,7 @@
 #include "device/v4l2/v4l2_camera.h"
 #include "device/v4l2/v4l2_io.h"
 #include "mock_device/broker/broker_protocol.h"
+#include "suite_main.h"
 #include "test_specs.h"
 
 namespace camlab {
@@ -247,5 +248,5 @@ int rerun_under_vcam(int argc, char** argv) {
 int main(int argc, char** argv) {
   if (!std::getenv("CAMLAB_VCAM_BROKER")) return camlab::rerun_under_vcam(argc, argv);
   ::testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
+  return camlab::testing::run_all_tests_and_summarise();
 }

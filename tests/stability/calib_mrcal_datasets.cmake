@@ -12,4 +12,5 @@ add_test(NAME calib_mrcal_datasets
 set_tests_properties(calib_mrcal_datasets PROPERTIES
   SKIP_RETURN_CODE 77
   LABELS stability
-  TIMEOUT 300)
+  TIMEOUT 300
+  COST 21)  # seconds under ctest -j3 on 2 cores, as tests/suite_costs.txt

@@ -18,7 +18,7 @@ add_dependencies(calib_end_to_end_tests camlab_cli)
 camlab_add_test(calib_fov_example_tests
   SOURCES ${CMAKE_CURRENT_LIST_DIR}/calib_fov_example_test.cpp
   LIBS camlab_calib camlab_mock_device mrcal::mrcal nlohmann_json::nlohmann_json
-  LABELS stability COST 30)
+  LABELS stability)
 target_include_directories(calib_fov_example_tests PRIVATE ${PROJECT_SOURCE_DIR})
 
 # Partial views at the imager's edges against the same views moved until the board is
