@@ -302,12 +302,10 @@ Status write_text(const fs::path& path, const std::string& text) {
 
 }  // namespace
 
-Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
+Result<CalibrationRun> read_board_views(const CalibrateOptions& options) {
   if (Status s = check_calibration_request(options); !s) return s.error();
-
   CalibrationRun run;
   CalibrationData& data = run.data;
-  const auto t0 = std::chrono::steady_clock::now();
   data.board = options.board;
   if (!options.corners_vnl.empty()) {
     CAMLAB_ASSIGN(data.views, read_corners_vnl(options.corners_vnl.string(), data.board));
@@ -334,14 +332,22 @@ Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
                                         "not squares): " +
                                         misses_summary(run.detections));
   }
-  // Written before the solve, so the corners survive a solve that fails.
-  if (!options.out_corners_vnl.empty())
-    if (Status s = write_text(options.out_corners_vnl, to_corners_vnl(data.views)); !s)
-      return s.error();
   if (options.imager_width_px > 0) {
     data.imager_width_px = options.imager_width_px;
     data.imager_height_px = options.imager_height_px;
   }
+  return run;
+}
+
+Result<CalibrationRun> calibrate(const CalibrateOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  CalibrationRun run;
+  CAMLAB_ASSIGN(run, read_board_views(options));
+  CalibrationData& data = run.data;
+  // Written before the solve, so the corners survive a solve that fails.
+  if (!options.out_corners_vnl.empty())
+    if (Status s = write_text(options.out_corners_vnl, to_corners_vnl(data.views)); !s)
+      return s.error();
   double pitch_um = options.pixel_pitch_um;
   if (!options.sensor.empty()) {
     optics::SensorFormat format;

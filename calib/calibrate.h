@@ -96,6 +96,12 @@ bool detector_keeps_partial_boards(const std::string& detector);
 std::optional<BoardView> detect_board_view(const cv::Mat& image, const CalibrateOptions& options,
                                            BoardMiss* miss = nullptr);
 
+// The board views of options' source (images, a capture folder or corners.vnl) with the
+// imager size, and for images each one's detection: the first part of calibrate(), for
+// callers that solve the views otherwise (a rig's cameras, calib/rig/rig_calibrate.h).
+// Errors as calibrate()'s before its solve ("no_board" when no image holds the board).
+Result<CalibrationRun> read_board_views(const CalibrateOptions& options);
+
 // Detects, solves and reports; writes only options.out_corners_vnl (right after
 // detection, so the corners survive a solve that fails). Errors (stable codes): "invalid_argument"
 // and "out_of_range" (options, the ChArUco board), "io_error" (unreadable inputs),

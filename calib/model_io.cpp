@@ -1,6 +1,7 @@
 #include "calib/model_io.h"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -17,11 +18,12 @@ namespace camlab::calib {
 
 namespace {
 
-image::CameraModelText model_text(const LensModel& model, const std::string& comment) {
+image::CameraModelText model_text(const LensModel& model, const std::string& comment,
+                                  const std::array<double, 6>& rt_cam_ref = {}) {
   image::CameraModelText t;
   t.lensmodel = model.lensmodel;
   t.intrinsics = model.intrinsics;
-  t.rt_cam_ref = {0, 0, 0, 0, 0, 0};
+  t.rt_cam_ref = rt_cam_ref;
   t.imagersize = {static_cast<unsigned>(model.width_px), static_cast<unsigned>(model.height_px)};
   t.comment = comment;
   return t;
@@ -127,8 +129,9 @@ Result<std::string> inputs_npz(const nlohmann::json& in,
 
 }  // namespace
 
-std::string cameramodel_text(const LensModel& model, const std::string& comment) {
-  return image::to_cameramodel_text(model_text(model, comment));
+std::string cameramodel_text(const LensModel& model, const std::string& comment,
+                             const std::array<double, 6>& rt_cam_ref) {
+  return image::to_cameramodel_text(model_text(model, comment, rt_cam_ref));
 }
 
 Result<std::string> cameramodel_text_with_inputs(const Solution& solution,

@@ -5,6 +5,7 @@
 // Reentrant.
 #pragma once
 
+#include <array>
 #include <string>
 
 #include "base/result.h"
@@ -14,9 +15,11 @@
 
 namespace camlab::calib {
 
-// .cameramodel text (%.17g), camera at the reference frame. `comment` becomes '#' lines.
-// For models that come from no solve (a truth, a conversion).
-std::string cameramodel_text(const LensModel& model, const std::string& comment);
+// .cameramodel text (%.17g). `comment` becomes '#' lines. For models that come from no
+// single-camera solve (a truth, a conversion, a rig's camera): `rt_cam_ref` is mrcal's
+// extrinsics (reference -> camera; zero: the camera is the reference).
+std::string cameramodel_text(const LensModel& model, const std::string& comment,
+                             const std::array<double, 6>& rt_cam_ref = {});
 
 // .cameramodel text of a solve (%.17g), with 'icam_intrinsics': 0 and mrcal 2.2's
 // 'optimization_inputs': the final problem `solution` was solved from `data` (the same

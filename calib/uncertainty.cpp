@@ -10,22 +10,9 @@
 #include <opencv2/core.hpp>
 
 #include "base/stack_thread.h"
+#include "calib/cholmod_sparse.h"
 #include "calib/lens_model.h"
 #include "calib/mrcal_problem.h"
-
-// mrcal_optimizer_callback fills a caller-allocated cholmod_sparse (J^T in compressed
-// columns = J in compressed rows) and reads only its p, i and x arrays. Debian ships no
-// cholmod.h with libmrcal-dev, so the struct is declared here with SuiteSparse's layout
-// (unchanged from SuiteSparse 4 to 7; mrcal.h only forward-declares it).
-struct cholmod_sparse_struct {
-  size_t nrow, ncol, nzmax;
-  void* p;   // Nmeasurements + 1 row starts (int)
-  void* i;   // column (state) index of each non-zero (int)
-  void* nz;  // unused (packed)
-  void* x;   // values (double)
-  void* z;
-  int stype, itype, xtype, dtype, sorted, packed;
-};
 
 namespace camlab::calib {
 
@@ -46,27 +33,19 @@ Result<PackedInformation> packed_information(const MrcalProblem& p, const BoardS
   const int nmeas_boards = mrcal_num_measurements_boards(nobs, W, H);
   const int nnz = _mrcal_num_j_nonzero(nobs, 0, W, H, 1, 0, nframes, 0, 0, p.observations.data(),
                                        nullptr, sel, &p.lensmodel);
-  std::vector<int> row_start(nmeas + 1), col(nnz);
-  std::vector<double> val(nnz), b_packed(nstate);
+  std::vector<double> b_packed(nstate);
+  SparseJacobian j(nstate, nmeas, nnz);
   PackedInformation info;
   info.nstate = nstate;
   info.x.assign(nmeas, 0.0);
-  cholmod_sparse_struct jt{};
-  jt.nrow = nstate;
-  jt.ncol = nmeas;
-  jt.nzmax = nnz;
-  jt.p = row_start.data();
-  jt.i = col.data();
-  jt.x = val.data();
-  jt.sorted = jt.packed = 1;
   const mrcal_problem_constants_t constants = {-1.0, -1.0};
   bool evaluated = false;
   if (Status s = run_with_stack(solver_stack_bytes(p),
                                 [&] {
                                   evaluated = mrcal_optimizer_callback(
                                       b_packed.data(), nstate * static_cast<int>(sizeof(double)),
-                                      info.x.data(), nmeas * static_cast<int>(sizeof(double)), &jt,
-                                      p.intrinsics.data(), nullptr, p.frames.data(), nullptr,
+                                      info.x.data(), nmeas * static_cast<int>(sizeof(double)),
+                                      &j.jt, p.intrinsics.data(), nullptr, p.frames.data(), nullptr,
                                       &p.warp, 1, 0, nframes, 0, 0, p.observations.data(), nullptr,
                                       nobs, 0, p.pool.data(), &p.lensmodel, p.imagersize, sel,
                                       &constants, board.spacing_m, W, H, false);
@@ -77,16 +56,7 @@ Result<PackedInformation> packed_information(const MrcalProblem& p, const BoardS
     return make_error("solve_failed", "mrcal_optimizer_callback failed on the solved problem");
 
   // J^T J over all rows, and J_obs^T J_obs over the board observations' rows.
-  info.jtj = cv::Mat::zeros(nstate, nstate, CV_64F);
-  info.jobs = cv::Mat::zeros(nstate, nstate, CV_64F);
-  for (int r = 0; r < nmeas; ++r) {
-    cv::Mat& m = r < nmeas_boards ? info.jobs : info.jtj;
-    for (int a = row_start[r]; a < row_start[r + 1]; ++a) {
-      double* out = m.ptr<double>(col[a]);
-      for (int b = row_start[r]; b < row_start[r + 1]; ++b) out[col[b]] += val[a] * val[b];
-    }
-  }
-  info.jtj += info.jobs;
+  j.information(nmeas_boards, &info.jtj, &info.jobs);
 
   // b = D b*: D from unpacking ones.
   info.unpack.assign(nstate, 1.0);

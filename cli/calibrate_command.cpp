@@ -16,6 +16,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -23,6 +24,7 @@
 #include "calib/calibration_request.h"
 #include "calib/guided_session.h"
 #include "calib/report.h"
+#include "calib/rig/rig_calibrate.h"
 #include "calib/view_suggestion.h"
 #include "command_errors.h"
 #include "commands.h"
@@ -32,9 +34,12 @@ namespace camlab::cli {
 namespace {
 
 struct CalibrateArgs {
-  std::string images_dir, job_dir, corners_path;
-  std::string board, imager, model = "auto", detector = "auto", sensor, out, report_path, yaml_path,
-                             write_corners, plots_dir, dictionary;
+  // One each, or with --rig one a camera.
+  std::vector<std::string> images_dirs, job_dirs, corners_paths, imagers;
+  bool rig = false;
+  std::string images_dir, job_dir, corners_path, imager;  // the one of each without --rig
+  std::string board, model = "auto", detector = "auto", sensor, out, report_path, yaml_path,
+                     write_corners, plots_dir, dictionary;
   double spacing_m = 0, pixel_um = 0, focal_guess_px = 0, marker_m = 0;
   bool json = false, quiet = false, no_board_warp = false, no_repeatability = false;
   // The guided calibration (calib/view_suggestion.h, calib/guided_session.h).
@@ -180,18 +185,40 @@ void read_wxh(const CommandErrors& errors, const std::string& text, const std::s
   *h = static_cast<int>(h64);
 }
 
-void run_calibrate(const CalibrateArgs& a) {
-  const CommandErrors errors("camlab calibrate", a.json);
+// The board and its detector, as every camera of a run sees them.
+calib::CalibrateOptions board_options(const CalibrateArgs& a, const CommandErrors& errors) {
   calib::CalibrateOptions o;
-  o.images_dir = a.images_dir;
-  o.job_dir = a.job_dir;
-  o.corners_vnl = a.corners_path;
   read_wxh(errors, a.board, "--board must be COLSxROWS inner corners", &o.board.cols,
            &o.board.rows);
   o.board.spacing_m = a.spacing_m;
   o.detector = a.detector;
   o.charuco_marker_m = a.marker_m;
   o.charuco_dictionary = a.dictionary;
+  return o;
+}
+
+void run_calibrate_rig(const CalibrateArgs& a);
+
+void run_calibrate(CalibrateArgs a) {
+  const CommandErrors errors("camlab calibrate", a.json);
+  if (a.rig) {
+    run_calibrate_rig(a);
+    return;
+  }
+  for (const auto* many : {&a.images_dirs, &a.job_dirs, &a.corners_paths, &a.imagers})
+    if (many->size() > 1)
+      errors.fail("invalid_argument",
+                  "--images, --job, --corners and --imager are given once for one camera; "
+                  "several, one a camera, with --rig");
+  auto first = [](const std::vector<std::string>& v) { return v.empty() ? "" : v[0]; };
+  a.images_dir = first(a.images_dirs);
+  a.job_dir = first(a.job_dirs);
+  a.corners_path = first(a.corners_paths);
+  a.imager = first(a.imagers);
+  calib::CalibrateOptions o = board_options(a, errors);
+  o.images_dir = a.images_dir;
+  o.job_dir = a.job_dir;
+  o.corners_vnl = a.corners_path;
   if (!a.imager.empty())
     read_wxh(errors, a.imager, "--imager must be WxH pixels", &o.imager_width_px,
              &o.imager_height_px);
@@ -304,15 +331,66 @@ void run_calibrate(const CalibrateArgs& a) {
   }
 }
 
+// --rig: one source a camera, the joint solve (calib/rig/rig_calibrate.h).
+void run_calibrate_rig(const CalibrateArgs& a) {
+  const CommandErrors errors("camlab calibrate --rig", a.json);
+  const size_t kinds = !a.images_dirs.empty() + !a.job_dirs.empty() + !a.corners_paths.empty();
+  if (kinds != 1)
+    errors.fail("invalid_argument",
+                "--rig takes one kind of source, one a camera: --images DIR, --job DIR or "
+                "--corners FILE, repeated in camera order");
+  const std::vector<std::string>& sources =
+      !a.images_dirs.empty() ? a.images_dirs : (!a.job_dirs.empty() ? a.job_dirs : a.corners_paths);
+  if (!a.corners_paths.empty() && a.imagers.size() != 1 && a.imagers.size() != sources.size())
+    errors.fail("invalid_argument",
+                "--rig --corners needs --imager WxH, once for all cameras or once a camera "
+                "(corners.vnl does not record the imager size)");
+  if (a.watch || a.suggest)
+    errors.fail("invalid_argument", "--watch and --suggest are for one camera, not --rig");
+  calib::RigCalibrateOptions rig;
+  rig.model = a.model;
+  rig.board_warp = !a.no_board_warp;
+  rig.out_dir = a.out;
+  for (size_t c = 0; c < sources.size(); ++c) {
+    calib::CalibrateOptions o = board_options(a, errors);
+    if (!a.images_dirs.empty()) o.images_dir = sources[c];
+    if (!a.job_dirs.empty()) o.job_dir = sources[c];
+    if (!a.corners_paths.empty()) o.corners_vnl = sources[c];
+    if (!a.imagers.empty())
+      read_wxh(errors, a.imagers[a.imagers.size() == 1 ? 0 : c], "--imager must be WxH pixels",
+               &o.imager_width_px, &o.imager_height_px);
+    o.model = a.model;
+    if (Status s = calib::check_calibration_request(o); !s)
+      errors.fail(s.error().with_context("camera " + std::to_string(c) + ": "));
+    rig.cameras.push_back(std::move(o));
+  }
+  auto run = calib::calibrate_rig(rig);
+  if (!run) errors.fail(run.error());
+  if (a.json)
+    std::cout << run->report.dump(2) << "\n";
+  else
+    std::cout << calib::rig_report_text(*run);
+}
+
 }  // namespace
 
 void register_calibrate_command(CLI::App& app) {
   auto args = std::make_shared<CalibrateArgs>();
   CLI::App* cmd = app.add_subcommand(
       "calibrate", "Calibrate a camera's intrinsics with mrcal from chessboard or ChArUco views");
-  cmd->add_option("--images", args->images_dir, "Folder of board images");
-  cmd->add_option("--job", args->job_dir, "camlab capture folder of board frames");
-  cmd->add_option("--corners", args->corners_path, "mrcal corners.vnl (# filename x y level)");
+  cmd->add_option("--images", args->images_dirs,
+                  "Folder of board images (with --rig: one a camera, in camera order)");
+  cmd->add_option("--job", args->job_dirs,
+                  "camlab capture folder of board frames (with --rig: one a camera)");
+  cmd->add_option("--corners", args->corners_paths,
+                  "mrcal corners.vnl (# filename x y level) (with --rig: one a camera)");
+  cmd->add_flag("--rig", args->rig,
+                "Calibrate a rig of 2 to 8 cameras jointly: one --images, --job or --corners "
+                "a camera (camera 0 first, the reference), views matched by file name; --out "
+                "is a folder that gets camera-N.cameramodel (mrcal's extrinsics, relative to "
+                "camera 0) and rig.json (each camera's pose with its 1-sigma rotation in deg "
+                "and translation in mm). --model auto selects each camera's model and solves "
+                "all with the richest (one model a solve)");
   cmd->add_option("--board", args->board, "Inner corners COLSxROWS, e.g. 14x10")->required();
   cmd->add_option("--spacing-m", args->spacing_m, "Corner spacing in metres")->required();
   cmd->add_option("--model", args->model, "auto (default) or a mrcal LENSMODEL_... name");
@@ -338,13 +416,15 @@ void register_calibrate_command(CLI::App& app) {
                   "ChArUco: a marker's side in metres, its black border included");
   cmd->add_option("--dictionary", args->dictionary,
                   "ChArUco: OpenCV's ArUco dictionary, e.g. DICT_4X4_50, DICT_5X5_100");
-  cmd->add_option("--imager", args->imager, "Imager size WxH (px); default: from the images");
+  cmd->add_option("--imager", args->imagers,
+                  "Imager size WxH (px); default: from the images (with --rig and --corners: "
+                  "one a camera, or one for all)");
   auto pixel = cmd->add_option("--pixel-um", args->pixel_um, "Pixel pitch in micrometres");
   cmd->add_option("--sensor", args->sensor, "Sensor format (full-frame, aps-c, 1/2.3in, ...)")
       ->excludes(pixel);
   cmd->add_option("--focal-guess-px", args->focal_guess_px,
                   "Optional focal length guess (px); searched around, never trusted");
-  cmd->add_option("--out", args->out, "Output .cameramodel")->required();
+  cmd->add_option("--out", args->out, "Output .cameramodel (with --rig: a folder)")->required();
   cmd->add_option("--report", args->report_path, "Write the JSON report here");
   cmd->add_option("--opencv-yaml", args->yaml_path,
                   "Write OpenCV YAML (camera_matrix, distortion_coefficients)");

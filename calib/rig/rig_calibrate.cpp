@@ -1,0 +1,196 @@
+#include "calib/rig/rig_calibrate.h"
+
+#include <algorithm>
+#include <map>
+#include <set>
+
+#include "base/atomic_file.h"
+#include "base/cancel.h"
+#include "base/format.h"
+#include "calib/library_stderr.h"
+#include "calib/model_io.h"
+#include "calib/model_selection.h"
+
+namespace camlab::calib {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// The view's key across cameras: its file name without the folder.
+std::string view_key(const BoardView& v) { return fs::path(v.name).filename().string(); }
+
+// Every camera's views on the union of names, in name order; a camera without a name gets
+// a view with every corner missing.
+void align_views(const std::vector<CalibrationRun>& runs, RigCalibrationRun* out) {
+  std::set<std::string> names;
+  for (const auto& run : runs)
+    for (const auto& v : run.data.views) names.insert(view_key(v));
+  out->view_names.assign(names.begin(), names.end());
+  for (const auto& run : runs) {
+    CalibrationData d = run.data;
+    std::map<std::string, const BoardView*> by_name;
+    for (const auto& v : run.data.views) by_name[view_key(v)] = &v;
+    d.views.clear();
+    for (const auto& name : out->view_names) {
+      if (auto it = by_name.find(name); it != by_name.end()) {
+        d.views.push_back(*it->second);
+        continue;
+      }
+      BoardView missing;
+      missing.name = name;
+      missing.corners.assign(static_cast<size_t>(d.board.cols) * d.board.rows, {});
+      d.views.push_back(std::move(missing));
+    }
+    out->data.cameras.push_back(std::move(d));
+  }
+}
+
+// `auto`: each camera's own selection; the one with the most parameters for all.
+Result<std::string> rig_model(const RigCalibrateOptions& options, RigCalibrationRun* run) {
+  const CalibrationData& first = run->data.cameras[0];
+  if (options.model != "auto")
+    return configured_lensmodel(options.model, first.imager_width_px, first.imager_height_px, 90);
+  std::string richest;
+  int richest_params = 0;
+  for (size_t c = 0; c < run->data.cameras.size(); ++c) {
+    if (Status go = check_not_cancelled(options.cancel, "rig calibration"); !go) return go.error();
+    CalibrationData seen = run->data.cameras[c];
+    std::erase_if(seen.views, [](const BoardView& v) { return v.present_count() == 0; });
+    SolveOptions o;
+    o.board_warp = options.board_warp;
+    o.compute_covariance = false;
+    o.cancel = options.cancel;
+    auto selection = select_model(seen, o, default_candidate_models());
+    if (!selection)
+      return selection.error().with_context(format_printf("camera %zu, model selection: ", c));
+    const std::string& name = selection->chosen.model.lensmodel;
+    run->own_models.push_back(name);
+    const int params = static_cast<int>(selection->chosen.model.intrinsics.size());
+    if (params > richest_params) {
+      richest = name;
+      richest_params = params;
+    }
+  }
+  return richest;
+}
+
+nlohmann::json rt_json(const Rt& rt) { return nlohmann::json(rt); }
+
+}  // namespace
+
+nlohmann::json rig_report_json(const RigCalibrationRun& run) {
+  const RigSolution& s = run.solution;
+  nlohmann::json cameras = nlohmann::json::array();
+  for (size_t c = 0; c < s.cameras.size(); ++c) {
+    const RigCamera& cam = s.cameras[c];
+    nlohmann::json j = {
+        {"camera", c},
+        {"lensmodel", cam.model.lensmodel},
+        {"intrinsics", cam.model.intrinsics},
+        {"imager_px", {cam.model.width_px, cam.model.height_px}},
+        {"rt_cam_ref", rt_json(cam.rt_cam_ref)},
+        {"baseline_m", cam.baseline_m},
+        {"baseline_sigma_mm", cam.baseline_sigma_mm},
+        {"rotation_sigma_deg", cam.rotation_sigma_deg},
+        {"translation_sigma_mm", cam.translation_sigma_mm},
+        {"rt_cam_ref_covariance", cam.rt_covariance},
+        {"rms_px", cam.rms_px},
+        {"single_camera_rms_px", cam.single_rms_px},
+        {"views", cam.views},
+        {"inliers", cam.inliers},
+        {"outliers", cam.outliers},
+    };
+    if (c < run.own_models.size()) j["own_lensmodel"] = run.own_models[c];
+    cameras.push_back(std::move(j));
+  }
+  nlohmann::json views = nlohmann::json::array();
+  for (int v : s.views_used) views.push_back(run.view_names.at(v));
+  return {
+      {"cameras", cameras},
+      {"reference",
+       "camera 0: rt_cam_ref maps points from camera 0's frame to camera N's "
+       "(rad, m); sigmas are 1-sigma from the corner noise"},
+      {"rms_px", s.rms_px},
+      {"corner_sigma_px", s.corner_sigma_px},
+      {"views", views},
+      {"board", {{"cols", s.board.cols}, {"rows", s.board.rows}, {"spacing_m", s.board.spacing_m}}},
+      {"calobject_warp_m", s.calobject_warp},
+      {"warnings", s.warnings},
+      {"solve_s", s.solve_s},
+      {"files", run.files}};
+}
+
+std::string rig_report_text(const RigCalibrationRun& run) {
+  const RigSolution& s = run.solution;
+  std::string text = format_printf(
+      "rig of %zu cameras, %zu views, %s: RMS %.3f px, corner noise %.3f px\n", s.cameras.size(),
+      s.views_used.size(), s.cameras.empty() ? "" : s.cameras[0].model.lensmodel.c_str(), s.rms_px,
+      s.corner_sigma_px);
+  for (size_t c = 0; c < s.cameras.size(); ++c) {
+    const RigCamera& cam = s.cameras[c];
+    text +=
+        format_printf("camera %zu: %dx%d, fx %.2f px, %d views, RMS %.3f px", c, cam.model.width_px,
+                      cam.model.height_px, cam.model.intrinsics[0], cam.views, cam.rms_px);
+    if (c > 0)
+      text += format_printf(
+          "; baseline %.2f +- %.3f mm; rotation sigma %.4f/%.4f/%.4f deg, translation sigma "
+          "%.3f/%.3f/%.3f mm",
+          cam.baseline_m * 1000, cam.baseline_sigma_mm, cam.rotation_sigma_deg[0],
+          cam.rotation_sigma_deg[1], cam.rotation_sigma_deg[2], cam.translation_sigma_mm[0],
+          cam.translation_sigma_mm[1], cam.translation_sigma_mm[2]);
+    text += "\n";
+  }
+  for (const auto& w : s.warnings) text += "warning: " + w + "\n";
+  return text;
+}
+
+Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
+  const int n = static_cast<int>(options.cameras.size());
+  if (n < kRigCamerasMin || n > kRigCamerasMax)
+    return make_error("invalid_argument",
+                      format_printf("a rig has %d to %d cameras (one source each), not %d",
+                                    kRigCamerasMin, kRigCamerasMax, n));
+  std::vector<CalibrationRun> runs;
+  for (int c = 0; c < n; ++c) {
+    auto run = read_board_views(options.cameras[c]);
+    if (!run) return run.error().with_context(format_printf("camera %d: ", c));
+    runs.push_back(std::move(*run));
+  }
+  RigCalibrationRun out;
+  align_views(runs, &out);
+  const LibraryStderrCapture quiet_mrcal;
+  std::string model;
+  CAMLAB_ASSIGN(model, rig_model(options, &out));
+  RigSolveOptions solve_options;
+  solve_options.lensmodel = model;
+  solve_options.board_warp = options.board_warp;
+  solve_options.cancel = options.cancel;
+  CAMLAB_ASSIGN(out.solution, solve_rig(out.data, solve_options));
+  if (!options.out_dir.empty()) {
+    std::error_code ec;
+    fs::create_directories(options.out_dir, ec);
+    if (ec)
+      return make_error("io_error",
+                        "cannot create " + options.out_dir.string() + ": " + ec.message());
+    for (int c = 0; c < n; ++c) {
+      const RigCamera& cam = out.solution.cameras[c];
+      const fs::path path = options.out_dir / format_printf("camera-%d.cameramodel", c);
+      const std::string comment = format_printf(
+          "camlab calibrate --rig: camera %d of %d, extrinsics relative to camera 0", c, n);
+      if (Status s =
+              write_file_atomically(path, cameramodel_text(cam.model, comment, cam.rt_cam_ref));
+          !s)
+        return s.error();
+      out.files.push_back(path.string());
+    }
+    const fs::path report = options.out_dir / "rig.json";
+    out.files.push_back(report.string());
+    if (Status s = write_file_atomically(report, rig_report_json(out).dump(2) + "\n"); !s)
+      return s.error();
+  }
+  out.report = rig_report_json(out);
+  return out;
+}
+
+}  // namespace camlab::calib

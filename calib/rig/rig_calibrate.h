@@ -1,0 +1,57 @@
+// A whole rig calibration, as `camlab calibrate --rig` runs it: each camera's board views
+// from its own source (a folder of images, a capture folder, or a corners.vnl file), the
+// views matched across cameras by file name (a rig view is the images of one name, e.g.
+// view-0001.png in every camera's folder; a camera without the name, or without the board
+// in it, does not see that view), the lens model (given, or `auto`: each camera's own
+// selection, model_selection.h, and the richest of those for all, as one solve takes one
+// model), the joint solve (rig_solver.h), and the files: camera-N.cameramodel (mrcal's
+// format and convention: camera 0 at the reference, each file's extrinsics rt_cam_ref)
+// and rig.json (the report).
+//
+// Reentrant.
+#pragma once
+
+#include <atomic>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "base/result.h"
+#include "calib/calibrate.h"
+#include "calib/rig/rig_solver.h"
+
+namespace camlab::calib {
+
+struct RigCalibrateOptions {
+  // One a camera: its source (images_dir, job_dir or corners_vnl, with the imager size for
+  // corners.vnl), the board and the detector. Their model and outputs are not read.
+  std::vector<CalibrateOptions> cameras;
+  std::string model = "auto";  // "auto" or a mrcal LENSMODEL_... name for every camera
+  bool board_warp = true;
+  std::filesystem::path out_dir;  // camera-N.cameramodel and rig.json; empty: none written
+  const std::atomic<bool>* cancel = nullptr;
+};
+
+struct RigCalibrationRun {
+  RigData data;                         // views aligned by name
+  std::vector<std::string> view_names;  // per rig view
+  std::vector<std::string> own_models;  // per camera with `auto`: its own selection
+  RigSolution solution;
+  nlohmann::json report;           // what rig.json holds
+  std::vector<std::string> files;  // written
+};
+
+// Errors: those of read_board_views() per camera (with "camera N: " before the message),
+// "imager_mismatch" is not one (cameras may differ), and solve_rig()'s.
+Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options);
+
+// The report of a solved rig (rig.json): per camera its model, intrinsics, rt_cam_ref,
+// baseline and the extrinsics' 1-sigma, RMS, views and corners; the views; warnings.
+nlohmann::json rig_report_json(const RigCalibrationRun& run);
+
+// The report for a person: one line a camera.
+std::string rig_report_text(const RigCalibrationRun& run);
+
+}  // namespace camlab::calib

@@ -1,0 +1,406 @@
+// The joint rig solve (rig_solver.h): single-camera solves, extrinsics chained over shared
+// views, one mrcal problem of every camera, and the extrinsics' covariance.
+#include "calib/rig/rig_solver.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <deque>
+#include <map>
+#include <optional>
+
+#include <opencv2/core.hpp>
+
+#include "base/cancel.h"
+#include "base/format.h"
+#include "base/stack_thread.h"
+#include "calib/cholmod_sparse.h"
+#include "calib/mrcal_api.h"
+#include "calib/solver.h"
+
+namespace camlab::calib {
+
+namespace {
+
+constexpr double kDegPerRad = 180 / M_PI;
+
+// The joint problem in mrcal's arrays: camera c's intrinsics at c * nparams, extrinsics
+// of cameras 1..N-1 (camera 0 is the reference), one frame per used rig view, one
+// observation per (used view, camera that solved it), ordered by frame as mrcal wants.
+struct RigProblem {
+  mrcal_lensmodel_t lensmodel{};
+  int nparams = 0;
+  int ncameras = 0;
+  std::vector<double> intrinsics;
+  std::vector<mrcal_pose_t> extrinsics;
+  std::vector<mrcal_pose_t> frames;
+  std::vector<mrcal_observation_board_t> observations;
+  std::vector<mrcal_point3_t> pool;
+  std::vector<uint8_t> missing;  // per pool entry: not detected
+  std::vector<int> imagersizes;
+  mrcal_calobject_warp_t warp{};
+  mrcal_problem_selections_t sel{};
+  std::vector<double> x;
+};
+
+mrcal_pose_t to_pose(const Rt& rt) {
+  mrcal_pose_t p;
+  for (int k = 0; k < 3; ++k) {
+    p.r.xyz[k] = rt[k];
+    p.t.xyz[k] = rt[3 + k];
+  }
+  return p;
+}
+
+Rt from_pose(const mrcal_pose_t& p) {
+  return {p.r.xyz[0], p.r.xyz[1], p.r.xyz[2], p.t.xyz[0], p.t.xyz[1], p.t.xyz[2]};
+}
+
+size_t stack_bytes(const RigProblem& p) {
+  const size_t state = p.intrinsics.size() + 6 * (p.extrinsics.size() + p.frames.size()) + 2;
+  return (size_t{16} << 20) + 64 * state + 16 * 2 * p.pool.size();
+}
+
+int measurement_count(const RigProblem& p, const BoardSpec& b) {
+  return mrcal_num_measurements(static_cast<int>(p.observations.size()), 0, b.cols, b.rows,
+                                p.ncameras, p.ncameras - 1, static_cast<int>(p.frames.size()), 0, 0,
+                                p.sel, &p.lensmodel);
+}
+
+int state_count(const RigProblem& p) {
+  return mrcal_num_states(p.ncameras, p.ncameras - 1, static_cast<int>(p.frames.size()), 0, 0,
+                          static_cast<int>(p.observations.size()), p.sel, &p.lensmodel);
+}
+
+Status optimize_rig(RigProblem* p, const BoardSpec& b) {
+  const int nx = measurement_count(*p, b);
+  p->x.assign(nx, 0.0);
+  const mrcal_problem_constants_t constants = {-1.0, -1.0};
+  mrcal_stats_t stats{};
+  stats.rms_reproj_error__pixels = -1;
+  const Status ran = run_with_stack(stack_bytes(*p), [&] {
+    stats = mrcal_optimize(
+        nullptr, 0, p->x.data(), nx * static_cast<int>(sizeof(double)), p->intrinsics.data(),
+        p->extrinsics.data(), p->frames.data(), nullptr, &p->warp, p->ncameras, p->ncameras - 1,
+        static_cast<int>(p->frames.size()), 0, 0, p->observations.data(), nullptr,
+        static_cast<int>(p->observations.size()), 0, p->pool.data(), &p->lensmodel,
+        p->imagersizes.data(), p->sel, &constants, b.spacing_m, b.cols, b.rows, false, false);
+  });
+  if (!ran) return ran;
+  bool finite =
+      std::isfinite(stats.rms_reproj_error__pixels) && stats.rms_reproj_error__pixels >= 0;
+  for (double v : p->intrinsics) finite = finite && std::isfinite(v);
+  for (const auto* poses : {&p->extrinsics, &p->frames})
+    for (const auto& pose : *poses)
+      for (int k = 0; k < 3; ++k)
+        finite = finite && std::isfinite(pose.r.xyz[k]) && std::isfinite(pose.t.xyz[k]);
+  if (!finite) return make_error("solve_failed", "the joint rig solve did not converge");
+  return {};
+}
+
+// sigma^2 (J^T J)^-1 J_obs^T J_obs (J^T J)^-1 in full units (rig_solver.h), with sigma
+// from the board residuals; returns sigma.
+Result<double> rig_state_covariance(const RigProblem& p, const BoardSpec& b, cv::Mat* covariance) {
+  const int nobs = static_cast<int>(p.observations.size());
+  const int nframes = static_cast<int>(p.frames.size());
+  const int nstate = state_count(p);
+  const int nmeas = measurement_count(p, b);
+  const int nmeas_boards = mrcal_num_measurements_boards(nobs, b.cols, b.rows);
+  const int nnz = _mrcal_num_j_nonzero(nobs, 0, b.cols, b.rows, p.ncameras, p.ncameras - 1, nframes,
+                                       0, 0, p.observations.data(), nullptr, p.sel, &p.lensmodel);
+  std::vector<double> b_packed(nstate), x(nmeas);
+  SparseJacobian j(nstate, nmeas, nnz);
+  const mrcal_problem_constants_t constants = {-1.0, -1.0};
+  bool evaluated = false;
+  const Status ran = run_with_stack(stack_bytes(p), [&] {
+    evaluated = mrcal_optimizer_callback(
+        b_packed.data(), nstate * static_cast<int>(sizeof(double)), x.data(),
+        nmeas * static_cast<int>(sizeof(double)), &j.jt, p.intrinsics.data(), p.extrinsics.data(),
+        p.frames.data(), nullptr, &p.warp, p.ncameras, p.ncameras - 1, nframes, 0, 0,
+        p.observations.data(), nullptr, nobs, 0, p.pool.data(), &p.lensmodel, p.imagersizes.data(),
+        p.sel, &constants, b.spacing_m, b.cols, b.rows, false);
+  });
+  if (!ran) return ran.error();
+  if (!evaluated)
+    return make_error("solve_failed", "mrcal_optimizer_callback failed on the solved rig");
+  cv::Mat jtj, jobs;
+  j.information(nmeas_boards, &jtj, &jobs);
+  // The noise: the board measurements of inliers (2 a corner), less the states they fit.
+  double sum_sq = 0;
+  int inlier_measurements = 0;
+  for (size_t k = 0; k < p.pool.size(); ++k)
+    if (p.pool[k].z > 0 && !p.missing[k]) {
+      sum_sq += x[2 * k] * x[2 * k] + x[2 * k + 1] * x[2 * k + 1];
+      inlier_measurements += 2;
+    }
+  const int dof = inlier_measurements - nstate;
+  if (dof <= 0)
+    return make_error("too_few_views", format_printf("the rig's %d corner coordinates cannot "
+                                                     "determine its %d parameters",
+                                                     inlier_measurements, nstate));
+  const double sigma = std::sqrt(sum_sq / dof);
+  cv::Mat inv;
+  if (cv::invert(jtj, inv, cv::DECOMP_CHOLESKY) == 0)
+    return make_error("singular",
+                      "J^T J of the rig solve is singular: the views do not determine every "
+                      "camera's pose (a camera seen through too few shared views, or motion "
+                      "about one axis only)");
+  std::vector<double> unpack(nstate, 1.0);
+  mrcal_unpack_solver_state_vector(unpack.data(), p.ncameras, p.ncameras - 1, nframes, 0, 0, p.sel,
+                                   &p.lensmodel);
+  cv::Mat d = cv::Mat::diag(cv::Mat(unpack));
+  *covariance = sigma * sigma * (d * inv * jobs * inv * d);
+  return sigma;
+}
+
+// The camera centre's distance from camera 0 (the baseline) and its 1-sigma from the
+// pose covariance: |c| with c = -R^T t, differentiated numerically (1e-7 rad, 1e-7 m).
+std::pair<double, double> baseline_and_sigma(const Rt& rt, const cv::Matx66d& cov) {
+  auto length = [](const Rt& p) {
+    const Rt inv = invert_rt(p);
+    return std::sqrt(inv[3] * inv[3] + inv[4] * inv[4] + inv[5] * inv[5]);
+  };
+  const double base = length(rt);
+  cv::Matx16d grad;
+  for (int k = 0; k < 6; ++k) {
+    Rt plus = rt, minus = rt;
+    plus[k] += 1e-7;
+    minus[k] -= 1e-7;
+    grad(0, k) = (length(plus) - length(minus)) / 2e-7;
+  }
+  const double var = (grad * cov * grad.t())(0, 0);
+  return {base, std::sqrt(std::max(0.0, var)) * 1000};
+}
+
+Status check_data(const RigData& data) {
+  const int n = static_cast<int>(data.cameras.size());
+  if (n < kRigCamerasMin || n > kRigCamerasMax)
+    return make_error("invalid_argument", format_printf("a rig has %d to %d cameras, not %d",
+                                                        kRigCamerasMin, kRigCamerasMax, n));
+  const CalibrationData& first = data.cameras[0];
+  for (int c = 0; c < n; ++c) {
+    const CalibrationData& cam = data.cameras[c];
+    if (cam.views.size() != first.views.size())
+      return make_error("invalid_argument",
+                        format_printf("camera %d has %zu views and camera 0 %zu: a rig view is "
+                                      "one board pose seen by every camera (or missing)",
+                                      c, cam.views.size(), first.views.size()));
+    if (cam.board.cols != first.board.cols || cam.board.rows != first.board.rows ||
+        cam.board.spacing_m != first.board.spacing_m)
+      return make_error("invalid_argument",
+                        format_printf("camera %d's board differs from camera 0's: one board "
+                                      "moves through the rig",
+                                      c));
+  }
+  return {};
+}
+
+// Camera c -> (view -> rt_cam_board) of its single solve.
+using ViewPoses = std::map<int, Rt>;
+
+// rt_cam_ref per camera along the shortest chains of shared views from camera 0 (more
+// shared views first among equally short ones). Error when a camera is not connected.
+Result<std::vector<Rt>> chain_extrinsics(const std::vector<ViewPoses>& poses,
+                                         std::vector<std::string>* warnings) {
+  const int n = static_cast<int>(poses.size());
+  // Relative poses of every connected pair: rt_i_j from each shared view, averaged.
+  std::vector<std::vector<std::optional<Rt>>> rel(n, std::vector<std::optional<Rt>>(n));
+  std::vector<std::vector<int>> shared(n, std::vector<int>(n, 0));
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      if (i == j) continue;
+      std::vector<Rt> estimates;
+      for (const auto& [view, rt_i_board] : poses[i])
+        if (auto it = poses[j].find(view); it != poses[j].end())
+          estimates.push_back(compose_rt(rt_i_board, invert_rt(it->second)));
+      shared[i][j] = static_cast<int>(estimates.size());
+      if (!estimates.empty()) rel[i][j] = mean_rt(estimates);
+    }
+  std::vector<std::optional<Rt>> rt_cam_ref(n);
+  rt_cam_ref[0] = Rt{};
+  std::deque<int> queue{0};
+  while (!queue.empty()) {
+    const int j = queue.front();
+    queue.pop_front();
+    std::vector<int> next;
+    for (int i = 0; i < n; ++i)
+      if (!rt_cam_ref[i] && rel[i][j]) next.push_back(i);
+    std::sort(next.begin(), next.end(), [&](int a, int b) { return shared[a][j] > shared[b][j]; });
+    for (int i : next) {
+      rt_cam_ref[i] = compose_rt(*rel[i][j], *rt_cam_ref[j]);
+      queue.push_back(i);
+    }
+  }
+  std::vector<Rt> out;
+  for (int i = 0; i < n; ++i) {
+    if (!rt_cam_ref[i])
+      return make_error("too_few_views",
+                        format_printf("camera %d shares no board view with camera 0, directly "
+                                      "or through the other cameras: its pose in the rig is "
+                                      "undetermined",
+                                      i));
+    out.push_back(*rt_cam_ref[i]);
+    if (i > 0 && shared[i][0] > 0 && shared[i][0] < 3)
+      warnings->push_back(
+          format_printf("camera %d shares only %d views with camera 0", i, shared[i][0]));
+  }
+  return out;
+}
+
+}  // namespace
+
+Result<RigSolution> solve_rig(const RigData& data, const RigSolveOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (Status valid = check_data(data); !valid) return valid.error();
+  int nparams = 0;
+  CAMLAB_ASSIGN(nparams, lensmodel_param_count(options.lensmodel));
+  const int n = static_cast<int>(data.cameras.size());
+  const BoardSpec board = data.cameras[0].board;
+  const int per_view = board.cols * board.rows;
+  RigSolution out;
+  out.board = board;
+
+  // Each camera alone: its lens, its board poses and the corners it rejects.
+  std::vector<Solution> single(n);
+  std::vector<ViewPoses> poses(n);
+  for (int c = 0; c < n; ++c) {
+    if (Status go = check_not_cancelled(options.cancel, "rig calibration"); !go) return go.error();
+    int seen = 0;
+    for (const auto& v : data.cameras[c].views) seen += v.present_count() >= 8;
+    if (seen < 3)
+      return make_error("too_few_views",
+                        format_printf("camera %d sees the board in %d views; a camera of a rig "
+                                      "needs at least 3",
+                                      c, seen));
+    SolveOptions o;
+    o.lensmodel = options.lensmodel;
+    o.reject_outliers = options.reject_outliers;
+    o.board_warp = options.board_warp;
+    o.compute_covariance = false;
+    o.cancel = options.cancel;
+    auto s = solve(data.cameras[c], o);
+    if (!s) return s.error().with_context(format_printf("camera %d alone: ", c));
+    for (size_t k = 0; k < s->views_used.size(); ++k)
+      if (k >= s->view_downweighted.size() || !s->view_downweighted[k])
+        poses[c][s->views_used[k]] = s->rt_cam_board[k];
+    single[c] = std::move(*s);
+  }
+  std::vector<Rt> rt_cam_ref;
+  CAMLAB_ASSIGN(rt_cam_ref, chain_extrinsics(poses, &out.warnings));
+
+  // The joint problem, seeded from the single solves.
+  RigProblem p;
+  p.ncameras = n;
+  p.nparams = nparams;
+  mrcal_lensmodel_from_name(&p.lensmodel, options.lensmodel.c_str());
+  for (int c = 0; c < n; ++c) {
+    p.intrinsics.insert(p.intrinsics.end(), single[c].model.intrinsics.begin(),
+                        single[c].model.intrinsics.end());
+    p.imagersizes.push_back(data.cameras[c].imager_width_px);
+    p.imagersizes.push_back(data.cameras[c].imager_height_px);
+    if (c > 0) p.extrinsics.push_back(to_pose(rt_cam_ref[c]));
+  }
+  p.warp.x2 = single[0].calobject_warp[0];
+  p.warp.y2 = single[0].calobject_warp[1];
+  std::vector<std::vector<char>> outlier(n);
+  for (int c = 0; c < n; ++c) {
+    outlier[c].assign(data.cameras[c].views.size() * per_view, 0);
+    for (const auto& r : single[c].residuals)
+      if (r.outlier) outlier[c][static_cast<size_t>(r.view) * per_view + r.corner] = 1;
+  }
+  std::vector<int> obs_camera;  // per observation
+  for (int v = 0; v < static_cast<int>(data.cameras[0].views.size()); ++v) {
+    std::vector<Rt> estimates;
+    for (int c = 0; c < n; ++c)
+      if (auto it = poses[c].find(v); it != poses[c].end())
+        estimates.push_back(compose_rt(invert_rt(rt_cam_ref[c]), it->second));
+    if (estimates.empty()) continue;
+    const int frame = static_cast<int>(p.frames.size());
+    p.frames.push_back(to_pose(mean_rt(estimates)));
+    out.views_used.push_back(v);
+    for (int c = 0; c < n; ++c) {
+      if (!poses[c].count(v)) continue;
+      mrcal_observation_board_t o{};
+      o.icam.intrinsics = static_cast<uint16_t>(c);
+      o.icam.extrinsics = static_cast<int16_t>(c - 1);
+      o.iframe = frame;
+      p.observations.push_back(o);
+      obs_camera.push_back(c);
+      const auto& corners = data.cameras[c].views[v].corners;
+      for (int k = 0; k < per_view; ++k) {
+        const CornerObservation& q = corners[k];
+        const bool rejected = outlier[c][static_cast<size_t>(v) * per_view + k];
+        p.pool.push_back({{q.present ? q.x_px : 0.0, q.present ? q.y_px : 0.0,
+                           q.present && !rejected ? q.weight : -1.0}});
+        p.missing.push_back(!q.present);
+      }
+    }
+  }
+  p.sel.do_optimize_intrinsics_core = true;
+  p.sel.do_optimize_intrinsics_distortions = p.nparams > 4;
+  p.sel.do_optimize_extrinsics = true;
+  p.sel.do_optimize_frames = true;
+  p.sel.do_optimize_calobject_warp = options.board_warp;
+  p.sel.do_apply_regularization = p.nparams > 4;
+  p.sel.do_apply_outlier_rejection = options.reject_outliers;
+  if (Status go = check_not_cancelled(options.cancel, "rig calibration"); !go) return go.error();
+  if (Status solved = optimize_rig(&p, board); !solved) return solved.error();
+
+  // Residuals per camera, the covariance, and the extrinsics' sigmas.
+  out.cameras.resize(n);
+  std::vector<double> sum_sq(n, 0.0);
+  double all_sq = 0;
+  int all_inliers = 0;
+  for (size_t o = 0; o < p.observations.size(); ++o) {
+    RigCamera& cam = out.cameras[obs_camera[o]];
+    ++cam.views;
+    for (int k = 0; k < per_view; ++k) {
+      const size_t i = o * per_view + k;
+      if (p.missing[i]) continue;
+      if (p.pool[i].z <= 0) {
+        ++cam.outliers;
+        continue;
+      }
+      const double dx = p.x[2 * i] / p.pool[i].z, dy = p.x[2 * i + 1] / p.pool[i].z;
+      sum_sq[obs_camera[o]] += dx * dx + dy * dy;
+      ++cam.inliers;
+    }
+  }
+  cv::Mat covariance;
+  CAMLAB_ASSIGN(out.corner_sigma_px, rig_state_covariance(p, board, &covariance));
+  for (int c = 0; c < n; ++c) {
+    RigCamera& cam = out.cameras[c];
+    cam.model.lensmodel = options.lensmodel;
+    cam.model.intrinsics.assign(p.intrinsics.begin() + c * nparams,
+                                p.intrinsics.begin() + (c + 1) * nparams);
+    cam.model.width_px = data.cameras[c].imager_width_px;
+    cam.model.height_px = data.cameras[c].imager_height_px;
+    cam.rms_px = cam.inliers ? std::sqrt(sum_sq[c] / cam.inliers) : 0;
+    cam.single_rms_px = single[c].rms_px;
+    all_sq += sum_sq[c];
+    all_inliers += cam.inliers;
+    if (c == 0) continue;
+    cam.rt_cam_ref = from_pose(p.extrinsics[c - 1]);
+    const int at =
+        mrcal_state_index_extrinsics(c - 1, n, n - 1, static_cast<int>(p.frames.size()), 0, 0,
+                                     static_cast<int>(p.observations.size()), p.sel, &p.lensmodel);
+    cv::Matx66d block;
+    for (int a = 0; a < 6; ++a)
+      for (int b = 0; b < 6; ++b) {
+        block(a, b) = covariance.at<double>(at + a, at + b);
+        cam.rt_covariance[6 * a + b] = block(a, b);
+      }
+    for (int k = 0; k < 3; ++k) {
+      cam.rotation_sigma_deg[k] = std::sqrt(std::max(0.0, block(k, k))) * kDegPerRad;
+      cam.translation_sigma_mm[k] = std::sqrt(std::max(0.0, block(3 + k, 3 + k))) * 1000;
+    }
+    std::tie(cam.baseline_m, cam.baseline_sigma_mm) = baseline_and_sigma(cam.rt_cam_ref, block);
+  }
+  out.rms_px = all_inliers ? std::sqrt(all_sq / all_inliers) : 0;
+  for (size_t f = 0; f < p.frames.size(); ++f) out.rt_ref_board.push_back(from_pose(p.frames[f]));
+  out.calobject_warp = {p.warp.x2, p.warp.y2};
+  out.solve_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace camlab::calib

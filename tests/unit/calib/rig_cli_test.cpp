@@ -1,0 +1,194 @@
+// `camlab calibrate --rig` end to end on a synthetic pair's corners (corners.vnl, one a
+// camera): the files mrcal's tools read, and what mrcal itself reads from them.
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "calib/corners/corners_vnl.h"
+#include "calib/rig/rig_pose.h"
+#include "synthetic_rig.h"
+#include "tests/integration/cli_runner.h"
+
+namespace camlab::calib {
+namespace {
+namespace rig_cli_test {
+
+namespace fs = std::filesystem;
+using camlab::testing::run_cli;
+
+struct TempDir {
+  fs::path path = fs::temp_directory_path() / ("camlab_rig_cli_" + std::to_string(getpid()));
+  TempDir() { fs::create_directories(path); }
+  ~TempDir() { fs::remove_all(path); }
+};
+
+// The pair of rig_solver_test.cpp, written as one corners.vnl a camera, the views named
+// camN/viewK.png (the rig matches them by viewK.png).
+std::vector<testing::RigCameraTruth> write_pair_corners(const fs::path& dir) {
+  const double deg = M_PI / 180;
+  std::vector<testing::RigCameraTruth> truth{
+      {{"LENSMODEL_OPENCV4", {520, 520, 319.5, 239.5, -0.1, 0.02, 0.0002, -0.0001}, 640, 480},
+       {0, 0, 0, 0, 0, 0}},
+      {{"LENSMODEL_OPENCV4", {733, 733, 641.5, 398.5, -0.2, 0.04, 0.0, 0.0}, 1280, 800},
+       {0.002, -5 * deg, 1 * deg, -0.2, 0.003, 0.01}}};
+  testing::RigViewSpec spec;
+  spec.seed = 7;
+  RigData data = testing::make_rig_views(truth, BoardSpec{10, 7, 0.05}, spec);
+  for (int c = 0; c < 2; ++c) {
+    std::vector<BoardView> seen;
+    for (size_t v = 0; v < data.cameras[c].views.size(); ++v) {
+      BoardView view = data.cameras[c].views[v];
+      if (view.present_count() == 0) continue;
+      view.name = "cam" + std::to_string(c) + "/view" + std::to_string(v) + ".png";
+      seen.push_back(view);
+    }
+    std::ofstream(dir / ("cam" + std::to_string(c) + ".vnl")) << to_corners_vnl(seen);
+  }
+  return truth;
+}
+
+TEST(RigCli, WritesCameraModelsMrcalReadsWithTheTruthsExtrinsics) {
+  TempDir tmp;
+  const auto truth = write_pair_corners(tmp.path);
+  const fs::path out = tmp.path / "rig";
+  const auto run = run_cli("calibrate --rig --corners " + (tmp.path / "cam0.vnl").string() +
+                           " --corners " + (tmp.path / "cam1.vnl").string() +
+                           " --imager 640x480 --imager 1280x800 --board 10x7 --spacing-m 0.05 "
+                           "--model LENSMODEL_OPENCV4 --json --out " +
+                           out.string());
+  ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
+  const auto report = nlohmann::json::parse(run.out);
+  const auto& b = report["cameras"][1];
+  const Rt rt = b["rt_cam_ref"].get<Rt>();
+  const double rotation_deg = rotation_between_deg(rt, truth[1].rt_cam_ref);
+  const auto sigma_deg = b["rotation_sigma_deg"].get<std::vector<double>>();
+  std::printf("rotation error %.5f deg (sigma %.5f %.5f %.5f), baseline %.3f +- %.3f mm\n",
+              rotation_deg, sigma_deg[0], sigma_deg[1], sigma_deg[2],
+              b["baseline_m"].get<double>() * 1000, b["baseline_sigma_mm"].get<double>());
+  EXPECT_LT(rotation_deg, 3 * std::hypot(sigma_deg[0], sigma_deg[1], sigma_deg[2]));
+  EXPECT_EQ(report["cameras"][0]["imager_px"], nlohmann::json({640, 480}));
+  EXPECT_EQ(report["cameras"][1]["imager_px"], nlohmann::json({1280, 800}));
+  for (const char* file : {"camera-0.cameramodel", "camera-1.cameramodel", "rig.json"})
+    EXPECT_TRUE(fs::exists(out / file)) << file;
+  // mrcal reads the models: camera 1's extrinsics are the report's, camera 0 the reference.
+  if (!fs::exists("/usr/bin/python3")) GTEST_SKIP() << "Debian's python3 (with mrcal) is absent";
+  const fs::path script = tmp.path / "read.py";
+  std::ofstream(script) << "import mrcal, sys\n"
+                           "for f in sys.argv[1:]:\n"
+                           "    m = mrcal.cameramodel(f)\n"
+                           "    print(' '.join('%.12g' % v for v in m.extrinsics_rt_fromref()),\n"
+                           "          m.imagersize()[0], m.imagersize()[1])\n";
+  const std::string command = "/usr/bin/python3 " + script.string() + " " +
+                              (out / "camera-0.cameramodel").string() + " " +
+                              (out / "camera-1.cameramodel").string();
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  double v[2][8] = {};
+  for (auto& row : v)
+    for (double& x : row) ASSERT_EQ(std::fscanf(pipe, "%lf", &x), 1);
+  ASSERT_EQ(pclose(pipe), 0);
+  for (int k = 0; k < 6; ++k) {
+    EXPECT_EQ(v[0][k], 0.0);
+    EXPECT_NEAR(v[1][k], rt[k], 1e-9);
+  }
+  EXPECT_EQ(v[1][6], 1280);
+  EXPECT_EQ(v[1][7], 800);
+}
+
+// mrcal's own tool on the same corners (one corners.vnl, the cameras told apart by their
+// folders, blank images of each imager's size for the tool to read the size from): both
+// solve the same problem, so camlab's extrinsics must be as near the truth as mrcal's.
+TEST(RigCli, AsNearTheTruthAsMrcalCalibrateCamerasOnTheSameCorners) {
+  if (!fs::exists("/usr/bin/mrcal-calibrate-cameras"))
+    GTEST_SKIP() << "mrcal-calibrate-cameras (Debian's mrcal) is absent";
+  TempDir tmp;
+  const auto truth = write_pair_corners(tmp.path);
+  std::ofstream all(tmp.path / "all.vnl");
+  for (int c = 0; c < 2; ++c) {
+    const fs::path vnl = tmp.path / ("cam" + std::to_string(c) + ".vnl");
+    auto views = read_corners_vnl(vnl, BoardSpec{10, 7, 0.05});
+    ASSERT_TRUE(views.ok()) << views.error().message;
+    fs::create_directories(tmp.path / ("cam" + std::to_string(c)));
+    const cv::Mat blank = cv::Mat::zeros(truth[c].lens.height_px, truth[c].lens.width_px, CV_8U);
+    for (const auto& v : *views) cv::imwrite((tmp.path / v.name).string(), blank);
+    std::ifstream in(vnl);
+    std::string line;
+    while (std::getline(in, line))
+      if (c == 0 || line.rfind("#", 0) != 0) all << line << "\n";
+  }
+  all.close();
+  const fs::path ours = tmp.path / "ours", theirs = tmp.path / "theirs";
+  const auto run = run_cli("calibrate --rig --corners " + (tmp.path / "cam0.vnl").string() +
+                           " --corners " + (tmp.path / "cam1.vnl").string() +
+                           " --imager 640x480 --imager 1280x800 --board 10x7 --spacing-m 0.05 "
+                           "--model LENSMODEL_OPENCV4 --json --out " +
+                           ours.string());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto report = nlohmann::json::parse(run.out);
+  const Rt ours_rt = report["cameras"][1]["rt_cam_ref"].get<Rt>();
+  fs::create_directories(theirs);
+  const std::string command =
+      "cd " + tmp.path.string() +
+      " && /usr/bin/python3 /usr/bin/mrcal-calibrate-cameras --corners-cache all.vnl "
+      "--lensmodel LENSMODEL_OPENCV4 --focal 600 --object-spacing 0.05 --object-width-n 10 "
+      "--object-height-n 7 --outdir theirs 'cam0/*.png' 'cam1/*.png' > mrcal.log 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << "see " << (tmp.path / "mrcal.log");
+  const std::string read_rt =
+      "/usr/bin/python3 -c \"import mrcal; print(' '.join('%.15g' % v for v in "
+      "mrcal.cameramodel('" +
+      (theirs / "camera-1.cameramodel").string() + "').extrinsics_rt_fromref()))\"";
+  FILE* pipe = popen(read_rt.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  Rt theirs_rt{};
+  for (double& x : theirs_rt) ASSERT_EQ(std::fscanf(pipe, "%lf", &x), 1);
+  ASSERT_EQ(pclose(pipe), 0);
+  auto translation_mm = [&](const Rt& rt) {
+    return 1000 * std::hypot(rt[3] - truth[1].rt_cam_ref[3], rt[4] - truth[1].rt_cam_ref[4],
+                             rt[5] - truth[1].rt_cam_ref[5]);
+  };
+  const double ours_deg = rotation_between_deg(ours_rt, truth[1].rt_cam_ref);
+  const double theirs_deg = rotation_between_deg(theirs_rt, truth[1].rt_cam_ref);
+  const auto sigma = report["cameras"][1]["rotation_sigma_deg"].get<std::vector<double>>();
+  const auto sigma_mm = report["cameras"][1]["translation_sigma_mm"].get<std::vector<double>>();
+  std::printf(
+      "against the truth: camlab %.5f deg %.4f mm, mrcal-calibrate-cameras %.5f deg "
+      "%.4f mm; between them %.5f deg\n",
+      ours_deg, translation_mm(ours_rt), theirs_deg, translation_mm(theirs_rt),
+      rotation_between_deg(ours_rt, theirs_rt));
+  EXPECT_LE(ours_deg, theirs_deg + 0.25 * std::hypot(sigma[0], sigma[1], sigma[2]));
+  EXPECT_LE(translation_mm(ours_rt),
+            translation_mm(theirs_rt) + 0.25 * std::hypot(sigma_mm[0], sigma_mm[1], sigma_mm[2]));
+}
+
+TEST(RigCli, RefusesMixedSourcesAndAMissingImager) {
+  TempDir tmp;
+  write_pair_corners(tmp.path);
+  const auto mixed =
+      run_cli("calibrate --rig --corners " + (tmp.path / "cam0.vnl").string() + " --images " +
+              tmp.path.string() + " --board 10x7 --spacing-m 0.05 --out " + tmp.path.string());
+  EXPECT_EQ(mixed.exit_code, 2) << mixed.err;
+  EXPECT_NE(mixed.err.find("one kind of source"), std::string::npos) << mixed.err;
+  const auto no_imager = run_cli("calibrate --rig --corners " + (tmp.path / "cam0.vnl").string() +
+                                 " --corners " + (tmp.path / "cam1.vnl").string() +
+                                 " --board 10x7 --spacing-m 0.05 --out " + tmp.path.string());
+  EXPECT_EQ(no_imager.exit_code, 2) << no_imager.err;
+  EXPECT_NE(no_imager.err.find("--imager"), std::string::npos) << no_imager.err;
+  const auto two_without_rig =
+      run_cli("calibrate --corners " + (tmp.path / "cam0.vnl").string() + " --corners " +
+              (tmp.path / "cam1.vnl").string() +
+              " --imager 640x480 --board 10x7 --spacing-m 0.05 --out x.cameramodel");
+  EXPECT_EQ(two_without_rig.exit_code, 2) << two_without_rig.err;
+  EXPECT_NE(two_without_rig.err.find("--rig"), std::string::npos) << two_without_rig.err;
+}
+
+}  // namespace rig_cli_test
+}  // namespace
+}  // namespace camlab::calib

@@ -1,0 +1,187 @@
+// The joint rig solve (calib/rig/rig_solver.h) on synthetic rigs with known lenses and
+// poses (synthetic_rig.h): extrinsics against the truth, and their stated sigma against the
+// errors over many noise draws.
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "calib/rig/rig_pose.h"
+#include "calib/rig/rig_solver.h"
+#include "synthetic_rig.h"
+
+namespace camlab::calib {
+namespace {
+namespace rig_solver_test {
+
+constexpr double kDeg = M_PI / 180;
+const BoardSpec kBoard{10, 7, 0.05};
+
+// The pair: a 640x480 camera and a 1280x800 one 0.2 m to its right, turned 5 deg
+// towards it and rolled 1 deg.
+std::vector<testing::RigCameraTruth> pinhole_pair() {
+  testing::RigCameraTruth a{
+      {"LENSMODEL_OPENCV4", {520, 520, 319.5, 239.5, -0.1, 0.02, 0.0002, -0.0001}, 640, 480},
+      {0, 0, 0, 0, 0, 0}};
+  testing::RigCameraTruth b{
+      {"LENSMODEL_OPENCV4", {733, 733, 641.5, 398.5, -0.2, 0.04, 0.0, 0.0}, 1280, 800},
+      {0.002, -5 * kDeg, 1 * kDeg, -0.2, 0.003, 0.01}};
+  return {a, b};
+}
+
+// Errors of every non-reference camera's rt_cam_ref, each component over its stated sigma.
+std::vector<double> normalised_errors(const RigSolution& s,
+                                      const std::vector<testing::RigCameraTruth>& truth) {
+  std::vector<double> z;
+  for (size_t c = 1; c < truth.size(); ++c)
+    for (int k = 0; k < 6; ++k) {
+      const double sigma = std::sqrt(s.cameras[c].rt_covariance[7 * k]);
+      z.push_back((s.cameras[c].rt_cam_ref[k] - truth[c].rt_cam_ref[k]) / sigma);
+    }
+  return z;
+}
+
+TEST(RigSolve, PairsExtrinsicsAreTheTruthsWithinTheirStatedSigma) {
+  const auto truth = pinhole_pair();
+  std::vector<double> z;
+  double worst_rotation_deg = 0, worst_translation_mm = 0, solve_s = 0;
+  const int seeds = 20;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    testing::RigViewSpec spec;
+    spec.seed = seed;
+    const RigData data = testing::make_rig_views(truth, kBoard, spec);
+    RigSolveOptions options;
+    options.lensmodel = "LENSMODEL_OPENCV4";
+    auto s = solve_rig(data, options);
+    ASSERT_TRUE(s.ok()) << "seed " << seed << ": " << s.error().message;
+    solve_s += s->solve_s;
+    const RigCamera& b = s->cameras[1];
+    const double rotation_deg = rotation_between_deg(b.rt_cam_ref, truth[1].rt_cam_ref);
+    double translation_m = 0;
+    for (int k = 3; k < 6; ++k)
+      translation_m += std::pow(b.rt_cam_ref[k] - truth[1].rt_cam_ref[k], 2);
+    translation_m = std::sqrt(translation_m);
+    worst_rotation_deg = std::max(worst_rotation_deg, rotation_deg);
+    worst_translation_mm = std::max(worst_translation_mm, translation_m * 1000);
+    // Each seed: the error is within 3 of its stated sigma (or the absolute bound).
+    const double rotation_sigma_deg =
+        std::hypot(b.rotation_sigma_deg[0], b.rotation_sigma_deg[1], b.rotation_sigma_deg[2]);
+    const double translation_sigma_mm =
+        std::hypot(b.translation_sigma_mm[0], b.translation_sigma_mm[1], b.translation_sigma_mm[2]);
+    EXPECT_TRUE(rotation_deg <= 0.005 || rotation_deg <= 3 * rotation_sigma_deg)
+        << "seed " << seed << ": " << rotation_deg << " deg, sigma " << rotation_sigma_deg;
+    EXPECT_TRUE(translation_m * 1000 <= 0.05 * 0.2 ||
+                translation_m * 1000 <= 3 * translation_sigma_mm)
+        << "seed " << seed << ": " << translation_m * 1000 << " mm, sigma " << translation_sigma_mm;
+    EXPECT_NEAR(b.baseline_m, 0.2003, 3 * b.baseline_sigma_mm / 1000 + 1e-4);
+    EXPECT_LT(s->rms_px, 0.5);
+    EXPECT_NEAR(s->corner_sigma_px, 0.3, 0.05);
+    for (double v : normalised_errors(*s, truth)) z.push_back(v);
+    if (seed == 1)
+      std::printf(
+          "seed 1: rotation sigma %.5f %.5f %.5f deg, translation sigma %.4f %.4f "
+          "%.4f mm, baseline %.5f +- %.4f mm, %zu views, rms %.3f px\n",
+          b.rotation_sigma_deg[0], b.rotation_sigma_deg[1], b.rotation_sigma_deg[2],
+          b.translation_sigma_mm[0], b.translation_sigma_mm[1], b.translation_sigma_mm[2],
+          b.baseline_m, b.baseline_sigma_mm, s->views_used.size(), s->rms_px);
+  }
+  double sum_sq = 0;
+  int beyond_2 = 0;
+  for (double v : z) {
+    sum_sq += v * v;
+    beyond_2 += std::abs(v) > 2;
+  }
+  const double rms = std::sqrt(sum_sq / z.size());
+  std::printf(
+      "pair, %d seeds: |error|/sigma RMS %.3f, %d of %zu beyond 2 sigma; worst "
+      "rotation %.5f deg, translation %.4f mm; %.3f s a solve\n",
+      seeds, rms, beyond_2, z.size(), worst_rotation_deg, worst_translation_mm, solve_s / seeds);
+  EXPECT_GT(rms, 0.8);
+  EXPECT_LT(rms, 1.25);
+  EXPECT_LT(beyond_2, 0.12 * z.size());
+}
+
+// Four wide cameras on a ring, 60 deg apart: each sees its neighbours' boards only, so
+// cameras 2 and 3 are placed through the chain of neighbours.
+TEST(RigSolve, RingOfFourIsPlacedThroughItsNeighbours) {
+  std::vector<testing::RigCameraTruth> truth;
+  for (int c = 0; c < 4; ++c) {
+    const double yaw = c * 60 * kDeg;
+    // Camera c at 0.1 m from the ring's centre, looking outwards along its yaw.
+    const cv::Vec3d centre(0.1 * std::sin(yaw), 0, 0.1 * std::cos(yaw) - 0.1);
+    cv::Matx33d R;
+    cv::Rodrigues(cv::Vec3d(0, -yaw, 0), R);  // ref -> camera
+    const cv::Vec3d t = -(R * centre);
+    truth.push_back({testing::wide_opencv8_truth(), {0, -yaw, 0, t[0], t[1], t[2]}});
+  }
+  testing::RigViewSpec spec;
+  spec.views = 60;
+  spec.distance_min_m = 0.6;
+  spec.distance_max_m = 1.4;
+  const RigData data = testing::make_rig_views(truth, kBoard, spec);
+  int shared_0_2 = 0;
+  for (size_t v = 0; v < data.cameras[0].views.size(); ++v)
+    shared_0_2 += data.cameras[0].views[v].present_count() > 0 &&
+                  data.cameras[2].views[v].present_count() > 0;
+  EXPECT_EQ(shared_0_2, 0) << "cameras 0 and 2 must not overlap for this test";
+  RigSolveOptions options;
+  options.lensmodel = "LENSMODEL_OPENCV8";
+  auto s = solve_rig(data, options);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  std::printf("ring of 4, %zu views: solved in %.2f s\n", s->views_used.size(), s->solve_s);
+  for (int c = 1; c < 4; ++c) {
+    const RigCamera& cam = s->cameras[c];
+    const double rotation_deg = rotation_between_deg(cam.rt_cam_ref, truth[c].rt_cam_ref);
+    double translation_mm = 0;
+    for (int k = 3; k < 6; ++k)
+      translation_mm += std::pow(1000 * (cam.rt_cam_ref[k] - truth[c].rt_cam_ref[k]), 2);
+    translation_mm = std::sqrt(translation_mm);
+    const double rotation_sigma_deg =
+        std::hypot(cam.rotation_sigma_deg[0], cam.rotation_sigma_deg[1], cam.rotation_sigma_deg[2]);
+    const double translation_sigma_mm = std::hypot(
+        cam.translation_sigma_mm[0], cam.translation_sigma_mm[1], cam.translation_sigma_mm[2]);
+    std::printf(
+        "camera %d: %d views, rotation error %.5f deg (sigma %.5f), translation %.4f "
+        "mm (sigma %.4f), rms %.3f px\n",
+        c, cam.views, rotation_deg, rotation_sigma_deg, translation_mm, translation_sigma_mm,
+        cam.rms_px);
+    EXPECT_LT(rotation_deg, 3 * rotation_sigma_deg + 0.005) << "camera " << c;
+    EXPECT_LT(translation_mm, 3 * translation_sigma_mm + 0.01) << "camera " << c;
+  }
+}
+
+TEST(RigSolve, ACameraThatSharesNoViewIsRefusedWithItsNumber) {
+  auto truth = pinhole_pair();
+  // Camera 1 turned 180 deg: it never sees a board camera 0 sees.
+  truth[1].rt_cam_ref = {0, M_PI, 0, 0, 0, 0};
+  testing::RigViewSpec spec;
+  const RigData data = testing::make_rig_views(truth, kBoard, spec);
+  RigSolveOptions options;
+  options.lensmodel = "LENSMODEL_OPENCV4";
+  auto s = solve_rig(data, options);
+  ASSERT_FALSE(s.ok());
+  EXPECT_EQ(s.error().text().rfind("too_few_views", 0), 0u) << s.error().text();
+  EXPECT_NE(s.error().message.find("camera 1"), std::string::npos) << s.error().message;
+}
+
+TEST(RigSolve, MisalignedViewsAndTooManyCamerasAreRefused) {
+  const auto truth = pinhole_pair();
+  testing::RigViewSpec spec;
+  spec.views = 6;
+  RigData data = testing::make_rig_views(truth, kBoard, spec);
+  data.cameras[1].views.pop_back();
+  auto s = solve_rig(data, RigSolveOptions{});
+  ASSERT_FALSE(s.ok());
+  EXPECT_NE(s.error().text().find("invalid_argument"), std::string::npos);
+  EXPECT_NE(s.error().message.find("camera 1 has 5 views"), std::string::npos) << s.error().message;
+  RigData many;
+  many.cameras.assign(9, data.cameras[0]);
+  auto too_many = solve_rig(many, RigSolveOptions{});
+  ASSERT_FALSE(too_many.ok());
+  EXPECT_NE(too_many.error().message.find("not 9"), std::string::npos) << too_many.error().message;
+}
+
+}  // namespace rig_solver_test
+}  // namespace
+}  // namespace camlab::calib

@@ -1,0 +1,98 @@
+// Synthetic board views of a camera rig with known lenses and poses: each rig view is one
+// board pose in the reference frame (camera 0's), aimed at a random pixel of a random
+// camera, observed by every camera through its truth lens (synthetic_views.h's observe:
+// mrcal_project, Gaussian noise, corners off the imager missing). Independent of the rig
+// solver: it composes poses with OpenCV's Rodrigues, not with calib/rig's helpers.
+#pragma once
+
+#include <array>
+#include <random>
+#include <vector>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+
+#include "calib/rig/rig_solver.h"
+#include "synthetic_views.h"
+
+namespace camlab::calib::testing {
+
+struct RigCameraTruth {
+  LensModel lens;
+  std::array<double, 6> rt_cam_ref{};  // reference (camera 0) -> camera
+};
+
+struct RigViewSpec {
+  int views = 30;
+  double distance_min_m = 0.5, distance_max_m = 1.2;
+  double max_tilt_deg = 40;
+  double noise_px = 0.3;
+  uint32_t seed = 1;
+};
+
+// x_a = R x_b + t: the pose a <- b as a 4x4 matrix, and back.
+inline cv::Matx44d rt_matrix(const std::array<double, 6>& rt) {
+  cv::Matx33d R;
+  cv::Rodrigues(cv::Vec3d(rt[0], rt[1], rt[2]), R);
+  return {R(0, 0), R(0, 1), R(0, 2), rt[3], R(1, 0), R(1, 1), R(1, 2), rt[4],
+          R(2, 0), R(2, 1), R(2, 2), rt[5], 0,       0,       0,       1};
+}
+
+inline std::array<double, 6> matrix_rt(const cv::Matx44d& m) {
+  const cv::Matx33d R(m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), m(2, 0), m(2, 1),
+                      m(2, 2));
+  cv::Vec3d r;
+  cv::Rodrigues(R, r);
+  return {r[0], r[1], r[2], m(0, 3), m(1, 3), m(2, 3)};
+}
+
+inline RigData make_rig_views(const std::vector<RigCameraTruth>& rig, const BoardSpec& board,
+                              const RigViewSpec& spec) {
+  std::mt19937 rng(spec.seed);
+  std::uniform_real_distribution<double> u01(0, 1);
+  const int n = static_cast<int>(rig.size());
+  RigData data;
+  for (const auto& cam : rig) {
+    CalibrationData d;
+    d.board = board;
+    d.imager_width_px = cam.lens.width_px;
+    d.imager_height_px = cam.lens.height_px;
+    data.cameras.push_back(d);
+  }
+  int attempts = 0;
+  while (static_cast<int>(data.cameras[0].views.size()) < spec.views &&
+         attempts++ < 200 * spec.views) {
+    const int aim_cam = std::min(n - 1, static_cast<int>(u01(rng) * n));
+    const LensModel& lens = rig[aim_cam].lens;
+    auto dir = unproject(
+        lens, {(0.1 + 0.8 * u01(rng)) * lens.width_px, (0.1 + 0.8 * u01(rng)) * lens.height_px});
+    if (!dir) continue;
+    const double dist =
+        spec.distance_min_m + (spec.distance_max_m - spec.distance_min_m) * u01(rng);
+    const double tilt = spec.max_tilt_deg * u01(rng) * M_PI / 180, az = 2 * M_PI * u01(rng);
+    const double roll = (u01(rng) - 0.5) * 40 * M_PI / 180;
+    const auto rt_aim_board = pose_facing(cv::Vec3d((*dir)[0], (*dir)[1], (*dir)[2]) * dist,
+                                          tilt * std::cos(az), tilt * std::sin(az), roll, board);
+    const cv::Matx44d ref_board =
+        rt_matrix(rig[aim_cam].rt_cam_ref).inv() * rt_matrix(rt_aim_board);
+    std::vector<BoardView> seen;
+    int cameras_seeing = 0;
+    for (int c = 0; c < n; ++c) {
+      const auto rt = matrix_rt(rt_matrix(rig[c].rt_cam_ref) * ref_board);
+      seen.push_back(observe(rig[c].lens, board, rt, spec.noise_px, 0, rng,
+                             "view" + std::to_string(data.cameras[0].views.size())));
+      cameras_seeing += seen.back().present_count() >= board.cols * board.rows / 3;
+    }
+    if (cameras_seeing == 0) continue;
+    for (int c = 0; c < n; ++c) {
+      // A camera that sees less than a third of the board does not report it (a detector
+      // would not find it), so the views of each camera differ.
+      if (seen[c].present_count() < board.cols * board.rows / 3)
+        for (auto& corner : seen[c].corners) corner.present = false;
+      data.cameras[c].views.push_back(seen[c]);
+    }
+  }
+  return data;
+}
+
+}  // namespace camlab::calib::testing
