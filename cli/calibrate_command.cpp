@@ -40,7 +40,7 @@ struct CalibrateArgs {
   std::string images_dir, job_dir, corners_path, imager;  // the one of each without --rig
   std::string board, model = "auto", detector = "auto", sensor, out, report_path, yaml_path,
                      write_corners, plots_dir, dictionary;
-  double spacing_m = 0, pixel_um = 0, focal_guess_px = 0, marker_m = 0;
+  double spacing_m = 0, pixel_um = 0, focal_guess_px = 0, marker_m = 0, range_m = 0;
   bool json = false, quiet = false, no_board_warp = false, no_repeatability = false;
   // The guided calibration (calib/view_suggestion.h, calib/guided_session.h).
   bool suggest = false, watch = false;
@@ -351,6 +351,9 @@ void run_calibrate_rig(const CalibrateArgs& a) {
   rig.model = a.model;
   rig.board_warp = !a.no_board_warp;
   rig.out_dir = a.out;
+  if (!(a.range_m >= 0 && a.range_m <= 1e5))
+    errors.fail("out_of_range", "--range-m must be in [0, 100000] m (0: none)");
+  rig.range_m = a.range_m;
   for (size_t c = 0; c < sources.size(); ++c) {
     calib::CalibrateOptions o = board_options(a, errors);
     if (!a.images_dirs.empty()) o.images_dir = sources[c];
@@ -416,6 +419,9 @@ void register_calibrate_command(CLI::App& app) {
                   "ChArUco: a marker's side in metres, its black border included");
   cmd->add_option("--dictionary", args->dictionary,
                   "ChArUco: OpenCV's ArUco dictionary, e.g. DICT_4X4_50, DICT_5X5_100");
+  cmd->add_option("--range-m", args->range_m,
+                  "--rig: the 1-sigma (mm) the calibration leaves in the range of a point this "
+                  "far (m) along camera 0's axis, triangulated with each other camera");
   cmd->add_option("--imager", args->imagers,
                   "Imager size WxH (px); default: from the images (with --rig and --corners: "
                   "one a camera, or one for all)");

@@ -10,6 +10,7 @@
 #include "calib/library_stderr.h"
 #include "calib/model_io.h"
 #include "calib/model_selection.h"
+#include "calib/rig/rig_range.h"
 
 namespace camlab::calib {
 
@@ -117,6 +118,7 @@ nlohmann::json rig_report_json(const RigCalibrationRun& run) {
       {"board", {{"cols", s.board.cols}, {"rows", s.board.rows}, {"spacing_m", s.board.spacing_m}}},
       {"calobject_warp_m", s.calobject_warp},
       {"warnings", s.warnings},
+      {"range_uncertainty", run.range_uncertainty},
       {"solve_s", s.solve_s},
       {"files", run.files}};
 }
@@ -140,6 +142,18 @@ std::string rig_report_text(const RigCalibrationRun& run) {
           cam.rotation_sigma_deg[1], cam.rotation_sigma_deg[2], cam.translation_sigma_mm[0],
           cam.translation_sigma_mm[1], cam.translation_sigma_mm[2]);
     text += "\n";
+  }
+  for (const auto& r : run.range_uncertainty) {
+    if (r.contains("error")) {
+      text += format_printf("range with camera %d: %s\n", r["camera"].get<int>(),
+                            r["error"]["message"].get<std::string>().c_str());
+      continue;
+    }
+    text += format_printf(
+        "range %.3f m on camera 0's axis, triangulated with camera %d: 1-sigma %.3f mm from "
+        "the calibration (intrinsics alone %.3f, extrinsics alone %.3f: they are correlated)\n",
+        r["range_m"].get<double>(), r["camera"].get<int>(), r["sigma_mm"].get<double>(),
+        r["sigma_intrinsics_alone_mm"].get<double>(), r["sigma_extrinsics_alone_mm"].get<double>());
   }
   for (const auto& w : s.warnings) text += "warning: " + w + "\n";
   return text;
@@ -167,6 +181,23 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
   solve_options.board_warp = options.board_warp;
   solve_options.cancel = options.cancel;
   CAMLAB_ASSIGN(out.solution, solve_rig(out.data, solve_options));
+  if (options.range_m > 0)
+    for (int c = 1; c < n; ++c) {
+      auto r = triangulated_range_uncertainty(out.solution, c, options.range_m);
+      if (!r) {
+        out.range_uncertainty.push_back(
+            {{"camera", c},
+             {"error", {{"code", name_of(r.error().code)}, {"message", r.error().message}}}});
+        continue;
+      }
+      out.range_uncertainty.push_back({{"camera", c},
+                                       {"range_m", r->range_m},
+                                       {"sigma_mm", r->sigma_mm},
+                                       {"sigma_intrinsics_alone_mm", r->sigma_intrinsics_alone_mm},
+                                       {"sigma_extrinsics_alone_mm", r->sigma_extrinsics_alone_mm},
+                                       {"pixel_camera0", r->pixel_camera0},
+                                       {"pixel_camera", r->pixel_other}});
+    }
   if (!options.out_dir.empty()) {
     std::error_code ec;
     fs::create_directories(options.out_dir, ec);

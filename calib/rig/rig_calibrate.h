@@ -31,6 +31,9 @@ struct RigCalibrateOptions {
   std::string model = "auto";  // "auto" or a mrcal LENSMODEL_... name for every camera
   bool board_warp = true;
   std::filesystem::path out_dir;  // camera-N.cameramodel and rig.json; empty: none written
+  // > 0: each camera's triangulated-range uncertainty with camera 0 for a point this far
+  // along camera 0's axis (rig_range.h), in the report's "range_uncertainty".
+  double range_m = 0;
   const std::atomic<bool>* cancel = nullptr;
 };
 
@@ -39,8 +42,9 @@ struct RigCalibrationRun {
   std::vector<std::string> view_names;  // per rig view
   std::vector<std::string> own_models;  // per camera with `auto`: its own selection
   RigSolution solution;
-  nlohmann::json report;           // what rig.json holds
-  std::vector<std::string> files;  // written
+  nlohmann::json range_uncertainty = nlohmann::json::array();  // per camera 1..N-1
+  nlohmann::json report;                                       // what rig.json holds
+  std::vector<std::string> files;                              // written
 };
 
 // Errors: those of read_board_views() per camera (with "camera N: " before the message),

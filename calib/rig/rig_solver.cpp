@@ -396,6 +396,30 @@ Result<RigSolution> solve_rig(const RigData& data, const RigSolveOptions& option
     }
     std::tie(cam.baseline_m, cam.baseline_sigma_mm) = baseline_and_sigma(cam.rt_cam_ref, block);
   }
+  // The covariance of every camera's intrinsics and extrinsics (rig_solver.h's layout):
+  // each state's index in mrcal's vector, -1 for a parameter the solve held.
+  std::vector<int> index;
+  const int nframes = static_cast<int>(p.frames.size());
+  const int nobs = static_cast<int>(p.observations.size());
+  for (int c = 0; c < n; ++c) {
+    int at = mrcal_state_index_intrinsics(c, n, n - 1, nframes, 0, 0, nobs, p.sel, &p.lensmodel);
+    for (int k = 0; k < nparams; ++k) {
+      const bool solved =
+          k < 4 ? p.sel.do_optimize_intrinsics_core : p.sel.do_optimize_intrinsics_distortions;
+      index.push_back(solved && at >= 0 ? at++ : -1);
+    }
+  }
+  for (int c = 1; c < n; ++c) {
+    const int at =
+        mrcal_state_index_extrinsics(c - 1, n, n - 1, nframes, 0, 0, nobs, p.sel, &p.lensmodel);
+    for (int k = 0; k < 6; ++k) index.push_back(at + k);
+  }
+  out.parameter_count = static_cast<int>(index.size());
+  out.parameter_covariance.assign(index.size() * index.size(), 0.0);
+  for (size_t a = 0; a < index.size(); ++a)
+    for (size_t b = 0; b < index.size(); ++b)
+      if (index[a] >= 0 && index[b] >= 0)
+        out.parameter_covariance[a * index.size() + b] = covariance.at<double>(index[a], index[b]);
   out.rms_px = all_inliers ? std::sqrt(all_sq / all_inliers) : 0;
   for (size_t f = 0; f < p.frames.size(); ++f) out.rt_ref_board.push_back(from_pose(p.frames[f]));
   out.calobject_warp = {p.warp.x2, p.warp.y2};

@@ -75,8 +75,13 @@ struct RigSolution {
   std::vector<Rt> rt_ref_board;  // per used view: the board in camera 0's frame
   std::array<double, 2> calobject_warp{};
   BoardSpec board;
-  double rms_px = 0;                  // over every camera's inliers
-  double corner_sigma_px = 0;         // noise per coordinate the residuals show
+  double rms_px = 0;           // over every camera's inliers
+  double corner_sigma_px = 0;  // noise per coordinate the residuals show
+  // The covariance (full units) of the calibration's parameters: camera 0's intrinsics,
+  // camera 1's, ..., then rt_cam_ref of cameras 1..N-1; parameter_count rows, row-major.
+  // Zero rows for a parameter the solve held (PINHOLE's absent distortions).
+  int parameter_count = 0;
+  std::vector<double> parameter_covariance;
   std::vector<std::string> warnings;  // degenerate parts of the data, in words
   double solve_s = 0;
 };

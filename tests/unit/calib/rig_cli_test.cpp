@@ -62,10 +62,14 @@ TEST(RigCli, WritesCameraModelsMrcalReadsWithTheTruthsExtrinsics) {
   const auto run = run_cli("calibrate --rig --corners " + (tmp.path / "cam0.vnl").string() +
                            " --corners " + (tmp.path / "cam1.vnl").string() +
                            " --imager 640x480 --imager 1280x800 --board 10x7 --spacing-m 0.05 "
-                           "--model LENSMODEL_OPENCV4 --json --out " +
+                           "--model LENSMODEL_OPENCV4 --range-m 3 --json --out " +
                            out.string());
   ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
   const auto report = nlohmann::json::parse(run.out);
+  const auto& range = report["range_uncertainty"][0];
+  ASSERT_TRUE(range.contains("sigma_mm")) << range.dump();
+  EXPECT_EQ(range["range_m"], 3.0);
+  EXPECT_GT(range["sigma_mm"].get<double>(), 0);
   const auto& b = report["cameras"][1];
   const Rt rt = b["rt_cam_ref"].get<Rt>();
   const double rotation_deg = rotation_between_deg(rt, truth[1].rt_cam_ref);
