@@ -1,6 +1,8 @@
 // The calibration run behind `camlab calibrate` and POST /v1/calibrations.
 #include "calib/calibrate.h"
 
+#include <fnmatch.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -65,15 +67,22 @@ Result<cv::Mat> read_grey_image(const fs::path& f) {
   return m;
 }
 
-Result<std::vector<ImageSource>> images_dir_sources(const fs::path& dir) {
+Result<std::vector<ImageSource>> images_dir_sources(const fs::path& source) {
+  // A folder, or a pattern of file names in one folder (DIR/left*.jpg).
+  const bool pattern = is_image_pattern(source);
+  const fs::path dir = pattern ? source.parent_path() : source;
+  const std::string name_pattern = source.filename().string();
   std::vector<fs::path> files;
   std::error_code ec;
-  for (const auto& e : fs::directory_iterator(dir, ec))
-    if (is_calibration_image(e.path())) files.push_back(e.path());
+  for (const auto& e : fs::directory_iterator(dir.empty() ? fs::path(".") : dir, ec))
+    if (is_calibration_image(e.path()) &&
+        (!pattern || fnmatch(name_pattern.c_str(), e.path().filename().c_str(), 0) == 0))
+      files.push_back(e.path());
   if (ec) return make_error("io_error", "cannot list '" + dir.string() + "': " + ec.message());
   std::sort(files.begin(), files.end());
   if (files.empty())
-    return make_error("io_error", "no images (png, jpg, tif, pgm, bmp) in '" + dir.string() + "'");
+    return make_error("io_error",
+                      "no images (png, jpg, tif, pgm, bmp) in '" + source.string() + "'");
   std::vector<ImageSource> out;
   for (const auto& f : files)
     out.push_back({f.filename().string(), [f] { return read_grey_image(f); }});
@@ -113,6 +122,10 @@ CharucoBoardSpec charuco_board(const CalibrateOptions& options) {
 }
 
 }  // namespace
+
+bool is_image_pattern(const fs::path& images) {
+  return images.filename().string().find_first_of("*?[") != std::string::npos;
+}
 
 bool detector_keeps_partial_boards(const std::string& detector) {
   return detector == "charuco" || detector == "markers";

@@ -26,7 +26,9 @@ namespace camlab::calib {
 
 struct CalibrateOptions {
   // Exactly one source.
-  std::filesystem::path images_dir;   // png/jpg/tif/pgm/bmp, 8- or 16-bit grey or colour
+  // png/jpg/tif/pgm/bmp, 8- or 16-bit grey or colour: a folder, or a pattern of file names
+  // in one folder (DIR/left*.jpg, fnmatch's * ? [...] in the name only)
+  std::filesystem::path images_dir;
   std::filesystem::path job_dir;      // a camlab capture folder (docs/capture-folder.md)
   std::filesystem::path corners_vnl;  // mrcal corners.vnl; needs imager_width/height_px
   BoardSpec board;                    // inner corners and spacing (required)
@@ -83,6 +85,9 @@ struct CalibrationRun {
 
 // Whether a file is an image the calibration reads (png, jpg, tif, pgm, bmp, by extension).
 bool is_calibration_image(const std::filesystem::path& path);
+
+// Whether `images` (CalibrateOptions::images_dir) is a pattern of file names, not a folder.
+bool is_image_pattern(const std::filesystem::path& images);
 
 // Whether `detector` keeps boards cut by the frame (charuco, markers): the guided
 // calibration may then suggest poses that show part of the board.

@@ -382,7 +382,9 @@ void register_calibrate_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "calibrate", "Calibrate a camera's intrinsics with mrcal from chessboard or ChArUco views");
   cmd->add_option("--images", args->images_dirs,
-                  "Folder of board images (with --rig: one a camera, in camera order)");
+                  "Folder of board images, or a pattern of file names in one folder "
+                  "('DIR/left*.jpg'; quote it) (with --rig: one a camera, in camera order; "
+                  "views matched by file name, or by the part a pattern's * matches)");
   cmd->add_option("--job", args->job_dirs,
                   "camlab capture folder of board frames (with --rig: one a camera)");
   cmd->add_option("--corners", args->corners_paths,

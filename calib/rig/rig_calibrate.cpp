@@ -18,20 +18,49 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The view's key across cameras: its file name without the folder.
-std::string view_key(const BoardView& v) { return fs::path(v.name).filename().string(); }
+// The view's key across cameras: its file name without the folder; for a pattern of file
+// names (left*.jpg), the part its wildcards match (left01.jpg -> 01), as mrcal's tools
+// match a rig's images.
+std::string view_key(const BoardView& v, const fs::path& images) {
+  const std::string name = fs::path(v.name).filename().string();
+  if (images.empty() || !is_image_pattern(images)) return name;
+  const std::string pattern = images.filename().string();
+  const size_t first = pattern.find_first_of("*?["), last = pattern.find_last_of("*?]");
+  const size_t prefix = first, suffix = pattern.size() - last - 1;
+  if (name.size() < prefix + suffix) return name;
+  return name.substr(prefix, name.size() - prefix - suffix);
+}
 
-// Every camera's views on the union of names, in name order; a camera without a name gets
-// a view with every corner missing.
-void align_views(const std::vector<CalibrationRun>& runs, RigCalibrationRun* out) {
+// Every camera's views on the union of keys, in key order; a camera without a key gets a
+// view with every corner missing. Error when a camera's keys meet no other camera's.
+Status align_views(const std::vector<CalibrationRun>& runs,
+                   const std::vector<CalibrateOptions>& sources, RigCalibrationRun* out) {
   std::set<std::string> names;
-  for (const auto& run : runs)
-    for (const auto& v : run.data.views) names.insert(view_key(v));
+  std::vector<std::set<std::string>> keys(runs.size());
+  for (size_t c = 0; c < runs.size(); ++c)
+    for (const auto& v : runs[c].data.views) {
+      names.insert(view_key(v, sources[c].images_dir));
+      keys[c].insert(view_key(v, sources[c].images_dir));
+    }
+  for (size_t c = 0; c < runs.size(); ++c) {
+    bool meets = false;
+    for (size_t o = 0; o < runs.size() && !meets; ++o)
+      if (o != c)
+        for (const auto& k : keys[c]) meets = meets || keys[o].count(k);
+    if (!meets)
+      return make_error("too_few_views",
+                        format_printf("camera %zu's boards share no view name with the other "
+                                      "cameras': a rig view is the images of one file name in "
+                                      "every camera's folder, or of one wildcard part "
+                                      "(--images 'DIR/left*.jpg' --images 'DIR/right*.jpg')",
+                                      c));
+  }
   out->view_names.assign(names.begin(), names.end());
-  for (const auto& run : runs) {
+  for (size_t c = 0; c < runs.size(); ++c) {
+    const auto& run = runs[c];
     CalibrationData d = run.data;
     std::map<std::string, const BoardView*> by_name;
-    for (const auto& v : run.data.views) by_name[view_key(v)] = &v;
+    for (const auto& v : run.data.views) by_name[view_key(v, sources[c].images_dir)] = &v;
     d.views.clear();
     for (const auto& name : out->view_names) {
       if (auto it = by_name.find(name); it != by_name.end()) {
@@ -45,6 +74,7 @@ void align_views(const std::vector<CalibrationRun>& runs, RigCalibrationRun* out
     }
     out->data.cameras.push_back(std::move(d));
   }
+  return {};
 }
 
 // `auto`: each camera's own selection; the one with the most parameters for all.
@@ -172,7 +202,7 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
     runs.push_back(std::move(*run));
   }
   RigCalibrationRun out;
-  align_views(runs, &out);
+  if (Status aligned = align_views(runs, options.cameras, &out); !aligned) return aligned.error();
   const LibraryStderrCapture quiet_mrcal;
   std::string model;
   CAMLAB_ASSIGN(model, rig_model(options, &out));

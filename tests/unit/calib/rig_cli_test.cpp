@@ -9,8 +9,10 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "calib/corners/corners_vnl.h"
 #include "calib/rig/rig_pose.h"
@@ -170,6 +172,71 @@ TEST(RigCli, AsNearTheTruthAsMrcalCalibrateCamerasOnTheSameCorners) {
   EXPECT_LE(ours_deg, theirs_deg + 0.25 * std::hypot(sigma[0], sigma[1], sigma[2]));
   EXPECT_LE(translation_mm(ours_rt),
             translation_mm(theirs_rt) + 0.25 * std::hypot(sigma_mm[0], sigma_mm[1], sigma_mm[2]));
+}
+
+// A real stereo pair (OpenCV's sample, tests/data/real_photos/opencv_stereo_9x6: a
+// hand-held pair of 640x480 cameras, 13 views of a 9x6 board, square size not published:
+// taken as 25 mm) through `camlab calibrate --rig`, against OpenCV's own pipeline on the
+// same photos: findChessboardCorners + cornerSubPix and stereoCalibrate with the same
+// 4-parameter distortion. Two detectors and two solvers (camlab also fits the board's
+// warp), so they agree to the data's uncertainty, not to the digit.
+TEST(RigCli, RealStereoPairAgreesWithOpenCvsStereoCalibration) {
+  const fs::path set = fs::path(CAMLAB_SOURCE_DIR) / "tests/data/real_photos/opencv_stereo_9x6";
+  TempDir tmp;
+  const auto run = run_cli("calibrate --rig --images '" + (set / "left*.jpg").string() +
+                           "' --images '" + (set / "right*.jpg").string() +
+                           "' --board 9x6 --spacing-m 0.025 --model LENSMODEL_OPENCV4 --json "
+                           "--out " +
+                           tmp.path.string());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto report = nlohmann::json::parse(run.out);
+  ASSERT_EQ(report["views"].size(), 13u) << report["views"].dump();
+  const auto& b = report["cameras"][1];
+  const Rt rt = b["rt_cam_ref"].get<Rt>();
+
+  const cv::Size pattern(9, 6);
+  std::vector<std::vector<cv::Point3f>> object;
+  std::vector<std::vector<cv::Point2f>> left, right;
+  std::vector<cv::Point3f> board;
+  for (int j = 0; j < 6; ++j)
+    for (int i = 0; i < 9; ++i) board.emplace_back(i * 0.025f, j * 0.025f, 0.f);
+  for (const auto& key : report["views"]) {
+    std::vector<cv::Point2f> corners[2];
+    bool found = true;
+    for (int c = 0; c < 2; ++c) {
+      const cv::Mat image = cv::imread(
+          (set / ((c == 0 ? "left" : "right") + key.get<std::string>() + ".jpg")).string(),
+          cv::IMREAD_GRAYSCALE);
+      found = found && cv::findChessboardCorners(image, pattern, corners[c]);
+      if (found)
+        cv::cornerSubPix(image, corners[c], {5, 5}, {-1, -1},
+                         {cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3});
+    }
+    if (!found) continue;
+    object.push_back(board);
+    left.push_back(corners[0]);
+    right.push_back(corners[1]);
+  }
+  ASSERT_GE(left.size(), 10u);
+  cv::Mat k0, d0, k1, d1, R, T, E, F;
+  const double rms = cv::stereoCalibrate(object, left, right, k0, d0, k1, d1, {640, 480}, R, T, E,
+                                         F, cv::CALIB_FIX_K3);
+  cv::Vec3d r;
+  cv::Rodrigues(R, r);
+  const Rt opencv_rt{r[0], r[1], r[2], T.at<double>(0), T.at<double>(1), T.at<double>(2)};
+  const double baseline_mm = b["baseline_m"].get<double>() * 1000;
+  const double opencv_baseline_mm = cv::norm(T) * 1000;
+  const double rotation_apart_deg = rotation_between_deg(rt, opencv_rt);
+  std::printf(
+      "real pair (OpenCV's sample, %zu views in both): camlab baseline %.2f +- %.3f mm, "
+      "OpenCV stereoCalibrate %.2f mm (RMS %.3f px); rotations %.4f deg apart; "
+      "camlab's 1-sigma rotation %.4f/%.4f/%.4f deg\n",
+      left.size(), baseline_mm, b["baseline_sigma_mm"].get<double>(), opencv_baseline_mm, rms,
+      rotation_apart_deg, b["rotation_sigma_deg"][0].get<double>(),
+      b["rotation_sigma_deg"][1].get<double>(), b["rotation_sigma_deg"][2].get<double>());
+  EXPECT_NEAR(baseline_mm, opencv_baseline_mm, 0.005 * opencv_baseline_mm);
+  EXPECT_LT(rotation_apart_deg, 0.2);
+  EXPECT_LT(report["rms_px"].get<double>(), 0.3);
 }
 
 TEST(RigCli, RefusesMixedSourcesAndAMissingImager) {
