@@ -38,6 +38,7 @@ struct CalibrateArgs {
   std::vector<std::string> images_dirs, job_dirs, corners_paths, imagers;
   bool rig = false;
   std::string images_dir, job_dir, corners_path, imager;  // the one of each without --rig
+  std::string drift_from;
   std::string board, model = "auto", detector = "auto", sensor, out, report_path, yaml_path,
                      write_corners, plots_dir, dictionary;
   double spacing_m = 0, pixel_um = 0, focal_guess_px = 0, marker_m = 0, range_m = 0;
@@ -354,6 +355,7 @@ void run_calibrate_rig(const CalibrateArgs& a) {
   if (!(a.range_m >= 0 && a.range_m <= 1e5))
     errors.fail("out_of_range", "--range-m must be in [0, 100000] m (0: none)");
   rig.range_m = a.range_m;
+  rig.drift_from = a.drift_from;
   for (size_t c = 0; c < sources.size(); ++c) {
     calib::CalibrateOptions o = board_options(a, errors);
     if (!a.images_dirs.empty()) o.images_dir = sources[c];
@@ -424,6 +426,10 @@ void register_calibrate_command(CLI::App& app) {
   cmd->add_option("--range-m", args->range_m,
                   "--rig: the 1-sigma (mm) the calibration leaves in the range of a point this "
                   "far (m) along camera 0's axis, triangulated with each other camera");
+  cmd->add_option("--drift-from", args->drift_from,
+                  "--rig: an earlier rig.json of this rig; says per camera whether it moved "
+                  "beyond what the two calibrations' noise explains (chi-square of 6 degrees "
+                  "of freedom above 22.46)");
   cmd->add_option("--imager", args->imagers,
                   "Imager size WxH (px); default: from the images (with --rig and --corners: "
                   "one a camera, or one for all)");

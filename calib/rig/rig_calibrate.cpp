@@ -1,6 +1,7 @@
 #include "calib/rig/rig_calibrate.h"
 
 #include <algorithm>
+#include <fstream>
 #include <map>
 #include <set>
 
@@ -10,6 +11,7 @@
 #include "calib/library_stderr.h"
 #include "calib/model_io.h"
 #include "calib/model_selection.h"
+#include "calib/rig/rig_drift.h"
 #include "calib/rig/rig_range.h"
 
 namespace camlab::calib {
@@ -149,6 +151,7 @@ nlohmann::json rig_report_json(const RigCalibrationRun& run) {
       {"calobject_warp_m", s.calobject_warp},
       {"warnings", s.warnings},
       {"range_uncertainty", run.range_uncertainty},
+      {"drift", run.drift},
       {"solve_s", s.solve_s},
       {"files", run.files}};
 }
@@ -185,6 +188,15 @@ std::string rig_report_text(const RigCalibrationRun& run) {
         r["range_m"].get<double>(), r["camera"].get<int>(), r["sigma_mm"].get<double>(),
         r["sigma_intrinsics_alone_mm"].get<double>(), r["sigma_extrinsics_alone_mm"].get<double>());
   }
+  if (run.drift.is_object())
+    for (const auto& d : run.drift["cameras"])
+      text += format_printf(
+          "camera %d since %s: %s (rotation %.4f deg, translation %.3f mm; chi-square %.1f, "
+          "moved above %.2f)\n",
+          d["camera"].get<int>(), run.drift["from"].get<std::string>().c_str(),
+          d["verdict"].get<std::string>().c_str(), d["rotation_deg"].get<double>(),
+          d["translation_mm"].get<double>(), d["chi_square"].get<double>(),
+          d["threshold"].get<double>());
   for (const auto& w : s.warnings) text += "warning: " + w + "\n";
   return text;
 }
@@ -228,6 +240,15 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
                                        {"pixel_camera0", r->pixel_camera0},
                                        {"pixel_camera", r->pixel_other}});
     }
+  if (!options.drift_from.empty()) {
+    std::ifstream in(options.drift_from);
+    if (!in) return make_error("io_error", "cannot read " + options.drift_from.string());
+    const nlohmann::json before = nlohmann::json::parse(in, nullptr, false);
+    if (before.is_discarded())
+      return make_error("bad_json", options.drift_from.string() + " is not JSON");
+    CAMLAB_ASSIGN(out.drift, rig_drift(before, rig_report_json(out)));
+    out.drift["from"] = options.drift_from.string();
+  }
   if (!options.out_dir.empty()) {
     std::error_code ec;
     fs::create_directories(options.out_dir, ec);

@@ -34,6 +34,9 @@ struct RigCalibrateOptions {
   // > 0: each camera's triangulated-range uncertainty with camera 0 for a point this far
   // along camera 0's axis (rig_range.h), in the report's "range_uncertainty".
   double range_m = 0;
+  // Set: an earlier rig.json of this rig, compared with this calibration (rig_drift.h), in
+  // the report's "drift".
+  std::filesystem::path drift_from;
   const std::atomic<bool>* cancel = nullptr;
 };
 
@@ -43,6 +46,7 @@ struct RigCalibrationRun {
   std::vector<std::string> own_models;  // per camera with `auto`: its own selection
   RigSolution solution;
   nlohmann::json range_uncertainty = nlohmann::json::array();  // per camera 1..N-1
+  nlohmann::json drift;                                        // with drift_from
   nlohmann::json report;                                       // what rig.json holds
   std::vector<std::string> files;                              // written
 };

@@ -34,15 +34,17 @@ struct TempDir {
 
 // The pair of rig_solver_test.cpp, written as one corners.vnl a camera, the views named
 // camN/viewK.png (the rig matches them by viewK.png).
-std::vector<testing::RigCameraTruth> write_pair_corners(const fs::path& dir) {
+// `seed` draws the poses and noise; `camera1_yaw_deg` turns camera 1 further.
+std::vector<testing::RigCameraTruth> write_pair_corners(const fs::path& dir, uint32_t seed = 7,
+                                                        double camera1_yaw_deg = 0) {
   const double deg = M_PI / 180;
   std::vector<testing::RigCameraTruth> truth{
       {{"LENSMODEL_OPENCV4", {520, 520, 319.5, 239.5, -0.1, 0.02, 0.0002, -0.0001}, 640, 480},
        {0, 0, 0, 0, 0, 0}},
       {{"LENSMODEL_OPENCV4", {733, 733, 641.5, 398.5, -0.2, 0.04, 0.0, 0.0}, 1280, 800},
-       {0.002, -5 * deg, 1 * deg, -0.2, 0.003, 0.01}}};
+       {0.002, (-5 + camera1_yaw_deg) * deg, 1 * deg, -0.2, 0.003, 0.01}}};
   testing::RigViewSpec spec;
-  spec.seed = 7;
+  spec.seed = seed;
   RigData data = testing::make_rig_views(truth, BoardSpec{10, 7, 0.05}, spec);
   for (int c = 0; c < 2; ++c) {
     std::vector<BoardView> seen;
@@ -237,6 +239,52 @@ TEST(RigCli, RealStereoPairAgreesWithOpenCvsStereoCalibration) {
   EXPECT_NEAR(baseline_mm, opencv_baseline_mm, 0.005 * opencv_baseline_mm);
   EXPECT_LT(rotation_apart_deg, 0.2);
   EXPECT_LT(report["rms_px"].get<double>(), 0.3);
+}
+
+// Three calibrations: the rig, the same rig with fresh views, and the rig with camera 1
+// turned 0.5 deg (about 8 sigmas of the two calibrations together; 0.2 deg, 3 sigmas, is
+// not told from noise). --drift-from tells the second unchanged and the
+// third moved.
+TEST(RigCli, DriftFromAnEarlierCalibrationSeesATurnAndNotTheNoise) {
+  TempDir tmp;
+  auto calibrate = [&](const std::string& name, uint32_t seed, double yaw_deg,
+                       const std::string& drift_from) {
+    const fs::path dir = tmp.path / name;
+    fs::create_directories(dir);
+    write_pair_corners(dir, seed, yaw_deg);
+    return run_cli("calibrate --rig --corners " + (dir / "cam0.vnl").string() + " --corners " +
+                   (dir / "cam1.vnl").string() +
+                   " --imager 640x480 --imager 1280x800 --board 10x7 --spacing-m 0.05 "
+                   "--model LENSMODEL_OPENCV4 --json --out " +
+                   (dir / "rig").string() +
+                   (drift_from.empty() ? "" : " --drift-from " + drift_from));
+  };
+  const auto first = calibrate("first", 7, 0, "");
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  const std::string before = (tmp.path / "first" / "rig" / "rig.json").string();
+  const auto again = calibrate("again", 8, 0, before);
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  const auto turned = calibrate("turned", 9, 0.5, before);
+  ASSERT_EQ(turned.exit_code, 0) << turned.err;
+  const auto unchanged = nlohmann::json::parse(again.out)["drift"]["cameras"][0];
+  const auto moved = nlohmann::json::parse(turned.out)["drift"]["cameras"][0];
+  std::printf(
+      "same rig: %s, chi-square %.1f, %.4f deg; turned 0.5 deg: %s, chi-square %.1f, "
+      "%.4f deg\n",
+      unchanged["verdict"].get<std::string>().c_str(), unchanged["chi_square"].get<double>(),
+      unchanged["rotation_deg"].get<double>(), moved["verdict"].get<std::string>().c_str(),
+      moved["chi_square"].get<double>(), moved["rotation_deg"].get<double>());
+  EXPECT_EQ(unchanged["verdict"], "unchanged");
+  EXPECT_EQ(moved["verdict"], "moved");
+  EXPECT_NEAR(moved["rotation_deg"].get<double>(), 0.5, 0.15);
+  const auto bad = run_cli(
+      "calibrate --rig --corners " + (tmp.path / "first" / "cam0.vnl").string() + " --corners " +
+      (tmp.path / "first" / "cam1.vnl").string() +
+      " --imager 640x480 --imager 1280x800 --board 10x7 --spacing-m 0.05 "
+      "--model LENSMODEL_OPENCV4 --out " +
+      (tmp.path / "x").string() + " --drift-from " + (tmp.path / "first" / "cam0.vnl").string());
+  EXPECT_EQ(bad.exit_code, 2) << bad.err;
+  EXPECT_NE(bad.err.find("not JSON"), std::string::npos) << bad.err;
 }
 
 TEST(RigCli, RefusesMixedSourcesAndAMissingImager) {
