@@ -11,6 +11,7 @@
 #include "calib/library_stderr.h"
 #include "calib/model_io.h"
 #include "calib/model_selection.h"
+#include "calib/rig/rectification.h"
 #include "calib/rig/rig_drift.h"
 #include "calib/rig/rig_range.h"
 
@@ -152,6 +153,7 @@ nlohmann::json rig_report_json(const RigCalibrationRun& run) {
       {"warnings", s.warnings},
       {"range_uncertainty", run.range_uncertainty},
       {"drift", run.drift},
+      {"rectification", run.rectification},
       {"solve_s", s.solve_s},
       {"files", run.files}};
 }
@@ -188,6 +190,14 @@ std::string rig_report_text(const RigCalibrationRun& run) {
         r["range_m"].get<double>(), r["camera"].get<int>(), r["sigma_mm"].get<double>(),
         r["sigma_intrinsics_alone_mm"].get<double>(), r["sigma_extrinsics_alone_mm"].get<double>());
   }
+  for (const auto& r : run.rectification)
+    if (r.contains("epipolar") && r["epipolar"].contains("rms_px"))
+      text += format_printf(
+          "cameras 0 and %d rectified (pinhole %dx%d): epipolar residual of the board corners "
+          "%.3f px RMS, worst %.3f px over %d corners\n",
+          r["camera"].get<int>(), r["rectified_imager_px"][0].get<int>(),
+          r["rectified_imager_px"][1].get<int>(), r["epipolar"]["rms_px"].get<double>(),
+          r["epipolar"]["worst_px"].get<double>(), r["epipolar"]["corners"].get<int>());
   if (run.drift.is_object())
     for (const auto& d : run.drift["cameras"])
       text += format_printf(
@@ -223,6 +233,7 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
   solve_options.board_warp = options.board_warp;
   solve_options.cancel = options.cancel;
   CAMLAB_ASSIGN(out.solution, solve_rig(out.data, solve_options));
+  out.data = turned_rig_data(out.data, out.solution);
   if (options.range_m > 0)
     for (int c = 1; c < n; ++c) {
       auto r = triangulated_range_uncertainty(out.solution, c, options.range_m);
@@ -240,6 +251,32 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
                                        {"pixel_camera0", r->pixel_camera0},
                                        {"pixel_camera", r->pixel_other}});
     }
+  std::vector<StereoRectification> rectified;
+  for (int c = 1; c < n; ++c) {
+    auto r = rectify_pair(out.solution, c);
+    if (!r) {
+      out.rectification.push_back(
+          {{"camera", c},
+           {"error", {{"code", name_of(r.error().code)}, {"message", r.error().message}}}});
+      continue;
+    }
+    nlohmann::json j = {{"camera", c},
+                        {"rt_rect_ref", rt_json(r->rt_rect_ref)},
+                        {"baseline_m", r->baseline_m},
+                        {"az0_deg", r->az0_deg},
+                        {"rectified_lensmodel", r->rectified.lensmodel},
+                        {"rectified_intrinsics", r->rectified.intrinsics},
+                        {"rectified_imager_px", {r->rectified.width_px, r->rectified.height_px}}};
+    if (auto e = epipolar_residual(*r, out.data, out.solution); e.ok())
+      j["epipolar"] = {{"rms_px", e->rms_px},
+                       {"worst_px", e->worst_px},
+                       {"corners", e->corners},
+                       {"views", e->views}};
+    else
+      j["epipolar"] = {{"error", e.error().message}};
+    out.rectification.push_back(std::move(j));
+    rectified.push_back(*r);
+  }
   if (!options.drift_from.empty()) {
     std::ifstream in(options.drift_from);
     if (!in) return make_error("io_error", "cannot read " + options.drift_from.string());
@@ -265,6 +302,28 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
           !s)
         return s.error();
       out.files.push_back(path.string());
+    }
+    for (const auto& r : rectified) {
+      // Camera 0's rectified model at the reference's origin; camera N's at its centre.
+      const Rt& rt = out.solution.cameras[r.camera].rt_cam_ref;
+      const Rt centre_n = invert_rt(rt);
+      const Rt rt_rect_n =
+          compose_rt(r.rt_rect_ref, {0, 0, 0, centre_n[3], centre_n[4], centre_n[5]});
+      const Rt rt_rect1_ref = {r.rt_rect_ref[0], r.rt_rect_ref[1], r.rt_rect_ref[2],
+                               -rt_rect_n[3],    -rt_rect_n[4],    -rt_rect_n[5]};
+      for (int which : {0, r.camera}) {
+        const fs::path path =
+            options.out_dir / format_printf("rectified-%d-%d.cameramodel", r.camera, which);
+        const std::string comment =
+            format_printf("camlab calibrate --rig: camera %d of the pair 0-%d, rectified (pinhole)",
+                          which, r.camera);
+        if (Status s = write_file_atomically(
+                path,
+                cameramodel_text(r.rectified, comment, which == 0 ? r.rt_rect_ref : rt_rect1_ref));
+            !s)
+          return s.error();
+        out.files.push_back(path.string());
+      }
     }
     const fs::path report = options.out_dir / "rig.json";
     out.files.push_back(report.string());

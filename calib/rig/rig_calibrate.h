@@ -47,8 +47,13 @@ struct RigCalibrationRun {
   RigSolution solution;
   nlohmann::json range_uncertainty = nlohmann::json::array();  // per camera 1..N-1
   nlohmann::json drift;                                        // with drift_from
-  nlohmann::json report;                                       // what rig.json holds
-  std::vector<std::string> files;                              // written
+  // Per camera 1..N-1: its pair with camera 0 rectified (rectification.h) and the epipolar
+  // residual of the calibration's corners; the rectified pair's models are written as
+  // rectified-N-0.cameramodel and rectified-N-N.cameramodel (mrcal-stereo's
+  // rectified0/1.cameramodel).
+  nlohmann::json rectification = nlohmann::json::array();
+  nlohmann::json report;           // what rig.json holds
+  std::vector<std::string> files;  // written
 };
 
 // Errors: those of read_board_views() per camera (with "camera N: " before the message),

@@ -16,6 +16,7 @@
 #include "base/stack_thread.h"
 #include "calib/cholmod_sparse.h"
 #include "calib/mrcal_api.h"
+#include "calib/rig/board_labels.h"
 #include "calib/solver.h"
 
 namespace camlab::calib {
@@ -195,67 +196,23 @@ Status check_data(const RigData& data) {
   return {};
 }
 
-// Camera c -> (view -> rt_cam_board) of its single solve.
-using ViewPoses = std::map<int, Rt>;
+}  // namespace
 
-// rt_cam_ref per camera along the shortest chains of shared views from camera 0 (more
-// shared views first among equally short ones). Error when a camera is not connected.
-Result<std::vector<Rt>> chain_extrinsics(const std::vector<ViewPoses>& poses,
-                                         std::vector<std::string>* warnings) {
-  const int n = static_cast<int>(poses.size());
-  // Relative poses of every connected pair: rt_i_j from each shared view, averaged.
-  std::vector<std::vector<std::optional<Rt>>> rel(n, std::vector<std::optional<Rt>>(n));
-  std::vector<std::vector<int>> shared(n, std::vector<int>(n, 0));
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < n; ++j) {
-      if (i == j) continue;
-      std::vector<Rt> estimates;
-      for (const auto& [view, rt_i_board] : poses[i])
-        if (auto it = poses[j].find(view); it != poses[j].end())
-          estimates.push_back(compose_rt(rt_i_board, invert_rt(it->second)));
-      shared[i][j] = static_cast<int>(estimates.size());
-      if (!estimates.empty()) rel[i][j] = mean_rt(estimates);
-    }
-  std::vector<std::optional<Rt>> rt_cam_ref(n);
-  rt_cam_ref[0] = Rt{};
-  std::deque<int> queue{0};
-  while (!queue.empty()) {
-    const int j = queue.front();
-    queue.pop_front();
-    std::vector<int> next;
-    for (int i = 0; i < n; ++i)
-      if (!rt_cam_ref[i] && rel[i][j]) next.push_back(i);
-    std::sort(next.begin(), next.end(), [&](int a, int b) { return shared[a][j] > shared[b][j]; });
-    for (int i : next) {
-      rt_cam_ref[i] = compose_rt(*rel[i][j], *rt_cam_ref[j]);
-      queue.push_back(i);
-    }
-  }
-  std::vector<Rt> out;
-  for (int i = 0; i < n; ++i) {
-    if (!rt_cam_ref[i])
-      return make_error("too_few_views",
-                        format_printf("camera %d shares no board view with camera 0, directly "
-                                      "or through the other cameras: its pose in the rig is "
-                                      "undetermined",
-                                      i));
-    out.push_back(*rt_cam_ref[i]);
-    if (i > 0 && shared[i][0] > 0 && shared[i][0] < 3)
-      warnings->push_back(
-          format_printf("camera %d shares only %d views with camera 0", i, shared[i][0]));
-  }
+RigData turned_rig_data(const RigData& data, const RigSolution& solution) {
+  RigData out = data;
+  for (size_t c = 0; c < out.cameras.size() && c < solution.label_turns.size(); ++c)
+    for (const auto& [view, q] : solution.label_turns[c])
+      out.cameras[c].views[view] = turned_view(out.cameras[c].views[view], out.cameras[c].board, q);
   return out;
 }
 
-}  // namespace
-
-Result<RigSolution> solve_rig(const RigData& data, const RigSolveOptions& options) {
+Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
-  if (Status valid = check_data(data); !valid) return valid.error();
+  if (Status valid = check_data(input); !valid) return valid.error();
   int nparams = 0;
   CAMLAB_ASSIGN(nparams, lensmodel_param_count(options.lensmodel));
-  const int n = static_cast<int>(data.cameras.size());
-  const BoardSpec board = data.cameras[0].board;
+  const int n = static_cast<int>(input.cameras.size());
+  const BoardSpec board = input.cameras[0].board;
   const int per_view = board.cols * board.rows;
   RigSolution out;
   out.board = board;
@@ -266,7 +223,7 @@ Result<RigSolution> solve_rig(const RigData& data, const RigSolveOptions& option
   for (int c = 0; c < n; ++c) {
     if (Status go = check_not_cancelled(options.cancel, "rig calibration"); !go) return go.error();
     int seen = 0;
-    for (const auto& v : data.cameras[c].views) seen += v.present_count() >= 8;
+    for (const auto& v : input.cameras[c].views) seen += v.present_count() >= 8;
     if (seen < 3)
       return make_error("too_few_views",
                         format_printf("camera %d sees the board in %d views; a camera of a rig "
@@ -278,15 +235,19 @@ Result<RigSolution> solve_rig(const RigData& data, const RigSolveOptions& option
     o.board_warp = options.board_warp;
     o.compute_covariance = false;
     o.cancel = options.cancel;
-    auto s = solve(data.cameras[c], o);
+    auto s = solve(input.cameras[c], o);
     if (!s) return s.error().with_context(format_printf("camera %d alone: ", c));
     for (size_t k = 0; k < s->views_used.size(); ++k)
       if (k >= s->view_downweighted.size() || !s->view_downweighted[k])
         poses[c][s->views_used[k]] = s->rt_cam_board[k];
     single[c] = std::move(*s);
   }
-  std::vector<Rt> rt_cam_ref;
-  CAMLAB_ASSIGN(rt_cam_ref, chain_extrinsics(poses, &out.warnings));
+  RigLabelling labelling;
+  CAMLAB_ASSIGN(labelling, chain_and_label(&poses, board, &out.warnings));
+  const std::vector<Rt>& rt_cam_ref = labelling.rt_cam_ref;
+  out.label_turns = labelling.turns;
+  // From here on every camera's corners carry one labelling of each view.
+  const RigData data = turned_rig_data(input, out);
 
   // The joint problem, seeded from the single solves.
   RigProblem p;
@@ -305,8 +266,14 @@ Result<RigSolution> solve_rig(const RigData& data, const RigSolveOptions& option
   std::vector<std::vector<char>> outlier(n);
   for (int c = 0; c < n; ++c) {
     outlier[c].assign(data.cameras[c].views.size() * per_view, 0);
-    for (const auto& r : single[c].residuals)
-      if (r.outlier) outlier[c][static_cast<size_t>(r.view) * per_view + r.corner] = 1;
+    for (const auto& r : single[c].residuals) {
+      if (!r.outlier) continue;
+      const auto turn = out.label_turns[c].find(r.view);
+      const int corner = turn == out.label_turns[c].end()
+                             ? r.corner
+                             : turned_corner(board, turn->second, r.corner);
+      outlier[c][static_cast<size_t>(r.view) * per_view + corner] = 1;
+    }
   }
   std::vector<int> obs_camera;  // per observation
   for (int v = 0; v < static_cast<int>(data.cameras[0].views.size()); ++v) {

@@ -8,7 +8,9 @@
 // camera i's).
 //
 // The solve: each camera alone first (solver.h: seed, staged solve, outlier rejection),
-// which gives its lens and its board poses; the relative pose of two cameras from every
+// which gives its lens and its board poses; one labelling of each view's corners in every
+// camera (board_labels.h: detectors name a plain board's corners from where they start);
+// the relative pose of two cameras from every
 // view both see (the chordal mean of rt_i_board o rt_j_board^-1); camera i's extrinsics
 // along the shortest chain of shared views from camera 0 (cameras connected transitively,
 // not all to camera 0); each rig view's board pose from the cameras that see it; then one
@@ -30,6 +32,7 @@
 
 #include <array>
 #include <atomic>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -82,6 +85,9 @@ struct RigSolution {
   // Zero rows for a parameter the solve held (PINHOLE's absent distortions).
   int parameter_count = 0;
   std::vector<double> parameter_covariance;
+  // Per camera: view -> quarter turns its corner labels took to agree with the other
+  // cameras' (board_labels.h); turned_rig_data() applies them.
+  std::vector<std::map<int, int>> label_turns;
   std::vector<std::string> warnings;  // degenerate parts of the data, in words
   double solve_s = 0;
 };
@@ -91,5 +97,9 @@ struct RigSolution {
 // or a camera that shares no view with the others, directly or through others),
 // "solve_failed", "singular" (J^T J not invertible: no uncertainty), "cancelled".
 Result<RigSolution> solve_rig(const RigData& data, const RigSolveOptions& options);
+
+// `data` with each camera's views re-labelled as the solve re-labelled them: the corners
+// the solution's poses and residuals refer to.
+RigData turned_rig_data(const RigData& data, const RigSolution& solution);
 
 }  // namespace camlab::calib

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include "calib/rig/board_labels.h"
 #include "calib/rig/rig_pose.h"
 #include "calib/rig/rig_range.h"
 #include "calib/rig/rig_solver.h"
@@ -187,6 +188,37 @@ TEST(RigSolve, RingOfFourIsPlacedThroughItsNeighbours) {
         cam.rms_px);
     EXPECT_LT(rotation_deg, 3 * rotation_sigma_deg + 0.005) << "camera " << c;
     EXPECT_LT(translation_mm, 3 * translation_sigma_mm + 0.01) << "camera " << c;
+  }
+}
+
+// A detector that names a plain board's corners from the other end in some views of one
+// camera (and a quarter turn for a square board): the solve re-labels those views and
+// reaches the solve of the data labelled alike.
+TEST(RigSolve, ViewsLabelledTurnedInOneCameraAreRelabelled) {
+  for (const BoardSpec board : {kBoard, BoardSpec{8, 8, 0.05}}) {
+    const auto truth = pinhole_pair();
+    testing::RigViewSpec spec;
+    spec.seed = 5;
+    const RigData data = testing::make_rig_views(truth, board, spec);
+    RigData turned = data;
+    const int quarter = board.cols == board.rows ? 1 : 2;
+    std::vector<int> turned_views;
+    for (size_t v = 0; v < turned.cameras[1].views.size() && turned_views.size() < 4; ++v)
+      if (turned.cameras[1].views[v].present_count() > 0 &&
+          turned.cameras[0].views[v].present_count() > 0) {
+        turned.cameras[1].views[v] = turned_view(turned.cameras[1].views[v], board, quarter);
+        turned_views.push_back(static_cast<int>(v));
+      }
+    RigSolveOptions options;
+    options.lensmodel = "LENSMODEL_OPENCV4";
+    auto alike = solve_rig(data, options);
+    auto relabelled = solve_rig(turned, options);
+    ASSERT_TRUE(alike.ok() && relabelled.ok());
+    EXPECT_EQ(relabelled->label_turns[1].size(), turned_views.size()) << board.cols;
+    for (int v : turned_views) EXPECT_TRUE(relabelled->label_turns[1].count(v)) << v;
+    EXPECT_LT(rotation_between_deg(alike->cameras[1].rt_cam_ref, relabelled->cameras[1].rt_cam_ref),
+              1e-6);
+    EXPECT_EQ(relabelled->cameras[1].outliers, alike->cameras[1].outliers);
   }
 }
 

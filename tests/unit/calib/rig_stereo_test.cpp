@@ -1,0 +1,170 @@
+// Stereo rectification of a rig's pair (calib/rig/rectification.h): rows agree on the
+// truth, on a solved calibration to what its uncertainty allows, and the rectified frame is
+// mrcal-stereo's.
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
+
+#include "calib/model_io.h"
+#include "calib/mrcal_api.h"
+#include "calib/rig/rectification.h"
+#include "calib/rig/rig_pose.h"
+#include "calib/rig/rig_solver.h"
+#include "synthetic_rig.h"
+
+namespace camlab::calib {
+namespace {
+namespace rig_stereo_test {
+
+namespace fs = std::filesystem;
+constexpr double kDeg = M_PI / 180;
+const BoardSpec kBoard{10, 7, 0.05};
+
+std::vector<testing::RigCameraTruth> pair() {
+  return {{{"LENSMODEL_OPENCV4", {520, 520, 319.5, 239.5, -0.1, 0.02, 0.0002, -0.0001}, 640, 480},
+           {0, 0, 0, 0, 0, 0}},
+          {{"LENSMODEL_OPENCV4", {733, 733, 641.5, 398.5, -0.2, 0.04, 0.0, 0.0}, 1280, 800},
+           {0.002, -5 * kDeg, 1 * kDeg, -0.2, 0.003, 0.01}}};
+}
+
+// A solution holding the truth's lenses and poses.
+RigSolution truth_solution(const std::vector<testing::RigCameraTruth>& truth) {
+  RigSolution s;
+  for (const auto& t : truth) {
+    RigCamera c;
+    c.model = t.lens;
+    c.rt_cam_ref = t.rt_cam_ref;
+    s.cameras.push_back(c);
+  }
+  return s;
+}
+
+struct Pair {
+  std::vector<testing::RigCameraTruth> truth = pair();
+  RigData noisy, exact;  // the same poses, with 0.3 px of noise and without
+  RigSolution solved;
+};
+
+Pair solved_pair() {
+  Pair p;
+  testing::RigViewSpec spec;
+  spec.seed = 3;
+  p.noisy = testing::make_rig_views(p.truth, kBoard, spec);
+  spec.noise_px = 0;
+  p.exact = testing::make_rig_views(p.truth, kBoard, spec);
+  RigSolveOptions options;
+  options.lensmodel = "LENSMODEL_OPENCV4";
+  auto s = solve_rig(p.noisy, options);
+  EXPECT_TRUE(s.ok()) << s.error().message;
+  if (s) p.solved = *s;
+  return p;
+}
+
+TEST(RigStereo, RowsAgreeOnTheTruthAndWithinATenthOfAPixelThroughTheCalibration) {
+  const Pair p = solved_pair();
+  ASSERT_EQ(p.solved.cameras.size(), 2u);
+  // The poses are the same with and without noise (the noise draws do not move them).
+  ASSERT_EQ(p.exact.cameras[0].views.size(), p.noisy.cameras[0].views.size());
+  const RigSolution truth = truth_solution(p.truth);
+  auto exact_rect = rectify_pair(truth, 1);
+  ASSERT_TRUE(exact_rect.ok()) << exact_rect.error().message;
+  auto on_truth = epipolar_residual(*exact_rect, p.exact, truth);
+  ASSERT_TRUE(on_truth.ok()) << on_truth.error().message;
+  EXPECT_LT(on_truth->rms_px, 1e-6) << "rows of the truth's corners through the truth";
+  auto rect = rectify_pair(p.solved, 1);
+  ASSERT_TRUE(rect.ok()) << rect.error().message;
+  auto through_calibration = epipolar_residual(*rect, p.exact, p.solved);
+  auto noisy = epipolar_residual(*rect, p.noisy, p.solved);
+  ASSERT_TRUE(through_calibration.ok() && noisy.ok());
+  std::printf(
+      "rectified %dx%d, az0 %.2f deg: epipolar residual of the truth's corners %.2e px "
+      "(truth), %.4f px RMS, worst %.4f (solved calibration, %d corners); of the noisy "
+      "corners %.3f px\n",
+      rect->rectified.width_px, rect->rectified.height_px, rect->az0_deg, on_truth->rms_px,
+      through_calibration->rms_px, through_calibration->worst_px, through_calibration->corners,
+      noisy->rms_px);
+  EXPECT_LT(through_calibration->rms_px, 0.1);
+  EXPECT_GT(through_calibration->corners, 500);
+  // The rectified images: a truth corner lands on one row in both (maps sampled at it).
+  auto map0 = rectification_maps(*exact_rect, truth, 0);
+  ASSERT_TRUE(map0.ok()) << map0.error().message;
+  EXPECT_EQ((*map0)[0].cols, exact_rect->rectified.width_px);
+  const cv::Point centre((*map0)[0].cols / 2, (*map0)[0].rows / 2);
+  const float x = (*map0)[0].at<float>(centre), y = (*map0)[1].at<float>(centre);
+  auto back = rectified_pixels(*exact_rect, truth, 0, {x, y});
+  ASSERT_TRUE(back.ok());
+  EXPECT_NEAR((*back)[0], centre.x, 1e-3);
+  EXPECT_NEAR((*back)[1], centre.y, 1e-3);
+}
+
+// mrcal-stereo on camlab's models of the pair: its rectified0.cameramodel has the frame
+// camlab's rectification has, and its rectified rows agree as well on the truth's corners.
+TEST(RigStereo, TheRectifiedFrameIsMrcalStereos) {
+  if (!fs::exists("/usr/bin/mrcal-stereo") || !fs::exists("/usr/bin/python3"))
+    GTEST_SKIP() << "mrcal-stereo (Debian's mrcal) is absent";
+  const Pair p = solved_pair();
+  ASSERT_EQ(p.solved.cameras.size(), 2u);
+  const fs::path dir =
+      fs::temp_directory_path() / ("camlab_rig_stereo_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  for (int c = 0; c < 2; ++c)
+    std::ofstream(dir / ("camera-" + std::to_string(c) + ".cameramodel"))
+        << cameramodel_text(p.solved.cameras[c].model, "", p.solved.cameras[c].rt_cam_ref);
+  auto ours = rectify_pair(p.solved, 1, 60, 40);
+  ASSERT_TRUE(ours.ok()) << ours.error().message;
+  const std::string command =
+      "/usr/bin/python3 /usr/bin/mrcal-stereo --az-fov-deg 60 --el-fov-deg 40 "
+      "--rectification LENSMODEL_PINHOLE --outdir " +
+      dir.string() + " " + (dir / "camera-0.cameramodel").string() + " " +
+      (dir / "camera-1.cameramodel").string() + " > " + (dir / "log").string() + " 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << "see " << dir / "log";
+  mrcal_cameramodel_t* theirs =
+      mrcal_read_cameramodel_file((dir / "rectified0.cameramodel").c_str());
+  ASSERT_NE(theirs, nullptr);
+  StereoRectification theirs_rect = *ours;
+  for (int k = 0; k < 6; ++k) theirs_rect.rt_rect_ref[k] = theirs->rt_cam_ref[k];
+  theirs_rect.rectified.intrinsics.assign(theirs->intrinsics, theirs->intrinsics + 4);
+  theirs_rect.rectified.width_px = static_cast<int>(theirs->imagersize[0]);
+  theirs_rect.rectified.height_px = static_cast<int>(theirs->imagersize[1]);
+  mrcal_free_cameramodel(&theirs);
+  const double apart_deg = rotation_between_deg(ours->rt_rect_ref, theirs_rect.rt_rect_ref);
+  auto ours_residual = epipolar_residual(*ours, p.exact, p.solved);
+  auto theirs_residual = epipolar_residual(theirs_rect, p.exact, p.solved);
+  ASSERT_TRUE(ours_residual.ok() && theirs_residual.ok());
+  std::printf(
+      "rectified frames %.2e deg apart; epipolar residual of the truth's corners: camlab "
+      "%.4f px, mrcal-stereo's rectification %.4f px; imagers %dx%d and %dx%d\n",
+      apart_deg, ours_residual->rms_px, theirs_residual->rms_px, ours->rectified.width_px,
+      ours->rectified.height_px, theirs_rect.rectified.width_px, theirs_rect.rectified.height_px);
+  EXPECT_LT(apart_deg, 1e-6);
+  EXPECT_LT(ours_residual->rms_px, 0.1);
+  // Rows scale with the focal length each rectification chose; the residuals agree to that.
+  EXPECT_NEAR(ours_residual->rms_px / ours->rectified.intrinsics[1],
+              theirs_residual->rms_px / theirs_rect.rectified.intrinsics[1],
+              0.05 * ours_residual->rms_px / ours->rectified.intrinsics[1]);
+  fs::remove_all(dir);
+}
+
+TEST(RigStereo, CamerasOnOneCentreOrLookingAlongTheBaselineAreRefused) {
+  auto truth = truth_solution(pair());
+  truth.cameras[1].rt_cam_ref = {0, 0.1, 0, 0, 0, 0};
+  auto same_centre = rectify_pair(truth, 1);
+  ASSERT_FALSE(same_centre.ok());
+  EXPECT_NE(same_centre.error().text().find("singular"), std::string::npos);
+  truth.cameras[1].rt_cam_ref = {0, 0, 0, 0, 0, -0.2};  // camera 1 straight ahead of camera 0
+  auto along = rectify_pair(truth, 1);
+  ASSERT_FALSE(along.ok());
+  EXPECT_NE(along.error().message.find("along their baseline"), std::string::npos);
+  EXPECT_FALSE(rectify_pair(truth, 2).ok());
+  EXPECT_FALSE(rectify_pair(truth_solution(pair()), 1, 175, 40).ok());
+}
+
+}  // namespace rig_stereo_test
+}  // namespace
+}  // namespace camlab::calib
