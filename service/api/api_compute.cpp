@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "analysis/capture_check.h"
+#include "calib/rig/rig_solver.h"
 #include "image/capture_folder.h"
 #include "service/api/service_context.h"
 #include "service/jobs/calibration_request.h"
@@ -93,17 +94,49 @@ void queue_compute_job(const ServiceContext& context, const std::string& kind,
   reply(std::move(response));
 }
 
+// A rig's sources: "rig": [{"job": N} or {"folder": "..."}, ...], one a camera, camera 0
+// first (calib/rig/rig_calibrate.h; frames matched across cameras by file name).
+Result<nlohmann::json> resolve_rig_sources(const ServiceContext& context,
+                                           const nlohmann::json& rig) {
+  if (!rig.is_array() || rig.size() < static_cast<size_t>(calib::kRigCamerasMin) ||
+      rig.size() > static_cast<size_t>(calib::kRigCamerasMax))
+    return make_error("invalid_request",
+                      "\"rig\" must be an array of 2 to 8 sources, one a camera, camera 0 first: "
+                      "[{\"job\": 12}, {\"job\": 13}] or [{\"folder\": \"imports/left\"}, ...]");
+  nlohmann::json sources = nlohmann::json::array();
+  for (size_t c = 0; c < rig.size(); ++c) {
+    if (!rig[c].is_object())
+      return make_error("invalid_request", "\"rig\"[" + std::to_string(c) + "] must be an object");
+    if (Status known = check_known_fields(rig[c], {"job", "folder"}); !known)
+      return known.error().with_context("\"rig\"[" + std::to_string(c) + "]: ");
+    auto source = resolve_source(context, rig[c]);
+    if (!source) return source.error().with_context("camera " + std::to_string(c) + ": ");
+    sources.push_back(*source);
+  }
+  return sources;
+}
+
 void post_calibration(const ServiceContext& context, const ApiRequest& request, Reply reply) {
   auto body = parse_json_object(request.body);
   if (!body) return reply(error_response(body.error()));
   if (Status known =
-          check_known_fields(*body, {"job", "folder", "inner_corners", "spacing_m", "detector",
-                                     "marker_m", "dictionary", "model", "pixel_um"});
+          check_known_fields(*body, {"job", "folder", "rig", "inner_corners", "spacing_m",
+                                     "detector", "marker_m", "dictionary", "model", "pixel_um"});
       !known)
     return reply(error_response(known.error()));
   auto normalised = normalised_calibration_fields(*body);
   if (!normalised) return reply(error_response(normalised.error()));
   // The source last: a malformed request is refused before any file is looked at.
+  if (body->contains("rig")) {
+    if (body->contains("job") || body->contains("folder"))
+      return reply(error_response("invalid_request",
+                                  "give \"rig\" (one source a camera) or one \"job\" or "
+                                  "\"folder\", not both"));
+    auto sources = resolve_rig_sources(context, (*body)["rig"]);
+    if (!sources) return reply(error_response(sources.error()));
+    (*normalised)["rig_sources"] = *sources;
+    return queue_compute_job(context, "calibration", *normalised, reply);
+  }
   auto source = resolve_source(context, *body);
   if (!source) return reply(error_response(source.error()));
   for (const auto& [key, value] : source->items()) (*normalised)[key] = value;

@@ -184,6 +184,19 @@ json schemas() {
          {{"job", {{"type", "integer"}, {"description", "a finished capture job"}}},
           {"folder",
            {{"type", "string"}, {"description", "or a capture folder under the data folder"}}},
+          {"rig",
+           {{"type", "array"},
+            {"minItems", 2},
+            {"maxItems", 8},
+            {"items",
+             {{"type", "object"},
+              {"properties", {{"job", {{"type", "integer"}}}, {"folder", {{"type", "string"}}}}},
+              {"additionalProperties", false}}},
+            {"description",
+             "or a rig: one capture (job or folder) a camera, camera 0 first, frames matched "
+             "by file name; the result's report is rig.json (each camera's pose relative to "
+             "camera 0 with its 1-sigma, rectification, epipolar residual) and the job's "
+             "folder holds camera-N.cameramodel"}}},
           {"inner_corners", inner_corners_schema()},
           {"spacing_m", spacing_schema()},
           {"model",

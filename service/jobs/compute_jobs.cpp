@@ -8,6 +8,7 @@
 #include "calib/calibrate.h"
 #include "calib/calibration_request.h"
 #include "calib/model_io.h"
+#include "calib/rig/rig_calibrate.h"
 #include "image/capture_folder.h"
 #include "service/jobs/calibration_request.h"
 #include "service/metrics.h"
@@ -25,9 +26,42 @@ JobOutcome failure(Error error) {
 
 }  // namespace
 
+namespace {
+
+// A rig calibration (request "rig_sources"): the same run as `camlab calibrate --rig --job
+// ...` (calib/rig/rig_calibrate.h), camera-N.cameramodel and rig.json in the job's folder.
+JobOutcome execute_rig_calibration(const JobRecord& job, const std::filesystem::path& data_dir,
+                                   const std::atomic<bool>* cancel) {
+  const nlohmann::json& request = job.request;
+  calib::RigCalibrateOptions rig;
+  rig.model = request.value("model", std::string("auto"));
+  rig.cancel = cancel;
+  rig.range_m = 0;
+  for (const auto& source : request.at("rig_sources")) {
+    calib::CalibrateOptions options = calibration_options(request);
+    options.job_dir = data_dir / source.at("source_folder").get<std::string>();
+    options.detect_threads = 1;  // the compute thread's one core
+    rig.cameras.push_back(std::move(options));
+  }
+  rig.out_dir = data_dir / job.folder;
+  auto run = calib::calibrate_rig(rig);
+  if (!run) return failure(run.error());
+  JobOutcome outcome;
+  outcome.state = JobState::kSucceeded;
+  outcome.result = {{"report", run->report}, {"rig", true}};
+  nlohmann::json files = nlohmann::json::array();
+  for (size_t c = 0; c < rig.cameras.size(); ++c)
+    files.push_back(job.folder + "/camera-" + std::to_string(c) + ".cameramodel");
+  outcome.result["cameramodel_files"] = files;
+  return outcome;
+}
+
+}  // namespace
+
 JobOutcome execute_calibration(const JobRecord& job, const std::filesystem::path& data_dir,
                                const std::atomic<bool>* cancel) {
   const nlohmann::json& request = job.request;
+  if (request.contains("rig_sources")) return execute_rig_calibration(job, data_dir, cancel);
   const std::filesystem::path source = data_dir / request.at("source_folder").get<std::string>();
   auto folder = image::CaptureFolder::open(source);
   if (!folder) return failure(folder.error());

@@ -400,4 +400,60 @@ TEST_F(ServiceCompute, CalibrationOfARenderedCharucoSetKeepsCutViews) {
   EXPECT_EQ(job["result"]["report"]["detector"]["requested"], "charuco");
 }
 
+// A two-camera rig through camlabd: the README's wide camera and a copy of it 0.1 m to its
+// right, the same seven board poses rendered for each (each camera's frames in a capture
+// folder of its own, named alike), calibrated as one rig by POST /v1/calibrations.
+TEST_F(ServiceCompute, RigCalibrationOfTwoRenderedCamerasFindsTheirBaseline) {
+  const fs::path scene_dir = dir / "rig-scenes";
+  fs::create_directories(scene_dir);
+  json scene = json::parse(read_file(fs::path(CAMLAB_SOURCE_DIR) /
+                                     "mock_device/examples/scene_chessboard_calibration.json"));
+  std::ofstream(scene_dir / "camera-0.json") << scene.dump();
+  // Camera 1 sits 0.1 m along camera 0's x axis, turned as camera 0: a board's pose in its
+  // frame is the same rotation, 0.1 m further left.
+  for (auto& target : scene["targets"])
+    if (target.contains("poses"))
+      for (auto& pose : target["poses"]) pose[3] = pose[3].get<double>() - 0.1;
+  std::ofstream(scene_dir / "camera-1.json") << scene.dump();
+  for (int c = 0; c < 2; ++c) {
+    const auto render = run_cli(
+        "render --camera " CAMLAB_SOURCE_DIR
+        "/mock_device/examples/camera_wide_1280x800.json "
+        "--scene " +
+        (scene_dir / ("camera-" + std::to_string(c) + ".json")).string() +
+        " --quiet --view 0 --view 5 --view 10 --view 15 --view 20 --view 25 --view 30 --out " +
+        (dir / "data" / "imports" / ("rig-" + std::to_string(c))).string());
+    ASSERT_EQ(render.exit_code, 0) << render.err;
+  }
+  const json rig = json::array({{{"folder", "imports/rig-0"}}, {{"folder", "imports/rig-1"}}});
+  auto one = daemon.post("/v1/calibrations", {{"rig", json::array({{{"folder", "imports/rig-0"}}})},
+                                              {"inner_corners", {14, 10}},
+                                              {"spacing_m", 0.04}});
+  EXPECT_EQ(one.status, 400) << one.body;
+  auto both = daemon.post("/v1/calibrations", {{"rig", rig},
+                                               {"folder", "imports/rig-0"},
+                                               {"inner_corners", {14, 10}},
+                                               {"spacing_m", 0.04}});
+  EXPECT_EQ(both.status, 400) << both.body;
+  auto r = daemon.post("/v1/calibrations", {{"rig", rig},
+                                            {"inner_corners", {14, 10}},
+                                            {"spacing_m", 0.04},
+                                            {"model", "LENSMODEL_OPENCV8"}});
+  ASSERT_EQ(r.status, 202) << r.body;
+  const json job = daemon.wait_finished(r.json()["id"], std::chrono::seconds(300));
+  ASSERT_EQ(job["state"], "succeeded") << job.dump();
+  const json& camera1 = job["result"]["report"]["cameras"][1];
+  const auto rt = camera1["rt_cam_ref"].get<std::vector<double>>();
+  std::printf(
+      "rig through camlabd: camera 1 rt_cam_ref %.5f %.5f %.5f rad, %.5f %.5f %.5f m; "
+      "baseline %.3f +- %.3f mm\n",
+      rt[0], rt[1], rt[2], rt[3], rt[4], rt[5], camera1["baseline_m"].get<double>() * 1000,
+      camera1["baseline_sigma_mm"].get<double>());
+  EXPECT_NEAR(camera1["baseline_m"].get<double>(), 0.1, 0.001);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(rt[k], 0, 0.05 * M_PI / 180) << k;
+  EXPECT_NEAR(rt[3], -0.1, 0.001);
+  for (const auto& file : job["result"]["cameramodel_files"])
+    EXPECT_TRUE(fs::exists(dir / "data" / file.get<std::string>())) << file;
+}
+
 }  // namespace
