@@ -13,12 +13,6 @@ namespace {
 
 constexpr double kRadPerDeg = M_PI / 180;
 
-cv::Matx33d rotation(const Rt& rt) {
-  cv::Matx33d R;
-  cv::Rodrigues(cv::Vec3d(rt[0], rt[1], rt[2]), R);
-  return R;
-}
-
 }  // namespace
 
 Result<StereoRectification> rectify_pair(const RigSolution& rig, int camera, double az_fov_deg,
@@ -43,7 +37,7 @@ Result<StereoRectification> rectify_pair(const RigSolution& rig, int camera, dou
   // Camera 0 is the reference: its axes are the reference's. Camera N's centre and optical
   // axis in camera 0's frame.
   const Rt& rt = rig.cameras[camera].rt_cam_ref;
-  const cv::Matx33d R_n_ref = rotation(rt);
+  const cv::Matx33d R_n_ref = rotation_matrix(rt);
   const cv::Vec3d centre_n = -(R_n_ref.t() * cv::Vec3d(rt[3], rt[4], rt[5]));
   StereoRectification out;
   out.camera = camera;
@@ -61,9 +55,8 @@ Result<StereoRectification> rectify_pair(const RigSolution& rig, int camera, dou
   const cv::Vec3d down = forward.cross(right);
   const cv::Matx33d R_rect_ref(right[0], right[1], right[2], down[0], down[1], down[2], forward[0],
                                forward[1], forward[2]);
-  cv::Vec3d r;
-  cv::Rodrigues(R_rect_ref, r);
-  out.rt_rect_ref = {r[0], r[1], r[2], 0, 0, 0};
+  out.rt_rect_ref = rt_from(R_rect_ref, {0, 0, 0});
+  out.rt_rect_other_ref = rt_from(R_rect_ref, -(R_rect_ref * centre_n));
   const double az0 =
       std::asin(std::clamp(mean_forward.dot(right) / cv::norm(mean_forward), -1.0, 1.0));
   out.az0_deg = az0 / kRadPerDeg;
@@ -89,7 +82,7 @@ Result<std::vector<double>> rectified_pixels(const StereoRectification& r, const
   std::vector<double> directions;
   CAMLAB_ASSIGN(directions, unproject(cam.model, q_px));
   // Camera -> reference -> rectified, and the pinhole projection.
-  const cv::Matx33d R = rotation(r.rt_rect_ref) * rotation(cam.rt_cam_ref).t();
+  const cv::Matx33d R = rotation_matrix(r.rt_rect_ref) * rotation_matrix(cam.rt_cam_ref).t();
   const auto& k = r.rectified.intrinsics;
   std::vector<double> out;
   out.reserve(q_px.size());
@@ -149,7 +142,8 @@ Result<std::array<cv::Mat, 2>> rectification_maps(const StereoRectification& r,
   const int w = r.rectified.width_px, h = r.rectified.height_px;
   const auto& k = r.rectified.intrinsics;
   // Rectified pixel -> rectified ray -> the camera's ray -> its pixel.
-  const cv::Matx33d R = rotation(rig.cameras[which].rt_cam_ref) * rotation(r.rt_rect_ref).t();
+  const cv::Matx33d R =
+      rotation_matrix(rig.cameras[which].rt_cam_ref) * rotation_matrix(r.rt_rect_ref).t();
   std::vector<double> points;
   points.reserve(static_cast<size_t>(w) * h * 3);
   for (int y = 0; y < h; ++y)

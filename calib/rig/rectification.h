@@ -21,11 +21,12 @@
 namespace camlab::calib {
 
 struct StereoRectification {
-  int camera = 1;         // the pair is camera 0 and this one
-  Rt rt_rect_ref{};       // rectified frame (at camera 0's centre) from the reference
-  double baseline_m = 0;  // distance between the two centres
-  double az0_deg = 0;     // the cameras' mean viewing direction off the baseline's normal
-  LensModel rectified;    // LENSMODEL_PINHOLE, the same for both rectified cameras
+  int camera = 1;          // the pair is camera 0 and this one
+  Rt rt_rect_ref{};        // rectified frame (at camera 0's centre) from the reference
+  Rt rt_rect_other_ref{};  // the other camera's rectified frame: the same turn, at its centre
+  double baseline_m = 0;   // distance between the two centres
+  double az0_deg = 0;      // the cameras' mean viewing direction off the baseline's normal
+  LensModel rectified;     // LENSMODEL_PINHOLE, the same for both rectified cameras
 };
 
 // The pair's rectified geometry; the rectified imager spans az_fov_deg along the baseline

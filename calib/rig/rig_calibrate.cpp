@@ -109,7 +109,10 @@ Result<std::string> rig_model(const RigCalibrateOptions& options, RigCalibration
   return richest;
 }
 
-nlohmann::json rt_json(const Rt& rt) { return nlohmann::json(rt); }
+// A part of the report that could not be made: its error as camlabd and --json give errors.
+nlohmann::json error_json(const Error& error) {
+  return {{"code", name_of(error.code)}, {"message", error.message}};
+}
 
 }  // namespace
 
@@ -123,7 +126,7 @@ nlohmann::json rig_report_json(const RigCalibrationRun& run) {
         {"lensmodel", cam.model.lensmodel},
         {"intrinsics", cam.model.intrinsics},
         {"imager_px", {cam.model.width_px, cam.model.height_px}},
-        {"rt_cam_ref", rt_json(cam.rt_cam_ref)},
+        {"rt_cam_ref", nlohmann::json(cam.rt_cam_ref)},
         {"baseline_m", cam.baseline_m},
         {"baseline_sigma_mm", cam.baseline_sigma_mm},
         {"rotation_sigma_deg", cam.rotation_sigma_deg},
@@ -238,9 +241,7 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
     for (int c = 1; c < n; ++c) {
       auto r = triangulated_range_uncertainty(out.solution, c, options.range_m);
       if (!r) {
-        out.range_uncertainty.push_back(
-            {{"camera", c},
-             {"error", {{"code", name_of(r.error().code)}, {"message", r.error().message}}}});
+        out.range_uncertainty.push_back({{"camera", c}, {"error", error_json(r.error())}});
         continue;
       }
       out.range_uncertainty.push_back({{"camera", c},
@@ -255,13 +256,11 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
   for (int c = 1; c < n; ++c) {
     auto r = rectify_pair(out.solution, c);
     if (!r) {
-      out.rectification.push_back(
-          {{"camera", c},
-           {"error", {{"code", name_of(r.error().code)}, {"message", r.error().message}}}});
+      out.rectification.push_back({{"camera", c}, {"error", error_json(r.error())}});
       continue;
     }
     nlohmann::json j = {{"camera", c},
-                        {"rt_rect_ref", rt_json(r->rt_rect_ref)},
+                        {"rt_rect_ref", nlohmann::json(r->rt_rect_ref)},
                         {"baseline_m", r->baseline_m},
                         {"az0_deg", r->az0_deg},
                         {"rectified_lensmodel", r->rectified.lensmodel},
@@ -304,13 +303,6 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
       out.files.push_back(path.string());
     }
     for (const auto& r : rectified) {
-      // Camera 0's rectified model at the reference's origin; camera N's at its centre.
-      const Rt& rt = out.solution.cameras[r.camera].rt_cam_ref;
-      const Rt centre_n = invert_rt(rt);
-      const Rt rt_rect_n =
-          compose_rt(r.rt_rect_ref, {0, 0, 0, centre_n[3], centre_n[4], centre_n[5]});
-      const Rt rt_rect1_ref = {r.rt_rect_ref[0], r.rt_rect_ref[1], r.rt_rect_ref[2],
-                               -rt_rect_n[3],    -rt_rect_n[4],    -rt_rect_n[5]};
       for (int which : {0, r.camera}) {
         const fs::path path =
             options.out_dir / format_printf("rectified-%d-%d.cameramodel", r.camera, which);
@@ -318,8 +310,8 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
             format_printf("camlab calibrate --rig: camera %d of the pair 0-%d, rectified (pinhole)",
                           which, r.camera);
         if (Status s = write_file_atomically(
-                path,
-                cameramodel_text(r.rectified, comment, which == 0 ? r.rt_rect_ref : rt_rect1_ref));
+                path, cameramodel_text(r.rectified, comment,
+                                       which == 0 ? r.rt_rect_ref : r.rt_rect_other_ref));
             !s)
           return s.error();
         out.files.push_back(path.string());

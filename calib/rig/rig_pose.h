@@ -9,10 +9,16 @@
 #include <array>
 #include <vector>
 
+#include <opencv2/core.hpp>
+
 namespace camlab::calib {
 
 using Rt = std::array<double, 6>;
 
+// R of rt (Rodrigues).
+cv::Matx33d rotation_matrix(const Rt& rt);
+// rt from R and t.
+Rt rt_from(const cv::Matx33d& R, const cv::Vec3d& t);
 // rt_a_c = rt_a_b composed with rt_b_c.
 Rt compose_rt(const Rt& rt_a_b, const Rt& rt_b_c);
 // rt_b_a from rt_a_b.

@@ -17,8 +17,7 @@ Result<std::array<double, 3>> triangulate_midpoint(const LensModel& camera0, con
   std::vector<double> ray0, ray1;
   CAMLAB_ASSIGN(ray0, unproject(camera0, {q0[0], q0[1]}));
   CAMLAB_ASSIGN(ray1, unproject(other, {q_other[0], q_other[1]}));
-  cv::Matx33d R;
-  cv::Rodrigues(cv::Vec3d(rt_other_ref[0], rt_other_ref[1], rt_other_ref[2]), R);
+  const cv::Matx33d R = rotation_matrix(rt_other_ref);
   const cv::Vec3d t(rt_other_ref[3], rt_other_ref[4], rt_other_ref[5]);
   const cv::Vec3d v(ray0[0], ray0[1], ray0[2]);
   const cv::Vec3d w = R.t() * cv::Vec3d(ray1[0], ray1[1], ray1[2]);
@@ -86,9 +85,8 @@ Result<RangeUncertainty> triangulated_range_uncertainty(const RigSolution& solut
   std::vector<double> axis;
   CAMLAB_ASSIGN(axis, unproject(m0, {m0.intrinsics[2], m0.intrinsics[3]}));
   const cv::Vec3d p0 = cv::Vec3d(axis[0], axis[1], axis[2]) * range_m;
-  cv::Matx33d R;
   const Rt& rt = base.rt_cam_ref[camera];
-  cv::Rodrigues(cv::Vec3d(rt[0], rt[1], rt[2]), R);
+  const cv::Matx33d R = rotation_matrix(rt);
   const cv::Vec3d p1 = R * p0 + cv::Vec3d(rt[3], rt[4], rt[5]);
   std::vector<double> q0, q1;
   CAMLAB_ASSIGN(q0, project(m0, {p0[0], p0[1], p0[2]}));

@@ -5,9 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <deque>
 #include <map>
-#include <optional>
 
 #include <opencv2/core.hpp>
 
@@ -335,34 +333,6 @@ Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& optio
   }
   cv::Mat covariance;
   CAMLAB_ASSIGN(out.corner_sigma_px, rig_state_covariance(p, board, &covariance));
-  for (int c = 0; c < n; ++c) {
-    RigCamera& cam = out.cameras[c];
-    cam.model.lensmodel = options.lensmodel;
-    cam.model.intrinsics.assign(p.intrinsics.begin() + c * nparams,
-                                p.intrinsics.begin() + (c + 1) * nparams);
-    cam.model.width_px = data.cameras[c].imager_width_px;
-    cam.model.height_px = data.cameras[c].imager_height_px;
-    cam.rms_px = cam.inliers ? std::sqrt(sum_sq[c] / cam.inliers) : 0;
-    cam.single_rms_px = single[c].rms_px;
-    all_sq += sum_sq[c];
-    all_inliers += cam.inliers;
-    if (c == 0) continue;
-    cam.rt_cam_ref = from_pose(p.extrinsics[c - 1]);
-    const int at =
-        mrcal_state_index_extrinsics(c - 1, n, n - 1, static_cast<int>(p.frames.size()), 0, 0,
-                                     static_cast<int>(p.observations.size()), p.sel, &p.lensmodel);
-    cv::Matx66d block;
-    for (int a = 0; a < 6; ++a)
-      for (int b = 0; b < 6; ++b) {
-        block(a, b) = covariance.at<double>(at + a, at + b);
-        cam.rt_covariance[6 * a + b] = block(a, b);
-      }
-    for (int k = 0; k < 3; ++k) {
-      cam.rotation_sigma_deg[k] = std::sqrt(std::max(0.0, block(k, k))) * kDegPerRad;
-      cam.translation_sigma_mm[k] = std::sqrt(std::max(0.0, block(3 + k, 3 + k))) * 1000;
-    }
-    std::tie(cam.baseline_m, cam.baseline_sigma_mm) = baseline_and_sigma(cam.rt_cam_ref, block);
-  }
   // The covariance of every camera's intrinsics and extrinsics (rig_solver.h's layout):
   // each state's index in mrcal's vector, -1 for a parameter the solve held.
   std::vector<int> index;
@@ -387,6 +357,33 @@ Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& optio
     for (size_t b = 0; b < index.size(); ++b)
       if (index[a] >= 0 && index[b] >= 0)
         out.parameter_covariance[a * index.size() + b] = covariance.at<double>(index[a], index[b]);
+  for (int c = 0; c < n; ++c) {
+    RigCamera& cam = out.cameras[c];
+    cam.model.lensmodel = options.lensmodel;
+    cam.model.intrinsics.assign(p.intrinsics.begin() + c * nparams,
+                                p.intrinsics.begin() + (c + 1) * nparams);
+    cam.model.width_px = data.cameras[c].imager_width_px;
+    cam.model.height_px = data.cameras[c].imager_height_px;
+    cam.rms_px = cam.inliers ? std::sqrt(sum_sq[c] / cam.inliers) : 0;
+    cam.single_rms_px = single[c].rms_px;
+    all_sq += sum_sq[c];
+    all_inliers += cam.inliers;
+    if (c == 0) continue;
+    cam.rt_cam_ref = from_pose(p.extrinsics[c - 1]);
+    // Its rt_cam_ref's block of the parameter covariance.
+    const size_t at = static_cast<size_t>(n) * nparams + 6 * (c - 1);
+    cv::Matx66d block;
+    for (int a = 0; a < 6; ++a)
+      for (int b = 0; b < 6; ++b) {
+        block(a, b) = out.parameter_covariance[(at + a) * out.parameter_count + at + b];
+        cam.rt_covariance[6 * a + b] = block(a, b);
+      }
+    for (int k = 0; k < 3; ++k) {
+      cam.rotation_sigma_deg[k] = std::sqrt(std::max(0.0, block(k, k))) * kDegPerRad;
+      cam.translation_sigma_mm[k] = std::sqrt(std::max(0.0, block(3 + k, 3 + k))) * 1000;
+    }
+    std::tie(cam.baseline_m, cam.baseline_sigma_mm) = baseline_and_sigma(cam.rt_cam_ref, block);
+  }
   out.rms_px = all_inliers ? std::sqrt(all_sq / all_inliers) : 0;
   for (size_t f = 0; f < p.frames.size(); ++f) out.rt_ref_board.push_back(from_pose(p.frames[f]));
   out.calobject_warp = {p.warp.x2, p.warp.y2};

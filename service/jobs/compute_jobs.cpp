@@ -36,7 +36,6 @@ JobOutcome execute_rig_calibration(const JobRecord& job, const std::filesystem::
   calib::RigCalibrateOptions rig;
   rig.model = request.value("model", std::string("auto"));
   rig.cancel = cancel;
-  rig.range_m = 0;
   for (const auto& source : request.at("rig_sources")) {
     calib::CalibrateOptions options = calibration_options(request);
     options.job_dir = data_dir / source.at("source_folder").get<std::string>();

@@ -22,19 +22,13 @@ using namespace camlab::calib;
 
 namespace {
 
-constexpr double kDeg = M_PI / 180;
-
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v.empty() ? 0 : v[v.size() / 2];
 }
 
 void pair_statistics(int seeds) {
-  const std::vector<testing::RigCameraTruth> truth{
-      {{"LENSMODEL_OPENCV4", {520, 520, 319.5, 239.5, -0.1, 0.02, 0.0002, -0.0001}, 640, 480},
-       {0, 0, 0, 0, 0, 0}},
-      {{"LENSMODEL_OPENCV4", {733, 733, 641.5, 398.5, -0.2, 0.04, 0.0, 0.0}, 1280, 800},
-       {0.002, -5 * kDeg, 1 * kDeg, -0.2, 0.003, 0.01}}};
+  const auto truth = testing::stereo_pair_truth();
   std::vector<double> z, range_z, times;
   double worst_deg = 0, worst_mm = 0;
   for (int seed = 1; seed <= seeds; ++seed) {
@@ -56,19 +50,9 @@ void pair_statistics(int seeds) {
     worst_mm = std::max(worst_mm, 1000 * std::hypot(b.rt_cam_ref[3] - truth[1].rt_cam_ref[3],
                                                     b.rt_cam_ref[4] - truth[1].rt_cam_ref[4],
                                                     b.rt_cam_ref[5] - truth[1].rt_cam_ref[5]));
-    RigSolution exact = *s;
-    for (int c = 0; c < 2; ++c) {
-      exact.cameras[c].model = truth[c].lens;
-      exact.cameras[c].rt_cam_ref = truth[c].rt_cam_ref;
-    }
     auto range = triangulated_range_uncertainty(*s, 1, 3.0);
-    auto truth_range = triangulated_range_uncertainty(exact, 1, 3.0);
-    if (range && truth_range)
-      if (auto p = triangulate_midpoint(s->cameras[0].model, b.model, b.rt_cam_ref,
-                                        truth_range->pixel_camera0, truth_range->pixel_other))
-        range_z.push_back(
-            (std::sqrt((*p)[0] * (*p)[0] + (*p)[1] * (*p)[1] + (*p)[2] * (*p)[2]) - 3.0) * 1000 /
-            range->sigma_mm);
+    const auto range_error_mm = testing::range_error_mm(*s, truth, 1, 3.0);
+    if (range && range_error_mm) range_z.push_back(*range_error_mm / range->sigma_mm);
   }
   auto rms = [](const std::vector<double>& v) {
     double sum = 0;
@@ -85,17 +69,9 @@ void pair_statistics(int seeds) {
 }
 
 void ring_timing(int views, int seeds) {
-  std::vector<testing::RigCameraTruth> truth;
-  for (int c = 0; c < 4; ++c) {
-    // 55 deg apart, not 60: camera 3 at 180 deg would have a rotation vector at the
-    // branch cut (r and -r the same rotation), where components cannot be compared.
-    const double yaw = c * 55 * kDeg;
-    const cv::Vec3d centre(0.1 * std::sin(yaw), 0, 0.1 * std::cos(yaw) - 0.1);
-    cv::Matx33d R;
-    cv::Rodrigues(cv::Vec3d(0, -yaw, 0), R);
-    const cv::Vec3d t = -(R * centre);
-    truth.push_back({testing::wide_opencv8_truth(), {0, -yaw, 0, t[0], t[1], t[2]}});
-  }
+  // 55 deg apart, not 60: camera 3 at 180 deg would have a rotation vector at the branch
+  // cut (r and -r the same rotation), where components cannot be compared.
+  const auto truth = testing::ring_truth(55);
   std::vector<double> times;
   double worst_z = 0;
   for (int seed = 1; seed <= seeds; ++seed) {

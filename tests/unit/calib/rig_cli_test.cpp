@@ -37,12 +37,7 @@ struct TempDir {
 // `seed` draws the poses and noise; `camera1_yaw_deg` turns camera 1 further.
 std::vector<testing::RigCameraTruth> write_pair_corners(const fs::path& dir, uint32_t seed = 7,
                                                         double camera1_yaw_deg = 0) {
-  const double deg = M_PI / 180;
-  std::vector<testing::RigCameraTruth> truth{
-      {{"LENSMODEL_OPENCV4", {520, 520, 319.5, 239.5, -0.1, 0.02, 0.0002, -0.0001}, 640, 480},
-       {0, 0, 0, 0, 0, 0}},
-      {{"LENSMODEL_OPENCV4", {733, 733, 641.5, 398.5, -0.2, 0.04, 0.0, 0.0}, 1280, 800},
-       {0.002, (-5 + camera1_yaw_deg) * deg, 1 * deg, -0.2, 0.003, 0.01}}};
+  const auto truth = testing::stereo_pair_truth(camera1_yaw_deg);
   testing::RigViewSpec spec;
   spec.seed = seed;
   RigData data = testing::make_rig_views(truth, BoardSpec{10, 7, 0.05}, spec);

@@ -17,31 +17,10 @@ namespace camlab::calib {
 namespace {
 namespace rig_solver_test {
 
-constexpr double kDeg = M_PI / 180;
 const BoardSpec kBoard{10, 7, 0.05};
 
-// The pair: a 640x480 camera and a 1280x800 one 0.2 m to its right, turned 5 deg
-// towards it and rolled 1 deg.
-std::vector<testing::RigCameraTruth> pinhole_pair() {
-  testing::RigCameraTruth a{
-      {"LENSMODEL_OPENCV4", {520, 520, 319.5, 239.5, -0.1, 0.02, 0.0002, -0.0001}, 640, 480},
-      {0, 0, 0, 0, 0, 0}};
-  testing::RigCameraTruth b{
-      {"LENSMODEL_OPENCV4", {733, 733, 641.5, 398.5, -0.2, 0.04, 0.0, 0.0}, 1280, 800},
-      {0.002, -5 * kDeg, 1 * kDeg, -0.2, 0.003, 0.01}};
-  return {a, b};
-}
-
-// The truth as a solution (its lenses and poses), for its exact pixels of a point.
-RigSolution truth_solution(const std::vector<testing::RigCameraTruth>& truth,
-                           const RigSolution& shape) {
-  RigSolution t = shape;
-  for (size_t c = 0; c < truth.size(); ++c) {
-    t.cameras[c].model = truth[c].lens;
-    t.cameras[c].rt_cam_ref = truth[c].rt_cam_ref;
-  }
-  return t;
-}
+using testing::stereo_pair_truth;
+using testing::truth_solution;
 
 // Errors of every non-reference camera's rt_cam_ref, each component over its stated sigma.
 std::vector<double> normalised_errors(const RigSolution& s,
@@ -56,7 +35,7 @@ std::vector<double> normalised_errors(const RigSolution& s,
 }
 
 TEST(RigSolve, PairsExtrinsicsAreTheTruthsWithinTheirStatedSigma) {
-  const auto truth = pinhole_pair();
+  const auto truth = stereo_pair_truth();
   std::vector<double> z, range_z;
   double worst_rotation_deg = 0, worst_translation_mm = 0, solve_s = 0;
   double range_sigma_mm = 0, range_sigma_intrinsics_mm = 0, range_sigma_extrinsics_mm = 0;
@@ -96,15 +75,9 @@ TEST(RigSolve, PairsExtrinsicsAreTheTruthsWithinTheirStatedSigma) {
     // seed's calibration: its range error against the stated calibration sigma.
     auto range = triangulated_range_uncertainty(*s, 1, 3.0);
     ASSERT_TRUE(range.ok()) << range.error().message;
-    const RigSolution true_rig = truth_solution(truth, *s);
-    auto exact = triangulated_range_uncertainty(true_rig, 1, 3.0);
-    ASSERT_TRUE(exact.ok()) << exact.error().message;
-    auto through_solution = triangulate_midpoint(s->cameras[0].model, b.model, b.rt_cam_ref,
-                                                 exact->pixel_camera0, exact->pixel_other);
-    ASSERT_TRUE(through_solution.ok());
-    const auto& p = *through_solution;
-    const double range_error_mm = (std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) - 3) * 1000;
-    range_z.push_back(range_error_mm / range->sigma_mm);
+    const auto range_error_mm = testing::range_error_mm(*s, truth, 1, 3.0);
+    ASSERT_TRUE(range_error_mm.has_value());
+    range_z.push_back(*range_error_mm / range->sigma_mm);
     range_sigma_mm += range->sigma_mm / seeds;
     range_sigma_intrinsics_mm += range->sigma_intrinsics_alone_mm / seeds;
     range_sigma_extrinsics_mm += range->sigma_extrinsics_alone_mm / seeds;
@@ -145,16 +118,7 @@ TEST(RigSolve, PairsExtrinsicsAreTheTruthsWithinTheirStatedSigma) {
 // Four wide cameras on a ring, 60 deg apart: each sees its neighbours' boards only, so
 // cameras 2 and 3 are placed through the chain of neighbours.
 TEST(RigSolve, RingOfFourIsPlacedThroughItsNeighbours) {
-  std::vector<testing::RigCameraTruth> truth;
-  for (int c = 0; c < 4; ++c) {
-    const double yaw = c * 60 * kDeg;
-    // Camera c at 0.1 m from the ring's centre, looking outwards along its yaw.
-    const cv::Vec3d centre(0.1 * std::sin(yaw), 0, 0.1 * std::cos(yaw) - 0.1);
-    cv::Matx33d R;
-    cv::Rodrigues(cv::Vec3d(0, -yaw, 0), R);  // ref -> camera
-    const cv::Vec3d t = -(R * centre);
-    truth.push_back({testing::wide_opencv8_truth(), {0, -yaw, 0, t[0], t[1], t[2]}});
-  }
+  const auto truth = testing::ring_truth(60);
   testing::RigViewSpec spec;
   spec.views = 60;
   spec.distance_min_m = 0.6;
@@ -196,7 +160,7 @@ TEST(RigSolve, RingOfFourIsPlacedThroughItsNeighbours) {
 // reaches the solve of the data labelled alike.
 TEST(RigSolve, ViewsLabelledTurnedInOneCameraAreRelabelled) {
   for (const BoardSpec board : {kBoard, BoardSpec{8, 8, 0.05}}) {
-    const auto truth = pinhole_pair();
+    const auto truth = stereo_pair_truth();
     testing::RigViewSpec spec;
     spec.seed = 5;
     const RigData data = testing::make_rig_views(truth, board, spec);
@@ -223,7 +187,7 @@ TEST(RigSolve, ViewsLabelledTurnedInOneCameraAreRelabelled) {
 }
 
 TEST(RigSolve, ACameraThatSharesNoViewIsRefusedWithItsNumber) {
-  auto truth = pinhole_pair();
+  auto truth = stereo_pair_truth();
   // Camera 1 turned 180 deg: it never sees a board camera 0 sees.
   truth[1].rt_cam_ref = {0, M_PI, 0, 0, 0, 0};
   testing::RigViewSpec spec;
@@ -237,7 +201,7 @@ TEST(RigSolve, ACameraThatSharesNoViewIsRefusedWithItsNumber) {
 }
 
 TEST(RigSolve, MisalignedViewsAndTooManyCamerasAreRefused) {
-  const auto truth = pinhole_pair();
+  const auto truth = stereo_pair_truth();
   testing::RigViewSpec spec;
   spec.views = 6;
   RigData data = testing::make_rig_views(truth, kBoard, spec);

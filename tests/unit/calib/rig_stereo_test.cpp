@@ -23,30 +23,12 @@ namespace {
 namespace rig_stereo_test {
 
 namespace fs = std::filesystem;
-constexpr double kDeg = M_PI / 180;
 const BoardSpec kBoard{10, 7, 0.05};
 
-std::vector<testing::RigCameraTruth> pair() {
-  return {{{"LENSMODEL_OPENCV4", {520, 520, 319.5, 239.5, -0.1, 0.02, 0.0002, -0.0001}, 640, 480},
-           {0, 0, 0, 0, 0, 0}},
-          {{"LENSMODEL_OPENCV4", {733, 733, 641.5, 398.5, -0.2, 0.04, 0.0, 0.0}, 1280, 800},
-           {0.002, -5 * kDeg, 1 * kDeg, -0.2, 0.003, 0.01}}};
-}
-
-// A solution holding the truth's lenses and poses.
-RigSolution truth_solution(const std::vector<testing::RigCameraTruth>& truth) {
-  RigSolution s;
-  for (const auto& t : truth) {
-    RigCamera c;
-    c.model = t.lens;
-    c.rt_cam_ref = t.rt_cam_ref;
-    s.cameras.push_back(c);
-  }
-  return s;
-}
+using testing::truth_solution;
 
 struct Pair {
-  std::vector<testing::RigCameraTruth> truth = pair();
+  std::vector<testing::RigCameraTruth> truth = testing::stereo_pair_truth();
   RigData noisy, exact;  // the same poses, with 0.3 px of noise and without
   RigSolution solved;
 };
@@ -152,7 +134,7 @@ TEST(RigStereo, TheRectifiedFrameIsMrcalStereos) {
 }
 
 TEST(RigStereo, CamerasOnOneCentreOrLookingAlongTheBaselineAreRefused) {
-  auto truth = truth_solution(pair());
+  auto truth = truth_solution(testing::stereo_pair_truth());
   truth.cameras[1].rt_cam_ref = {0, 0.1, 0, 0, 0, 0};
   auto same_centre = rectify_pair(truth, 1);
   ASSERT_FALSE(same_centre.ok());
@@ -162,7 +144,7 @@ TEST(RigStereo, CamerasOnOneCentreOrLookingAlongTheBaselineAreRefused) {
   ASSERT_FALSE(along.ok());
   EXPECT_NE(along.error().message.find("along their baseline"), std::string::npos);
   EXPECT_FALSE(rectify_pair(truth, 2).ok());
-  EXPECT_FALSE(rectify_pair(truth_solution(pair()), 1, 175, 40).ok());
+  EXPECT_FALSE(rectify_pair(truth_solution(testing::stereo_pair_truth()), 1, 175, 40).ok());
 }
 
 }  // namespace rig_stereo_test

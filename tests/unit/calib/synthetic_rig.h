@@ -6,12 +6,15 @@
 #pragma once
 
 #include <array>
+#include <cmath>
+#include <optional>
 #include <random>
 #include <vector>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
+#include "calib/rig/rig_range.h"
 #include "calib/rig/rig_solver.h"
 #include "synthetic_views.h"
 
@@ -93,6 +96,57 @@ inline RigData make_rig_views(const std::vector<RigCameraTruth>& rig, const Boar
     }
   }
   return data;
+}
+
+// The pair: a 640x480 camera and a 1280x800 one 0.2 m to its right, turned 5 deg
+// towards it (plus `camera1_extra_yaw_deg`) and rolled 1 deg.
+inline std::vector<RigCameraTruth> stereo_pair_truth(double camera1_extra_yaw_deg = 0) {
+  const double deg = M_PI / 180;
+  return {{{"LENSMODEL_OPENCV4", {520, 520, 319.5, 239.5, -0.1, 0.02, 0.0002, -0.0001}, 640, 480},
+           {0, 0, 0, 0, 0, 0}},
+          {{"LENSMODEL_OPENCV4", {733, 733, 641.5, 398.5, -0.2, 0.04, 0.0, 0.0}, 1280, 800},
+           {0.002, (-5 + camera1_extra_yaw_deg) * deg, 1 * deg, -0.2, 0.003, 0.01}}};
+}
+
+// Four wide OPENCV8 cameras on a ring, `step_deg` apart, each 0.1 m from the ring's centre
+// looking outwards along its yaw.
+inline std::vector<RigCameraTruth> ring_truth(double step_deg) {
+  std::vector<RigCameraTruth> truth;
+  for (int c = 0; c < 4; ++c) {
+    const double yaw = c * step_deg * M_PI / 180;
+    const cv::Vec3d centre(0.1 * std::sin(yaw), 0, 0.1 * std::cos(yaw) - 0.1);
+    cv::Matx33d R;
+    cv::Rodrigues(cv::Vec3d(0, -yaw, 0), R);  // ref -> camera
+    const cv::Vec3d t = -(R * centre);
+    truth.push_back({wide_opencv8_truth(), {0, -yaw, 0, t[0], t[1], t[2]}});
+  }
+  return truth;
+}
+
+// The truth's lenses and poses in a solution (`shape`'s other fields kept).
+inline RigSolution truth_solution(const std::vector<RigCameraTruth>& truth,
+                                  RigSolution shape = {}) {
+  shape.cameras.resize(truth.size());
+  for (size_t c = 0; c < truth.size(); ++c) {
+    shape.cameras[c].model = truth[c].lens;
+    shape.cameras[c].rt_cam_ref = truth[c].rt_cam_ref;
+  }
+  return shape;
+}
+
+// A point `range_m` along camera 0's axis, triangulated with `camera` from its true pixels
+// through `solved`: the range error (mm) the calibration makes. Nothing when the point is
+// outside the camera's view.
+inline std::optional<double> range_error_mm(const RigSolution& solved,
+                                            const std::vector<RigCameraTruth>& truth, int camera,
+                                            double range_m) {
+  const auto exact = triangulated_range_uncertainty(truth_solution(truth, solved), camera, range_m);
+  if (!exact) return std::nullopt;
+  const RigCamera& other = solved.cameras[camera];
+  const auto p = triangulate_midpoint(solved.cameras[0].model, other.model, other.rt_cam_ref,
+                                      exact->pixel_camera0, exact->pixel_other);
+  if (!p) return std::nullopt;
+  return (std::sqrt((*p)[0] * (*p)[0] + (*p)[1] * (*p)[1] + (*p)[2] * (*p)[2]) - range_m) * 1000;
 }
 
 }  // namespace camlab::calib::testing
