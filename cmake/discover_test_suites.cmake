@@ -1,7 +1,8 @@
 # Run as `cmake -P` after a test executable is built (test_suites.cmake): lists its tests
 # and writes CTEST_FILE, one add_test a suite. Inputs: TEST_EXECUTABLE, TEST_WORKING_DIR,
 # TEST_PROPERTIES (name;value;... for set_tests_properties), DISCOVERY_TIMEOUT, CTEST_FILE,
-# COST_TABLE (lines `Suite seconds`: each suite's COST, 0 for a suite it does not name).
+# COST_TABLE (lines `Suite seconds`: each suite's COST, 0 for a suite it does not name),
+# SERIAL_SUITES (suites ctest runs alone: RUN_SERIAL).
 execute_process(
   COMMAND "${TEST_EXECUTABLE}" --gtest_list_tests
   WORKING_DIRECTORY "${TEST_WORKING_DIR}"
@@ -54,6 +55,10 @@ foreach(suite IN LISTS suites)
       set(is_name TRUE)
     endif()
   endforeach()
+  list(FIND SERIAL_SUITES "${suite}" serial_at)
+  if(serial_at GREATER -1)
+    string(APPEND script "\n  RUN_SERIAL TRUE")
+  endif()
   string(APPEND script ")\n")
 endforeach()
 file(WRITE "${CTEST_FILE}" "${script}")

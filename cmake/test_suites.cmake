@@ -1,4 +1,5 @@
-# camlab_discover_test_suites(TARGET [DISCOVERY_TIMEOUT S] [PROPERTIES name value ...]):
+# camlab_discover_test_suites(TARGET [DISCOVERY_TIMEOUT S] [PROPERTIES name value ...]
+#                             [SERIAL_SUITES suite ...]):
 # registers each GoogleTest suite of TARGET as one ctest test (`Suite`, run as
 # `TARGET --gtest_filter=Suite.*`), found after each build by listing the executable's tests.
 #
@@ -15,7 +16,7 @@
 set(CAMLAB_DISCOVER_TEST_SUITES_SCRIPT ${CMAKE_CURRENT_LIST_DIR}/discover_test_suites.cmake)
 
 function(camlab_discover_test_suites target)
-  cmake_parse_arguments(ARG "" "DISCOVERY_TIMEOUT" "PROPERTIES" ${ARGN})
+  cmake_parse_arguments(ARG "" "DISCOVERY_TIMEOUT" "PROPERTIES;SERIAL_SUITES" ${ARGN})
   if(NOT ARG_DISCOVERY_TIMEOUT)
     set(ARG_DISCOVERY_TIMEOUT 60)
   endif()
@@ -30,6 +31,7 @@ function(camlab_discover_test_suites target)
             -D "DISCOVERY_TIMEOUT=${ARG_DISCOVERY_TIMEOUT}"
             -D "CTEST_FILE=${base}_tests.cmake"
             -D "COST_TABLE=${PROJECT_SOURCE_DIR}/tests/suite_costs.txt"
+            -D "SERIAL_SUITES=${ARG_SERIAL_SUITES}"
             -P "${CAMLAB_DISCOVER_TEST_SUITES_SCRIPT}"
     VERBATIM)
   file(WRITE "${base}_include.cmake"
