@@ -120,17 +120,19 @@ class Runner {
 };
 
 Status Runner::write_change(const Want& want, bool with_fixed, int buffers_in_driver) {
+  const int64_t began_ns = monotonic_ns();
   if (with_fixed)
     for (const auto& [name, value] : plan_.fixed_controls)
       if (auto applied = keeper_->write(camera_, name, value); !applied) return applied.error();
   const CaptureStep& step = plan_.steps[static_cast<size_t>(want.step)];
   for (const auto& [name, value] : step.controls)
     if (auto applied = keeper_->write(camera_, name, value); !applied) return applied.error();
-  // After the read-back: a frame that started during the write counts as before it.
+  // A frame that started between the two clock reads may carry the change or not: the
+  // tracker opens its window after such a frame and closes the previous one before it.
   if (camera_.controls_travel_with_requests() && streaming_)
     deferred_buffers_ = buffers_in_driver;  // registered when the next request goes out
   else
-    tracker_.on_change(monotonic_ns(), buffers_in_driver);
+    tracker_.on_change(began_ns, monotonic_ns(), buffers_in_driver);
   Change change;
   change.want = want;
   change.settings = settings_json(keeper_->values(), plan_.traits);

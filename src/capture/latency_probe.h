@@ -5,7 +5,9 @@
 // reached the new level (midway between the two plateaus). Repeated over several steps
 // (up and down); the result is the most frequent value, and is only reported when the
 // repetitions agree (a strict majority of them). A step whose frames were dropped or
-// flagged around the change is measured again.
+// flagged around the change, or whose frame started while the write was under way (then
+// the device may count it as the first after the change, the probe cannot), is measured
+// again.
 //
 // It streams the smallest size of the camera's deepest greyscale format (the mean signal
 // needs no resolution) and leaves that format set; a capture configures its own.

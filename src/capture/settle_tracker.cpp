@@ -8,8 +8,9 @@ SettleTracker::SettleTracker(int latency_max_frames, int latency_min_frames)
     : latency_max_(std::max(0, latency_max_frames)),
       latency_min_(std::clamp(latency_min_frames, 0, std::max(0, latency_max_frames))) {}
 
-int SettleTracker::on_change(int64_t written_ns, int buffers_in_driver) {
-  changes_.push_back({written_ns, std::max(0, buffers_in_driver), 0, last_sequence_, std::nullopt});
+int SettleTracker::on_change(int64_t began_ns, int64_t written_ns, int buffers_in_driver) {
+  changes_.push_back({std::min(began_ns, written_ns), written_ns, std::max(0, buffers_in_driver), 0,
+                      last_sequence_, std::nullopt});
   return static_cast<int>(changes_.size()) - 1;
 }
 
@@ -22,8 +23,9 @@ int SettleTracker::on_frame(uint64_t sequence, int64_t soe_timestamp_ns, bool ti
                                            : ++c.dequeued_since > c.buffers_in_driver;
     if (after)
       c.first_frame = sequence;
-    else if (timestamp_monotonic)
+    else if (timestamp_monotonic && soe_timestamp_ns < c.began_ns)
       c.last_before = sequence;  // surely started before the write
+    // else: started while the write was under way, n itself or the frame before it
   }
   last_sequence_ = sequence;
   while (first_unidentified_ < changes_.size() && changes_[first_unidentified_].first_frame)

@@ -3,13 +3,14 @@
 //
 // The model (V4L2, and the virtual camera exactly): a control written while frame n is
 // the next to start is in effect from frame n + L on, L the control latency in frames.
-// n is found from start-of-exposure (SOE) timestamps: it is the first frame whose SOE
-// timestamp is later than the CLOCK_MONOTONIC time taken after the write (and its
-// read-back) returned. A frame that started during the write is therefore counted as
-// before it. Dropped frames (sequence gaps) hide n, so it is kept as a range: n_hi, the
-// first frame seen after the write, and n_lo, one past the last frame seen before it.
-// A new window opens with n_hi (never early) and the previous one closes with n_lo
-// (never late).
+// n is found from start-of-exposure (SOE) timestamps, against two CLOCK_MONOTONIC times:
+// one read before the write began, one after it (and its read-back) returned. A frame that
+// started in between may be n or the frame before it (the device took the value at some
+// moment of the call, and the caller's thread may have been preempted on either side), so
+// n is kept as a range: n_hi, the first frame seen that started after the write returned,
+// and n_lo, one past the last frame seen that started before it began. Dropped frames
+// (sequence gaps) widen the range the same way. A new window opens with n_hi (never
+// early) and the previous one closes with n_lo (never late).
 //
 // Without usable timestamps (clock not monotonic), every buffer the driver held at the
 // write may hold a frame that started before it, so n_hi is the first frame dequeued
@@ -40,11 +41,15 @@ class SettleTracker {
   // 0 <= latency_min_frames <= latency_max_frames (clamped into that order).
   SettleTracker(int latency_max_frames, int latency_min_frames);
 
-  // A change was written; `written_ns` is CLOCK_MONOTONIC read after the write returned.
-  // `buffers_in_driver`: buffers the driver held then (queued, filling or done and not yet
-  // dequeued), for the bound without timestamps; 0 before streaming starts. Returns the
-  // change's index (0, 1, ...).
-  int on_change(int64_t written_ns, int buffers_in_driver);
+  // A change was written: `began_ns` is CLOCK_MONOTONIC read before the first write of it
+  // began, `written_ns` after the last returned. `buffers_in_driver`: buffers the driver
+  // held then (queued, filling or done and not yet dequeued), for the bound without
+  // timestamps; 0 before streaming starts. Returns the change's index (0, 1, ...).
+  int on_change(int64_t began_ns, int64_t written_ns, int buffers_in_driver);
+  // A change whose moment is known exactly (a request's controls, made-up streams).
+  int on_change(int64_t written_ns, int buffers_in_driver) {
+    return on_change(written_ns, written_ns, buffers_in_driver);
+  }
 
   // A dequeued frame, in dequeue order. Returns the change whose settings are surely in
   // effect for it, or -1 while settings settle (or before any change).
@@ -67,10 +72,11 @@ class SettleTracker {
 
  private:
   struct Change {
+    int64_t began_ns = 0;
     int64_t written_ns = 0;
     int buffers_in_driver = 0;
     int dequeued_since = 0;
-    std::optional<uint64_t> last_before;  // the last frame seen that started before it
+    std::optional<uint64_t> last_before;  // the last frame seen that surely started before it
     std::optional<uint64_t> first_frame;  // n_hi
     uint64_t n_lo() const { return last_before ? *last_before + 1 : 0; }
   };

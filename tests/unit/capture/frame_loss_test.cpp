@@ -12,6 +12,7 @@
 #include "capture/capture_runner.h"
 #include "capture/drop_attribution.h"
 #include "capture/frame_writer.h"
+#include "hooked_camera.h"
 #include "image/capture_folder.h"
 #include "scripted_camera.h"
 #include "virtual_camera.h"
@@ -240,36 +241,6 @@ void expect_linear(const BracketRun& run) {
   for (double v : run.signal_per_us) EXPECT_NEAR(v / mean, 1.0, 0.02) << "a frame kept early";
 }
 
-// The camera as the frame loop sees it, with `before_dequeue(n)` run before the loop's
-// n-th dequeue (1, 2, ...): a stall there is the loop descheduled or stuck.
-class HookedCamera final : public device::Camera {
- public:
-  HookedCamera(device::Camera& inner, std::function<void(int)> before_dequeue)
-      : inner_(inner), before_dequeue_(std::move(before_dequeue)) {}
-  const device::CameraIdentity& identity() const override { return inner_.identity(); }
-  Result<std::vector<device::PixelFormatInfo>> formats() override { return inner_.formats(); }
-  Result<std::vector<device::ControlInfo>> controls() override { return inner_.controls(); }
-  Result<int64_t> get_control(const std::string& n) override { return inner_.get_control(n); }
-  Result<int64_t> set_control(const std::string& n, int64_t v) override {
-    return inner_.set_control(n, v);
-  }
-  Result<device::StreamFormat> configure(const device::StreamFormat& f) override {
-    return inner_.configure(f);
-  }
-  Status start(int buffers) override { return inner_.start(buffers); }
-  Status stop() override { return inner_.stop(); }
-  Result<device::Frame> dequeue(std::chrono::milliseconds timeout) override {
-    before_dequeue_(++dequeues_);
-    return inner_.dequeue(timeout);
-  }
-  Status requeue(const device::Frame& frame) override { return inner_.requeue(frame); }
-
- private:
-  device::Camera& inner_;
-  std::function<void(int)> before_dequeue_;
-  int dequeues_ = 0;
-};
-
 json grey_scene() {
   json scene = mock::testing::uniform_scene_json(1.0, 0.5);
   scene["illuminance_lux"] = 5000;
@@ -282,7 +253,7 @@ json grey_scene() {
 TEST(FrameLoss, FramesLostWhileTheLoopStalledAreCamlabsAndCostFramesNotCorrectness) {
   auto vcam = testing::open_virtual_camera(testing::capture_camera_json(3), grey_scene(),
                                            /*realtime=*/true);
-  HookedCamera stalling(*vcam.camera, [](int n) {
+  testing::HookedCamera stalling(*vcam.camera, [](int n) {
     if (n == 6) std::this_thread::sleep_for(std::chrono::milliseconds(200));
   });
   const BracketRun run = capture_bracket(vcam, stalling, 4);
@@ -296,7 +267,7 @@ TEST(FrameLoss, FramesLostWhileTheLoopStalledAreCamlabsAndCostFramesNotCorrectne
 TEST(FrameLoss, FramesTheDeviceDropsAreTheDevices) {
   auto vcam = testing::open_virtual_camera(testing::capture_camera_json(3), grey_scene(),
                                            /*realtime=*/true);
-  HookedCamera dropping(*vcam.camera, [&](int n) {
+  testing::HookedCamera dropping(*vcam.camera, [&](int n) {
     if (n == 8) vcam.device->drop_next_frames(5);
   });
   // Eight buffers: a loop descheduled for a few frames on a busy machine still leaves

@@ -56,6 +56,31 @@ TEST(SettleTracker, ADroppedFrameMovesTheFirstFrameLaterNeverEarlier) {
   EXPECT_EQ(tracker.on_frame(5, start_ns(5), true), 1);
 }
 
+// Frame 2 started while change 1 was being written (its thread preempted between the
+// ioctl and the clock read): the device may have taken it as n, so with latency 2 frame 4
+// may already carry change 1. Change 0's window closes before it, and change 1's opens
+// only after frame 3, the first that surely started after the write.
+TEST(SettleTracker, AFrameThatStartedDuringTheWriteBelongsToNeitherSide) {
+  SettleTracker tracker(2, 2);
+  tracker.on_change(0, 0);
+  tracker.on_frame(0, start_ns(0), true);
+  tracker.on_frame(1, start_ns(1), true);
+  tracker.on_change(start_ns(2) - 1, start_ns(2) + 1, 3);
+  EXPECT_EQ(tracker.on_frame(2, start_ns(2), true), 0);
+  EXPECT_EQ(tracker.on_frame(3, start_ns(3), true), 0);
+  EXPECT_EQ(tracker.first_frame_after(1), 3u);
+  EXPECT_EQ(tracker.on_frame(4, start_ns(4), true), -1) << "may carry change 1";
+  EXPECT_EQ(tracker.on_frame(5, start_ns(5), true), 1);
+  // The same stream with the write an instant: frame 2 surely before, frame 4 change 0's.
+  SettleTracker instant(2, 2);
+  instant.on_change(0, 0);
+  instant.on_frame(0, start_ns(0), true);
+  instant.on_frame(1, start_ns(1), true);
+  instant.on_change(start_ns(2) + 1, 3);
+  for (uint64_t s = 2; s < 5; ++s) EXPECT_EQ(instant.on_frame(s, start_ns(s), true), 0) << s;
+  EXPECT_EQ(instant.on_frame(5, start_ns(5), true), 1);
+}
+
 TEST(SettleTracker, WithoutTimestampsEveryBufferInTheDriverCountsAsBefore) {
   SettleTracker tracker(1, 1);
   tracker.on_change(1000, 2);  // two buffers may hold frames that started before it
