@@ -61,6 +61,14 @@ VirtualV4l2FrameClock::Clock::time_point VirtualV4l2FrameClock::tick_of(uint64_t
   return origin_ + interval() * static_cast<int64_t>(sequence);
 }
 
+uint64_t VirtualV4l2FrameClock::first_unstarted(Clock::time_point now) const {
+  if (!realtime_ || !running_ || now < tick_of(next_sequence_)) return next_sequence_;
+  const auto step = interval();
+  if (step.count() <= 0) return next_sequence_;
+  const auto since_origin = now - origin_;
+  return static_cast<uint64_t>(since_origin / step) + 1;
+}
+
 void VirtualV4l2FrameClock::advance() {
   const auto step = interval();
   next_tick_ += step;

@@ -44,6 +44,11 @@ class VirtualV4l2FrameClock {
     origin_ = next_tick_;
   }
   uint64_t next_sequence() const { return next_sequence_; }
+  // The first frame that has not started at `now`: in real time a frame starts at its tick
+  // (its timestamp), though the producer may take its sequence number later on a loaded
+  // machine; a control written after the tick must not reach that frame. As fast as
+  // rendered, the next sequence number the producer takes.
+  uint64_t first_unstarted(Clock::time_point now) const;
 
   // Ticking: from start() (the first tick at once) until stop().
   bool running() const { return running_; }

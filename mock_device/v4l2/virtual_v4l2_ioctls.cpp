@@ -225,9 +225,12 @@ int VirtualV4l2Device::s_ext_ctrls(Call& call) {
 int VirtualV4l2Device::set_controls(int file, v4l2_ext_controls* controls) {
   if (int error = controls_.check_request(VIDIOC_S_EXT_CTRLS, *controls)) return error;
   if (int busy = files_.check_priority(file)) return busy;
-  // While streaming, a value waits for its frame (control_latency_frames).
+  // While streaming, a value waits for its frame (control_latency_frames), counted from
+  // the first frame that has not started by the sensor's clock.
   const std::optional<uint64_t> next_frame =
-      queue_.streaming() ? std::optional(clock_.next_sequence()) : std::nullopt;
+      queue_.streaming()
+          ? std::optional(clock_.first_unstarted(VirtualV4l2FrameClock::Clock::now()))
+          : std::nullopt;
   return controls_.set(controls, next_frame, [&](uint32_t id, uint32_t changes, bool by_caller) {
     queue_control_event(id, changes, by_caller ? file : 0);
   });

@@ -105,6 +105,29 @@ TEST(VirtualV4l2FrameClock, EachSequenceNumbersTickIsOnTheGrid) {
   EXPECT_GT(clock.tick_of(0), zero);
 }
 
+// A frame starts at its tick, the time its buffer is stamped with, even when a loaded
+// producer takes its sequence number later: a control written after the tick must count
+// from the frame after it, or a client that compares the timestamp with the time of its
+// write keeps one frame with the new value for the old (camlabd's lens map under load).
+TEST(VirtualV4l2FrameClock, TheFirstUnstartedFrameIsTheFirstWhoseTickIsToCome) {
+  using std::chrono::milliseconds;
+  VirtualV4l2FrameClock clock(20000, true);
+  EXPECT_EQ(clock.first_unstarted(VirtualV4l2FrameClock::Clock::now()), 0u) << "not running";
+  clock.start();
+  const auto zero = clock.tick_of(0);
+  clock.advance();
+  EXPECT_EQ(clock.take_sequence(), 0u);
+  EXPECT_EQ(clock.first_unstarted(zero + milliseconds(10)), 1u);
+  EXPECT_EQ(clock.first_unstarted(zero + milliseconds(20)), 2u) << "frame 1 starts at its tick";
+  EXPECT_EQ(clock.first_unstarted(zero + milliseconds(75)), 4u) << "the producer is late";
+  EXPECT_EQ(clock.next_sequence(), 1u);
+  VirtualV4l2FrameClock as_rendered(20000, false);
+  as_rendered.start();
+  as_rendered.take_sequence();
+  EXPECT_EQ(as_rendered.first_unstarted(zero + milliseconds(75)), 1u)
+      << "as fast as rendered, a frame starts when the producer takes it";
+}
+
 TEST(VirtualV4l2FrameClock, DropsAndStallsAreFaultsForTests) {
   VirtualV4l2FrameClock clock(10000, true);
   EXPECT_FALSE(clock.take_drop());
