@@ -1,4 +1,5 @@
 #include "calib/guided_session.h"
+#include "calib/view_novelty.h"
 
 #include <algorithm>
 #include <cmath>
@@ -113,11 +114,17 @@ Result<FolderPoll> FolderSession::poll() {
       continue;
     }
     if (!*view) continue;
+    if (auto duplicate = find_near_duplicate(data_, **view)) {
+      out.skipped.push_back(name + ": " + describe(*duplicate, data_));
+      continue;
+    }
     data_.views.push_back(std::move(**view));
     ++out.new_views;
   }
   if (out.new_views == 0) {
     if (loop_ && loop_->coverage()) out.coverage = *loop_->coverage();
+    // Images without a new view (no board, a repeat) leave the next pose to take as it was.
+    if (out.new_images > 0) out.suggestion = last_suggestion_;
     return out;
   }
   if (!loop_) {
@@ -134,6 +141,7 @@ Result<FolderPoll> FolderSession::poll() {
   if (step.solve_error) out.solve_error = step.solve_error->message;
   if (loop_->coverage()) out.coverage = *loop_->coverage();
   out.suggestion = std::move(step.suggestion);
+  last_suggestion_ = out.suggestion;
   if (step.suggestion_error) out.suggestion_error = step.suggestion_error->text();
   return out;
 }

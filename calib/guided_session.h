@@ -34,7 +34,7 @@ struct FolderPoll {
   bool solved = false;                          // a solve with a covariance ran in this poll
   std::string solve_error;                      // why there is no solution yet (too few views, ...)
   std::optional<UncertaintyCoverage> coverage;  // of the last solution
-  std::optional<ViewSuggestion> suggestion;     // after a poll with new views
+  std::optional<ViewSuggestion> suggestion;     // after a poll with new images: the next view
   std::string suggestion_error;
 };
 
@@ -66,6 +66,7 @@ class FolderSession {
   std::map<std::string, long long> pending_size_;  // name -> size at the last poll
   std::map<std::string, bool> seen_;               // name -> detected (or skipped)
   std::optional<GuidedLoop> loop_;  // from the first view (the loop's model needs the imager)
+  std::optional<ViewSuggestion> last_suggestion_;
 };
 
 }  // namespace camlab::calib

@@ -92,6 +92,7 @@ void run_watch(const CalibrateArgs& a, const calib::CalibrateOptions& o,
         if (poll->coverage) j["coverage"] = calib::to_json(*poll->coverage);
         if (poll->suggestion) j["suggestion"] = calib::to_json(*poll->suggestion);
         if (!poll->suggestion_error.empty()) j["suggestion_error"] = poll->suggestion_error;
+        if (!poll->skipped.empty()) j["skipped"] = poll->skipped;
         std::cout << j.dump() << std::endl;
       } else {
         std::cout << session->images() << " images, " << session->data().views.size() << " views: "

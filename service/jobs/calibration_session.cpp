@@ -6,6 +6,7 @@
 #include "calib/corners/corners_vnl.h"
 #include "calib/guided_loop.h"
 #include "calib/guided_session.h"
+#include "calib/view_novelty.h"
 
 namespace camlab::service {
 
@@ -48,12 +49,19 @@ Status CalibrationSession::add_frame(const cv::Mat& image, int64_t capture_job,
   FrameRecord record{capture_job, frame_file};
   last_error_.reset();
   auto view = calib::detect_board_view(image, options_);
+  std::optional<calib::NearDuplicate> duplicate;
   if (view && view->present_count() >= 8) {
     view->name = frame_file;
     record.board_found = true;
     record.corners = view->present_count();
-    record.view = static_cast<int>(data_.views.size());
-    data_.views.push_back(std::move(*view));
+    duplicate = calib::find_near_duplicate(data_, *view);
+    if (duplicate) {
+      record.duplicate_of = duplicate->view;
+      last_error_ = make_error("duplicate_view", "view not taken: " + describe(*duplicate, data_));
+    } else {
+      record.view = static_cast<int>(data_.views.size());
+      data_.views.push_back(std::move(*view));
+    }
   } else {
     last_error_ =
         make_error("board_not_found",
@@ -62,7 +70,9 @@ Status CalibrationSession::add_frame(const cv::Mat& image, int64_t capture_job,
                        "exposed");
   }
   frames_.push_back(record);
-  if (record.board_found) solve_and_suggest();
+  // A refused view changes nothing: the solve and the suggestion stand (the suggestion is
+  // still the pose to take).
+  if (record.view >= 0) solve_and_suggest();
   return {};
 }
 
@@ -105,7 +115,10 @@ nlohmann::json CalibrationSession::to_json() const {
     frames.push_back({{"capture_job", f.capture_job},
                       {"frame", f.frame_file},
                       {"board_found", f.board_found},
-                      {"corners", f.corners}});
+                      {"corners", f.corners},
+                      {"view", f.view >= 0 ? nlohmann::json(f.view) : nlohmann::json(nullptr)},
+                      {"duplicate_of", f.duplicate_of >= 0 ? nlohmann::json(f.duplicate_of)
+                                                           : nlohmann::json(nullptr)}});
   nlohmann::json json = {{"frames", frames},
                          {"views_with_board", data_.views.size()},
                          {"loop_model", loop_ ? loop_->options().lensmodel : ""},

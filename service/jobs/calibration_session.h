@@ -62,7 +62,8 @@ class CalibrationSession {
     std::string frame_file;
     bool board_found = false;
     int corners = 0;
-    int view = -1;  // index into data_.views when found
+    int view = -1;          // index into data_.views when taken
+    int duplicate_of = -1;  // the view it repeats, when refused as a near-duplicate
   };
   std::vector<FrameRecord> frames_;
   std::optional<calib::GuidedLoop> loop_;  // from the first frame (its model needs the imager)

@@ -84,6 +84,7 @@ enum class ErrorCode : uint8_t {
   kEmptyPlot,
   // Calibration.
   kBoardNotFound,
+  kDuplicateView,
   kNoBoard,
   kSolveFailed,
   kSingular,
@@ -230,6 +231,9 @@ inline constexpr std::array kErrorCodes = {
     ErrorCodeInfo{ErrorCode::kBoardNotFound, "board_not_found", 422,
                   "The image shows no calibration board of the given size (no complete "
                   "chessboard, no corner of a ChArUco board)."},
+    ErrorCodeInfo{ErrorCode::kDuplicateView, "duplicate_view", 422,
+                  "A guided calibration's new view shows the board where an earlier view "
+                  "showed it: it adds no geometry, so it is not taken."},
     ErrorCodeInfo{ErrorCode::kNoBoard, "no_board", 422,
                   "No image of the calibration set shows the board: check its size."},
     ErrorCodeInfo{ErrorCode::kSolveFailed, "solve_failed", 422,

@@ -161,6 +161,32 @@ TEST_F(ServiceSession, GuidedLoopReachesItsTargetAndFinishesIntoAModel) {
             409);
 }
 
+// A second view with the board where it was adds no geometry: it is refused with the
+// view it repeats, and the views, solution and suggestion stay as they were.
+TEST_F(ServiceSession, AViewOfTheSamePoseIsRefusedWithTheViewItRepeats) {
+  auto opened = daemon.post("/v1/calibration-sessions", board_request());
+  ASSERT_EQ(opened.status, 201) << opened.body;
+  const int64_t id = opened.json()["id"];
+  const std::string views = "/v1/calibration-sessions/" + std::to_string(id) + "/views";
+  ASSERT_EQ(daemon.post(views, json::object()).status, 202);
+  const json first = wait_phase(id, "ready", nullptr);
+  ASSERT_EQ(first["views_with_board"], 1) << first.dump(1);
+  ASSERT_EQ(daemon.post(views, json::object()).status, 202);
+  const json second = wait_phase(id, "ready", nullptr);
+  ASSERT_EQ(second["frames"].size(), 2u) << second.dump(1);
+  const json& repeat = second["frames"][1];
+  EXPECT_TRUE(repeat["board_found"].get<bool>());
+  EXPECT_EQ(repeat["duplicate_of"], 0) << repeat.dump();
+  EXPECT_TRUE(repeat["view"].is_null()) << repeat.dump();
+  EXPECT_EQ(second["frames"][0]["view"], 0);
+  EXPECT_EQ(second["views_with_board"], 1);
+  ASSERT_TRUE(second["last_error"].is_object()) << second.dump(1);
+  EXPECT_EQ(second["last_error"]["code"], "duplicate_view");
+  EXPECT_NE(second["last_error"]["message"].get<std::string>().find("view 0"), std::string::npos)
+      << second["last_error"].dump();
+  EXPECT_EQ(second["suggestion"], first["suggestion"]);
+}
+
 TEST_F(ServiceSession, BadRequestsAreRefusedWithSpecificErrors) {
   json unknown_camera = board_request();
   unknown_camera["camera"] = "no-such-camera";

@@ -134,12 +134,17 @@ TEST_F(CalibrateWatch, WatchDetectsEachNewImageOnceAndSuggestsAfterEach) {
     fs::copy_file(frame(i), watched / ".incoming");
     fs::rename(watched / ".incoming", watched / frame(i).filename());
   }
+  // The first view again under another name: the board where it was, not taken.
+  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  fs::copy_file(frame(0), watched / ".incoming");
+  fs::rename(watched / ".incoming", watched / "repeat.png");
   cli.join();
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto lines = json_lines(run.out);
   ASSERT_GE(lines.size(), 2u) << run.out;
   int detected = 0, rounds_with_suggestion = 0;
   size_t last_views = 0;
+  std::string skipped;
   for (size_t i = 0; i + 1 < lines.size(); ++i) {
     const auto& l = lines[i];
     ASSERT_EQ(l["event"], "round") << l.dump();
@@ -147,6 +152,7 @@ TEST_F(CalibrateWatch, WatchDetectsEachNewImageOnceAndSuggestsAfterEach) {
     EXPECT_GE(l["views"].get<size_t>(), last_views);
     last_views = l["views"].get<size_t>();
     if (l.contains("suggestion")) ++rounds_with_suggestion;
+    if (l.contains("skipped")) skipped += l["skipped"].dump();
     // From the second view on the data are solved and the suggestion predicts a gain.
     if (l["views"].get<int>() >= 2 && l.contains("coverage")) {
       EXPECT_FALSE(l["suggestion"]["opening"].get<bool>()) << l.dump();
@@ -154,13 +160,15 @@ TEST_F(CalibrateWatch, WatchDetectsEachNewImageOnceAndSuggestsAfterEach) {
                 l["coverage"]["worst_of_grid_px"].get<double>());
     }
   }
-  EXPECT_EQ(detected, kFrames);  // each image detected once, never again
+  EXPECT_EQ(detected, kFrames + 1);  // each image detected once, never again
   EXPECT_EQ(last_views, static_cast<size_t>(kFrames));
+  EXPECT_NE(skipped.find("repeat.png: the board sits where it sat in view 0"), std::string::npos)
+      << skipped;
   EXPECT_EQ(rounds_with_suggestion, static_cast<int>(lines.size()) - 1);
   const auto& done = lines.back();
   EXPECT_EQ(done["event"], "done");
   EXPECT_EQ(done["reason"], "timeout");
-  EXPECT_EQ(done["report"]["images"].get<int>(), kFrames);
+  EXPECT_EQ(done["report"]["images"].get<int>(), kFrames + 1);  // the repeat read, not taken
   // `--model auto`: the loop solved LENSMODEL_OPENCV8; the end is the full calibration, as
   // camlabd's sessions finish: model selection over the candidates, on every view.
   EXPECT_GE(done["report"]["model_selection"].size(), 2u) << done["report"].dump();
