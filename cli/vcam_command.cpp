@@ -34,6 +34,7 @@ namespace fs = std::filesystem;
 struct VcamArgs {
   std::string camera;
   std::string scene;
+  std::string rig;
   int count = 1;
   bool unpaced = false;
   std::vector<std::string> command;
@@ -75,6 +76,7 @@ struct VcamSession {
     }
   } folder;
   std::unique_ptr<mock::VcamBroker> broker;
+  int device_count = 0;  // /dev/video0 .. device_count - 1
   // What a client process needs in its environment.
   std::vector<std::pair<std::string, std::string>> environment;
 };
@@ -94,8 +96,12 @@ std::unique_ptr<VcamSession> start_session(const VcamArgs& args, const CommandEr
   session->folder.path = work;
 
   // The devices live here, in the broker, for every process of the run.
-  auto devices = mock::create_vcam_devices(args.camera, args.scene, args.count, !args.unpaced);
+  auto devices = args.rig.empty()
+                     ? mock::create_vcam_devices(args.camera, args.scene, args.count, !args.unpaced)
+                     : mock::create_vcam_rig_devices(args.rig, !args.unpaced);
   if (!devices) errors.fail(devices.error());
+  const int device_count = static_cast<int>(devices->size());
+  session->device_count = device_count;
   // The sysfs names are the cameras' names as VIDIOC_QUERYCAP's card reports them (at
   // most 31 bytes), so that the two agree as on a real uvcvideo device.
   std::vector<std::string> camera_names;
@@ -119,7 +125,7 @@ std::unique_ptr<VcamSession> start_session(const VcamArgs& args, const CommandEr
   session->environment = {
       {"LD_PRELOAD", preload + (existing_preload ? std::string(" ") + existing_preload : "")},
       {"CAMLAB_VCAM_BROKER", session->broker->socket_path()},
-      {"CAMLAB_VCAM_COUNT", std::to_string(args.count)},
+      {"CAMLAB_VCAM_COUNT", std::to_string(device_count)},
       {"CAMLAB_VCAM_SYSFS", sysfs.string()},
       {"CAMLAB_VCAM_UDEV", udev.string()},
   };
@@ -161,7 +167,7 @@ int serve_vcam(const VcamArgs& args) {
   std::printf(
       "# %d virtual camera(s) served as /dev/video0..%d until this process ends (Ctrl-C).\n"
       "# In another shell, for any V4L2 program:\n",
-      args.count, args.count - 1);
+      session->device_count, session->device_count - 1);
   for (const auto& [name, value] : session->environment)
     std::printf("export %s='%s'\n", name.c_str(), value.c_str());
   std::fflush(stdout);
@@ -236,7 +242,17 @@ void add_device_options(CLI::App* command, VcamArgs* args) {
       ->add_option("--scene", args->scene,
                    "scene spec JSON (default: slanted edges at 0.7, 1 and 2 m, as camlabd's)")
       ->check(CLI::ExistingFile);
-  command->add_option("--count", args->count, "number of virtual cameras")->check(CLI::Range(1, 8));
+  CLI::Option* count = command->add_option("--count", args->count, "number of virtual cameras")
+                           ->check(CLI::Range(1, 8));
+  command
+      ->add_option("--rig", args->rig,
+                   "rig spec JSON: 2-8 cameras, each its own spec and pose (rt_cam_ref), one "
+                   "scene, one frame clock (frames one trigger starts share a timestamp); "
+                   "/dev/videoN is camera N (docs/virtual-camera.md, \"Rigs\")")
+      ->check(CLI::ExistingFile)
+      ->excludes("--camera")
+      ->excludes("--scene")
+      ->excludes(count);
 }
 
 }  // namespace

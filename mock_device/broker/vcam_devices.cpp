@@ -1,6 +1,9 @@
 #include "mock_device/broker/vcam_devices.h"
 
+#include <chrono>
+
 #include "mock_device/spec/default_specs.h"
+#include "mock_device/spec/rig_spec.h"
 
 namespace camlab::mock {
 
@@ -18,6 +21,30 @@ Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_devices(
     options.realtime = realtime;
     std::unique_ptr<VirtualV4l2Device> device;
     CAMLAB_ASSIGN(device, VirtualV4l2Device::create(std::move(camera), std::move(scene), options));
+    devices.push_back(std::move(device));
+  }
+  return devices;
+}
+
+Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_rig_devices(
+    const std::string& rig_path, bool realtime) {
+  RigSpec rig;
+  CAMLAB_ASSIGN(rig, load_rig_spec(rig_path));
+  const auto grid_origin = std::chrono::steady_clock::now();
+  std::vector<std::shared_ptr<VirtualV4l2Device>> devices;
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    const RigCameraSpec& member = rig.cameras[i];
+    VirtualDeviceOptions options;
+    options.index = static_cast<int>(i);
+    options.seed = static_cast<uint64_t>(i) + 1;
+    options.realtime = realtime;
+    options.frame_grid_origin =
+        grid_origin + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                          std::chrono::duration<double, std::micro>(member.trigger_offset_us));
+    std::unique_ptr<VirtualV4l2Device> device;
+    CAMLAB_ASSIGN(
+        device, VirtualV4l2Device::create(member.camera,
+                                          scene_seen_from(rig.scene, member.rt_cam_ref), options));
     devices.push_back(std::move(device));
   }
   return devices;

@@ -19,4 +19,10 @@ namespace camlab::mock {
 Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_devices(
     const std::string& camera_path, const std::string& scene_path, int count, bool realtime = true);
 
+// The cameras of a rig (mock_device/spec/rig_spec.h), device i its camera i, each seeing
+// the scene through its pose, every one on one frame grid: frames that one trigger starts
+// carry one timestamp (plus a camera's trigger offset).
+Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_rig_devices(
+    const std::string& rig_path, bool realtime = true);
+
 }  // namespace camlab::mock

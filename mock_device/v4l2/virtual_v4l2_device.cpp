@@ -41,6 +41,7 @@ VirtualV4l2Device::VirtualV4l2Device(Renderer renderer, VirtualDeviceOptions opt
   f.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   f.fmt.pix = format_;
   set_format(&f, true);
+  if (options_.frame_grid_origin) clock_.set_grid(*options_.frame_grid_origin);
   producer_ = std::thread([this] { produce_frames(); });
 }
 

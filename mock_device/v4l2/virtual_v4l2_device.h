@@ -26,10 +26,12 @@
 #include <linux/videodev2.h>
 #include <sys/types.h>
 
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <thread>
 #include <vector>
@@ -49,6 +51,9 @@ struct VirtualDeviceOptions {
   uint64_t seed = 1;
   int view = 0;          // which view of the scene the device looks at
   bool realtime = true;  // pace frames at the frame interval (false: as fast as rendered)
+  // A rig member: frames start on this grid (VirtualV4l2FrameClock::set_grid), shared by
+  // the rig's cameras; unset, a stream's first frame starts at STREAMON.
+  std::optional<std::chrono::steady_clock::time_point> frame_grid_origin;
 };
 
 class VirtualV4l2Device {

@@ -53,6 +53,13 @@ std::chrono::microseconds VirtualV4l2FrameClock::interval() const {
 
 void VirtualV4l2FrameClock::start() {
   next_tick_ = Clock::now();
+  if (grid_origin_ && interval().count() > 0) {
+    // The first grid tick at or after now (the origin may lie either side of it).
+    const auto step = interval();
+    int64_t ticks = (next_tick_ - *grid_origin_) / step;  // rounded towards zero
+    if (*grid_origin_ + step * ticks < next_tick_) ++ticks;
+    next_tick_ = *grid_origin_ + step * ticks;
+  }
   origin_ = next_tick_ - interval() * static_cast<int64_t>(next_sequence_);
   running_ = true;
 }

@@ -14,6 +14,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <optional>
 
 namespace camlab::mock {
 
@@ -50,11 +51,16 @@ class VirtualV4l2FrameClock {
   // rendered, the next sequence number the producer takes.
   uint64_t first_unstarted(Clock::time_point now) const;
 
-  // Ticking: from start() (the first tick at once) until stop().
+  // Ticking: from start() until stop().
   bool running() const { return running_; }
   // The next sequence number's tick is now (a restart after a slow first frame moves the
-  // grid, the frames before it with it).
+  // grid, the frames before it with it); on a shared grid (set_grid), the grid's next tick.
   void start();
+  // A rig's frame clock: every tick of every camera on `origin` + k x interval (plus the
+  // camera's trigger offset), as cameras that one trigger line fires. start() then waits
+  // for the grid's next tick instead of starting at once.
+  void set_grid(Clock::time_point origin) { grid_origin_ = origin; }
+  bool on_grid() const { return grid_origin_.has_value(); }
   void stop() { running_ = false; }
   Clock::time_point next_tick() const { return next_tick_; }
   // Past the tick just waited for, to the next one; ticks already missed cost their
@@ -86,6 +92,7 @@ class VirtualV4l2FrameClock {
   Clock::time_point origin_{};  // sequence 0's tick on the running grid
   int drop_frames_ = 0;
   bool stalled_ = false;
+  std::optional<Clock::time_point> grid_origin_;
 };
 
 }  // namespace camlab::mock

@@ -161,6 +161,12 @@ void VirtualV4l2Device::produce_frames() {
     const bool first_frame = !clock_.running();
     if (first_frame) {
       clock_.start();
+      // On a rig's grid the first frame waits for its tick, as a triggered sensor does.
+      if (clock_.on_grid() && clock_.realtime() &&
+          changed_.wait_until(lock, clock_.next_tick(), [&] {
+            return stop_producer_ || !queue_.streaming() || clock_.stalled();
+          }))
+        continue;
       if (clock_.realtime()) clock_.advance();  // the first tick is this frame's
     } else if (clock_.realtime()) {
       if (changed_.wait_until(lock, clock_.next_tick(), [&] {

@@ -116,6 +116,27 @@ TEST_F(VcamClients, V4l2CtlListDevicesGroupsEachCamerasNodes) {
       << run.out;
 }
 
+// A rig: each camera its own device with its own spec (the example pair: 640x480 left,
+// 1280x800 right), as v4l2-ctl reads them; --rig replaces --camera, --scene and --count.
+TEST_F(VcamClients, ARigsCamerasAreItsDevicesEachWithItsOwnSpec) {
+  if (!installed("v4l2-ctl")) GTEST_SKIP() << "v4l2-ctl (v4l-utils) is not installed";
+  const std::string rig = CAMLAB_SOURCE_DIR "/mock_device/examples/rig_stereo_pair.json";
+  auto run =
+      run_cli("vcam run --rig " + rig +
+              " -- sh -c 'timeout -k 5 60 v4l2-ctl -d /dev/video0 --get-fmt-video && "
+              "timeout -k 5 60 v4l2-ctl -d /dev/video1 --get-fmt-video && ls -d /dev/video*'");
+  ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
+  const size_t left = run.out.find("Width/Height      : 640/480");
+  const size_t right = run.out.find("Width/Height      : 1280/800");
+  ASSERT_NE(left, std::string::npos) << run.out;
+  ASSERT_NE(right, std::string::npos) << run.out;
+  EXPECT_LT(left, right) << "camera 0 is /dev/video0";
+  EXPECT_NE(run.out.find("/dev/video0\n/dev/video1\n"), std::string::npos) << run.out;
+  auto both = run_cli("vcam run --rig " + rig + " --count 2 -- true");
+  EXPECT_NE(both.exit_code, 0);
+  EXPECT_NE(both.err.find("excludes"), std::string::npos) << both.err;
+}
+
 // gst-device-monitor lists the camera through whichever provider finds it: V4L2's (udev
 // probed, /dev/video0, its caps with the frame rates) or, on a machine with Debian's
 // gstreamer1.0-libcamera (as most that run libcamera have), libcamera's, which then hides

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "mock_device/spec/rig_spec.h"
 #include "test_specs.h"
 
 namespace camlab::mock {
@@ -16,7 +17,7 @@ const std::filesystem::path kExamples =
     std::filesystem::path(CAMLAB_SOURCE_DIR) / "mock_device/examples";
 
 TEST(Specs, EveryExampleLoadsAndRenders) {
-  int cameras = 0, scenes = 0;
+  int cameras = 0, scenes = 0, rigs = 0;
   for (const auto& entry : std::filesystem::directory_iterator(kExamples)) {
     const auto name = entry.path().filename().string();
     if (name.rfind("camera_", 0) == 0) {
@@ -27,10 +28,15 @@ TEST(Specs, EveryExampleLoadsAndRenders) {
       auto spec = load_scene_spec(entry.path());
       EXPECT_TRUE(spec.ok()) << name << ": " << spec.error().message;
       ++scenes;
+    } else if (name.rfind("rig_", 0) == 0) {
+      auto spec = load_rig_spec(entry.path());
+      EXPECT_TRUE(spec.ok()) << name << ": " << spec.error().message;
+      ++rigs;
     }
   }
   EXPECT_GE(cameras, 2);
   EXPECT_GE(scenes, 3);
+  EXPECT_GE(rigs, 1);
 }
 
 struct BadCamera {
