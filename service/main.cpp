@@ -66,17 +66,28 @@ int main(int argc, char** argv) {
                  "0: never (the cameras found at start are served until camlabd stops)")
       ->check(CLI::Range(0, 3600000))
       ->capture_default_str();
-  app.add_option("--camera-spec", config.cameras.camera_spec,
-                 "camera spec JSON of an in-process virtual camera (docs/virtual-camera.md); "
-                 "giving it adds the\n"
-                 "virtual camera even when real cameras exist")
-      ->check(CLI::ExistingFile);
-  app.add_option("--scene", config.cameras.scene_spec, "scene spec JSON for the virtual camera")
-      ->check(CLI::ExistingFile);
-  app.add_option("--virtual-count", config.cameras.virtual_count,
-                 "number of in-process virtual cameras")
-      ->check(CLI::Range(1, 8))
-      ->capture_default_str();
+  CLI::Option* camera_spec =
+      app.add_option("--camera-spec", config.cameras.camera_spec,
+                     "camera spec JSON of an in-process virtual camera (docs/virtual-camera.md); "
+                     "giving it adds the\n"
+                     "virtual camera even when real cameras exist")
+          ->check(CLI::ExistingFile);
+  CLI::Option* scene =
+      app.add_option("--scene", config.cameras.scene_spec, "scene spec JSON for the virtual camera")
+          ->check(CLI::ExistingFile);
+  CLI::Option* virtual_count = app.add_option("--virtual-count", config.cameras.virtual_count,
+                                              "number of in-process virtual cameras")
+                                   ->check(CLI::Range(1, 8))
+                                   ->capture_default_str();
+  app.add_option("--rig", config.cameras.rig_spec,
+                 "rig spec JSON: in-process virtual cameras, each with its own spec and pose, on "
+                 "one frame clock\n"
+                 "(docs/virtual-camera.md, \"Rigs\"); a synchronised capture of them reports "
+                 "each rig view's skew")
+      ->check(CLI::ExistingFile)
+      ->excludes(camera_spec)
+      ->excludes(scene)
+      ->excludes(virtual_count);
   app.add_flag("--no-virtual", no_virtual, "never add the in-process virtual camera");
   app.add_option("--device-spec", config.cameras.device_spec,
                  "camera spec JSON saying what the V4L2 cameras' raw values mean (sensor bit "
@@ -157,7 +168,7 @@ int main(int argc, char** argv) {
   config.cameras.rescan_interval = std::chrono::milliseconds(rescan_ms);
   if (no_virtual)
     config.cameras.virtual_cameras = camlab::service::VirtualCameras::kNever;
-  else if (!config.cameras.camera_spec.empty())
+  else if (!config.cameras.camera_spec.empty() || !config.cameras.rig_spec.empty())
     config.cameras.virtual_cameras = camlab::service::VirtualCameras::kAlways;
   config.limits.read_timeout = std::chrono::seconds(read_timeout_s);
   config.lease = std::chrono::milliseconds(lease_ms);

@@ -30,12 +30,18 @@ Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_rig_devices(
     const std::string& rig_path, bool realtime) {
   RigSpec rig;
   CAMLAB_ASSIGN(rig, load_rig_spec(rig_path));
+  return create_vcam_rig_devices(rig, 0, realtime);
+}
+
+Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_rig_devices(const RigSpec& rig,
+                                                                                int first_index,
+                                                                                bool realtime) {
   const auto grid_origin = std::chrono::steady_clock::now();
   std::vector<std::shared_ptr<VirtualV4l2Device>> devices;
   for (size_t i = 0; i < rig.cameras.size(); ++i) {
     const RigCameraSpec& member = rig.cameras[i];
     VirtualDeviceOptions options;
-    options.index = static_cast<int>(i);
+    options.index = first_index + static_cast<int>(i);
     options.seed = static_cast<uint64_t>(i) + 1;
     options.realtime = realtime;
     options.frame_grid_origin =

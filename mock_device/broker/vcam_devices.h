@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "base/result.h"
+#include "mock_device/spec/rig_spec.h"
 #include "mock_device/v4l2/virtual_v4l2_device.h"
 
 namespace camlab::mock {
@@ -24,5 +25,9 @@ Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_devices(
 // carry one timestamp (plus a camera's trigger offset).
 Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_rig_devices(
     const std::string& rig_path, bool realtime = true);
+// The same from a parsed rig, device i as /dev/video<first_index + i>.
+Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_rig_devices(const RigSpec& rig,
+                                                                                int first_index,
+                                                                                bool realtime);
 
 }  // namespace camlab::mock

@@ -42,12 +42,13 @@ void SyncCaptures::stop() {
 }
 
 Result<JobRecord> SyncCaptures::submit(const nlohmann::json& body) {
-  static const std::set<std::string> kFields = {"cameras", "capture", "start_in_ms", "max_late_ms"};
+  static const std::set<std::string> kFields = {"cameras", "capture", "start_in_ms", "max_late_ms",
+                                                "max_skew_us"};
   for (const auto& [key, value] : body.items())
     if (!kFields.contains(key))
       return make_error("invalid_request",
                         "unknown field '" + key.substr(0, 100) +
-                            "' (allowed: cameras, capture, start_in_ms, max_late_ms)");
+                            "' (allowed: cameras, capture, start_in_ms, max_late_ms, max_skew_us)");
   if (!body.contains("cameras") || !body["cameras"].is_array() || body["cameras"].empty() ||
       body["cameras"].size() > static_cast<size_t>(kMaxSyncCameras))
     return make_error("invalid_request", "cameras must be a list of 1 to " +
@@ -60,6 +61,9 @@ Result<JobRecord> SyncCaptures::submit(const nlohmann::json& body) {
   CAMLAB_ASSIGN(start_in_ms, integer_field(body, "start_in_ms", 1000, kMinSyncStartInMs,
                                            kMaxSyncStartInMs, "ms"));
   CAMLAB_ASSIGN(max_late_ms, integer_field(body, "max_late_ms", 100, 0, kMaxSyncLateMs, "ms"));
+  int64_t max_skew_us;
+  CAMLAB_ASSIGN(max_skew_us,
+                integer_field(body, "max_skew_us", kDefaultMaxSkewUs, 0, kMaxSyncSkewUs, "us"));
 
   // Every camera checked before anything is stored: a bad request stores nothing.
   std::vector<CameraTarget> targets;
@@ -84,6 +88,7 @@ Result<JobRecord> SyncCaptures::submit(const nlohmann::json& body) {
 
   Parent parent;
   parent.start_at_unix_ms = unix_time_ms() + start_in_ms;
+  parent.max_skew_us = max_skew_us;
   nlohmann::json capture = body["capture"];
   capture["schedule"] = {{"start_at_unix_ms", parent.start_at_unix_ms},
                          {"max_late_ms", max_late_ms}};
@@ -98,12 +103,11 @@ Result<JobRecord> SyncCaptures::submit(const nlohmann::json& body) {
     parent.cameras.push_back(targets[i].fleet_id());
     parent.frames_total += frames[i];
   }
-  const nlohmann::json request = {{"cameras", parent.cameras},
-                                  {"capture", body["capture"]},
-                                  {"start_in_ms", start_in_ms},
-                                  {"max_late_ms", max_late_ms},
-                                  {"start_at_unix_ms", parent.start_at_unix_ms},
-                                  {"jobs", parent.jobs}};
+  const nlohmann::json request = {
+      {"cameras", parent.cameras},  {"capture", body["capture"]},
+      {"start_in_ms", start_in_ms}, {"max_late_ms", max_late_ms},
+      {"max_skew_us", max_skew_us}, {"start_at_unix_ms", parent.start_at_unix_ms},
+      {"jobs", parent.jobs}};
   auto created = fleet_.jobs().create("sync_capture", "", request, "", parent.frames_total);
   if (!created) return undo(created.error());
   if (auto started = fleet_.jobs().start(created->id); !started || !*started)
@@ -175,8 +179,8 @@ bool SyncCaptures::check(int64_t id, const Parent& parent) {
     for (const JobRecord& child : children)
       if (child.host == host.name)
         clocks[host.name] = {host.clock_offset_us, host.clock_uncertainty_us};
-  const nlohmann::json result =
-      summarize_sync_capture(parent.start_at_unix_ms, parent.cameras, children, clocks);
+  const nlohmann::json result = summarize_sync_capture(parent.start_at_unix_ms, parent.cameras,
+                                                       children, clocks, parent.max_skew_us);
   // Failed: the first camera's that did not capture gives the code, each says why.
   std::string failed;
   ErrorCode code = ErrorCode::kConflict;

@@ -32,6 +32,8 @@ class Fleet;
 inline constexpr int kMaxSyncCameras = 32;
 inline constexpr int64_t kMinSyncStartInMs = 100, kMaxSyncStartInMs = 60000;
 inline constexpr int64_t kMaxSyncLateMs = 10000;
+// A rig view whose frames start further apart is flagged (the bound for one host).
+inline constexpr int64_t kDefaultMaxSkewUs = 1000, kMaxSyncSkewUs = 1000000;
 
 class SyncCaptures {
  public:
@@ -44,7 +46,8 @@ class SyncCaptures {
   void stop();
 
   // {"cameras": [ID, ...], "capture": {capture request}, "start_in_ms": 1000,
-  //  "max_late_ms": 100} -> the parent job (running). Errors as for a capture request,
+  //  "max_late_ms": 100, "max_skew_us": 1000} -> the parent job (running). Errors as for a capture
+  //  request,
   // per camera ("cameras[2]: ..."), and "invalid_request" for the rest.
   Result<JobRecord> submit(const nlohmann::json& body);
   // Cancels every capture of parent `id` that has not ended; false when `id` is no
@@ -54,6 +57,7 @@ class SyncCaptures {
  private:
   struct Parent {
     int64_t start_at_unix_ms = 0;
+    int64_t max_skew_us = kDefaultMaxSkewUs;
     std::vector<std::string> cameras;  // fleet ids, in the request's order
     std::vector<int64_t> jobs;         // one capture per camera, same order
     int frames_total = 0;

@@ -9,8 +9,10 @@
 #include <cstring>
 
 #include "base/log.h"
+#include "mock_device/broker/vcam_devices.h"
 #include "mock_device/spec/camera_spec.h"
 #include "mock_device/spec/default_specs.h"
+#include "mock_device/spec/rig_spec.h"
 #include "mock_device/spec/scene_spec.h"
 #include "mock_device/v4l2/capture_traits.h"
 
@@ -71,6 +73,7 @@ Result<std::unique_ptr<CameraSet>> CameraSet::create(const CameraSetOptions& opt
 }
 
 Status CameraSet::add_virtual_cameras(int first_index) {
+  if (!options_.rig_spec.empty()) return add_rig_cameras(first_index);
   nlohmann::json camera_json, scene_json;
   if (options_.camera_spec.empty()) {
     camera_json = mock::default_camera_spec_json();
@@ -112,6 +115,36 @@ Status CameraSet::add_virtual_cameras(int first_index) {
     virtual_sources_[id] = {
         {"backend", "virtual"}, {"camera_spec", camera_json}, {"scene_spec", scene_json}};
   }
+  return {};
+}
+
+Status CameraSet::add_rig_cameras(int first_index) {
+  mock::RigSpec rig;
+  CAMLAB_ASSIGN(rig, mock::load_rig_spec(options_.rig_spec));
+  std::vector<std::shared_ptr<mock::VirtualV4l2Device>> devices;
+  CAMLAB_ASSIGN(devices, mock::create_vcam_rig_devices(rig, first_index, /*realtime=*/true));
+  for (const auto& device : devices)
+    virtual_paths_.push_back("/dev/video" + std::to_string(device->index()));
+  virtual_io_ = std::make_shared<mock::VirtualV4l2Io>(devices);
+  device::DeviceRegistry registry;
+  registry.add_v4l2(virtual_io_, "in-process virtual rig camera", virtual_paths_);
+  for (const device::DeviceEntry& entry : registry.devices())
+    for (size_t i = 0; i < virtual_paths_.size(); ++i) {
+      if (virtual_paths_[i] != entry.identity.path) continue;
+      const std::string& id = entry.identity.id;
+      const mock::RigCameraSpec& member = rig.cameras[i];
+      virtual_devices_[id] = devices[i];
+      virtual_sources_[id] = {
+          {"backend", "virtual"},
+          {"camera_spec", member.camera.source},
+          {"scene_spec", mock::scene_seen_from(rig.scene, member.rt_cam_ref).source},
+          {"rig",
+           {{"name", rig.name},
+            {"camera", member.name},
+            {"index", i},
+            {"rt_cam_ref", member.rt_cam_ref},
+            {"trigger_offset_us", member.trigger_offset_us}}}};
+    }
   return {};
 }
 

@@ -67,6 +67,7 @@ struct CameraSetOptions {
   std::filesystem::path camera_spec;  // empty: the built-in 640x480 camera
   std::filesystem::path scene_spec;   // empty: the built-in slanted-edge scene
   int virtual_count = 1;
+  std::filesystem::path rig_spec;  // set: the virtual cameras are this rig's (rig_spec.h)
   // A camera spec describing the V4L2 (kernel) cameras' sensor and lens: bit depth, black
   // level, gain unity, iris f-numbers, focal length, focus steps (empty: unknown).
   std::filesystem::path device_spec;
@@ -101,6 +102,8 @@ class CameraSet {
  private:
   CameraSet(const CameraSetOptions& options, JobStore& store, Metrics& metrics);
   Status add_virtual_cameras(int first_index);
+  // The rig of options_.rig_spec: its cameras on one frame clock, each with its pose.
+  Status add_rig_cameras(int first_index);
   std::shared_ptr<device::DeviceRegistry> scan(bool force_libcamera);
   std::shared_ptr<CameraWorker> make_worker(const device::DeviceEntry& entry,
                                             std::shared_ptr<const device::DeviceRegistry> registry);

@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cerrno>
 
+#include "service/jobs/rig_views.h"
+
 namespace camlab::service {
 
 namespace {
@@ -103,8 +105,10 @@ nlohmann::json FrameStartLog::to_json(const CaptureSchedule& schedule, int64_t l
 nlohmann::json summarize_sync_capture(int64_t start_at_unix_ms,
                                       const std::vector<std::string>& cameras,
                                       const std::vector<JobRecord>& children,
-                                      const std::map<std::string, HostClock>& clocks) {
+                                      const std::map<std::string, HostClock>& clocks,
+                                      int64_t max_skew_us) {
   nlohmann::json per_camera = nlohmann::json::array();
+  std::vector<FrameStart> frame_starts;
   // starts[k]: the k-th kept frame's start on each camera that has one.
   std::vector<std::vector<int64_t>> starts;
   std::vector<int64_t> intervals_us;
@@ -123,6 +127,7 @@ nlohmann::json summarize_sync_capture(int64_t start_at_unix_ms,
           entry["after_start_us"] = start_us - start_at_unix_ms * 1000;
           if (starts.size() <= static_cast<size_t>(k)) starts.resize(k + 1);
           starts[k].push_back(start_us);
+          frame_starts.push_back({static_cast<int>(c), k, start_us});
         }
         frames.push_back(entry);
         ++k;
@@ -157,17 +162,21 @@ nlohmann::json summarize_sync_capture(int64_t start_at_unix_ms,
     host_clocks.push_back({{"host", host},
                            {"offset_to_database_us", clock.offset_us},
                            {"uncertainty_us", clock.uncertainty_us}});
-  return {{"start_at_unix_ms", start_at_unix_ms},
-          {"cameras", per_camera},
-          {"skew_us",
-           {{"per_frame", per_frame},
-            {"first_frame", per_frame.empty() ? nlohmann::json(nullptr) : per_frame[0]},
-            {"max", worst_us >= 0 ? nlohmann::json(worst_us) : nlohmann::json(nullptr)}}},
-          {"frame_interval_us", interval_us > 0 ? nlohmann::json(interval_us) : nullptr},
-          {"skew_frames", worst_us >= 0 && interval_us > 0
-                              ? nlohmann::json(static_cast<double>(worst_us) / interval_us)
-                              : nlohmann::json(nullptr)},
-          {"host_clocks", host_clocks}};
+  return {
+      {"start_at_unix_ms", start_at_unix_ms},
+      {"cameras", per_camera},
+      {"skew_us",
+       {{"per_frame", per_frame},
+        {"first_frame", per_frame.empty() ? nlohmann::json(nullptr) : per_frame[0]},
+        {"max", worst_us >= 0 ? nlohmann::json(worst_us) : nlohmann::json(nullptr)}}},
+      {"frame_interval_us", interval_us > 0 ? nlohmann::json(interval_us) : nullptr},
+      {"skew_frames", worst_us >= 0 && interval_us > 0
+                          ? nlohmann::json(static_cast<double>(worst_us) / interval_us)
+                          : nlohmann::json(nullptr)},
+      {"rig_views", rig_views_json(group_rig_views(std::move(frame_starts),
+                                                   static_cast<int>(children.size()), interval_us),
+                                   max_skew_us)},
+      {"host_clocks", host_clocks}};
 }
 
 }  // namespace camlab::service

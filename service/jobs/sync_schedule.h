@@ -73,11 +73,13 @@ struct HostClock {
   int64_t offset_us = 0, uncertainty_us = 0;
 };
 
-// The parent's result from its children (in the order of the request's cameras, each
-// with the fleet camera id it was asked by) and the hosts' clocks.
+// The parent's result from its children (its "rig_views": the frames grouped by start
+// time, service/jobs/rig_views.h, each view's skew against `max_skew_us`) (in the order of the
+// request's cameras, each with the fleet camera id it was asked by) and the hosts' clocks.
 nlohmann::json summarize_sync_capture(int64_t start_at_unix_ms,
                                       const std::vector<std::string>& cameras,
                                       const std::vector<JobRecord>& children,
-                                      const std::map<std::string, HostClock>& clocks);
+                                      const std::map<std::string, HostClock>& clocks,
+                                      int64_t max_skew_us = 1000);
 
 }  // namespace camlab::service

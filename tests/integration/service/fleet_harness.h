@@ -6,6 +6,7 @@
 
 #include <sys/stat.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -55,21 +56,16 @@ class FleetHarness {
     ::chmod(token.c_str(), 0600);
     auto& daemon = hosts_[name];
     if (!daemon) daemon = std::make_unique<Daemon>();
-    std::vector<std::string> args = {"--no-scan",
-                                     "--virtual-count",
-                                     "2",
-                                     "--camera-spec",
-                                     (dir_ / "camera.json").string(),
-                                     "--scene",
-                                     (dir_ / "scene.json").string(),
-                                     "--db",
-                                     db.empty() ? db_url() : db,
-                                     "--host-name",
-                                     host_name.empty() ? name : host_name,
-                                     "--lease-ms",
-                                     std::to_string(lease_ms),
-                                     "--rescan-ms",
-                                     "0"};
+    // A host given --rig serves the rig's cameras instead of two of the fast camera.
+    const bool rig = std::find(extra.begin(), extra.end(), "--rig") != extra.end();
+    std::vector<std::string> args = {"--no-scan"};
+    if (!rig)
+      args.insert(args.end(),
+                  {"--virtual-count", "2", "--camera-spec", (dir_ / "camera.json").string(),
+                   "--scene", (dir_ / "scene.json").string()});
+    args.insert(args.end(), {"--db", db.empty() ? db_url() : db, "--host-name",
+                             host_name.empty() ? name : host_name, "--lease-ms",
+                             std::to_string(lease_ms), "--rescan-ms", "0"});
     args.insert(args.end(), extra.begin(), extra.end());
     return daemon->start(folder, args) ? daemon.get() : nullptr;
   }
@@ -81,7 +77,8 @@ class FleetHarness {
   // each, and no camera of a running host is still measuring its control latency (a job
   // would wait for it); the fleet's JSON, or null on timeout.
   nlohmann::json wait_live(const Daemon& via, size_t live,
-                           std::chrono::seconds timeout = std::chrono::seconds(60)) {
+                           std::chrono::seconds timeout = std::chrono::seconds(60),
+                           int cameras_each = 2) {
     const auto deadline = std::chrono::steady_clock::now() + timeout;
     while (std::chrono::steady_clock::now() < deadline) {
       const nlohmann::json fleet = via.get("/v1/fleet").json();
@@ -90,7 +87,7 @@ class FleetHarness {
         for (const auto& host : fleet["hosts"]) {
           int available = 0;
           for (const auto& camera : host["cameras"]) available += camera.value("available", false);
-          ready += host["state"] == "live" && available == 2;
+          ready += host["state"] == "live" && available == cameras_each;
         }
       if (ready == live && !measuring_latency()) return fleet;
       std::this_thread::sleep_for(std::chrono::milliseconds(100));

@@ -256,6 +256,67 @@ TEST_F(ServiceFleet, ASynchronisedCaptureReportsEachFramesStartOnEveryHost) {
       static_cast<long long>(result["frame_interval_us"].get<int64_t>()));
 }
 
+// A rig of three cameras on one host, on one frame clock, the third triggered 2.5 ms after
+// the others: the synchronised capture groups their frames into rig views by start time;
+// the first two cameras' frames start within 1 ms of each other, and every view with the
+// third is flagged over the 1 ms bound.
+TEST_F(ServiceFleet, ARigCaptureReportsEachRigViewsSkewOnOneHost) {
+  const fs::path rig = dir_ / "rig.json";
+  const std::string camera = (dir_ / "camera.json").string();
+  std::ofstream(rig) << json{{"scene", (dir_ / "scene.json").string()},
+                             {"cameras",
+                              {{{"camera", camera}, {"rt_cam_ref", {0, 0, 0, 0, 0, 0}}},
+                               {{"camera", camera}, {"rt_cam_ref", {0, 0, 0, -0.1, 0, 0}}},
+                               {{"camera", camera},
+                                {"rt_cam_ref", {0, 0.2, 0, -0.2, 0, 0}},
+                                {"trigger_offset_us", 2500}}}}}
+                            .dump();
+  ASSERT_NE(fleet_->start_host("host-0", 3000, "", {"--rig", rig.string()}), nullptr);
+  const json ready =
+      fleet_->wait_live(*fleet_->host("host-0"), 1, std::chrono::seconds(60), /*cameras_each=*/3);
+  ASSERT_TRUE(ready.is_object());
+  const std::vector<std::string> cameras = FleetHarness::camera_ids(ready);
+  ASSERT_EQ(cameras.size(), 3u);
+  const Daemon& api = *fleet_->host("host-0");
+  auto posted = api.post("/v1/sync-captures", {{"cameras", cameras},
+                                               {"capture", {{"kind", "single"}, {"repeats", 6}}},
+                                               {"start_in_ms", 1000},
+                                               {"max_skew_us", 1000}});
+  ASSERT_EQ(posted.status, 202) << posted.body;
+  const json job = api.wait_job(posted.json()["id"], finished, std::chrono::seconds(60));
+  ASSERT_EQ(job["state"], "succeeded") << job.dump(1);
+  const json& result = job["result"];
+  const json& views = result["rig_views"];
+  ASSERT_TRUE(views.is_object()) << result.dump(1);
+  EXPECT_EQ(views["max_skew_us"], 1000);
+  EXPECT_GE(views["complete"].get<int>(), 3) << views.dump(1);
+  int pairs = 0;
+  int64_t worst_pair_us = 0;
+  for (const json& view : views["views"]) {
+    const json& f = view["frames"];
+    auto start = [&](int c) {
+      return result["cameras"][c]["frames"][f[c].get<int>()]["start_unix_us"].get<int64_t>();
+    };
+    if (!f[0].is_null() && !f[1].is_null()) {
+      EXPECT_LE(std::abs(start(1) - start(0)), 1000) << view.dump();
+      worst_pair_us = std::max(worst_pair_us, std::abs(start(1) - start(0)));
+      ++pairs;
+    }
+    if (!f[2].is_null() && !f[0].is_null()) {
+      EXPECT_NEAR(static_cast<double>(start(2) - start(0)), 2500, 1000) << view.dump();
+      EXPECT_FALSE(view["within_bound"].get<bool>()) << view.dump();
+    }
+  }
+  EXPECT_GE(pairs, 3);
+  EXPECT_EQ(views["over_bound"], views["complete"]);
+  std::printf(
+      "rig capture: 3 cameras, %d complete rig views of %zu, worst skew %lld us (cameras 0 and "
+      "1, one trigger: %lld us)\n",
+      views["complete"].get<int>(), views["views"].size(),
+      static_cast<long long>(views["worst_skew_us"].get<int64_t>()),
+      static_cast<long long>(worst_pair_us));
+}
+
 // Cloned hosts (the review's finding 2): two camlabd with one --host-name fenced and
 // rejoined each other every 1-3 s, interrupting each other's jobs. Now the second is
 // refused at start, before it touches any job of that name, and the live host's capture

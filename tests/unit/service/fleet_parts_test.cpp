@@ -220,6 +220,39 @@ TEST(SyncSchedule, TheParentComparesTheCamerasFrameByFrame) {
   EXPECT_TRUE(partial["skew_us"]["max"].is_null());  // one camera alone has no skew
 }
 
+// Rig views pair frames by start time: camera b dropped the second trigger's frame, so
+// its second kept frame is the third trigger's. Pairing by order would give that view a
+// skew of a whole interval; by time, the second view is incomplete and the third whole.
+TEST(SyncSchedule, RigViewsPairFramesByStartTimeNotByOrder) {
+  const int64_t start_ms = 1700000000000, t0 = start_ms * 1000;
+  const std::vector<JobRecord> children = {
+      child(21, "a", JobState::kSucceeded, {t0, t0 + 20000, t0 + 40000}, 20000),
+      child(22, "a", JobState::kSucceeded, {t0 + 300, t0 + 40200}, 20000),
+      child(23, "a", JobState::kSucceeded, {t0 + 1500, t0 + 21500, t0 + 41500}, 20000)};
+  const nlohmann::json summary =
+      summarize_sync_capture(start_ms, {"x@a", "y@a", "z@a"}, children, {}, 1000);
+  EXPECT_EQ(summary["skew_us"]["per_frame"][1], 20200) << "by order: a wrong pairing";
+  const nlohmann::json& rig = summary["rig_views"];
+  ASSERT_EQ(rig["views"].size(), 3u) << rig.dump(1);
+  EXPECT_EQ(rig["views"][0]["frames"], nlohmann::json({0, 0, 0}));
+  EXPECT_EQ(rig["views"][0]["skew_us"], 1500);
+  EXPECT_EQ(rig["views"][1]["frames"], nlohmann::json({1, nullptr, 1}));
+  EXPECT_FALSE(rig["views"][1]["complete"].get<bool>());
+  EXPECT_EQ(rig["views"][2]["frames"], nlohmann::json({2, 1, 2}));
+  EXPECT_EQ(rig["views"][2]["skew_us"], 1500);
+  EXPECT_EQ(rig["complete"], 2);
+  EXPECT_EQ(rig["incomplete"], 1);
+  // Over the 1000 us bound: flagged, each.
+  EXPECT_FALSE(rig["views"][0]["within_bound"].get<bool>());
+  EXPECT_EQ(rig["over_bound"], 2);
+  EXPECT_EQ(rig["worst_skew_us"], 1500);
+  EXPECT_EQ(rig["max_skew_us"], 1000);
+  // A looser bound passes them.
+  const nlohmann::json loose =
+      summarize_sync_capture(start_ms, {"x@a", "y@a", "z@a"}, children, {}, 2000);
+  EXPECT_EQ(loose["rig_views"]["over_bound"], 0);
+}
+
 TEST(RouterWrap, AWrapperAnswersOrPassesTheRequestOn) {
   Router router(nullptr, nullptr);
   router.add({"GET", "/v1/things/{id}", "a thing",
