@@ -37,13 +37,23 @@ std::string view_key(const BoardView& v, const fs::path& images) {
 // Every camera's views on the union of keys, in key order; a camera without a key gets a
 // view with every corner missing. Error when a camera's keys meet no other camera's.
 Status align_views(const std::vector<CalibrationRun>& runs,
-                   const std::vector<CalibrateOptions>& sources, RigCalibrationRun* out) {
+                   const std::vector<CalibrateOptions>& sources,
+                   const std::vector<std::map<std::string, std::string>>& view_of_frame,
+                   RigCalibrationRun* out) {
+  // A view's key in camera c; empty when an explicit pairing leaves the frame out.
+  auto key_of = [&](size_t c, const BoardView& v) -> std::string {
+    if (c >= view_of_frame.size()) return view_key(v, sources[c].images_dir);
+    const auto it = view_of_frame[c].find(fs::path(v.name).filename().string());
+    return it == view_of_frame[c].end() ? std::string() : it->second;
+  };
   std::set<std::string> names;
   std::vector<std::set<std::string>> keys(runs.size());
   for (size_t c = 0; c < runs.size(); ++c)
     for (const auto& v : runs[c].data.views) {
-      names.insert(view_key(v, sources[c].images_dir));
-      keys[c].insert(view_key(v, sources[c].images_dir));
+      const std::string key = key_of(c, v);
+      if (key.empty()) continue;
+      names.insert(key);
+      keys[c].insert(key);
     }
   for (size_t c = 0; c < runs.size(); ++c) {
     bool meets = false;
@@ -63,7 +73,8 @@ Status align_views(const std::vector<CalibrationRun>& runs,
     const auto& run = runs[c];
     CalibrationData d = run.data;
     std::map<std::string, const BoardView*> by_name;
-    for (const auto& v : run.data.views) by_name[view_key(v, sources[c].images_dir)] = &v;
+    for (const auto& v : run.data.views)
+      if (const std::string key = key_of(c, v); !key.empty()) by_name[key] = &v;
     d.views.clear();
     for (const auto& name : out->view_names) {
       if (auto it = by_name.find(name); it != by_name.end()) {
@@ -227,7 +238,8 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
     runs.push_back(std::move(*run));
   }
   RigCalibrationRun out;
-  if (Status aligned = align_views(runs, options.cameras, &out); !aligned) return aligned.error();
+  if (Status aligned = align_views(runs, options.cameras, options.view_of_frame, &out); !aligned)
+    return aligned.error();
   const LibraryStderrCapture quiet_mrcal;
   std::string model;
   CAMLAB_ASSIGN(model, rig_model(options, &out));

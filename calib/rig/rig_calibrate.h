@@ -13,6 +13,7 @@
 
 #include <atomic>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,10 @@ struct RigCalibrateOptions {
   // Set: an earlier rig.json of this rig, compared with this calibration (rig_drift.h), in
   // the report's "drift".
   std::filesystem::path drift_from;
+  // Set (one map a camera): which frames make a rig view, by file name -> view name, as a
+  // synchronised capture's rig views pair them (by start time, not by name); frames absent
+  // from a camera's map are not used. Empty: views matched by file name.
+  std::vector<std::map<std::string, std::string>> view_of_frame;
   const std::atomic<bool>* cancel = nullptr;
 };
 

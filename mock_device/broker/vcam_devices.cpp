@@ -44,6 +44,7 @@ Result<std::vector<std::shared_ptr<VirtualV4l2Device>>> create_vcam_rig_devices(
     options.index = first_index + static_cast<int>(i);
     options.seed = static_cast<uint64_t>(i) + 1;
     options.realtime = realtime;
+    options.view_every_frames = rig.view_every_frames;
     options.frame_grid_origin =
         grid_origin + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                           std::chrono::duration<double, std::micro>(member.trigger_offset_us));

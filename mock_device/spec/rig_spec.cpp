@@ -61,6 +61,7 @@ Result<RigSpec> parse_rig_spec(const nlohmann::json& json, const std::filesystem
   JsonFields f(json, "rig");
   RigSpec rig;
   CAMLAB_ASSIGN(rig.name, f.string("name", std::string("camlab virtual rig")));
+  CAMLAB_ASSIGN(rig.view_every_frames, f.integer("view_every_frames", 0, 100000, 0));
   if (!f.has("scene")) return make_error("invalid_argument", "rig.scene is required");
   nlohmann::json scene_json;
   CAMLAB_ASSIGN(scene_json, inline_or_file(json.at("scene"), "rig.scene", base_dir));

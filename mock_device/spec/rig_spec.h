@@ -11,7 +11,9 @@
 // poses are in the reference frame (a scene written for camera 0 when camera 0 is at the
 // reference); each camera sees them through its rt_cam_ref. Paths are relative to the
 // rig file. trigger_offset_us (default 0, |offset| <= 100 ms) delays that camera's frames
-// on the rig's clock: a rig whose cameras are not triggered together.
+// on the rig's clock: a rig whose cameras are not triggered together. "view_every_frames":
+// N (default 0) moves the scene's targets through their poses on the rig's clock, N frames
+// each, as a board a person moves in front of the rig.
 //
 // Reentrant: plain values, validated once.
 #pragma once
@@ -39,6 +41,9 @@ struct RigSpec {
   std::string name;
   std::vector<RigCameraSpec> cameras;
   SceneSpec scene;  // target poses in the reference frame
+  // > 0: the scene's views (a board's poses) follow the rig's clock, this many frames each
+  // (VirtualDeviceOptions::view_every_frames); 0: every camera shows view 0.
+  int view_every_frames = 0;
 };
 
 // Errors: "invalid_argument" (a missing or malformed field, named by its path),

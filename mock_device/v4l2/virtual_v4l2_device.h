@@ -54,6 +54,10 @@ struct VirtualDeviceOptions {
   // A rig member: frames start on this grid (VirtualV4l2FrameClock::set_grid), shared by
   // the rig's cameras; unset, a stream's first frame starts at STREAMON.
   std::optional<std::chrono::steady_clock::time_point> frame_grid_origin;
+  // > 0: the scene's views follow the clock, as a board a person moves in front of a rig:
+  // frame f shows view (tick f / view_every_frames) mod views, counted on the grid, so
+  // frames one trigger starts show one view in every camera. 0: always `view`.
+  int view_every_frames = 0;
 };
 
 class VirtualV4l2Device {

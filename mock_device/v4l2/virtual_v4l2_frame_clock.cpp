@@ -68,6 +68,13 @@ VirtualV4l2FrameClock::Clock::time_point VirtualV4l2FrameClock::tick_of(uint64_t
   return origin_ + interval() * static_cast<int64_t>(sequence);
 }
 
+int64_t VirtualV4l2FrameClock::grid_tick_index(uint64_t sequence) const {
+  const auto step = interval();
+  if (!grid_origin_ || !realtime_ || step.count() <= 0) return static_cast<int64_t>(sequence);
+  // Rounded: a tick lies on the grid, up to the clock's integer rounding.
+  return (tick_of(sequence) - *grid_origin_ + step / 2) / step;
+}
+
 uint64_t VirtualV4l2FrameClock::first_unstarted(Clock::time_point now) const {
   if (!realtime_ || !running_ || now < tick_of(next_sequence_)) return next_sequence_;
   const auto step = interval();

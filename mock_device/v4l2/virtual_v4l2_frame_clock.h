@@ -61,6 +61,9 @@ class VirtualV4l2FrameClock {
   // for the grid's next tick instead of starting at once.
   void set_grid(Clock::time_point origin) { grid_origin_ = origin; }
   bool on_grid() const { return grid_origin_.has_value(); }
+  // Frame `sequence`'s tick counted on the shared grid (the same number in every camera of a
+  // rig for frames one trigger starts); without a grid or a real-time clock, the sequence.
+  int64_t grid_tick_index(uint64_t sequence) const;
   void stop() { running_ = false; }
   Clock::time_point next_tick() const { return next_tick_; }
   // Past the tick just waited for, to the next one; ticks already missed cost their

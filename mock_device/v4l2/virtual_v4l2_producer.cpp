@@ -93,8 +93,13 @@ bool VirtualV4l2Device::render_into(int index, uint64_t sequence,
   options.seed = options_.seed;
   options.frame_number = sequence;
   const uint64_t generation = queue_.generation();
-  const bool ready =
-      sequence == 0 && prepared_.valid && same_settings(prepared_.settings, settings);
+  int view = options_.view;
+  if (options_.view_every_frames > 0) {
+    const int64_t tick = std::max<int64_t>(0, clock_.grid_tick_index(sequence));
+    view = static_cast<int>((tick / options_.view_every_frames) % renderer_.scene().view_count);
+  }
+  const bool ready = sequence == 0 && view == options_.view && prepared_.valid &&
+                     same_settings(prepared_.settings, settings);
   // Render and encode without the lock: ioctls (controls, status) must not wait on a frame.
   lock.unlock();
   Result<RenderedFrame> frame = make_error("internal", "not rendered");
@@ -103,8 +108,9 @@ bool VirtualV4l2Device::render_into(int index, uint64_t sequence,
     kept.image = prepared_.image;
     frame = std::move(kept);
   } else {
-    frame = renderer_.render(settings, options_.view, options);
-    if (sequence == 0 && frame) prepared_ = {true, settings, frame->image};  // for next time
+    frame = renderer_.render(settings, view, options);
+    if (sequence == 0 && view == options_.view && frame)
+      prepared_ = {true, settings, frame->image};  // for next time
   }
   Result<std::vector<uint8_t>> bytes = make_error("internal", "not rendered");
   if (frame)

@@ -116,17 +116,92 @@ Result<nlohmann::json> resolve_rig_sources(const ServiceContext& context,
   return sources;
 }
 
+// A rig capture's sources: "rig_capture": the id of a synchronised capture (sync_capture)
+// whose cameras are the rig's, camera 0 first. Its rig views pair the frames (by start time,
+// service/jobs/rig_views.h); only complete views within the capture's skew bound are
+// calibrated, and how many were left out, and why, goes with the request.
+Result<nlohmann::json> resolve_rig_capture(const ServiceContext& context,
+                                           const nlohmann::json& id) {
+  if (!id.is_number_integer() || id.get<int64_t>() < 1)
+    return make_error("invalid_request",
+                      "\"rig_capture\" must be a synchronised capture's job id (POST "
+                      "/v1/sync-captures)");
+  auto job = context.store->get(id.get<int64_t>());
+  if (!job) return job.error();
+  if (!job->has_value()) return make_error("not_found", "no job " + id.dump());
+  const JobRecord& parent = **job;
+  if (parent.kind != "sync_capture")
+    return make_error("invalid_request", "job " + id.dump() + " is a " + parent.kind +
+                                             " job, not a synchronised capture");
+  if (parent.state != JobState::kSucceeded)
+    return make_error("conflict", "synchronised capture " + id.dump() + " is " +
+                                      job_state_name(parent.state) +
+                                      "; a rig calibration needs one that succeeded");
+  const nlohmann::json& cameras = parent.result.value("cameras", nlohmann::json::array());
+  const nlohmann::json& views = parent.result.value("rig_views", nlohmann::json::object());
+  if (cameras.size() < static_cast<size_t>(calib::kRigCamerasMin) ||
+      cameras.size() > static_cast<size_t>(calib::kRigCamerasMax) || !views.contains("views"))
+    return make_error("invalid_request",
+                      "synchronised capture " + id.dump() + " has no rig views of 2 to 8 cameras");
+  nlohmann::json sources = nlohmann::json::array(), frames = nlohmann::json::array();
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    auto source = resolve_source(context, {{"job", cameras[c].value("job", int64_t{0})}});
+    if (!source) return source.error().with_context("camera " + std::to_string(c) + ": ");
+    sources.push_back(*source);
+    frames.push_back(nlohmann::json::object());
+  }
+  int taken = 0, incomplete = 0, over_bound = 0;
+  for (const nlohmann::json& view : views["views"]) {
+    if (!view.value("complete", false)) {
+      ++incomplete;
+      continue;
+    }
+    if (!view.value("within_bound", false)) {
+      ++over_bound;
+      continue;
+    }
+    char name[32];
+    std::snprintf(name, sizeof name, "view_%04d", taken++);
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      char file[32];
+      std::snprintf(file, sizeof file, "frame_%06d.png", view["frames"][c].get<int>());
+      frames[c][file] = name;
+    }
+  }
+  if (taken < 3)
+    return make_error("too_few_views",
+                      "synchronised capture " + id.dump() + " has " + std::to_string(taken) +
+                          " complete rig views within its skew bound (" +
+                          std::to_string(incomplete) + " incomplete, " +
+                          std::to_string(over_bound) + " over the bound); a rig needs 3");
+  return nlohmann::json{
+      {"rig_sources", sources},
+      {"rig_view_frames", frames},
+      {"rig_views_left_out", {{"incomplete", incomplete}, {"over_bound", over_bound}}}};
+}
+
 void post_calibration(const ServiceContext& context, const ApiRequest& request, Reply reply) {
   auto body = parse_json_object(request.body);
   if (!body) return reply(error_response(body.error()));
-  if (Status known =
-          check_known_fields(*body, {"job", "folder", "rig", "inner_corners", "spacing_m",
-                                     "detector", "marker_m", "dictionary", "model", "pixel_um"});
+  if (Status known = check_known_fields(
+          *body, {"job", "folder", "rig", "rig_capture", "inner_corners", "spacing_m", "detector",
+                  "marker_m", "dictionary", "model", "pixel_um"});
       !known)
     return reply(error_response(known.error()));
   auto normalised = normalised_calibration_fields(*body);
   if (!normalised) return reply(error_response(normalised.error()));
   // The source last: a malformed request is refused before any file is looked at.
+  if (body->contains("rig_capture")) {
+    if (body->contains("rig") || body->contains("job") || body->contains("folder"))
+      return reply(error_response("invalid_request",
+                                  "give \"rig_capture\" alone, not with \"rig\", \"job\" or "
+                                  "\"folder\""));
+    auto resolved = resolve_rig_capture(context, (*body)["rig_capture"]);
+    if (!resolved) return reply(error_response(resolved.error()));
+    for (const auto& [key, value] : resolved->items()) (*normalised)[key] = value;
+    (*normalised)["rig_capture"] = (*body)["rig_capture"];
+    return queue_compute_job(context, "calibration", *normalised, reply);
+  }
   if (body->contains("rig")) {
     if (body->contains("job") || body->contains("folder"))
       return reply(error_response("invalid_request",

@@ -42,12 +42,18 @@ JobOutcome execute_rig_calibration(const JobRecord& job, const std::filesystem::
     options.detect_threads = 1;  // the compute thread's one core
     rig.cameras.push_back(std::move(options));
   }
+  // A rig capture: its rig views pair the frames (frame file -> view, per camera).
+  if (request.contains("rig_view_frames"))
+    for (const auto& frames : request["rig_view_frames"])
+      rig.view_of_frame.push_back(frames.get<std::map<std::string, std::string>>());
   rig.out_dir = data_dir / job.folder;
   auto run = calib::calibrate_rig(rig);
   if (!run) return failure(run.error());
   JobOutcome outcome;
   outcome.state = JobState::kSucceeded;
   outcome.result = {{"report", run->report}, {"rig", true}};
+  if (request.contains("rig_views_left_out"))
+    outcome.result["rig_views_left_out"] = request["rig_views_left_out"];
   nlohmann::json files = nlohmann::json::array();
   for (size_t c = 0; c < rig.cameras.size(); ++c)
     files.push_back(job.folder + "/camera-" + std::to_string(c) + ".cameramodel");

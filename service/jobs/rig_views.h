@@ -20,7 +20,7 @@ namespace camlab::service {
 
 struct FrameStart {
   int camera = 0;        // index into the request's cameras
-  int frame = 0;         // index among that camera's kept frames
+  int frame = 0;         // the frame's index in that camera's capture (frame_NNNNNN)
   int64_t start_us = 0;  // start of exposure, Unix time
 };
 

@@ -127,7 +127,8 @@ nlohmann::json summarize_sync_capture(int64_t start_at_unix_ms,
           entry["after_start_us"] = start_us - start_at_unix_ms * 1000;
           if (starts.size() <= static_cast<size_t>(k)) starts.resize(k + 1);
           starts[k].push_back(start_us);
-          frame_starts.push_back({static_cast<int>(c), k, start_us});
+          // The view names the frame by its index in the capture folder (frame_NNNNNN).
+          frame_starts.push_back({static_cast<int>(c), frame.value("index", k), start_us});
         }
         frames.push_back(entry);
         ++k;

@@ -317,6 +317,64 @@ TEST_F(ServiceFleet, ARigCaptureReportsEachRigViewsSkewOnOneHost) {
       static_cast<long long>(worst_pair_us));
 }
 
+// A stereo rig from capture to calibration: two cameras 100 mm apart (the wide lens binned
+// to 640x400), the board moving through the example set's poses on the rig's clock (a pose
+// a frame); one synchronised capture, then POST /v1/calibrations {"rig_capture"}
+// pairs the frames by its rig views and finds the baseline.
+TEST_F(ServiceFleet, ARigCaptureCalibratesIntoTheRigsBaseline) {
+  json camera = json::parse(
+      std::ifstream(CAMLAB_SOURCE_DIR "/mock_device/examples/camera_wide_1280x800.json"));
+  camera["sensor"]["width_px"] = 640;
+  camera["sensor"]["height_px"] = 400;
+  camera["sensor"]["pixel_pitch_um"] = 6.0;
+  camera["lens"]["principal_point_px"] = {321.15, 199.05};
+  camera["timing"]["frame_interval_us"] = 100000;  // 10 frames/s: rendered in time on 2 cores
+  const fs::path rig = dir_ / "stereo.json";
+  std::ofstream(rig) << json{{"scene", CAMLAB_SOURCE_DIR
+                              "/mock_device/examples/scene_chessboard_calibration.json"},
+                             {"view_every_frames", 1},
+                             {"cameras",
+                              {{{"camera", camera}, {"rt_cam_ref", {0, 0, 0, 0, 0, 0}}},
+                               {{"camera", camera}, {"rt_cam_ref", {0, 0, 0, -0.1, 0, 0}}}}}}
+                            .dump();
+  ASSERT_NE(fleet_->start_host("host-0", 3000, "", {"--rig", rig.string()}), nullptr);
+  const json ready =
+      fleet_->wait_live(*fleet_->host("host-0"), 1, std::chrono::seconds(90), /*cameras_each=*/2);
+  ASSERT_TRUE(ready.is_object());
+  const std::vector<std::string> cameras = FleetHarness::camera_ids(ready);
+  ASSERT_EQ(cameras.size(), 2u);
+  const Daemon& api = *fleet_->host("host-0");
+  auto posted = api.post("/v1/sync-captures", {{"cameras", cameras},
+                                               {"capture", {{"kind", "single"}, {"repeats", 12}}},
+                                               {"start_in_ms", 1000}});
+  ASSERT_EQ(posted.status, 202) << posted.body;
+  const int64_t capture = posted.json()["id"];
+  const json captured = api.wait_job(capture, finished, std::chrono::seconds(120));
+  ASSERT_EQ(captured["state"], "succeeded") << captured.dump(1);
+  const json& views = captured["result"]["rig_views"];
+  EXPECT_GE(views["complete"].get<int>(), 8) << views.dump(1);
+  EXPECT_EQ(views["over_bound"], 0) << views.dump(1);
+  // Not a capture of one camera, and not a running one: refused with the reason.
+  EXPECT_EQ(api.post("/v1/calibrations", {{"rig_capture", capture}, {"job", 1}}).status, 400);
+  const json board = {{"rig_capture", capture},
+                      {"inner_corners", {14, 10}},
+                      {"spacing_m", 0.04},
+                      {"model", "LENSMODEL_OPENCV8"}};
+  auto calibration = api.post("/v1/calibrations", board);
+  ASSERT_EQ(calibration.status, 202) << calibration.body;
+  const json job = api.wait_job(calibration.json()["id"], finished, std::chrono::seconds(300));
+  ASSERT_EQ(job["state"], "succeeded") << job.dump(1).substr(0, 3000);
+  EXPECT_EQ(job["result"]["rig_views_left_out"]["over_bound"], 0);
+  const json& report = job["result"]["report"];
+  const json baseline_m = report["cameras"][1]["baseline_m"];
+  ASSERT_TRUE(baseline_m.is_number()) << report.dump(1).substr(0, 3000);
+  const double baseline_mm = 1000 * baseline_m.get<double>();
+  const double sigma_mm = report["cameras"][1]["baseline_sigma_mm"].get<double>();
+  std::printf("rig capture -> calibration: %d rig views, baseline %.3f +- %.3f mm (truth 100)\n",
+              views["complete"].get<int>(), baseline_mm, sigma_mm);
+  EXPECT_NEAR(baseline_mm, 100.0, std::max(0.5, 4 * sigma_mm));
+}
+
 // Cloned hosts (the review's finding 2): two camlabd with one --host-name fenced and
 // rejoined each other every 1-3 s, interrupting each other's jobs. Now the second is
 // refused at start, before it touches any job of that name, and the live host's capture
