@@ -125,17 +125,17 @@ TEST_F(CalibrateWatch, WatchDetectsEachNewImageOnceAndSuggestsAfterEach) {
   std::thread cli([&] {
     run = camlab::testing::run_cli("calibrate --images " + watched.string() +
                                    " --board 14x10 --spacing-m 0.04 --watch --json --quiet"
-                                   " --watch-poll-s 0.1 --watch-timeout-s 4 --out " +
+                                   " --watch-poll-s 0.1 --watch-timeout-s 3 --out " +
                                    (dir_ / "cam.cameramodel").string() + " --report " +
                                    (dir_ / "report.json").string());
   });
   for (int i = 0; i < kFrames; ++i) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(700));
+    std::this_thread::sleep_for(std::chrono::milliseconds(400));
     fs::copy_file(frame(i), watched / ".incoming");
     fs::rename(watched / ".incoming", watched / frame(i).filename());
   }
   // The first view again under another name: the board where it was, not taken.
-  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));
   fs::copy_file(frame(0), watched / ".incoming");
   fs::rename(watched / ".incoming", watched / "repeat.png");
   cli.join();
