@@ -14,6 +14,7 @@
 #include "base/stack_thread.h"
 #include "calib/cholmod_sparse.h"
 #include "calib/mrcal_api.h"
+#include "calib/report.h"
 #include "calib/rig/board_labels.h"
 #include "calib/solver.h"
 
@@ -240,6 +241,14 @@ Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& optio
         poses[c][s->views_used[k]] = s->rt_cam_board[k];
     single[c] = std::move(*s);
   }
+  // Each camera's data judged as a single camera's would be (report.h): a lens solved from
+  // too few, fronto-parallel, centre-only or far boards is no better inside a rig, and its
+  // errors reach the extrinsics through the joint solve.
+  for (int c = 0; c < n; ++c)
+    for (const Warning& w : make_report(input.cameras[c], single[c], 0).warnings)
+      if (w.code != "fov_undefined" && w.code != "implausible_intrinsics")
+        out.warnings.push_back(
+            format_printf("camera %d: %s: %s", c, w.code.c_str(), w.message.c_str()));
   RigLabelling labelling;
   CAMLAB_ASSIGN(labelling, chain_and_label(&poses, board, &out.warnings));
   const std::vector<Rt>& rt_cam_ref = labelling.rt_cam_ref;

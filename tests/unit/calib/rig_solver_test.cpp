@@ -49,6 +49,9 @@ TEST(RigSolve, PairsExtrinsicsAreTheTruthsWithinTheirStatedSigma) {
     auto s = solve_rig(data, options);
     ASSERT_TRUE(s.ok()) << "seed " << seed << ": " << s.error().message;
     solve_s += s->solve_s;
+    // 30 varied views a camera: nothing to warn about.
+    for (const std::string& w : s->warnings)
+      EXPECT_EQ(w.find("too_few_views"), std::string::npos) << "seed " << seed << ": " << w;
     const RigCamera& b = s->cameras[1];
     const double rotation_deg = rotation_between_deg(b.rt_cam_ref, truth[1].rt_cam_ref);
     double translation_m = 0;
@@ -184,6 +187,25 @@ TEST(RigSolve, ViewsLabelledTurnedInOneCameraAreRelabelled) {
               1e-6);
     EXPECT_EQ(relabelled->cameras[1].outliers, alike->cameras[1].outliers);
   }
+}
+
+// Each camera's data judged as one camera's: 6 views, and boards that all face camera 0,
+// are warned about with the camera's number, and the solve still answers.
+TEST(RigSolve, EachCamerasDegenerateDataIsWarnedAboutByNumber) {
+  testing::RigViewSpec spec;
+  spec.views = 6;
+  spec.max_tilt_deg = 6;
+  const RigData data = testing::make_rig_views(stereo_pair_truth(), kBoard, spec);
+  RigSolveOptions options;
+  options.lensmodel = "LENSMODEL_OPENCV4";
+  auto s = solve_rig(data, options);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  std::string all;
+  for (const std::string& w : s->warnings) all += w + "\n";
+  // Boards facing camera 0 within 6 deg; camera 1, 0.2 m to its side, sees them turned.
+  for (const char* expected :
+       {"camera 0: too_few_views", "camera 1: too_few_views", "camera 0: fronto_parallel"})
+    EXPECT_NE(all.find(expected), std::string::npos) << expected << " in\n" << all;
 }
 
 TEST(RigSolve, ACameraThatSharesNoViewIsRefusedWithItsNumber) {
