@@ -156,6 +156,28 @@ export class JobsPanel {
     this.e.panel.dataset.state = job.state;
     const lines = [`${progressText(job)}`, ...(FINAL.has(job.state) ? resultSummary(job) : [])];
     this.e.summary.innerHTML = lines.filter((l) => l).map((l) => `<p>${esc(l)}</p>`).join('');
+    if (!FINAL.has(job.state)) this.e.summary.append(this.cancelButton(job));
+  }
+
+  // DELETE /v1/jobs/{id}: a queued job ends at once, a running capture between frames (the
+  // frames kept so far stay), a running calibration or analysis at its next check.
+  cancelButton(job) {
+    const button = document.createElement('button');
+    button.type = 'button';
+    button.id = 'job-cancel';
+    button.textContent = job.state === 'queued' ? 'Cancel (queued)' : 'Cancel';
+    button.addEventListener('click', async () => {
+      button.disabled = true;
+      this.e.error.textContent = '';
+      try {
+        await api(`/v1/jobs/${job.id}`, { method: 'DELETE' });
+        button.textContent = 'Cancelling...';
+      } catch (error) {
+        this.e.error.textContent = error.message;
+        button.disabled = false;
+      }
+    });
+    return button;
   }
 
   clearImages() {

@@ -220,6 +220,23 @@ async function main() {
   check(linearity < 1, `the bracket is linear within 1 % (max error ${linearity} %)`);
   await page.screenshot({ path: path.join(screenshots, 'dashboard.png'), fullPage: true });
 
+  // A long capture cancelled from its page: it ends cancelled, with the frames kept so far.
+  const openBefore = await page.evaluate(() => document.querySelector('#job-panel').dataset.jobId);
+  await page.fill('#bracket-exposures', '1000, 2000, 4000, 8000');
+  await page.fill('#capture-repeats', '100');
+  await page.click('#capture-start');
+  const longId = await waitFor('the long bracket job', async () => {
+    const id = await page.evaluate(() => document.querySelector('#job-panel').dataset.jobId);
+    return id && id !== openBefore ? id : null;
+  }, 10000);
+  await page.waitForSelector(`#jobs tr[data-job-id="${longId}"][data-state="running"]`, { timeout: 60000 });
+  await page.click('#job-cancel');
+  await page.waitForSelector(`#jobs tr[data-job-id="${longId}"][data-state="cancelled"]`, { timeout: 30000 });
+  const cancelled = await (await fetch(`${base}/v1/jobs/${longId}`, { headers: auth })).json();
+  check(cancelled.state === 'cancelled' && cancelled.result.frames_kept < 400,
+    `the capture cancelled from its page ended cancelled after ${cancelled.result.frames_kept} of 400 frames`);
+  check(await page.isHidden('#job-cancel'), 'an ended job offers no cancel');
+
   // Logging out, and a new tab (a fresh session) without the token, show the login.
   const fresh = await browser.newContext();
   const other = await fresh.newPage();
