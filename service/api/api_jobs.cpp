@@ -30,21 +30,6 @@ namespace {
 
 constexpr int kMaxListLimit = 1000;
 
-// Whether `relative` (a job's folder, maybe with a subfolder) leads from the data folder
-// through real folders only: a job folder replaced by a symlink (to /etc, or another
-// user's captures) is not followed, as a frame file replaced by one is not (read_bytes).
-bool within_data_dir(const std::filesystem::path& data_dir, const std::filesystem::path& relative) {
-  std::filesystem::path at = data_dir;
-  std::error_code ec;
-  for (const auto& part : relative) {
-    if (part.empty() || part == "." || part == "..") return false;
-    at /= part;
-    const auto status = std::filesystem::symlink_status(at, ec);
-    if (ec || std::filesystem::is_symlink(status)) return false;
-  }
-  return true;
-}
-
 // The capture folder of a capture job, or a reply saying why there is none.
 std::optional<image::CaptureFolder> job_folder(const ServiceContext& context, const JobRecord& job,
                                                const Reply& reply) {
@@ -89,23 +74,6 @@ std::optional<int> frame_index(const image::CaptureFolder& folder, const JobReco
     return std::nullopt;
   }
   return static_cast<int>(*n);
-}
-
-// A frame's file, read whole. O_NOFOLLOW, and a regular file only: a frame replaced by a
-// symlink (to the token, say) or by a device or FIFO is refused, not followed.
-bool read_bytes(const std::filesystem::path& path, std::string* out) {
-  UniqueFd fd(::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC | O_NONBLOCK));
-  struct stat info {};
-  if (!fd || ::fstat(fd.get(), &info) != 0 || !S_ISREG(info.st_mode)) return false;
-  out->resize(static_cast<size_t>(info.st_size));
-  size_t done = 0;
-  while (done < out->size()) {
-    const ssize_t n = ::read(fd.get(), out->data() + done, out->size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return false;  // an error, or the file shrank while read
-    done += static_cast<size_t>(n);
-  }
-  return true;
 }
 
 // Frame {n} of job {id}: its image or its sidecar file, read whole; replies with the

@@ -1,5 +1,12 @@
 #include "service/api/api_lookup.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+
+#include "base/unique_fd.h"
 #include "service/api/service_context.h"
 #include "service/jobs/camera_set.h"
 
@@ -41,6 +48,38 @@ std::optional<JobRecord> find_job(const ServiceContext& context, const PathParam
     return std::nullopt;
   }
   return std::move(**job);
+}
+
+// Whether `relative` (a job's folder, maybe with a subfolder) leads from the data folder
+// through real folders only: a job folder replaced by a symlink (to /etc, or another
+// user's captures) is not followed, as a frame file replaced by one is not (read_bytes).
+bool within_data_dir(const std::filesystem::path& data_dir, const std::filesystem::path& relative) {
+  std::filesystem::path at = data_dir;
+  std::error_code ec;
+  for (const auto& part : relative) {
+    if (part.empty() || part == "." || part == "..") return false;
+    at /= part;
+    const auto status = std::filesystem::symlink_status(at, ec);
+    if (ec || std::filesystem::is_symlink(status)) return false;
+  }
+  return true;
+}
+
+// A file, read whole. O_NOFOLLOW, and a regular file only: a frame replaced by a
+// symlink (to the token, say) or by a device or FIFO is refused, not followed.
+bool read_bytes(const std::filesystem::path& path, std::string* out) {
+  UniqueFd fd(::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC | O_NONBLOCK));
+  struct stat info {};
+  if (!fd || ::fstat(fd.get(), &info) != 0 || !S_ISREG(info.st_mode)) return false;
+  out->resize(static_cast<size_t>(info.st_size));
+  size_t done = 0;
+  while (done < out->size()) {
+    const ssize_t n = ::read(fd.get(), out->data() + done, out->size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return false;  // an error, or the file shrank while read
+    done += static_cast<size_t>(n);
+  }
+  return true;
 }
 
 }  // namespace camlab::service

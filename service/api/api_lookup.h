@@ -2,6 +2,7 @@
 // job by {id}. Each answers the request itself (404, 400) when there is none.
 #pragma once
 
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -21,6 +22,14 @@ std::string clip(const std::string& s);
 // 404 reply that lists the cameras.
 std::shared_ptr<CameraWorker> find_camera(const ServiceContext& context, const std::string& id,
                                           const Reply& reply);
+
+// Whether `relative` (a job's folder, maybe with a subfolder) leads from the data folder
+// through real folders only: a job folder replaced by a symlink is not followed.
+bool within_data_dir(const std::filesystem::path& data_dir, const std::filesystem::path& relative);
+
+// A file read whole: O_NOFOLLOW and a regular file only (a file replaced by a symlink, to
+// the token say, or by a device or FIFO is refused, not followed).
+bool read_bytes(const std::filesystem::path& path, std::string* out);
 
 // The job named by the {id} parameter, or nullopt after a 400/404/500 reply.
 std::optional<JobRecord> find_job(const ServiceContext& context, const PathParams& params,

@@ -38,6 +38,7 @@ void add_all_routes(Router& router, const ServiceContext& context) {
   add_system_routes(router, context);
   add_camera_routes(router, context);
   add_job_routes(router, context);
+  add_job_file_routes(router, context);
   add_compute_routes(router, context);
   add_session_routes(router, context);
   add_live_routes(router, context);

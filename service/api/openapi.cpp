@@ -383,6 +383,22 @@ void add_dashboard_paths(json& paths, const json& camera_id, const json& job_id,
        operation("One plot (PNG)", "jobs",
                  {job_id, path_param("name", "e.g. linearity.png", {{"type", "string"}})},
                  merge(ok(200, "PNG", binary, "image/png"), error_responses({400, 401, 404})))}};
+  paths["/v1/jobs/{id}/files"] = {
+      {"get", operation("Every file the job wrote: frames, sidecars, manifest, model, report, "
+                        "plots",
+                        "jobs", {job_id},
+                        merge(ok(200, "{job_id, folder, files: [{path, bytes, url}]}", object),
+                              error_responses({400, 401, 404})))}};
+  const json file_name = path_param("name", "e.g. report.json", {{"type", "string"}});
+  paths["/v1/jobs/{id}/files/{name}"] = {
+      {"get", operation("One file of the job, byte for byte", "jobs", {job_id, file_name},
+                        merge(ok(200, "the file", binary, "application/octet-stream"),
+                              error_responses({400, 401, 404})))}};
+  paths["/v1/jobs/{id}/files/{dir}/{name}"] = {
+      {"get", operation("One file in a subfolder of the job's (plots), byte for byte", "jobs",
+                        {job_id, path_param("dir", "e.g. plots", {{"type", "string"}}), file_name},
+                        merge(ok(200, "the file", binary, "application/octet-stream"),
+                              error_responses({400, 401, 404})))}};
   paths["/v1/events"] = {
       {"get",
        operation("Job changes as server-sent events: event \"job\" with data {id, state, "
@@ -512,7 +528,8 @@ json openapi_document(bool include_test_routes) {
   // A job's files stay on the host that ran it: another fleet host redirects there.
   for (const char* files :
        {"/v1/jobs/{id}/frames", "/v1/jobs/{id}/frames/{n}", "/v1/jobs/{id}/frames/{n}/meta",
-        "/v1/jobs/{id}/frames/{n}/thumbnail", "/v1/jobs/{id}/plots", "/v1/jobs/{id}/plots/{name}"})
+        "/v1/jobs/{id}/frames/{n}/thumbnail", "/v1/jobs/{id}/plots", "/v1/jobs/{id}/plots/{name}",
+        "/v1/jobs/{id}/files", "/v1/jobs/{id}/files/{name}", "/v1/jobs/{id}/files/{dir}/{name}"})
     paths[files]["get"]["responses"]["307"] = {
         {"description", "fleet: the job's files are on another host (Location, same token)"}};
   const json session_id =

@@ -35,15 +35,16 @@ struct ServiceContext {
 };
 
 // Registration of each group of routes (one file each).
-void add_system_routes(Router& router, const ServiceContext& context);   // api_system.cpp
-void add_camera_routes(Router& router, const ServiceContext& context);   // api_cameras.cpp
-void add_job_routes(Router& router, const ServiceContext& context);      // api_jobs.cpp
-void add_compute_routes(Router& router, const ServiceContext& context);  // api_compute.cpp
-void add_test_routes(Router& router, const ServiceContext& context);     // api_test_faults.cpp
-void add_session_routes(Router& router, const ServiceContext& context);  // api_sessions.cpp
-void add_live_routes(Router& router, const ServiceContext& context);     // api_live.cpp
-void add_event_routes(Router& router, const ServiceContext& context);    // api_events.cpp
-void add_web_routes(Router& router, const ServiceContext& context);      // api_web.cpp
+void add_system_routes(Router& router, const ServiceContext& context);    // api_system.cpp
+void add_camera_routes(Router& router, const ServiceContext& context);    // api_cameras.cpp
+void add_job_routes(Router& router, const ServiceContext& context);       // api_jobs.cpp
+void add_job_file_routes(Router& router, const ServiceContext& context);  // api_job_files.cpp
+void add_compute_routes(Router& router, const ServiceContext& context);   // api_compute.cpp
+void add_test_routes(Router& router, const ServiceContext& context);      // api_test_faults.cpp
+void add_session_routes(Router& router, const ServiceContext& context);   // api_sessions.cpp
+void add_live_routes(Router& router, const ServiceContext& context);      // api_live.cpp
+void add_event_routes(Router& router, const ServiceContext& context);     // api_events.cpp
+void add_web_routes(Router& router, const ServiceContext& context);       // api_web.cpp
 // The fleet's routes; on a fleet host also wraps the camera and job routes added before.
 void add_fleet_routes(Router& router, const ServiceContext& context);  // api_fleet.cpp
 

@@ -24,7 +24,7 @@ const controls = new ControlsPanel($('controls'), $('controls-note'), $('control
 const jobs = new JobsPanel({
   tbody: $('jobs').tBodies[0], panel: $('job-panel'), title: $('job-title'),
   summary: $('job-summary'), actions: $('job-actions'), error: $('job-error'),
-  plots: $('job-plots'), frames: $('job-frames'),
+  plots: $('job-plots'), frames: $('job-frames'), files: $('job-files'),
   // A job started or ended: the camera's state (busy, idle) changed with it.
   onStateChange: () => refreshCamera(),
 });

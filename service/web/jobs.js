@@ -4,7 +4,7 @@
 // jobs (linearity, photon transfer, CoC against f-number, V-curve, depth map, residuals,
 // uncertainty).
 
-import { api, esc, imageUrl, readEvents, sleep } from './api.js';
+import { api, esc, imageUrl, readEvents, request, sleep } from './api.js';
 
 const FINAL = new Set(['succeeded', 'failed', 'cancelled', 'interrupted', 'device_lost']);
 // What each capture kind can be analysed for (POST /v1/analyses).
@@ -205,6 +205,42 @@ export class JobsPanel {
     }
     if (job.kind !== 'capture' && FINAL.has(job.state)) await this.showPlots(job);
     if (job.kind === 'capture' && job.state !== 'queued') await this.showFrames(job);
+    await this.showFiles(job);
+  }
+
+  // Every file the job wrote, each a download of the file as stored (GET /v1/jobs/{id}/files;
+  // fetched with the token, then saved from an object URL).
+  async showFiles(job) {
+    const list = this.e.files.querySelector('ul');
+    list.replaceChildren();
+    this.e.files.hidden = true;
+    if (!FINAL.has(job.state)) return;
+    const { files } = await api(`/v1/jobs/${job.id}/files`).catch(() => ({ files: [] }));
+    if (this.openJob !== job.id || !files.length) return;
+    this.e.files.querySelector('summary').textContent = `Files (${files.length})`;
+    for (const file of files) {
+      const item = document.createElement('li');
+      const link = document.createElement('a');
+      link.href = '#';
+      link.dataset.path = file.path;
+      link.textContent = file.path;
+      link.addEventListener('click', async (event) => {
+        event.preventDefault();
+        try {
+          const blob = await (await request(file.url)).blob();
+          const save = document.createElement('a');
+          save.href = URL.createObjectURL(blob);
+          save.download = file.path.split('/').pop();
+          save.click();
+          setTimeout(() => URL.revokeObjectURL(save.href), 10000);
+        } catch (error) {
+          this.e.error.textContent = error.message;
+        }
+      });
+      item.append(link, ` ${file.bytes} bytes`);
+      list.append(item);
+    }
+    this.e.files.hidden = false;
   }
 
   // A calibration of a capture's frames (views of a chessboard or ChArUco board): the

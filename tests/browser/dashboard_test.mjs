@@ -220,6 +220,24 @@ async function main() {
   check(linearity < 1, `the bracket is linear within 1 % (max error ${linearity} %)`);
   await page.screenshot({ path: path.join(screenshots, 'dashboard.png'), fullPage: true });
 
+  // Every file the bracket wrote is listed on its page and downloads byte for byte.
+  await page.click(`#jobs tr[data-job-id="${jobId}"]`);
+  await page.waitForSelector('#job-files:not([hidden]) a[data-path="frame_000000.png"]',
+    { state: 'attached', timeout: 20000 });
+  await page.click('#job-files summary');
+  const listedFiles = await page.evaluate(() =>
+    [...document.querySelectorAll('#job-files a[data-path]')].map((a) => a.dataset.path));
+  check(listedFiles.includes('manifest.json') && listedFiles.filter((p) => p.endsWith('.png')).length === 8,
+    `the bracket's page lists its files (${listedFiles.length}: manifest, 8 frames, their sidecars)`);
+  const [download] = await Promise.all([
+    page.waitForEvent('download', { timeout: 20000 }),
+    page.click('#job-files a[data-path="frame_000000.png"]'),
+  ]);
+  const downloaded = fs.readFileSync(await download.path());
+  const served = Buffer.from(await (await fetch(`${base}/v1/jobs/${jobId}/frames/0`, { headers: auth })).arrayBuffer());
+  check(downloaded.equals(served) && download.suggestedFilename() === 'frame_000000.png',
+    `a file downloaded from the page is the frame byte for byte (${downloaded.length} bytes)`);
+
   // A long capture cancelled from its page: it ends cancelled, with the frames kept so far.
   const openBefore = await page.evaluate(() => document.querySelector('#job-panel').dataset.jobId);
   await page.fill('#bracket-exposures', '1000, 2000, 4000, 8000');

@@ -362,6 +362,28 @@ TEST_F(ServiceCompute, CalibrationOfARenderedChessboardSetRecoversTheFocalLength
   auto png = daemon.get(plots_path + "/residuals.png");
   EXPECT_EQ(png.status, 200);
   EXPECT_EQ(png.body.substr(1, 3), "PNG");
+  // Every file the job wrote downloads byte for byte; nothing outside its folder does.
+  const std::string files_path = "/v1/jobs/" + std::to_string(job["id"].get<int64_t>()) + "/files";
+  const json files = daemon.get(files_path).json();
+  std::set<std::string> written;
+  for (const json& f : files["files"]) {
+    const std::string relative = f["path"];
+    written.insert(relative);
+    auto got = daemon.get(f["url"].get<std::string>());
+    ASSERT_EQ(got.status, 200) << relative;
+    std::ifstream on_disk(dir / "data" / job["folder"].get<std::string>() / relative,
+                          std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(on_disk)),
+                            std::istreambuf_iterator<char>());
+    EXPECT_EQ(got.body, bytes) << relative;
+    EXPECT_EQ(f["bytes"].get<size_t>(), bytes.size()) << relative;
+  }
+  for (const char* expected : {"camera.cameramodel", "report.json", "plots/residuals.png"})
+    EXPECT_TRUE(written.count(expected)) << expected << " not in " << files.dump();
+  EXPECT_EQ(daemon.get(files_path + "/../../token").status, 404);
+  EXPECT_EQ(daemon.get(files_path + "/..%2F..%2Ftoken").status, 400);  // no '/' in a segment
+  EXPECT_EQ(daemon.get(files_path + "/plots/..").status, 404);
+  EXPECT_EQ(daemon.get(files_path + "/no-such-file").status, 404);
 }
 
 // A ChArUco board through POST /v1/calibrations: views cut by the frame's edge kept
