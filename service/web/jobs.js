@@ -296,7 +296,10 @@ export class JobsPanel {
   }
 
   async showPlots(job) {
-    const { plots } = await api(`/v1/jobs/${job.id}/plots`);
+    const { plots: all } = await api(`/v1/jobs/${job.id}/plots`);
+    // Raw-DN images are data, not pictures (their display-mapped twin is shown); they are
+    // among the job's files to download.
+    const plots = all.filter((plot) => !plot.name.endsWith('_raw.png'));
     for (const plot of plots) {
       const figure = document.createElement('figure');
       const img = document.createElement('img');

@@ -42,6 +42,30 @@ Status png(const fs::path& path, const cv::Mat& image, Paths* written) {
   return {};
 }
 
+// An image to look at: deeper than 8 bits, the 0.1% and 99.9% points of its values become
+// 0 and 255, with a 1/2.2 power between (as the dashboard shows frames: a mid grey does
+// not look black). 8-bit images are kept as they are.
+cv::Mat display_mapped(const cv::Mat& image) {
+  if (image.empty() || image.depth() == CV_8U) return image;
+  cv::Mat values;
+  image.reshape(1).convertTo(values, CV_32F);
+  std::vector<float> sorted(values.begin<float>(), values.end<float>());
+  const auto at = [&](double q) {
+    const size_t k = std::min(sorted.size() - 1, static_cast<size_t>(q * (sorted.size() - 1)));
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(k), sorted.end());
+    return sorted[k];
+  };
+  const float lo = at(0.001), hi = at(0.999);
+  const float span = hi > lo ? hi - lo : 1.0f;
+  cv::Mat out(values.size(), CV_8U);
+  for (int y = 0; y < values.rows; ++y)
+    for (int x = 0; x < values.cols; ++x) {
+      const float v = std::clamp((values.at<float>(y, x) - lo) / span, 0.0f, 1.0f);
+      out.at<uint8_t>(y, x) = static_cast<uint8_t>(std::lround(255 * std::pow(v, 1 / 2.2f)));
+    }
+  return out.reshape(image.channels());
+}
+
 PlotSeries series(std::string label, bool line, int colour) {
   PlotSeries s;
   s.label = std::move(label);
@@ -182,7 +206,13 @@ Result<Paths> write_focus_plots(const fs::path& dir, const FocusReport& r) {
   cv::applyColorMap(gray, colour, cv::COLORMAP_VIRIDIS);
   colour.setTo(cv::Scalar(0, 0, 0), r.valid == 0);
   if (Status s = png(dir / "depth_map.png", colour, &written); !s) return s.error();
-  if (Status s = png(dir / "all_in_focus.png", r.all_in_focus, &written); !s) return s.error();
+  // The all-in-focus image to look at, and its raw DN to measure on: a 10-bit sensor's DN in
+  // a 16-bit PNG show black in any viewer (issue 35's black rectangle).
+  if (Status s = png(dir / "all_in_focus.png", display_mapped(r.all_in_focus), &written); !s)
+    return s.error();
+  if (r.all_in_focus.depth() != CV_8U)
+    if (Status s = png(dir / "all_in_focus_raw.png", r.all_in_focus, &written); !s)
+      return s.error();
   PlotSpec spec;
   spec.title = "focus measure per region";
   spec.x_label = "focus position (steps)";

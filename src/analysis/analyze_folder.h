@@ -3,7 +3,8 @@
 // focus_report.h), its JSON report, a text summary, and optionally the plots as PNG:
 //   defocus   <target>_coc_vs_n.png (C against N with the fit) or <target>_v_curve.png
 //   exposure  photon_transfer.png, linearity.png
-//   focus     depth_map.png, all_in_focus.png, focus_curves.png
+//   focus     depth_map.png, all_in_focus.png (display-mapped: 8 bits, 0.1-99.9% of the
+//             values stretched, 1/2.2 power), all_in_focus_raw.png (raw DN), focus_curves.png
 // The CLI only parses arguments and prints; the daemon calls the same functions.
 //
 // Reentrant.

@@ -3,7 +3,10 @@
 // virtual-camera focus sweeps of textured targets at known distances (truth: the focus
 // position whose image distance equals the target's, z_i = f z_o / (z_o - f)).
 #include "analysis/focus/focus_stack.h"
+#include "analysis/analyze_folder.h"
 #include "analysis/focus/focus_report.h"
+
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -14,6 +17,7 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "capture_fixture.h"
@@ -81,6 +85,34 @@ TEST(FocusMeasure, StripesReusedBufferAndWideWindowsStayRelativelyExact) {
     EXPECT_LT(worst, 1e-5) << "window " << window;
   }
   cv::setNumThreads(threads);
+}
+
+// The all-in-focus plot is for looking at: 10-bit DN in 16 bits become 8 bits spanning
+// 0..255; the raw DN are written beside it, unchanged.
+TEST(FocusPlots, TheAllInFocusImageIsDisplayMappedAndItsRawDnKept) {
+  FocusReport report;
+  report.depth_m = cv::Mat(32, 48, CV_32F, cv::Scalar(1.0f));
+  report.valid = cv::Mat(32, 48, CV_8U, cv::Scalar(1));
+  report.all_in_focus = cv::Mat(32, 48, CV_16U);
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 48; ++x) report.all_in_focus.at<uint16_t>(y, x) = 32 + 20 * x;  // to 972
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("camlab_focus_plots_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  auto written = write_focus_plots(dir, report);
+  ASSERT_TRUE(written.ok()) << written.error().message;
+  const cv::Mat shown = cv::imread((dir / "all_in_focus.png").string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat raw = cv::imread((dir / "all_in_focus_raw.png").string(), cv::IMREAD_UNCHANGED);
+  std::filesystem::remove_all(dir);
+  ASSERT_EQ(shown.type(), CV_8U);
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(shown, &lo, &hi);
+  EXPECT_EQ(lo, 0);
+  EXPECT_EQ(hi, 255);
+  // Mid-way in DN is 255 x 0.5^(1/2.2) = 186 (a mid grey that does not look black).
+  EXPECT_NEAR(shown.at<uint8_t>(0, 24), 255 * std::pow((20 * 24.0) / (20 * 47.0), 1 / 2.2), 2);
+  ASSERT_EQ(raw.type(), CV_16U);
+  EXPECT_EQ(cv::norm(raw, report.all_in_focus, cv::NORM_INF), 0);
 }
 
 TEST(DistanceAtIndex, InterpolatesInDioptresWithInfinity) {
