@@ -34,9 +34,8 @@ int64_t monotonic_ns() {
 struct Sample {
   uint64_t sequence = 0;
   double mean = 0;
-  bool usable = false;                      // the driver did not flag it and the mean could be read
-  bool after_gap = false;                   // sequence numbers were skipped just before it
-  std::optional<int64_t> soe_monotonic_ns;  // start of exposure, when CLOCK_MONOTONIC
+  bool usable = false;     // the driver did not flag it and the mean could be read
+  bool after_gap = false;  // sequence numbers were skipped just before it
 };
 
 class Probe {
@@ -63,9 +62,6 @@ class Probe {
   int max_latency_;
   SettleTracker tracker_;
   bool deferred_change_ = false;  // written, waiting for the requeue that sends it
-  // CLOCK_MONOTONIC just before and just after the last write that took effect at once:
-  // a frame that started between them may be the first with the write or the last without.
-  int64_t write_began_ns_ = 0, write_ended_ns_ = 0;
   const std::atomic<bool>* cancel_;
   std::optional<ControlKeeper> keeper_;
   device::ControlInfo exposure_;
@@ -138,9 +134,7 @@ Result<Sample> Probe::next_frame() {
   auto mean = frame_mean(*frame, format_);
   sample.usable = mean.ok() && !frame->meta.error;
   if (sample.usable) sample.mean = *mean;
-  const bool monotonic = frame->meta.clock == "monotonic";
-  if (monotonic) sample.soe_monotonic_ns = frame->meta.timestamp_ns;
-  tracker_.on_frame(sample.sequence, frame->meta.timestamp_ns, monotonic);
+  tracker_.on_frame(sample.sequence, frame->meta.timestamp_ns, frame->meta.clock == "monotonic");
   if (Status s = camera_.requeue(*frame); !s) return s.error();
   if (deferred_change_) {  // its controls went out with this requeue (libcamera)
     tracker_.on_change(camera_.controls_sent_ns().value_or(monotonic_ns()), 32);
@@ -155,7 +149,7 @@ Result<Sample> Probe::next_frame() {
 }
 
 Status Probe::set_exposure(int64_t units) {
-  write_began_ns_ = monotonic_ns();
+  const int64_t began_ns = monotonic_ns();
   if (auto applied = keeper_->write(camera_, kExposure, units); !applied) return applied.error();
   // A camera whose controls travel with requests sends them with the next requeue, and
   // the change counts from then (next_frame registers it).
@@ -164,8 +158,7 @@ Status Probe::set_exposure(int64_t units) {
     return {};
   }
   // Every buffer may be in the driver: the bound used without timestamps.
-  write_ended_ns_ = monotonic_ns();
-  tracker_.on_change(write_began_ns_, write_ended_ns_, 32);
+  tracker_.on_change(began_ns, monotonic_ns(), 32);
   return {};
 }
 
@@ -189,22 +182,17 @@ Result<std::pair<double, double>> Probe::plateau(int64_t units) {
 
 Result<std::optional<int>> Probe::step(int64_t units, double threshold, bool upwards) {
   if (Status s = set_exposure(units); !s) return s.error();
-  const bool written_at_once = !deferred_change_;
   const int change = tracker_.change_count() - (deferred_change_ ? 0 : 1);
   bool gap = false;
   for (;;) {
     Sample sample;
     CAMLAB_ASSIGN(sample, next_frame());
-    // A frame that started while the write was under way (a write that is slow, or a
-    // thread preempted before it read the clock) is counted as before it, but the device
-    // may have counted it as after: the count is then one short, so measure again.
-    gap |= written_at_once && sample.soe_monotonic_ns &&
-           *sample.soe_monotonic_ns >= write_began_ns_ &&
-           *sample.soe_monotonic_ns <= write_ended_ns_;
     const auto n = tracker_.first_frame_after(change);
     if (!n) continue;  // started before the write
-    // A frame lost or flagged may have been the first at the new level.
-    gap |= sample.after_gap || !sample.usable;
+    // A frame lost or flagged may have been the first at the new level; one that started
+    // while the write was under way (a slow write, or a thread preempted before it read
+    // the clock) may have been n itself: the count from n_hi is then one short.
+    gap |= sample.after_gap || !sample.usable || tracker_.frame_started_during_write(change);
     const int frames = static_cast<int>(sample.sequence - *n);
     const bool crossed =
         sample.usable && (upwards ? sample.mean > threshold : sample.mean < threshold);

@@ -10,7 +10,7 @@ SettleTracker::SettleTracker(int latency_max_frames, int latency_min_frames)
 
 int SettleTracker::on_change(int64_t began_ns, int64_t written_ns, int buffers_in_driver) {
   changes_.push_back({std::min(began_ns, written_ns), written_ns, std::max(0, buffers_in_driver), 0,
-                      last_sequence_, std::nullopt});
+                      last_sequence_, std::nullopt, false});
   return static_cast<int>(changes_.size()) - 1;
 }
 
@@ -25,7 +25,8 @@ int SettleTracker::on_frame(uint64_t sequence, int64_t soe_timestamp_ns, bool ti
       c.first_frame = sequence;
     else if (timestamp_monotonic && soe_timestamp_ns < c.began_ns)
       c.last_before = sequence;  // surely started before the write
-    // else: started while the write was under way, n itself or the frame before it
+    else if (timestamp_monotonic)
+      c.straddled = true;  // started while the write was under way: n or the frame before it
   }
   last_sequence_ = sequence;
   while (first_unidentified_ < changes_.size() && changes_[first_unidentified_].first_frame)
@@ -48,6 +49,10 @@ int SettleTracker::on_frame(uint64_t sequence, int64_t soe_timestamp_ns, bool ti
 std::optional<uint64_t> SettleTracker::first_frame_after(int change) const {
   if (change < 0 || change >= change_count()) return std::nullopt;
   return changes_[static_cast<size_t>(change)].first_frame;
+}
+
+bool SettleTracker::frame_started_during_write(int change) const {
+  return change >= 0 && change < change_count() && changes_[static_cast<size_t>(change)].straddled;
 }
 
 std::optional<int> SettleTracker::frames_secured_after(int change, uint64_t last_sequence) const {

@@ -58,6 +58,10 @@ class SettleTracker {
   // n_hi of change i: the first frame seen that started after it, once known.
   std::optional<uint64_t> first_frame_after(int change) const;
 
+  // Whether a frame seen started while change i was being written (timestamps only): n is
+  // then that frame or the one after it, a count from n_hi may be one short.
+  bool frame_started_during_write(int change) const;
+
   // Frames after `last_sequence` that would still carry `change` if the next change were
   // written now (none dropped); nullopt while n_change is unknown.
   std::optional<int> frames_secured_after(int change, uint64_t last_sequence) const;
@@ -78,6 +82,7 @@ class SettleTracker {
     int dequeued_since = 0;
     std::optional<uint64_t> last_before;  // the last frame seen that surely started before it
     std::optional<uint64_t> first_frame;  // n_hi
+    bool straddled = false;               // a frame started between began_ns and written_ns
     uint64_t n_lo() const { return last_before ? *last_before + 1 : 0; }
   };
 
