@@ -144,9 +144,16 @@ Result<nlohmann::json> resolve_rig_capture(const ServiceContext& context,
     return make_error("invalid_request",
                       "synchronised capture " + id.dump() + " has no rig views of 2 to 8 cameras");
   nlohmann::json sources = nlohmann::json::array(), frames = nlohmann::json::array();
+  // Each camera's frame files by index, as its capture folder names them.
+  std::vector<std::vector<std::string>> frame_files(cameras.size());
   for (size_t c = 0; c < cameras.size(); ++c) {
     auto source = resolve_source(context, {{"job", cameras[c].value("job", int64_t{0})}});
     if (!source) return source.error().with_context("camera " + std::to_string(c) + ": ");
+    auto folder = image::CaptureFolder::open(context.data_dir /
+                                             (*source)["source_folder"].get<std::string>());
+    if (!folder) return folder.error().with_context("camera " + std::to_string(c) + ": ");
+    for (const auto& entry : folder->frames())
+      frame_files[c].push_back(fs::path(entry.image_file).filename().string());
     sources.push_back(*source);
     frames.push_back(nlohmann::json::object());
   }
@@ -160,13 +167,19 @@ Result<nlohmann::json> resolve_rig_capture(const ServiceContext& context,
       ++over_bound;
       continue;
     }
+    bool stored = true;  // every camera's frame of the view is in its folder
+    for (size_t c = 0; c < cameras.size(); ++c) {
+      const int index = view["frames"][c].get<int>();
+      stored = stored && index >= 0 && index < static_cast<int>(frame_files[c].size());
+    }
+    if (!stored) {
+      ++incomplete;
+      continue;
+    }
     char name[32];
     std::snprintf(name, sizeof name, "view_%04d", taken++);
-    for (size_t c = 0; c < cameras.size(); ++c) {
-      char file[32];
-      std::snprintf(file, sizeof file, "frame_%06d.png", view["frames"][c].get<int>());
-      frames[c][file] = name;
-    }
+    for (size_t c = 0; c < cameras.size(); ++c)
+      frames[c][frame_files[c][static_cast<size_t>(view["frames"][c].get<int>())]] = name;
   }
   if (taken < 3)
     return make_error("too_few_views",

@@ -90,6 +90,7 @@ Status CameraSet::add_virtual_cameras(int first_index) {
     scene_json = spec->source;
   }
   std::vector<std::shared_ptr<mock::VirtualV4l2Device>> devices;
+  std::vector<nlohmann::json> sources;
   for (int i = 0; i < options_.virtual_count; ++i) {
     auto camera = mock::parse_camera_spec(camera_json);
     if (!camera) return camera.error();
@@ -102,20 +103,28 @@ Status CameraSet::add_virtual_cameras(int first_index) {
         mock::VirtualV4l2Device::create(std::move(*camera), std::move(*scene), device_options);
     if (!device) return device.error();
     devices.push_back(std::move(*device));
-    virtual_paths_.push_back("/dev/video" + std::to_string(device_options.index));
+    sources.push_back(
+        {{"backend", "virtual"}, {"camera_spec", camera_json}, {"scene_spec", scene_json}});
   }
+  serve_virtual_devices(devices, sources, "in-process virtual camera");
+  return {};
+}
+
+void CameraSet::serve_virtual_devices(
+    const std::vector<std::shared_ptr<mock::VirtualV4l2Device>>& devices,
+    const std::vector<nlohmann::json>& sources, const std::string& origin) {
+  for (const auto& device : devices)
+    virtual_paths_.push_back("/dev/video" + std::to_string(device->index()));
   virtual_io_ = std::make_shared<mock::VirtualV4l2Io>(devices);
   // Their ids, as the registry gives them (v4l2:<bus_info>).
   device::DeviceRegistry registry;
-  registry.add_v4l2(virtual_io_, "in-process virtual camera", virtual_paths_);
-  for (const device::DeviceEntry& entry : registry.devices()) {
-    const std::string& id = entry.identity.id;
-    for (size_t i = 0; i < virtual_paths_.size(); ++i)
-      if (virtual_paths_[i] == entry.identity.path) virtual_devices_[id] = devices[i];
-    virtual_sources_[id] = {
-        {"backend", "virtual"}, {"camera_spec", camera_json}, {"scene_spec", scene_json}};
-  }
-  return {};
+  registry.add_v4l2(virtual_io_, origin, virtual_paths_);
+  for (const device::DeviceEntry& entry : registry.devices())
+    for (size_t i = 0; i < virtual_paths_.size(); ++i) {
+      if (virtual_paths_[i] != entry.identity.path) continue;
+      virtual_devices_[entry.identity.id] = devices[i];
+      virtual_sources_[entry.identity.id] = sources[i];
+    }
 }
 
 Status CameraSet::add_rig_cameras(int first_index) {
@@ -123,28 +132,20 @@ Status CameraSet::add_rig_cameras(int first_index) {
   CAMLAB_ASSIGN(rig, mock::load_rig_spec(options_.rig_spec));
   std::vector<std::shared_ptr<mock::VirtualV4l2Device>> devices;
   CAMLAB_ASSIGN(devices, mock::create_vcam_rig_devices(rig, first_index, /*realtime=*/true));
-  for (const auto& device : devices)
-    virtual_paths_.push_back("/dev/video" + std::to_string(device->index()));
-  virtual_io_ = std::make_shared<mock::VirtualV4l2Io>(devices);
-  device::DeviceRegistry registry;
-  registry.add_v4l2(virtual_io_, "in-process virtual rig camera", virtual_paths_);
-  for (const device::DeviceEntry& entry : registry.devices())
-    for (size_t i = 0; i < virtual_paths_.size(); ++i) {
-      if (virtual_paths_[i] != entry.identity.path) continue;
-      const std::string& id = entry.identity.id;
-      const mock::RigCameraSpec& member = rig.cameras[i];
-      virtual_devices_[id] = devices[i];
-      virtual_sources_[id] = {
-          {"backend", "virtual"},
-          {"camera_spec", member.camera.source},
-          {"scene_spec", mock::scene_seen_from(rig.scene, member.rt_cam_ref).source},
-          {"rig",
-           {{"name", rig.name},
-            {"camera", member.name},
-            {"index", i},
-            {"rt_cam_ref", member.rt_cam_ref},
-            {"trigger_offset_us", member.trigger_offset_us}}}};
-    }
+  std::vector<nlohmann::json> sources;
+  for (size_t i = 0; i < rig.cameras.size(); ++i) {
+    const mock::RigCameraSpec& member = rig.cameras[i];
+    sources.push_back({{"backend", "virtual"},
+                       {"camera_spec", member.camera.source},
+                       {"scene_spec", mock::scene_seen_from(rig.scene, member.rt_cam_ref).source},
+                       {"rig",
+                        {{"name", rig.name},
+                         {"camera", member.name},
+                         {"index", i},
+                         {"rt_cam_ref", member.rt_cam_ref},
+                         {"trigger_offset_us", member.trigger_offset_us}}}});
+  }
+  serve_virtual_devices(devices, sources, "in-process virtual rig camera");
   return {};
 }
 

@@ -104,6 +104,10 @@ class CameraSet {
   Status add_virtual_cameras(int first_index);
   // The rig of options_.rig_spec: its cameras on one frame clock, each with its pose.
   Status add_rig_cameras(int first_index);
+  // Serves in-process devices (device i's provenance sources[i]) as /dev/video<index>,
+  // under the ids the registry gives them.
+  void serve_virtual_devices(const std::vector<std::shared_ptr<mock::VirtualV4l2Device>>& devices,
+                             const std::vector<nlohmann::json>& sources, const std::string& origin);
   std::shared_ptr<device::DeviceRegistry> scan(bool force_libcamera);
   std::shared_ptr<CameraWorker> make_worker(const device::DeviceEntry& entry,
                                             std::shared_ptr<const device::DeviceRegistry> registry);
