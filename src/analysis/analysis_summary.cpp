@@ -4,6 +4,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "base/format.h"
+
 namespace camlab::analysis {
 
 namespace {
@@ -93,13 +95,27 @@ std::string summary_text(const nlohmann::json& s) {
     return "summary: " + std::to_string(s["regions"].get<int>()) + " regions over " +
            std::to_string(s["positions"].get<int>()) +
            " positions: " + counts(s["regions_by_status"]) + "\n";
+  if (kind == "sfr")
+    return "summary: " + std::to_string(s["measured"].get<int>()) + " of " +
+           std::to_string(s["edges"].get<int>()) +
+           " edge fit(s) measured; left out: " + counts(s["left_out"]) + "\n";
+  if (kind == "lensmap") {
+    std::string stops;
+    for (const auto& f : s["f_numbers"])
+      stops += (stops.empty() ? "f/" : ", f/") +
+               (f.is_number() ? format_printf("%g", f.get<double>()) : std::string("?"));
+    return "summary: best-focus surface at " + std::to_string(s["f_numbers"].size()) +
+           " f-stop(s) (" + stops + ") from " + std::to_string(s["edges_used"].get<int>()) +
+           " of " + std::to_string(s["edges"].get<int>()) +
+           " edge(s) through focus; left out: " + counts(s["left_out"]) + "\n";
+  }
   if (kind == "exposure") {
     auto one = [](const nlohmann::json& c) {
       std::string t = std::to_string(c["settings"].get<int>()) + " settings, " +
                       std::to_string(c["linearity_used"].get<int>()) + " in the linearity fit, " +
                       std::to_string(c["photon_transfer_used"].get<int>()) +
                       " in the photon transfer fit, " + std::to_string(c["left_out"].size()) +
-                      " left out (reasons above)";
+                      " left out (each with its reason in the report)";
       return t;
     };
     if (!s.contains("channels")) return "summary: " + one(s) + "\n";

@@ -7,7 +7,11 @@
 //   exposure  settings, those in the linearity and the photon transfer fits, and each
 //             setting left out with its reason (exposure_report.h's left_out);
 //   focus     regions, counted by status (ok, flat, peak at an end), and the share of the
-//             depth map that is valid.
+//             depth map that is valid;
+//   sfr       edge fits measured of all, those left out counted by status (sfr_image.h);
+//   lensmap   f-stops with a best-focus surface, edges used of all through focus, those
+//             left out counted by status (lens_map.h).
+// Every analysis's summary also carries its text ("text"), for pages that show it as is.
 //
 // Reentrant: pure functions.
 #pragma once

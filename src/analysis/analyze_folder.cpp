@@ -292,12 +292,18 @@ Result<AnalysisRun> analyze(std::string_view kind, const std::filesystem::path& 
       CAMLAB_ASSIGN(run.plots, write_lens_map_plots(options.plots_dir, r.report));
     run.report = with_plots(std::move(r.report), run.plots);
     run.report["kind"] = "lensmap";
-    run.text = std::move(r.text);
+    run.text = std::move(r.text) + summary_text(run.report["summary"]);
   } else {
     return make_error("invalid_argument", "unknown analysis '" + std::string(kind) +
                                               "'; use defocus, exposure, focus, sfr or lensmap");
   }
   if (!done) return done.error();
+  // Every summary carries its own text, for pages that show it as the CLI prints it.
+  if (run.report.contains("summary")) {
+    std::string text = summary_text(run.report["summary"]);
+    while (!text.empty() && text.back() == '\n') text.pop_back();
+    run.report["summary"]["text"] = text;
+  }
   // A capture cut short (camlabd stopped, the camera vanished) is still read, but never
   // silently: its numbers come from the frames that made it to disk.
   auto folder = image::CaptureFolder::open(dir);

@@ -506,6 +506,12 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
                 : std::string(" (focus steps only: no lens extension or pixel pitch)")) +
       "\n";
   json list = json::array();
+  // The summary: what was measured, what was left out and why, over every f-stop.
+  json summary = {{"kind", "lensmap"},
+                  {"f_numbers", json::array()},
+                  {"edges", 0},
+                  {"edges_used", 0},
+                  {"left_out", json::object()}};
   for (const FocusSurface& s : surfaces) {
     json edges = json::array();
     std::map<std::string, int> left_out;
@@ -526,6 +532,11 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
       }
       edges.push_back(std::move(j));
     }
+    summary["f_numbers"].push_back(s.f_number > 0 ? json(s.f_number) : json(nullptr));
+    summary["edges"] = summary["edges"].get<int>() + static_cast<int>(s.edges.size());
+    summary["edges_used"] = summary["edges_used"].get<int>() + s.edges_used;
+    for (const auto& [status, n] : left_out)
+      summary["left_out"][status] = summary["left_out"].value(status, 0) + n;
     json surface = {{"f_number", s.f_number > 0 ? json(s.f_number) : json(nullptr)},
                     {"edges_used", s.edges_used},
                     {"left_out", left_out},
@@ -635,7 +646,8 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
                 {"extension_mm_per_step", extension_mm > 0 ? json(extension_mm) : json(nullptr)},
                 {"pixel_pitch_um", pitch_um > 0 ? json(pitch_um) : json(nullptr)},
                 {"size_px", {width, height}},
-                {"surfaces", std::move(list)}};
+                {"surfaces", std::move(list)},
+                {"summary", std::move(summary)}};
   return out;
 }
 
