@@ -171,8 +171,9 @@ void wrap_for_the_fleet(Router& router, const ServiceContext& context) {
   // A job's files (frames, thumbnails, plots) are on the host that ran it.
   for (const char* pattern :
        {"/v1/jobs/{id}/frames", "/v1/jobs/{id}/frames/{n}", "/v1/jobs/{id}/frames/{n}/meta",
-        "/v1/jobs/{id}/frames/{n}/thumbnail", "/v1/jobs/{id}/plots", "/v1/jobs/{id}/plots/{name}",
-        "/v1/jobs/{id}/files", "/v1/jobs/{id}/files/{name}", "/v1/jobs/{id}/files/{dir}/{name}"})
+        "/v1/jobs/{id}/frames/{n}/thumbnail", "/v1/jobs/{id}/frames/{n}/region",
+        "/v1/jobs/{id}/plots", "/v1/jobs/{id}/plots/{name}", "/v1/jobs/{id}/files",
+        "/v1/jobs/{id}/files/{name}", "/v1/jobs/{id}/files/{dir}/{name}"})
     router.wrap("GET", pattern,
                 [&fleet, context](const ApiRequest& request, const PathParams& params, Reply reply,
                                   const Handler& next) {

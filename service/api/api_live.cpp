@@ -22,7 +22,8 @@ namespace {
 constexpr char kBoundary[] = "camlabframe";
 constexpr std::chrono::milliseconds kFrameWait{3000};
 constexpr int kDefaultThumbnailWidthPx = 160;
-constexpr int kMaxThumbnailWidthPx = 640;
+// Up to the widest display: the viewer shows a frame at 1:1 and beyond from it.
+constexpr int kMaxThumbnailWidthPx = kMaxDisplayWidthPx;
 
 Result<DisplayOptions> display_options(const QueryParams& query, int default_width_px,
                                        int max_width_px) {
@@ -215,31 +216,14 @@ void get_thumbnail(const ServiceContext& context, const ApiRequest& request,
   auto display =
       display_options(parse_query(request.query), kDefaultThumbnailWidthPx, kMaxThumbnailWidthPx);
   if (!display) return reply(error_response(display.error()));
-  auto job = find_job(context, params, reply);
-  if (!job) return;
-  auto n = parse_id(params.at("n"), "the frame index", 9);
-  if (!n) return reply(error_response(n.error()));
-  if (job->kind != "capture" || job->folder.empty())
-    return reply(error_response("no_frames", "job " + std::to_string(job->id) + " is a " +
-                                                 job->kind +
-                                                 " job; only capture jobs have frames"));
-  const std::filesystem::path dir = context.data_dir / job->folder;
-  const bool posted = context.live->post([dir, index = static_cast<int>(*n), options = *display,
-                                          reply, id = job->id] {
-    auto folder = image::CaptureFolder::open(dir);
-    if (!folder)
-      return reply(error_response("not_found", "job " + std::to_string(id) + " has no frames yet"));
-    const int count = static_cast<int>(folder->frames().size());
-    if (index >= count)
-      return reply(error_response("not_found", "job " + std::to_string(id) + " has " +
-                                                   std::to_string(count) + " frames; no frame " +
-                                                   std::to_string(index)));
-    auto sidecar = folder->load_sidecar(index);
-    if (!sidecar) return reply(error_response(sidecar.error()));
-    auto stored = folder->load_stored_image(index);
+  auto ref = find_job_frame(context, params, reply);
+  if (!ref) return;
+  const bool posted = context.live->post([ref = *ref, options = *display, reply] {
+    auto stored = read_stored_frame(ref);
     if (!stored) return reply(error_response(stored.error()));
+    const image::FrameSidecar* sidecar = &stored->sidecar;
     capture::ConvertedFrame frame;
-    frame.image = *stored;
+    frame.image = stored->image;
     frame.layout = sidecar->layout;
     frame.cfa_pattern = sidecar->cfa_pattern;
     frame.bit_depth = sidecar->bit_depth;
@@ -275,7 +259,8 @@ void add_live_routes(Router& router, const ServiceContext& context) {
                 get_histogram(context, request, params, std::move(reply));
               }});
   router.add({"GET", "/v1/jobs/{id}/frames/{n}/thumbnail",
-              "Frame n shown small as JPEG (?width= px, 160; up to 640; ?clipping=1)",
+              "Frame n shown small as JPEG (?width= px, 160; up to 4096, never above the frame; "
+              "?clipping=1)",
               [context](const ApiRequest& request, const PathParams& params, Reply reply) {
                 get_thumbnail(context, request, params, std::move(reply));
               }});

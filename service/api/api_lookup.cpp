@@ -82,4 +82,41 @@ bool read_bytes(const std::filesystem::path& path, std::string* out) {
   return true;
 }
 
+std::optional<JobFrameRef> find_job_frame(const ServiceContext& context, const PathParams& params,
+                                          const Reply& reply) {
+  auto job = find_job(context, params, reply);
+  if (!job) return std::nullopt;
+  auto n = parse_id(params.at("n"), "the frame index", 9);
+  if (!n) {
+    reply(error_response(n.error()));
+    return std::nullopt;
+  }
+  if (job->kind != "capture" || job->folder.empty()) {
+    reply(error_response("no_frames", "job " + std::to_string(job->id) + " is a " + job->kind +
+                                          " job; only capture jobs have frames"));
+    return std::nullopt;
+  }
+  if (!within_data_dir(context.data_dir, job->folder)) {
+    reply(error_response("not_found", "job " + std::to_string(job->id) +
+                                          "'s folder is missing or a symlink, which is not "
+                                          "followed"));
+    return std::nullopt;
+  }
+  return JobFrameRef{context.data_dir / job->folder, static_cast<int>(*n), job->id};
+}
+
+Result<StoredFrame> read_stored_frame(const JobFrameRef& frame) {
+  const std::string job = "job " + std::to_string(frame.job_id);
+  auto folder = image::CaptureFolder::open(frame.dir);
+  if (!folder) return make_error("not_found", job + " has no frames yet");
+  const int count = static_cast<int>(folder->frames().size());
+  if (frame.index >= count)
+    return make_error("not_found", job + " has " + std::to_string(count) + " frames; no frame " +
+                                       std::to_string(frame.index));
+  StoredFrame out;
+  CAMLAB_ASSIGN(out.sidecar, folder->load_sidecar(frame.index));
+  CAMLAB_ASSIGN(out.image, folder->load_stored_image(frame.index));
+  return out;
+}
+
 }  // namespace camlab::service

@@ -7,6 +7,7 @@
 #include <optional>
 #include <string>
 
+#include "image/capture_folder.h"
 #include "service/api/api_types.h"
 #include "service/store/job_store.h"
 
@@ -34,5 +35,27 @@ bool read_bytes(const std::filesystem::path& path, std::string* out);
 // The job named by the {id} parameter, or nullopt after a 400/404/500 reply.
 std::optional<JobRecord> find_job(const ServiceContext& context, const PathParams& params,
                                   const Reply& reply);
+
+// A stored frame named by a route's {id} and {n}: the capture job's folder and the index.
+struct JobFrameRef {
+  std::filesystem::path dir;  // the capture folder, inside the data folder
+  int index = 0;
+  int64_t job_id = 0;
+};
+
+// The frame the {id} and {n} parameters name, or nullopt after a 400/404/422 reply (not a
+// capture job, a bad index, a folder that is missing or a symlink). Reads no frame.
+std::optional<JobFrameRef> find_job_frame(const ServiceContext& context, const PathParams& params,
+                                          const Reply& reply);
+
+struct StoredFrame {
+  image::FrameSidecar sidecar;
+  cv::Mat image;  // the DN as stored
+};
+
+// The frame and its sidecar, read whole on the caller's thread (a live-hub task: never an
+// HTTP thread). Errors "not_found" (no frames yet, fewer frames than the index), or the
+// folder's own (a broken PNG, a sidecar that does not parse).
+Result<StoredFrame> read_stored_frame(const JobFrameRef& frame);
 
 }  // namespace camlab::service

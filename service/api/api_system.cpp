@@ -42,6 +42,7 @@ void add_all_routes(Router& router, const ServiceContext& context) {
   add_compute_routes(router, context);
   add_session_routes(router, context);
   add_live_routes(router, context);
+  add_frame_region_routes(router, context);
   add_event_routes(router, context);
   add_web_routes(router, context);
   add_fleet_routes(router, context);

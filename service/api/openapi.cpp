@@ -370,10 +370,23 @@ void add_dashboard_paths(json& paths, const json& camera_id, const json& job_id,
                  merge(ok(200, "histogram", object), error_responses({400, 401, 404, 503})))}};
   paths["/v1/jobs/{id}/frames/{n}/thumbnail"] = {
       {"get", operation("Frame n shown small (JPEG)", "jobs",
-                        {job_id, frame_n, query("width", "px", number(16, 640, 160)),
+                        {job_id, frame_n, query("width", "px", number(16, 4096, 160)),
                          query("clipping", "clipping overlay", flag)},
                         merge(ok(200, "JPEG", binary, "image/jpeg"),
                               error_responses({400, 401, 404, 422})))}};
+  const json pixels = {{"type", "integer"}, {"minimum", 0}};
+  paths["/v1/jobs/{id}/frames/{n}/region"] = {
+      {"get",
+       operation("Raw DN of a rectangle of frame n: per channel (Y; R, Gr, Gb, B; R, G, B) "
+                 "mean, sd, SNR = (mean - black) / sd, min and max; every sample of a region "
+                 "of at most 64",
+                 "jobs",
+                 {job_id, frame_n, query("x", "left column, px", pixels),
+                  query("y", "top row, px", pixels),
+                  query("width", "px (1)", {{"type", "integer"}, {"minimum", 1}}),
+                  query("height", "px (1)", {{"type", "integer"}, {"minimum", 1}})},
+                 merge(ok(200, "region statistics", object),
+                       error_responses({400, 401, 404, 422, 503})))}};
   paths["/v1/jobs/{id}/plots"] = {
       {"get", operation("The plots an analysis or calibration job drew", "jobs", {job_id},
                         merge(ok(200, "{plots: [{name, image}]}", object),
@@ -528,8 +541,9 @@ json openapi_document(bool include_test_routes) {
   // A job's files stay on the host that ran it: another fleet host redirects there.
   for (const char* files :
        {"/v1/jobs/{id}/frames", "/v1/jobs/{id}/frames/{n}", "/v1/jobs/{id}/frames/{n}/meta",
-        "/v1/jobs/{id}/frames/{n}/thumbnail", "/v1/jobs/{id}/plots", "/v1/jobs/{id}/plots/{name}",
-        "/v1/jobs/{id}/files", "/v1/jobs/{id}/files/{name}", "/v1/jobs/{id}/files/{dir}/{name}"})
+        "/v1/jobs/{id}/frames/{n}/thumbnail", "/v1/jobs/{id}/frames/{n}/region",
+        "/v1/jobs/{id}/plots", "/v1/jobs/{id}/plots/{name}", "/v1/jobs/{id}/files",
+        "/v1/jobs/{id}/files/{name}", "/v1/jobs/{id}/files/{dir}/{name}"})
     paths[files]["get"]["responses"]["307"] = {
         {"description", "fleet: the job's files are on another host (Location, same token)"}};
   const json session_id =

@@ -43,8 +43,10 @@ void add_compute_routes(Router& router, const ServiceContext& context);   // api
 void add_test_routes(Router& router, const ServiceContext& context);      // api_test_faults.cpp
 void add_session_routes(Router& router, const ServiceContext& context);   // api_sessions.cpp
 void add_live_routes(Router& router, const ServiceContext& context);      // api_live.cpp
-void add_event_routes(Router& router, const ServiceContext& context);     // api_events.cpp
-void add_web_routes(Router& router, const ServiceContext& context);       // api_web.cpp
+void add_frame_region_routes(Router& router,
+                             const ServiceContext& context);           // api_frame_region.cpp
+void add_event_routes(Router& router, const ServiceContext& context);  // api_events.cpp
+void add_web_routes(Router& router, const ServiceContext& context);    // api_web.cpp
 // The fleet's routes; on a fleet host also wraps the camera and job routes added before.
 void add_fleet_routes(Router& router, const ServiceContext& context);  // api_fleet.cpp
 

@@ -8,6 +8,7 @@ import { ControlsPanel } from './controls.js';
 import { drawHistogram } from './histogram.js';
 import { JobsPanel } from './jobs.js';
 import { LiveView } from './live.js';
+import { FrameViewer } from './viewer.js';
 
 const $ = (id) => document.getElementById(id);
 const CAMERA_REFRESH_MS = 2000;
@@ -21,12 +22,20 @@ const state = {
 const live = new LiveView($('live-canvas'), $('live-status'));
 const controls = new ControlsPanel($('controls'), $('controls-note'), $('controls-error'),
   () => refreshCamera());
+const viewer = new FrameViewer({
+  panel: $('viewer-panel'), title: $('viewer-title'), canvas: $('viewer-canvas'), zoom: $('viewer-zoom'),
+  pixel: $('viewer-pixel'), roi: $('viewer-roi'), roiMode: $('viewer-roi-mode'), fit: $('viewer-fit'),
+  one: $('viewer-one'), zoomIn: $('viewer-zoom-in'), zoomOut: $('viewer-zoom-out'),
+  close: $('viewer-close'), error: $('viewer-error'),
+});
+
 const jobs = new JobsPanel({
   tbody: $('jobs').tBodies[0], panel: $('job-panel'), title: $('job-title'),
   summary: $('job-summary'), actions: $('job-actions'), error: $('job-error'),
   plots: $('job-plots'), frames: $('job-frames'), files: $('job-files'),
   // A job started or ended: the camera's state (busy, idle) changed with it.
   onStateChange: () => refreshCamera(),
+  onOpenFrame: (jobId, index) => viewer.open(jobId, index),
 });
 
 function showLogin(message) {
@@ -43,6 +52,7 @@ function showLogin(message) {
 function stopAll() {
   live.stop();
   jobs.stop();
+  viewer.close();
   for (const t of state.timers) clearInterval(t);
   state.timers = [];
 }

@@ -5,6 +5,7 @@
 // uncertainty).
 
 import { api, esc, imageUrl, readEvents, request, sleep } from './api.js';
+import { resultLines } from './summaries.js';
 
 const FINAL = new Set(['succeeded', 'failed', 'cancelled', 'interrupted', 'device_lost']);
 // What each capture kind can be analysed for (POST /v1/analyses).
@@ -30,38 +31,6 @@ function progressText(job) {
   const p = job.progress || {};
   if (!p.frames_total) return job.state === 'running' ? 'working...' : '';
   return `${p.frames_done} / ${p.frames_total} frames`;
-}
-
-// A few numbers worth seeing at a glance, from a finished job's result.
-function resultSummary(job) {
-  const r = job.result || {};
-  const lines = [];
-  if (job.kind === 'capture') {
-    lines.push(`${r.frames_kept} frames kept of ${r.frames_total}; ${r.frames_discarded} discarded while ` +
-      `settings settled, ${r.frames_dropped} dropped; ${Number(r.wall_seconds).toFixed(2)} s; ` +
-      `control latency ${r.control_latency_frames} frames (${r.control_latency_source})`);
-  } else if (job.kind === 'analysis' && r.report) {
-    const report = r.report;
-    const lin = report.linearity;
-    if (lin && lin.max_abs_error_pct !== undefined)
-      lines.push(`linearity: max error ${Number(lin.max_abs_error_pct).toFixed(2)} % of the fit`);
-    const ptc = report.photon_transfer;
-    if (ptc && ptc.system_gain_dn_per_e !== undefined)
-      lines.push(`photon transfer: ${Number(ptc.system_gain_dn_per_e).toFixed(4)} DN/e-, dark noise ` +
-        `${Number(ptc.dark_noise_e).toFixed(2)} e-, full well ${Number(ptc.saturation_capacity_e).toFixed(0)} e-`);
-    else if (ptc && ptc.error) lines.push(`photon transfer: ${ptc.error}`);
-    for (const w of report.warnings || []) lines.push(`warning: ${w}`);
-  } else if (job.kind === 'calibration' && r.report) {
-    const report = r.report;
-    if (report.residuals)
-      lines.push(`RMS reprojection error ${Number(report.residuals.rms_px).toFixed(3)} px over ` +
-        `${report.views ? report.views.used : '?'} views`);
-    if (report.fov_deg && report.fov_deg.horizontal !== undefined)
-      lines.push(`field of view ${Number(report.fov_deg.horizontal).toFixed(2)} x ` +
-        `${Number(report.fov_deg.vertical).toFixed(2)} deg`);
-  }
-  if (job.error) lines.push(`${job.error.code}: ${job.error.message}`);
-  return lines;
 }
 
 export class JobsPanel {
@@ -154,8 +123,9 @@ export class JobsPanel {
     this.e.title.textContent = `Job ${job.id}: ${job.kind}` +
       `${job.request && job.request.kind ? ` (${job.request.kind})` : ''} · ${job.state}`;
     this.e.panel.dataset.state = job.state;
-    const lines = [`${progressText(job)}`, ...(FINAL.has(job.state) ? resultSummary(job) : [])];
-    this.e.summary.innerHTML = lines.filter((l) => l).map((l) => `<p>${esc(l)}</p>`).join('');
+    const lines = [{ text: progressText(job) }, ...(FINAL.has(job.state) ? resultLines(job) : [])];
+    this.e.summary.innerHTML = lines.filter((l) => l.text)
+      .map((l) => `<p${l.warn ? ' class="warn"' : ''}>${esc(l.text)}</p>`).join('');
     if (!FINAL.has(job.state)) this.e.summary.append(this.cancelButton(job));
   }
 
@@ -326,6 +296,9 @@ export class JobsPanel {
       const img = document.createElement('img');
       img.className = 'thumbnail';
       img.alt = `frame ${frame.index}`;
+      img.dataset.index = String(frame.index);
+      img.title = 'Open in the viewer: zoom, raw DN under the cursor, ROI statistics';
+      img.addEventListener('click', () => this.e.onOpenFrame(job.id, frame.index));
       const caption = document.createElement('figcaption');
       figure.append(img, caption);
       this.e.frames.append(figure);

@@ -6,8 +6,6 @@
 
 namespace camlab::analysis {
 
-namespace {
-
 // Names of the four sites of a 2x2 CFA block, row-major, for a pattern such as "RGGB":
 // the green on a red row is Gr, the one on a blue row Gb.
 bool cfa_site_names(const std::string& pattern, std::array<std::string, 4>* names) {
@@ -29,6 +27,8 @@ bool cfa_site_names(const std::string& pattern, std::array<std::string, 4>* name
   std::sort(sorted.begin(), sorted.end());
   return sorted == std::array<std::string, 4>{"B", "Gb", "Gr", "R"};
 }
+
+namespace {
 
 struct Accumulator {
   ChannelHistogram* out;

@@ -11,6 +11,7 @@
 // Reentrant: pure functions.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <string>
@@ -50,6 +51,11 @@ struct DnHistogramInput {
   int black_level_dn = 0;
   int white_level_dn = 255;
 };
+
+// The channel of each site of a 2x2 block of colour filter `pattern` ("RGGB", ...),
+// row-major: "R", "Gr", "Gb" or "B" (the green on a red row is Gr). False for anything but
+// the four Bayer patterns.
+bool cfa_site_names(const std::string& pattern, std::array<std::string, 4>* names);
 
 // `bins`: 1..kMaxHistogramBins; fewer are used when the bit depth has fewer values.
 // Errors "invalid_argument" (empty image, a depth the type cannot hold, a mosaic without

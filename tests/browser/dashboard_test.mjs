@@ -14,50 +14,14 @@
 // Screenshots go to $CAMLAB_SCREENSHOT_DIR (default ./screenshots). Every wait is bounded.
 //
 //   node dashboard_test.mjs CAMLABD_PATH
-import { spawn } from 'node:child_process';
 import { createHash } from 'node:crypto';
 import fs from 'node:fs';
-import os from 'node:os';
 import path from 'node:path';
-import { chromium } from 'playwright-core';
+import {
+  channelOf, check, decodePng, launchBrowser, run, screenshots, startDaemon, waitFor,
+} from './harness.mjs';
 
 const camlabd = process.argv[2];
-const chromiumPath = process.env.CAMLAB_CHROMIUM || '/usr/bin/chromium';
-const screenshots = process.env.CAMLAB_SCREENSHOT_DIR || path.resolve('screenshots');
-const failures = [];
-let daemon = null;
-let browser = null;
-let dataDir = null;
-
-function check(condition, what) {
-  console.log(`${condition ? 'ok  ' : 'FAIL'} ${what}`);
-  if (!condition) failures.push(what);
-  return condition;
-}
-
-async function waitFor(what, predicate, timeoutMs) {
-  const deadline = Date.now() + timeoutMs;
-  for (;;) {
-    const value = await predicate();
-    if (value) return value;
-    if (Date.now() > deadline) throw new Error(`timed out after ${timeoutMs} ms waiting for ${what}`);
-    await new Promise((r) => setTimeout(r, 200));
-  }
-}
-
-async function startDaemon() {
-  dataDir = fs.mkdtempSync(path.join(os.tmpdir(), 'camlab_dashboard_'));
-  const log = path.join(dataDir, 'camlabd.log');
-  const out = fs.openSync(log, 'w');
-  daemon = spawn(camlabd, ['--listen', '127.0.0.1:0', '--data', path.join(dataDir, 'data')],
-    { stdio: ['ignore', out, out] });
-  const port = await waitFor('camlabd to listen', () => {
-    const m = fs.readFileSync(log, 'utf8').match(/listening on http:\/\/127\.0\.0\.1:(\d+)/);
-    return m ? Number(m[1]) : 0;
-  }, 60000);
-  const token = fs.readFileSync(path.join(dataDir, 'data', 'token'), 'utf8').trim();
-  return { base: `http://127.0.0.1:${port}`, token, log };
-}
 
 // Without the token: every route but the public ones (health, the dashboard's files)
 // answers 401, whatever its method, with the path parameters filled with real values.
@@ -88,24 +52,12 @@ async function checkEveryRouteNeedsTheToken(base, token, cameraId) {
 }
 
 async function main() {
-  if (!camlabd || !fs.existsSync(camlabd)) throw new Error(`usage: node dashboard_test.mjs CAMLABD_PATH (got ${camlabd})`);
-  if (!fs.existsSync(chromiumPath))
-    throw new Error(`${chromiumPath} is missing: scripts/install-deps.sh installs Debian's chromium`);
-  fs.mkdirSync(screenshots, { recursive: true });
-  const { base, token } = await startDaemon();
-  const auth = { Authorization: `Bearer ${token}` };
+  const { base, token, auth } = await startDaemon(camlabd);
   const { cameras } = await (await fetch(`${base}/v1/cameras`, { headers: auth })).json();
   const cameraId = cameras[0].id;
   await checkEveryRouteNeedsTheToken(base, token, cameraId);
 
-  browser = await chromium.launch({
-    executablePath: chromiumPath,
-    headless: true,
-    // Root in CI has no user namespaces for the sandbox; the machines have no network, so
-    // everything that would reach out is off.
-    args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-      '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-  });
+  const browser = await launchBrowser();
   const context = await browser.newContext({ viewport: { width: 1400, height: 1000 } });
   const page = await context.newPage();
   const consoleErrors = [];
@@ -238,6 +190,75 @@ async function main() {
   check(downloaded.equals(served) && download.suggestedFilename() === 'frame_000000.png',
     `a file downloaded from the page is the frame byte for byte (${downloaded.length} bytes)`);
 
+  // The viewer: a frame opened from its thumbnail at 1:1; the DN under the cursor and an
+  // ROI's statistics are the stored frame's own, read here from the PNG.
+  const png = decodePng(served);
+  await page.click('#job-frames img.thumbnail[data-index="0"]');
+  await page.waitForFunction(() => Number(document.querySelector('#viewer-canvas').dataset.frameWidth) > 0,
+    null, { timeout: 20000 });
+  const frameSize = await page.evaluate(() => {
+    const c = document.querySelector('#viewer-canvas');
+    return [Number(c.dataset.frameWidth), Number(c.dataset.frameHeight)];
+  });
+  check(frameSize[0] === png.width && frameSize[1] === png.height,
+    `the viewer opens the frame at its size (${frameSize.join(' x ')} px)`);
+  await page.click('#viewer-one');
+  check(Number(await page.evaluate(() => document.querySelector('#viewer-canvas').dataset.zoom)) === 1,
+    'the viewer zooms to 1:1');
+  await page.click('#viewer-zoom-in');
+  await page.click('#viewer-zoom-in');
+  check(Number(await page.evaluate(() => document.querySelector('#viewer-canvas').dataset.zoom)) === 4,
+    'and in to 4:1');
+  await page.locator('#viewer-panel').screenshot({ path: path.join(screenshots, 'viewer-zoomed.png') });
+  const box = await page.locator('#viewer-canvas').boundingBox();
+  await page.mouse.move(box.x + box.width * 0.37, box.y + box.height * 0.61);
+  await page.waitForFunction(() => document.querySelector('#viewer-pixel').dataset.x !== undefined, null, { timeout: 10000 });
+  const cursor = await page.evaluate(() => {
+    const d = document.querySelector('#viewer-pixel').dataset;
+    return { x: Number(d.x), y: Number(d.y), dn: Number(d.dn), samples: JSON.parse(d.samples) };
+  });
+  const regionInfo = await (await fetch(`${base}/v1/jobs/${jobId}/frames/0/region`, { headers: auth })).json();
+  const pattern = regionInfo.cfa_pattern;
+  // A colour PNG holds R, G, B in that order; a mono or mosaic one a sample a pixel.
+  const plane = (channel) => (png.channels === 3 ? { R: 0, G: 1, B: 2 }[channel] : 0);
+  const everySampleMatches = cursor.samples.length > 0 && cursor.samples.every((s) =>
+    s.dn === png.at(s.x, s.y, plane(s.channel)) &&
+    (png.channels === 3 || s.channel === channelOf(pattern, s.x, s.y)));
+  check(everySampleMatches && cursor.samples.some((s) => s.x === cursor.x && s.y === cursor.y),
+    `the DN under the cursor is the stored frame's: (${cursor.x}, ${cursor.y}) ${cursor.samples.map((v) => `${v.channel} ${v.dn}`).join(', ')} DN`);
+  await page.click('#viewer-fit');
+  await page.check('#viewer-roi-mode');
+  await page.mouse.move(box.x + box.width * 0.30, box.y + box.height * 0.30);
+  await page.mouse.down();
+  await page.mouse.move(box.x + box.width * 0.45, box.y + box.height * 0.42, { steps: 4 });
+  await page.mouse.up();
+  await page.waitForFunction(() => document.querySelector('#viewer-roi').dataset.channels, null, { timeout: 10000 });
+  const roi = await page.evaluate(() => {
+    const d = document.querySelector('#viewer-roi').dataset;
+    return { rect: JSON.parse(d.rect), channels: JSON.parse(d.channels) };
+  });
+  const truth = new Map();
+  for (let y = roi.rect.y; y < roi.rect.y + roi.rect.height; y++) {
+    for (let x = roi.rect.x; x < roi.rect.x + roi.rect.width; x++) {
+      const names = png.channels === 3 ? ['R', 'G', 'B'] : [channelOf(pattern, x, y)];
+      for (const name of names) {
+        const t = truth.get(name) || { n: 0, sum: 0 };
+        t.n += 1;
+        t.sum += png.at(x, y, plane(name));
+        truth.set(name, t);
+      }
+    }
+  }
+  const roiMatches = roi.channels.length === truth.size && roi.channels.every((c) => {
+    const t = truth.get(c.channel);
+    return t && t.n === c.samples && Math.abs(c.mean_dn - t.sum / t.n) < 1e-6 * Math.max(1, c.mean_dn);
+  });
+  check(roi.rect.width > 10 && roi.rect.height > 10 && roiMatches,
+    `the ROI's mean per channel is the stored frame's (${roi.rect.width} x ${roi.rect.height} px: ` +
+    `${roi.channels.map((c) => `${c.channel} ${c.mean_dn.toFixed(2)} DN, SNR ${Number(c.snr).toFixed(1)}`).join('; ')})`);
+  await page.locator('#viewer-panel').screenshot({ path: path.join(screenshots, 'viewer-roi.png') });
+  await page.click('#viewer-close');
+
   // A long capture cancelled from its page: it ends cancelled, with the frames kept so far.
   const openBefore = await page.evaluate(() => document.querySelector('#job-panel').dataset.jobId);
   await page.fill('#bracket-exposures', '1000, 2000, 4000, 8000');
@@ -268,28 +289,4 @@ async function main() {
   check(consoleErrors.length === 0, `no console errors${consoleErrors.length ? `: ${consoleErrors.join(' | ')}` : ''}`);
 }
 
-let exitCode = 0;
-try {
-  await main();
-} catch (error) {
-  console.log(`FAIL ${error.stack || error}`);
-  failures.push(String(error));
-} finally {
-  if (browser) await browser.close().catch(() => {});
-  if (daemon) {
-    daemon.kill('SIGTERM');
-    const code = await new Promise((resolve) => {
-      const timer = setTimeout(() => { daemon.kill('SIGKILL'); resolve(-1); }, 30000);
-      daemon.on('exit', (c) => { clearTimeout(timer); resolve(c); });
-    });
-    check(code === 0, `camlabd stopped cleanly on SIGTERM (exit ${code})`);
-  }
-  if (failures.length && dataDir) {
-    const log = path.join(dataDir, 'camlabd.log');
-    if (fs.existsSync(log)) console.log(`--- camlabd's log ---\n${fs.readFileSync(log, 'utf8').slice(-4000)}`);
-  }
-  if (dataDir) fs.rmSync(dataDir, { recursive: true, force: true });
-  exitCode = failures.length ? 1 : 0;
-  console.log(failures.length ? `${failures.length} check(s) failed` : 'all checks passed');
-}
-process.exit(exitCode);
+await run(main);

@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include "capture_checks.h"
 #include "daemon_harness.h"
 #include "stream_client.h"
 
@@ -249,6 +250,60 @@ TEST_F(ServiceLive, ThumbnailsOfFramesAndPlotsOfAnAnalysis) {
   EXPECT_EQ(daemon_.get(plots_path + "/..%2F..%2Ftoken").status, 400);
   EXPECT_EQ(daemon_.get(plots_path + "/token").error_code(), "not_found");
   EXPECT_EQ(daemon_.get(plots_path + "/..").error_code(), "not_found");
+}
+
+// The viewer's numbers: a region's statistics and samples are the stored frame's raw DN
+// (the PNG decoded here by OpenCV, the statistics by cv::meanStdDev), and regions that are
+// not inside the frame are refused with its size.
+TEST_F(ServiceLive, ARegionOfAStoredFrameIsItsRawDn) {
+  auto posted = daemon_.post(camera_ + "/captures", {{"kind", "single"}, {"repeats", 1}});
+  ASSERT_EQ(posted.status, 202) << posted.body;
+  const int64_t capture = posted.json()["id"];
+  ASSERT_EQ(daemon_.wait_finished(capture)["state"], "succeeded");
+  const std::string frame = "/v1/jobs/" + std::to_string(capture) + "/frames/0";
+  const cv::Mat stored = download_frame(daemon_, capture, 0).image;
+  ASSERT_EQ(stored.channels(), 1);  // the test camera is mono
+
+  const cv::Rect roi(7, 11, 41, 29);
+  auto region = daemon_.get(frame + "/region?x=7&y=11&width=41&height=29");
+  ASSERT_EQ(region.status, 200) << region.body;
+  const json r = region.json();
+  EXPECT_EQ(r["frame_width"], stored.cols);
+  EXPECT_EQ(r["frame_height"], stored.rows);
+  ASSERT_EQ(r["channels"].size(), 1u);
+  const json& y = r["channels"][0];
+  cv::Scalar mean, sd;
+  cv::meanStdDev(stored(roi), mean, sd);  // population sd: n rather than n - 1
+  const double n = roi.area();
+  EXPECT_EQ(y["channel"], "Y");
+  EXPECT_EQ(y["samples"], roi.area());
+  EXPECT_NEAR(y["mean_dn"].get<double>(), mean[0], 1e-9 * mean[0]);
+  EXPECT_NEAR(y["sd_dn"].get<double>(), sd[0] * std::sqrt(n / (n - 1)), 1e-6);
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(stored(roi), &lo, &hi);
+  EXPECT_EQ(y["min_dn"].get<double>(), lo);
+  EXPECT_EQ(y["max_dn"].get<double>(), hi);
+  EXPECT_TRUE(r["samples"].empty());  // too many to list
+
+  auto cell = daemon_
+                  .get(frame + "/region?x=" + std::to_string(stored.cols / 2) +
+                       "&y=" + std::to_string(stored.rows / 2) + "&width=2&height=2")
+                  .json();
+  ASSERT_EQ(cell["samples"].size(), 4u) << cell.dump();
+  for (const json& s : cell["samples"])
+    EXPECT_EQ(s["dn"].get<int>(), stored.at<uint16_t>(s["y"].get<int>(), s["x"].get<int>()))
+        << s.dump();
+
+  auto outside = daemon_.get(frame + "/region?x=" + std::to_string(stored.cols - 1) + "&width=2");
+  EXPECT_EQ(outside.error_code(), "out_of_range");
+  EXPECT_NE(outside.body.find(std::to_string(stored.cols) + " x " + std::to_string(stored.rows)),
+            std::string::npos)
+      << outside.body;
+  EXPECT_EQ(daemon_.get(frame + "/region?x=1.5").error_code(), "invalid_request");
+  EXPECT_EQ(daemon_.get(frame + "/region?width=0").error_code(), "invalid_request");
+  EXPECT_EQ(daemon_.get(frame + "/region?x=-1").error_code(), "invalid_request");
+  EXPECT_EQ(daemon_.get("/v1/jobs/" + std::to_string(capture) + "/frames/1/region").error_code(),
+            "not_found");
 }
 
 TEST_F(ServiceLive, BadLiveRequestsAreRefusedWithTheAllowedRange) {
