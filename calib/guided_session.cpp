@@ -25,6 +25,8 @@ nlohmann::json to_json(const ViewSuggestion& s) {
           {"centre_x_px", s.centre_x_px},
           {"centre_y_px", s.centre_y_px},
           {"bounds_px", s.bounds_px},
+          {"outline_px", s.outline_px},
+          {"imager_px", {s.imager_width_px, s.imager_height_px}},
           {"distance_m", s.distance_m},
           {"tilt_about_x_deg", s.tilt_about_x_deg},
           {"tilt_about_y_deg", s.tilt_about_y_deg},

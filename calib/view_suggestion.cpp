@@ -103,6 +103,17 @@ ViewSuggestion suggestion_from(const CandidateView& c, const CalibrationData& da
   s.centre_x_px = c.centre_x_px;
   s.centre_y_px = c.centre_y_px;
   s.bounds_px = c.bounds_px;
+  const size_t cols = static_cast<size_t>(data.board.cols),
+               rows = static_cast<size_t>(data.board.rows);
+  if (cols > 0 && rows > 0 && c.corners_px.size() >= 2 * cols * rows) {
+    const std::array<size_t, 4> outer = {0, cols - 1, cols * rows - 1, cols * (rows - 1)};
+    for (size_t k = 0; k < 4; ++k) {
+      s.outline_px[2 * k] = c.corners_px[2 * outer[k]];
+      s.outline_px[2 * k + 1] = c.corners_px[2 * outer[k] + 1];
+    }
+  }
+  s.imager_width_px = data.imager_width_px;
+  s.imager_height_px = data.imager_height_px;
   s.distance_m = c.distance_m;
   s.tilt_about_x_deg = c.tilt_about_x_deg;
   s.tilt_about_y_deg = c.tilt_about_y_deg;

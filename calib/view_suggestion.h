@@ -53,6 +53,10 @@ struct ViewSuggestion {
   // from the camera positive, and about the image y axis, right side away positive).
   double centre_x_px = 0, centre_y_px = 0;
   std::array<double, 4> bounds_px{};  // x_min, y_min, x_max, y_max
+  // The board's outermost corners (first, last of the first row; last, first of the last
+  // row) as (x, y) px: the quadrilateral a live view draws to show where and how tilted.
+  std::array<double, 8> outline_px{};
+  int imager_width_px = 0, imager_height_px = 0;  // the imager these pixels are on
   double distance_m = 0;
   double tilt_about_x_deg = 0, tilt_about_y_deg = 0;
   std::string region;       // "centre", "top_left", "top", ... "bottom_right"

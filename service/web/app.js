@@ -9,6 +9,7 @@ import { drawHistogram } from './histogram.js';
 import { JobsPanel } from './jobs.js';
 import { LiveView } from './live.js';
 import { FrameViewer } from './viewer.js';
+import { GuidedPanel } from './guided.js';
 
 const $ = (id) => document.getElementById(id);
 const CAMERA_REFRESH_MS = 2000;
@@ -27,6 +28,15 @@ const viewer = new FrameViewer({
   pixel: $('viewer-pixel'), roi: $('viewer-roi'), roiMode: $('viewer-roi-mode'), fit: $('viewer-fit'),
   one: $('viewer-one'), zoomIn: $('viewer-zoom-in'), zoomOut: $('viewer-zoom-out'),
   close: $('viewer-close'), error: $('viewer-error'),
+});
+
+const guided = new GuidedPanel({
+  form: $('guided-form'), session: $('guided-session'), status: $('guided-status'),
+  suggestion: $('guided-suggestion'), refusal: $('guided-refusal'), take: $('guided-take'),
+  finish: $('guided-finish'), cancel: $('guided-cancel'), error: $('guided-error'),
+}, live, () => state.cameraId, async (jobId) => {
+  await jobs.reload().catch(() => {});
+  await jobs.show(jobId).catch(() => {});
 });
 
 const jobs = new JobsPanel({
@@ -53,6 +63,7 @@ function stopAll() {
   live.stop();
   jobs.stop();
   viewer.close();
+  guided.stop();
   for (const t of state.timers) clearInterval(t);
   state.timers = [];
 }

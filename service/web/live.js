@@ -55,6 +55,7 @@ export class LiveView {
     this.controller = null;
     this.arrivals = [];  // times of the frames of the last 3 s, for the rate shown
     this.frames = 0;
+    this.overlay = null;  // (context, width, height) => draws over each frame shown
   }
 
   // (Re)starts the view of `cameraId` with `options` {fps, peaking, peakingThreshold,
@@ -102,6 +103,9 @@ export class LiveView {
     }
     this.context.drawImage(bitmap, 0, 0);
     bitmap.close();
+    // Whatever a panel draws over the picture (the guided calibration's next board).
+    if (this.overlay) this.overlay(this.context, this.canvas.width, this.canvas.height);
+    this.canvas.dataset.overlay = this.overlay ? '1' : '';
     const repeated = part.headers['x-frame-repeated'] === '1';
     const now = performance.now();
     if (!repeated) {

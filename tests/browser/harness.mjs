@@ -63,6 +63,20 @@ export async function launchBrowser() {
   return browser;
 }
 
+// A page of the dashboard, logged in with `token`, that collects the console's errors.
+export async function loggedInPage(base, token) {
+  const context = await (await launchBrowser()).newContext({ viewport: { width: 1400, height: 1100 } });
+  const page = await context.newPage();
+  const consoleErrors = [];
+  page.on('console', (msg) => { if (msg.type() === 'error') consoleErrors.push(msg.text()); });
+  page.on('pageerror', (error) => consoleErrors.push(`page error: ${error.message}`));
+  await page.goto(`${base}/`);
+  await page.fill('#token', token);
+  await page.click('#login-button');
+  await page.waitForSelector('#app:not([hidden])', { timeout: 10000 });
+  return { page, consoleErrors };
+}
+
 // Runs `main`, then stops the browser and camlabd (which must exit cleanly on SIGTERM),
 // prints the tally and exits with its status.
 export async function run(main) {

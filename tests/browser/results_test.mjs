@@ -12,7 +12,7 @@
 //
 //   node results_test.mjs CAMLABD_PATH SOURCE_DIR
 import path from 'node:path';
-import { check, launchBrowser, run, screenshots, startDaemon, waitFor } from './harness.mjs';
+import { check, loggedInPage, run, screenshots, startDaemon, waitFor } from './harness.mjs';
 
 const [camlabd, sourceDir] = process.argv.slice(2);
 
@@ -74,15 +74,7 @@ async function main() {
     captures[name] = job.id;
   }
 
-  const browser = await launchBrowser();
-  const page = await (await browser.newContext({ viewport: { width: 1400, height: 1100 } })).newPage();
-  const consoleErrors = [];
-  page.on('console', (msg) => { if (msg.type() === 'error') consoleErrors.push(msg.text()); });
-  page.on('pageerror', (error) => consoleErrors.push(`page error: ${error.message}`));
-  await page.goto(`${base}/`);
-  await page.fill('#token', token);
-  await page.click('#login-button');
-  await page.waitForSelector('#app:not([hidden])', { timeout: 10000 });
+  const { page, consoleErrors } = await loggedInPage(base, token);
 
   for (const [capture, kind] of [['focus_stack', 'focus'], ['focus_stack', 'defocus'],
     ['aperture_series', 'defocus'], ['aperture_series', 'sfr'], ['lens_map', 'lensmap']]) {

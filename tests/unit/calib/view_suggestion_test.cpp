@@ -52,6 +52,14 @@ TEST(ViewSuggestion, OpeningSequenceIsSeenWholeThroughTheTrueLens) {
     EXPECT_EQ(s->worst_now_px, 0);
     EXPECT_NEAR(s->distance_m, spec.distance_m, 1e-9);
     EXPECT_TRUE(whole_on_truth_imager(spec, s->rt_cam_board)) << k << ": " << s->description;
+    // The outline a live view draws: through the opening's pinhole a board's extreme
+    // pixels are its four outer corners, so they span its bounds exactly.
+    const auto& o = s->outline_px;
+    EXPECT_DOUBLE_EQ(std::min({o[0], o[2], o[4], o[6]}), s->bounds_px[0]) << k;
+    EXPECT_DOUBLE_EQ(std::min({o[1], o[3], o[5], o[7]}), s->bounds_px[1]) << k;
+    EXPECT_DOUBLE_EQ(std::max({o[0], o[2], o[4], o[6]}), s->bounds_px[2]) << k;
+    EXPECT_DOUBLE_EQ(std::max({o[1], o[3], o[5], o[7]}), s->bounds_px[3]) << k;
+    EXPECT_EQ(s->imager_width_px, spec.truth.width_px);
     std::printf("  %s\n", s->description.c_str());
     data.views.push_back(testing::observe(spec.truth, spec.board, s->rt_cam_board, 0.08, 0, rng,
                                           "v" + std::to_string(k)));
