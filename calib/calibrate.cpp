@@ -521,10 +521,15 @@ Result<nlohmann::json> write_calibration_outputs(CalibrationRun* run_ptr,
   }
   if (!options.out_corners_vnl.empty()) files["corners_vnl"] = options.out_corners_vnl.string();
   if (!options.plots_dir.empty()) {
-    PlotFiles plots;
-    CAMLAB_ASSIGN(plots, write_calibration_plots(options.plots_dir, run.data, run.report));
-    for (const auto& p : plots.written) files["plots"].push_back(p.string());
-    if (!plots.skipped.empty()) j["plots_skipped"] = plots.skipped;
+    auto plots = write_calibration_plots(options.plots_dir, run.data, run.report);
+    // No gnuplot to draw them: the model and the report stand, and say so.
+    if (!plots && plots.error().code != ErrorCode::kPlotterFailed) return plots.error();
+    if (plots) {
+      for (const auto& p : plots->written) files["plots"].push_back(p.string());
+      if (!plots->skipped.empty()) j["plots_skipped"] = plots->skipped;
+    } else {
+      j["plots_skipped"] = nlohmann::json::array({plots.error().message});
+    }
   }
   if (!options.out_report_json.empty()) files["report"] = options.out_report_json.string();
   j["files"] = files;

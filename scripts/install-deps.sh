@@ -15,6 +15,7 @@ packages=(
   zlib1g-dev             # the PNG encoder's test inflates its output with zlib, an independent decoder
   libmrcal-dev mrcal python3-mrcal   # lens models (C API) and mrcal's own tools for interop tests
   libmrgingham-dev       # mrcal's chessboard detector (square boards), calib/corners/mrgingham_corners.h
+  gnuplot-qt             # draws every plot (analysis/plot.h; pngcairo, no display needed); mrcal's tools pull it in too
   libboost-dev           # Beast / Asio (header-only parts)
   nlohmann-json3-dev libcli11-dev libspdlog-dev libsqlite3-dev
   libgtest-dev libgmock-dev libbenchmark-dev

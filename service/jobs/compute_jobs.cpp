@@ -123,8 +123,10 @@ JobOutcome execute_analysis(const JobRecord& job, const std::filesystem::path& d
   if (!job.folder.empty()) options.plots_dir = data_dir / job.folder / "plots";
   auto run = analysis::analyze(kind, dir, options);
   std::optional<Error> plots_failed;
-  if (!run && !options.plots_dir.empty() && run.error().code == ErrorCode::kEmptyPlot) {
-    // A measurement with nothing to draw still has its numbers.
+  if (!run && !options.plots_dir.empty() &&
+      (run.error().code == ErrorCode::kEmptyPlot ||
+       run.error().code == ErrorCode::kPlotterFailed)) {
+    // A measurement with nothing to draw, or no gnuplot to draw it, still has its numbers.
     plots_failed = run.error();
     options.plots_dir.clear();
     run = analysis::analyze(kind, dir, options);

@@ -86,10 +86,22 @@ Result<Paths> write_defocus_plots(const fs::path& dir, const DefocusReport& r) {
   }
   const std::string prefix = r.channel.empty() ? "" : r.channel + "_";
   const bool aperture = r.sweep == "f_number";
+  // One chart for every target (one colour each: its measurements with 1-sigma bars and
+  // its fit), so targets compare at a glance and none is left out silently: a target
+  // without a fit shows its measurements and says so in the legend.
+  constexpr int kPalette[] = {0xb05000, 0x0000c0, 0x008000, 0x8000a0, 0x0080e0,
+                              0x606060, 0xa0a000, 0x4040ff, 0x00a0a0, 0x804000};
+  PlotSpec spec;
+  spec.title = prefix + (aperture ? "CoC against f-number, C = k / N fitted per edge"
+                                  : "V-curves: blur against focus, |p - p0| slope fitted per edge");
+  spec.x_label = aperture ? "f-number N" : "focus position (steps)";
+  spec.y_label = "blur diameter (px, 1 sigma bars)";
+  spec.width_px = 760;
+  spec.height_px = 520;
+  int shown = 0;
   for (const TargetDefocus& t : r.targets) {
-    PlotSpec spec;
-    PlotSeries measured = series("measured (+-1 sigma)", false, 0xc00000);
-    PlotSeries fit = series("", true, 0x0000c0);
+    const int colour = kPalette[shown % std::size(kPalette)];
+    PlotSeries measured = series("", false, colour);
     for (const auto& fe : t.frames) {
       if (!fe.edge.measured()) continue;
       measured.x.push_back(aperture ? fe.f_number : fe.focus_position);
@@ -97,39 +109,32 @@ Result<Paths> write_defocus_plots(const fs::path& dir, const DefocusReport& r) {
       measured.y_error.push_back(fe.edge.diameter_sigma_px);
     }
     if (measured.x.empty()) continue;
+    ++shown;
     const auto [lo_it, hi_it] = std::minmax_element(measured.x.begin(), measured.x.end());
+    PlotSeries fit = series("", true, colour);
     if (aperture && t.aperture) {
-      spec.title = prefix + t.name + ": CoC vs f-number";
-      spec.x_label = "f-number N";
-      fit.label = format_printf("fit C = %.3f / N", t.aperture->k_px);
+      fit.label = format_printf("%s: k = %.3f px", t.name.c_str(), t.aperture->k_px);
       for (double n = *lo_it; n <= *hi_it * 1.001; n *= 1.02) {
         fit.x.push_back(n);
         fit.y.push_back(t.aperture->k_px / n);
       }
     } else if (!aperture && t.v_curve) {
-      spec.title = prefix + t.name + ": V-curve";
-      spec.x_label = "focus position (steps)";
-      fit.label = format_printf("fit: best %.2f, slope %.4f px/step", t.v_curve->best_position,
-                                t.v_curve->slope_px_per_step);
-      double lo = 1e300, hi = -1e300;
-      for (const auto& fe : t.frames) {
-        lo = std::min(lo, fe.focus_position);
-        hi = std::max(hi, fe.focus_position);
-      }
-      for (double p : {lo, t.v_curve->best_position, hi}) {
+      fit.label = format_printf("%s: best %.2f", t.name.c_str(), t.v_curve->best_position);
+      for (double p : {*lo_it, t.v_curve->best_position, *hi_it}) {
         fit.x.push_back(p);
         fit.y.push_back(t.v_curve->slope_px_per_step * std::fabs(p - t.v_curve->best_position));
       }
     } else {
-      continue;
+      measured.label = t.name + ": no fit";
     }
-    spec.y_label = "blur diameter (px)";
-    spec.series = {measured, fit};
-    if (Status s = plot(dir / (prefix + t.name + (aperture ? "_coc_vs_n.png" : "_v_curve.png")),
-                        spec, &written);
+    spec.series.push_back(std::move(measured));
+    if (!fit.x.empty()) spec.series.push_back(std::move(fit));
+  }
+  if (shown > 0)
+    if (Status s =
+            plot(dir / (prefix + (aperture ? "coc_vs_n.png" : "v_curves.png")), spec, &written);
         !s)
       return s.error();
-  }
   return written;
 }
 
@@ -187,25 +192,44 @@ Result<Paths> write_exposure_plots(const fs::path& dir, const ExposureReport& r)
 Result<Paths> write_focus_plots(const fs::path& dir, const FocusReport& r) {
   if (Status s = make_dir(dir); !s) return s.error();
   Paths written;
-  // Depth map: nearer = brighter (inverse distance, scaled to the valid range); invalid
-  // pixels black.
-  cv::Mat inv = cv::Mat::zeros(r.depth_m.size(), CV_32F);
-  double lo = 1e300, hi = 0;
-  for (int y = 0; y < r.depth_m.rows; ++y)
-    for (int x = 0; x < r.depth_m.cols; ++x) {
-      const float d = r.depth_m.at<float>(y, x);
-      if (d <= 0) continue;
-      inv.at<float>(y, x) = 1.0f / d;
-      lo = std::min(lo, 1.0 / d);
-      hi = std::max(hi, 1.0 / d);
-    }
-  cv::Mat gray, colour;
-  const double span = hi > lo ? hi - lo : 1.0;
-  inv.convertTo(gray, CV_8U, 254.0 / span, 1.0 - 254.0 * lo / span);
-  gray.setTo(0, r.valid == 0);
-  cv::applyColorMap(gray, colour, cv::COLORMAP_VIRIDIS);
-  colour.setTo(cv::Scalar(0, 0, 0), r.valid == 0);
-  if (Status s = png(dir / "depth_map.png", colour, &written); !s) return s.error();
+  // The depth map with its colour bar in metres: blocks of pixels (at most 160 across,
+  // the mean of their valid depths), blank where no region had the texture to focus on.
+  {
+    const int width = r.depth_m.cols, height = r.depth_m.rows;
+    const int block = std::max(1, (width + 159) / 160);
+    PlotHeatmap depth;
+    depth.cols = (width + block - 1) / block;
+    depth.rows = (height + block - 1) / block;
+    depth.x0 = 0, depth.x1 = depth.cols * block, depth.y0 = 0, depth.y1 = depth.rows * block;
+    depth.label = "distance (m)";
+    for (int j = 0; j < depth.rows; ++j)
+      for (int i = 0; i < depth.cols; ++i) {
+        double sum = 0;
+        int n = 0;
+        for (int y = j * block; y < std::min(height, (j + 1) * block); ++y)
+          for (int x = i * block; x < std::min(width, (i + 1) * block); ++x) {
+            const float d = r.depth_m.at<float>(y, x);
+            if (d > 0 && std::isfinite(d) && (r.valid.empty() || r.valid.at<uint8_t>(y, x))) {
+              sum += d;
+              ++n;
+            }
+          }
+        depth.values.push_back(n ? sum / n : std::nan(""));
+      }
+    PlotSpec map;
+    map.title = "depth from focus (blank: too little texture to focus on)";
+    map.x_label = "x (px)";
+    map.y_label = "y (px)";
+    map.y_down = true;
+    map.equal_aspect = true;
+    map.width_px = 820;
+    map.height_px = 600;
+    map.heatmap = std::move(depth);
+    const bool any = std::any_of(map.heatmap->values.begin(), map.heatmap->values.end(),
+                                 [](double v) { return std::isfinite(v); });
+    if (any)
+      if (Status s = plot(dir / "depth_map.png", map, &written); !s) return s.error();
+  }
   // The all-in-focus image to look at, and its raw DN to measure on: a 10-bit sensor's DN in
   // a 16-bit PNG show black in any viewer (issue 35's black rectangle).
   if (Status s = png(dir / "all_in_focus.png", display_mapped(r.all_in_focus), &written); !s)
@@ -229,6 +253,11 @@ Result<Paths> write_focus_plots(const fs::path& dir, const FocusReport& r) {
     s.y = rr.focus.curve;
     spec.series.push_back(s);
   }
+  const auto focused = std::count_if(r.regions.begin(), r.regions.end(),
+                                     [](const auto& rr) { return rr.focus.status == kFocusOk; });
+  // Never a silent subset: the title says how many of the regions the chart shows.
+  spec.title += format_printf(" (%zu of the %ld regions with a focus peak)", spec.series.size(),
+                              static_cast<long>(focused));
   if (!spec.series.empty())
     if (Status s = plot(dir / "focus_curves.png", spec, &written); !s) return s.error();
   return written;

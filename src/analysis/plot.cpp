@@ -1,240 +1,247 @@
-// Axis scaling and drawing for write_plot().
+// write_plot(): a gnuplot script with the data inline, run by gnuplot (pngcairo). The
+// script is kept beside the PNG (NAME.gp): rerun it with `gnuplot NAME.gp` to restyle a
+// plot, or change its terminal to get SVG or PDF.
 #include "analysis/plot.h"
 
-#include <algorithm>
-#include <cmath>
-#include <cstdio>
-#include <limits>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "base/atomic_file.h"
+#include "base/format.h"
+
+extern char** environ;
 
 namespace camlab::analysis {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
-
-std::string tick_text(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.4g", v);
-  return buf;
+// What gnuplot needs to read a string literal in double quotes.
+std::string quoted(const std::string& text) {
+  std::string out = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c == '\n' ? ' ' : c;
+  }
+  return out + "\"";
 }
 
-cv::Scalar colour_of(int bgr) { return cv::Scalar((bgr >> 16) & 255, (bgr >> 8) & 255, bgr & 255); }
+std::string colour_of(int bgr) {
+  return format_printf("\"#%02x%02x%02x\"", bgr & 255, (bgr >> 8) & 255, (bgr >> 16) & 255);
+}
 
-struct Range {
-  double lo = kInf, hi = -kInf;
-  void add(double v) {
-    if (!std::isfinite(v)) return;
-    lo = std::min(lo, v);
-    hi = std::max(hi, v);
+bool near_white(int bgr) {
+  return (bgr & 255) > 0xe0 && ((bgr >> 8) & 255) > 0xe0 && ((bgr >> 16) & 255) > 0xe0;
+}
+
+std::string number(double v) { return format_printf("%.10g", v); }
+
+// The drawable points of a series as a datablock: x y [dy | dx dy] per line.
+std::string series_block(const PlotSpec& spec, const PlotSeries& s, const std::string& name,
+                         int* points) {
+  auto drawable = [&](double x, double y) {
+    return std::isfinite(x) && std::isfinite(y) && (!spec.log_x || x > 0) && (!spec.log_y || y > 0);
+  };
+  const bool vectors = !s.dx.empty() && !s.dy.empty();
+  std::string block = name + " << EOD\n";
+  for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
+    if (!drawable(s.x[i], s.y[i])) continue;
+    block += number(s.x[i]) + " " + number(s.y[i]);
+    if (vectors) {
+      if (i >= s.dx.size() || i >= s.dy.size() || !drawable(s.x[i] + s.dx[i], s.y[i] + s.dy[i]))
+        continue;
+      block += " " + number(s.dx[i]) + " " + number(s.dy[i]);
+    } else if (!s.y_error.empty()) {
+      block += " " + number(i < s.y_error.size() && std::isfinite(s.y_error[i]) ? s.y_error[i] : 0);
+    }
+    block += "\n";
+    ++*points;
   }
-  bool ok() const { return hi >= lo; }
-};
+  return block + "EOD\n";
+}
 
-// The heat map's value at data point (x, y): bilinear between the grid's nodes, NaN when
-// a node it needs has no value or the point lies outside the grid.
-double heat_at(const PlotHeatmap& h, double x, double y) {
-  const double gx = (x - h.x0) / (h.x1 - h.x0) * (h.cols - 1);
-  const double gy = (y - h.y0) / (h.y1 - h.y0) * (h.rows - 1);
-  if (!(gx >= 0 && gy >= 0 && gx <= h.cols - 1 && gy <= h.rows - 1)) return std::nan("");
-  const int i = std::min(static_cast<int>(gx), h.cols - 2),
-            j = std::min(static_cast<int>(gy), h.rows - 2);
-  const double fx = gx - i, fy = gy - j;
-  auto v = [&](int a, int b) { return h.values[static_cast<size_t>(b) * h.cols + a]; };
-  return (1 - fy) * ((1 - fx) * v(i, j) + fx * v(i + 1, j)) +
-         fy * ((1 - fx) * v(i, j + 1) + fx * v(i + 1, j + 1));
+// The heat map's cells as "x y value" rows (blank line between rows), NaN left blank.
+std::string heatmap_block(const PlotHeatmap& h) {
+  std::string block = "$heat << EOD\n";
+  for (int j = 0; j < h.rows; ++j) {
+    for (int i = 0; i < h.cols; ++i) {
+      const double x = h.x0 + (i + 0.5) * (h.x1 - h.x0) / h.cols;
+      const double y = h.y0 + (j + 0.5) * (h.y1 - h.y0) / h.rows;
+      const double v = h.values[static_cast<size_t>(j) * h.cols + i];
+      const bool shown = std::isfinite(v) && (!h.log_scale || v > 0);
+      block += number(x) + " " + number(y) + " " + (shown ? number(v) : std::string("NaN")) + "\n";
+    }
+    block += "\n";
+  }
+  return block + "EOD\n";
+}
+
+// Ticks at 1, 2 and 5 times powers of ten over a log colour bar's values: a range within
+// one decade would otherwise get a single labelled tick.
+std::string log_ticks(const PlotHeatmap& h) {
+  double lo = h.range ? h.range->first : INFINITY, hi = h.range ? h.range->second : -INFINITY;
+  if (!h.range)
+    for (double v : h.values)
+      if (std::isfinite(v) && v > 0) lo = std::min(lo, v), hi = std::max(hi, v);
+  if (!(lo > 0) || !(hi >= lo)) return "";
+  std::string ticks;
+  for (int decade = static_cast<int>(std::floor(std::log10(lo)));
+       decade <= static_cast<int>(std::ceil(std::log10(hi))); ++decade)
+    for (double m : {1.0, 2.0, 5.0}) {
+      const double v = m * std::pow(10.0, decade);
+      if (v >= lo && v <= hi) ticks += (ticks.empty() ? "" : ", ") + format_printf("%g", v);
+    }
+  return ticks.empty() ? "" : "set cbtics (" + ticks + ")\n";
+}
+
+// "plot" terms for one series: markers, a line, error bars, vectors or bars. A near-white
+// marker (drawn over a heat map) gets a black ring, which also stands for it in the key.
+std::string series_terms(const PlotSeries& s, const std::string& name) {
+  const std::string title = s.label.empty() ? "notitle" : "title " + quoted(s.label);
+  const std::string colour = "lc rgb " + colour_of(s.color_bgr);
+  const double size = std::max(0.3, s.marker_px / 4.0);
+  if (!s.dx.empty() && !s.dy.empty())
+    return name + " using 1:2:3:4 with vectors head size screen 0.006,25 " + colour + " " + title;
+  if (s.bar_width > 0) return name + " using 1:2 with boxes " + colour + " " + title;
+  if (s.line) return name + " using 1:2 with lines lw 2 " + colour + " " + title;
+  if (!s.y_error.empty())
+    return name + format_printf(" using 1:2:3 with yerrorbars pt 7 ps %.2f ", size) + colour + " " +
+           title;
+  if (near_white(s.color_bgr))
+    return name + format_printf(" using 1:2 with points pt 7 ps %.2f ", size) + colour +
+           " notitle, " + name + format_printf(" using 1:2 with points pt 6 ps %.2f ", size) +
+           "lc rgb \"#000000\" " + title;
+  return name + format_printf(" using 1:2 with points pt 7 ps %.2f ", size) + colour + " " + title;
+}
+
+// Runs `gnuplot script`; its complaints become the error's message.
+Status run_gnuplot(const std::filesystem::path& script) {
+  int pipe_fds[2];
+  if (pipe2(pipe_fds, O_CLOEXEC) != 0)
+    return make_error("plotter_failed", std::string("cannot make a pipe: ") + std::strerror(errno));
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], 1);
+  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], 2);
+  const std::string path = script.string();
+  char* argv[] = {const_cast<char*>("gnuplot"), const_cast<char*>(path.c_str()), nullptr};
+  pid_t child = 0;
+  const int spawned = posix_spawnp(&child, "gnuplot", &actions, nullptr, argv, environ);
+  posix_spawn_file_actions_destroy(&actions);
+  close(pipe_fds[1]);
+  if (spawned != 0) {
+    close(pipe_fds[0]);
+    return make_error("plotter_failed", std::string("cannot run gnuplot (") +
+                                            std::strerror(spawned) +
+                                            "): install it (scripts/install-deps.sh does)");
+  }
+  std::string said;
+  char buffer[4096];
+  for (;;) {
+    const ssize_t n = read(pipe_fds[0], buffer, sizeof buffer);
+    if (n > 0 && said.size() < 4000) said.append(buffer, static_cast<size_t>(n));
+    if (n == 0 || (n < 0 && errno != EINTR)) break;
+  }
+  close(pipe_fds[0]);
+  int status = 0;
+  while (waitpid(child, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    return make_error("plotter_failed", "gnuplot refused " + path + ": " + said.substr(0, 600));
+  return {};
 }
 
 }  // namespace
 
-Status write_plot(const std::filesystem::path& png_path, const PlotSpec& spec) {
-  auto tx = [&](double v) { return spec.log_x ? std::log10(v) : v; };
-  auto ty = [&](double v) { return spec.log_y ? std::log10(v) : v; };
-  auto drawable = [&](double x, double y) {
-    return std::isfinite(x) && std::isfinite(y) && (!spec.log_x || x > 0) && (!spec.log_y || y > 0);
-  };
+std::string gnuplot_script(const std::filesystem::path& png_path, const PlotSpec& spec,
+                           int* points) {
   const PlotHeatmap* heat =
-      spec.heatmap && spec.heatmap->cols >= 2 && spec.heatmap->rows >= 2 &&
+      spec.heatmap && spec.heatmap->cols >= 1 && spec.heatmap->rows >= 1 &&
               spec.heatmap->values.size() ==
                   static_cast<size_t>(spec.heatmap->cols) * spec.heatmap->rows &&
               spec.heatmap->x1 != spec.heatmap->x0 && spec.heatmap->y1 != spec.heatmap->y0
           ? &*spec.heatmap
           : nullptr;
-  Range rx, ry;  // in axis units (log10 on log axes)
-  for (const PlotSeries& s : spec.series)
-    for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
-      if (!drawable(s.x[i], s.y[i])) continue;
-      const double e = i < s.y_error.size() && std::isfinite(s.y_error[i]) ? s.y_error[i] : 0.0;
-      rx.add(tx(s.x[i] - 0.5 * s.bar_width));
-      rx.add(tx(s.x[i] + 0.5 * s.bar_width));
-      ry.add(spec.log_y ? ty(s.y[i]) : s.y[i] - e);
-      ry.add(spec.log_y ? ty(s.y[i]) : s.y[i] + e);
-      if (s.bar_width > 0 && !spec.log_y) ry.add(0.0);
-      if (i < s.dx.size() && i < s.dy.size() && drawable(s.x[i] + s.dx[i], s.y[i] + s.dy[i])) {
-        rx.add(tx(s.x[i] + s.dx[i]));
-        ry.add(ty(s.y[i] + s.dy[i]));
-      }
-    }
+  std::string data, terms;
+  *points = 0;
+  for (size_t k = 0; k < spec.series.size(); ++k) {
+    const std::string name = "$s" + std::to_string(k);
+    const int before = *points;
+    data += series_block(spec, spec.series[k], name, points);
+    if (*points == before) continue;
+    terms += (terms.empty() ? "" : ", ") + series_terms(spec.series[k], name);
+  }
+  std::string s = format_printf("set terminal pngcairo size %d,%d font \"sans,10\" noenhanced\n",
+                                std::max(200, spec.width_px), std::max(150, spec.height_px)) +
+                  "set output " + quoted(png_path.string()) + "\n" + "set title " +
+                  quoted(spec.title) + "\n" + "set xlabel " + quoted(spec.x_label) + "\n" +
+                  "set ylabel " + quoted(spec.y_label) + "\n" +
+                  // Legends beside the data, never over it; a light grid to read values off.
+                  "set key below horizontal Left reverse samplen 2 maxrows 4 height 1.5\n" +
+                  "set grid lc rgb \"#d8d8d8\"\n";
+  // Points on the frame's edge are hard to read: autoscaled axes get a margin.
+  // Autoscaled axes span the data exactly ("fix": not out to the next tick, which can
+  // double an axis) plus a small margin.
+  const std::string x_margin = !heat && !spec.x_range ? "graph 0.03" : "0";
+  const std::string y_margin = !heat && !spec.y_range ? "graph 0.06" : "0";
+  s += "set offsets " + x_margin + ", " + x_margin + ", " + y_margin + ", " + y_margin + "\n";
+  if (!heat && !spec.x_range) s += "set autoscale xfix\n";
+  if (!heat && !spec.y_range) s += "set autoscale yfix\n";
+  if (spec.log_x) s += "set logscale x 10\n";
+  if (spec.log_y) s += "set logscale y 10\n";
+  if (spec.equal_aspect) s += "set size ratio -1\n";
+  if (spec.x_range)
+    s += "set xrange [" + number(spec.x_range->first) + ":" + number(spec.x_range->second) + "]\n";
+  // Image coordinates grow downwards: the range given, or the data's, high to low.
+  if (spec.y_range)
+    s += spec.y_down ? "set yrange [" + number(spec.y_range->second) + ":" +
+                           number(spec.y_range->first) + "]\n"
+                     : "set yrange [" + number(spec.y_range->first) + ":" +
+                           number(spec.y_range->second) + "]\n";
+  else if (spec.y_down)
+    s += "set yrange [*:*] reverse\n";
+  for (const PlotSeries& series : spec.series)
+    if (series.bar_width > 0)
+      s += "set boxwidth " + number(series.bar_width) +
+           " absolute\nset style fill solid 0.6 noborder\n";
   if (heat) {
-    rx.add(tx(heat->x0));
-    rx.add(tx(heat->x1));
-    ry.add(ty(heat->y0));
-    ry.add(ty(heat->y1));
+    data += heatmap_block(*heat);
+    // viridis, as matplotlib and mrcal's plots use: perceptually even, readable in grey.
+    s += "set palette defined (0 '#440154', 0.25 '#3b528b', 0.5 '#21918c', 0.75 '#5ec962', "
+         "1 '#fde725')\n";
+    s += "set cblabel " + quoted(heat->label) + "\n";
+    if (heat->log_scale) s += "set logscale cb 10\n" + log_ticks(*heat);
+    if (heat->range)
+      s += "set cbrange [" + number(heat->range->first) + ":" + number(heat->range->second) + "]\n";
+    if (!spec.x_range)
+      s += "set xrange [" + number(std::min(heat->x0, heat->x1)) + ":" +
+           number(std::max(heat->x0, heat->x1)) + "]\n";
+    if (!spec.y_range)
+      s += spec.y_down ? "set yrange [" + number(std::max(heat->y0, heat->y1)) + ":" +
+                             number(std::min(heat->y0, heat->y1)) + "]\n"
+                       : "set yrange [" + number(std::min(heat->y0, heat->y1)) + ":" +
+                             number(std::max(heat->y0, heat->y1)) + "]\n";
+    terms = "$heat using 1:2:3 with image notitle" + (terms.empty() ? "" : ", " + terms);
   }
-  if (!rx.ok() || !ry.ok()) return make_error("empty_plot", "nothing to plot in " + spec.title);
-  double x0 = rx.lo, x1 = rx.hi, y0 = ry.lo, y1 = ry.hi;
-  if (x1 - x0 < 1e-12) {
-    x0 -= 0.5;
-    x1 += 0.5;
-  }
-  if (y1 - y0 < 1e-12) {
-    y0 -= 0.5;
-    y1 += 0.5;
-  }
-  double mx = 0.05 * (x1 - x0), my = 0.08 * (y1 - y0);
-  if (spec.x_range) {
-    x0 = tx(spec.x_range->first);
-    x1 = tx(spec.x_range->second);
-    mx = 0;
-  }
-  if (spec.y_range) {
-    y0 = ty(spec.y_range->first);
-    y1 = ty(spec.y_range->second);
-    my = 0;
-  }
-  x0 -= mx;
-  x1 += mx;
-  y0 -= my;
-  y1 += my;
+  return s + data + "plot " + terms + "\n";
+}
 
-  int width = std::clamp(spec.width_px, 200, 4000), height = std::clamp(spec.height_px, 150, 4000);
-  const int left = 70, right = heat ? 95 : 20, top = 40, bottom = 50;
-  int pw = width - left - right, ph = height - top - bottom;
-  if (spec.equal_aspect) {
-    // The axis with more pixels per unit gives some up: the canvas shrinks to the data.
-    const double scale = std::min(pw / (x1 - x0), ph / (y1 - y0));
-    pw = std::max(50, static_cast<int>(scale * (x1 - x0)));
-    ph = std::max(50, static_cast<int>(scale * (y1 - y0)));
-    width = left + pw + right;
-    height = top + ph + bottom;
-  }
-  cv::Mat img(height, width, CV_8UC3, cv::Scalar(255, 255, 255));
-  auto col_of = [&](double xt) { return left + (xt - x0) / (x1 - x0) * pw; };
-  auto row_of = [&](double yt) {
-    const double f = (yt - y0) / (y1 - y0);
-    return spec.y_down ? top + f * ph : top + ph - f * ph;
-  };
-  auto px = [&](double x, double y) {
-    return cv::Point(static_cast<int>(std::lround(col_of(tx(x)))),
-                     static_cast<int>(std::lround(row_of(ty(y)))));
-  };
-  const cv::Scalar black(0, 0, 0), grey(200, 200, 200);
-
-  if (heat) {
-    // Colours in `level` units: the value, or its log10.
-    auto level_of = [&](double v) {
-      return heat->log_scale ? (v > 0 ? std::log10(v) : std::nan("")) : v;
-    };
-    auto value_of = [&](double l) { return heat->log_scale ? std::pow(10.0, l) : l; };
-    Range vr;
-    for (double v : heat->values) vr.add(level_of(v));
-    if (heat->range) vr = {level_of(heat->range->first), level_of(heat->range->second)};
-    if (vr.ok()) {
-      const double span = vr.hi > vr.lo ? vr.hi - vr.lo : 1.0;
-      cv::Mat level(ph, pw, CV_8U, cv::Scalar(0)), valid(ph, pw, CV_8U, cv::Scalar(0));
-      for (int r = 0; r < ph; ++r)
-        for (int c = 0; c < pw; ++c) {
-          const double xt = x0 + (c + 0.5) / pw * (x1 - x0);
-          const double f = (r + 0.5) / ph;
-          const double yt = spec.y_down ? y0 + f * (y1 - y0) : y1 - f * (y1 - y0);
-          const double v = level_of(heat_at(*heat, spec.log_x ? std::pow(10.0, xt) : xt,
-                                            spec.log_y ? std::pow(10.0, yt) : yt));
-          if (!std::isfinite(v)) continue;
-          level.at<uint8_t>(r, c) =
-              static_cast<uint8_t>(std::clamp((v - vr.lo) / span, 0.0, 1.0) * 255);
-          valid.at<uint8_t>(r, c) = 255;
-        }
-      cv::Mat coloured;
-      cv::applyColorMap(level, coloured, cv::COLORMAP_VIRIDIS);
-      coloured.copyTo(img(cv::Rect(left, top, pw, ph)), valid);
-      // Colour bar with its range.
-      cv::Mat bar(ph, 16, CV_8U);
-      for (int r = 0; r < ph; ++r) bar.row(r).setTo(255 - r * 255 / std::max(1, ph - 1));
-      cv::Mat bar_c;
-      cv::applyColorMap(bar, bar_c, cv::COLORMAP_VIRIDIS);
-      bar_c.copyTo(img(cv::Rect(width - right + 10, top, 16, ph)));
-      for (int k = 0; k <= 4; ++k)
-        cv::putText(img, tick_text(value_of(vr.hi - k * (vr.hi - vr.lo) / 4)),
-                    cv::Point(width - right + 30, top + 4 + k * ph / 4), cv::FONT_HERSHEY_SIMPLEX,
-                    0.38, black, 1, cv::LINE_AA);
-      cv::putText(img, heat->label, cv::Point(width - right - 10, top - 8),
-                  cv::FONT_HERSHEY_SIMPLEX, 0.4, black, 1, cv::LINE_AA);
-    }
-  }
-
-  cv::rectangle(img, cv::Point(left, top), cv::Point(left + pw, top + ph), black, 1);
-  for (int k = 0; k <= 4; ++k) {
-    const double xt = x0 + mx + k * (x1 - x0 - 2 * mx) / 4,
-                 yt = y0 + my + k * (y1 - y0 - 2 * my) / 4;
-    const int xp = static_cast<int>(col_of(xt)), yp = static_cast<int>(row_of(yt));
-    if (!heat) {
-      cv::line(img, cv::Point(xp, top), cv::Point(xp, top + ph), grey, 1);
-      cv::line(img, cv::Point(left, yp), cv::Point(left + pw, yp), grey, 1);
-    }
-    cv::putText(img, tick_text(spec.log_x ? std::pow(10.0, xt) : xt),
-                cv::Point(xp - 15, top + ph + 18), cv::FONT_HERSHEY_SIMPLEX, 0.4, black, 1,
-                cv::LINE_AA);
-    cv::putText(img, tick_text(spec.log_y ? std::pow(10.0, yt) : yt), cv::Point(5, yp + 4),
-                cv::FONT_HERSHEY_SIMPLEX, 0.4, black, 1, cv::LINE_AA);
-  }
-  cv::putText(img, spec.title, cv::Point(left, 25), cv::FONT_HERSHEY_SIMPLEX, 0.55, black, 1,
-              cv::LINE_AA);
-  cv::putText(img, spec.x_label, cv::Point(left + pw / 2 - 40, height - 12),
-              cv::FONT_HERSHEY_SIMPLEX, 0.45, black, 1, cv::LINE_AA);
-  cv::putText(img, spec.y_label, cv::Point(left + 5, top + 15), cv::FONT_HERSHEY_SIMPLEX, 0.45,
-              black, 1, cv::LINE_AA);
-
-  // Series are clipped to the plot area.
-  cv::Mat area = img(cv::Rect(left, top, pw, ph));
-  const cv::Point origin(left, top);
-  int legend_y = top + 35;
-  for (const PlotSeries& s : spec.series) {
-    const cv::Scalar c = colour_of(s.color_bgr);
-    std::vector<cv::Point> poly;
-    for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
-      if (!drawable(s.x[i], s.y[i])) continue;
-      const cv::Point p = px(s.x[i], s.y[i]) - origin;
-      if (s.line) {
-        poly.push_back(p);
-      } else if (i < s.dx.size() && i < s.dy.size()) {
-        if (drawable(s.x[i] + s.dx[i], s.y[i] + s.dy[i]))
-          cv::line(area, p, px(s.x[i] + s.dx[i], s.y[i] + s.dy[i]) - origin, c, 1, cv::LINE_AA);
-      } else if (s.bar_width > 0) {
-        const double base = spec.log_y ? std::pow(10.0, y0) : 0.0;
-        cv::rectangle(area, px(s.x[i] - 0.5 * s.bar_width, base) - origin,
-                      px(s.x[i] + 0.5 * s.bar_width, s.y[i]) - origin, c, cv::FILLED);
-      } else {
-        cv::circle(area, p, std::max(0, s.marker_px), c, cv::FILLED, cv::LINE_AA);
-        if (i < s.y_error.size() && std::isfinite(s.y_error[i]) && !spec.log_y)
-          cv::line(area, px(s.x[i], s.y[i] - s.y_error[i]) - origin,
-                   px(s.x[i], s.y[i] + s.y_error[i]) - origin, c, 1);
-      }
-    }
-    if (poly.size() > 1) cv::polylines(area, poly, false, c, 2, cv::LINE_AA);
-    if (!s.label.empty()) {
-      cv::putText(img, s.label, cv::Point(left + pw - 200, legend_y), cv::FONT_HERSHEY_SIMPLEX, 0.4,
-                  c, 1, cv::LINE_AA);
-      legend_y += 16;
-    }
-  }
-  try {
-    if (!cv::imwrite(png_path.string(), img))
-      return make_error("io_error", "cannot write " + png_path.string());
-  } catch (const cv::Exception& e) {
-    return make_error("io_error", "cannot write " + png_path.string() + ": " + e.what());
-  }
-  return {};
+Status write_plot(const std::filesystem::path& png_path, const PlotSpec& spec) {
+  int points = 0;
+  const std::string script = gnuplot_script(png_path, spec, &points);
+  if (points == 0 && !(spec.heatmap && !spec.heatmap->values.empty()))
+    return make_error("empty_plot", "nothing to plot in " + spec.title);
+  std::filesystem::path script_path = png_path;
+  script_path.replace_extension(".gp");
+  if (Status written = write_file_atomically(script_path, script); !written) return written;
+  return run_gnuplot(script_path);
 }
 
 }  // namespace camlab::analysis

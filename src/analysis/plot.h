@@ -1,10 +1,10 @@
-// Minimal plots as PNG (OpenCV drawing) for analysis and calibration reports: measured
-// points with error bars, fitted curves, vectors (residuals over an imager), histogram
-// bars, and a heat map with a colour bar (uncertainty or distortion over an imager), on
-// linear or log axes. Not a plotting library: one panel, auto-scaled axes with 5 ticks
-// (or fixed ranges), one title.
+// Plots for analysis and calibration reports: measured points with error bars, fitted
+// curves, vectors (residuals over an imager), histogram bars, and a heat map with a colour
+// bar (uncertainty or distortion over an imager), on linear or log axes. A PlotSpec says
+// what to draw; gnuplot draws it (round ticks, legends beside the data, viridis colour
+// bars), from a script written beside the PNG.
 //
-// Reentrant.
+// Reentrant (each plot runs its own gnuplot process).
 #pragma once
 
 #include <filesystem>
@@ -56,8 +56,15 @@ struct PlotSpec {
   int width_px = 640, height_px = 420;
 };
 
-// Writes a PNG. Non-finite points (and non-positive ones on a log axis) are skipped.
-// Errors: "empty_plot" (no drawable point and no heat map), "io_error".
+// Writes the PNG and, beside it, the gnuplot script that drew it (png_path with ".gp").
+// Non-finite points (and non-positive ones on a log axis) are skipped. Errors:
+// "empty_plot" (no drawable point and no heat map), "io_error", "plotter_failed" (gnuplot
+// missing, or it refused the script: its message).
 Status write_plot(const std::filesystem::path& png_path, const PlotSpec& spec);
+
+// The script write_plot() runs, with the data inline; `points` gets the number of
+// drawable points of all series.
+std::string gnuplot_script(const std::filesystem::path& png_path, const PlotSpec& spec,
+                           int* points);
 
 }  // namespace camlab::analysis

@@ -82,6 +82,7 @@ enum class ErrorCode : uint8_t {
   kNoEdgeGeometry,
   kNoVShape,
   kEmptyPlot,
+  kPlotterFailed,
   // Calibration.
   kBoardNotFound,
   kDuplicateView,
@@ -228,6 +229,9 @@ inline constexpr std::array kErrorCodes = {
     ErrorCodeInfo{ErrorCode::kNoVShape, "no_v_shape", 422,
                   "Blur against focus does not trace a V, so there is no best focus to give."},
     ErrorCodeInfo{ErrorCode::kEmptyPlot, "empty_plot", 422, "Nothing to plot."},
+    ErrorCodeInfo{ErrorCode::kPlotterFailed, "plotter_failed", 500,
+                  "gnuplot, which draws the plots, is not installed or refused the plot (the "
+                  "measurement itself is unaffected)."},
     ErrorCodeInfo{ErrorCode::kBoardNotFound, "board_not_found", 422,
                   "The image shows no calibration board of the given size (no complete "
                   "chessboard, no corner of a ChArUco board)."},

@@ -63,7 +63,7 @@ TEST(AnalyzeCli, DefocusJsonReportAndPlots) {
   EXPECT_NEAR(aperture["k_relative_to_thin_lens"].get<double>(), 0.0, 0.02);
   std::ifstream file(report);
   EXPECT_EQ(nlohmann::json::parse(file), j);
-  EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(plots) / "edge_coc_vs_n.png"));
+  EXPECT_TRUE(std::filesystem::exists(std::filesystem::path(plots) / "coc_vs_n.png"));
   // Text output names the fit.
   const auto text = camlab::testing::run_cli("analyze defocus " + dir.string());
   EXPECT_NE(text.out.find("C x N = k"), std::string::npos);

@@ -72,10 +72,10 @@ TEST_F(CalibrateFolder, WritesTheOutputsAndReportsTheUncertainty) {
   const double centre = u["points"][0]["at_infinity_px"].get<double>();
   EXPECT_GT(centre, 0.0);
   EXPECT_LT(centre, 0.15);
-  // Five plots, each a readable image of the requested size.
-  ASSERT_EQ((*j)["files"]["plots"].size(), 5u) << j->dump();
-  for (const char* name : {"residuals.png", "residual_histogram.png", "coverage.png",
-                           "uncertainty.png", "distortion.png"}) {
+  // Six plots, each a readable image of the requested size.
+  ASSERT_EQ((*j)["files"]["plots"].size(), 6u) << j->dump();
+  for (const char* name : {"residuals.png", "residuals_per_view.png", "residual_histogram.png",
+                           "coverage.png", "uncertainty.png", "distortion.png"}) {
     const cv::Mat img = cv::imread((o.plots_dir / name).string());
     ASSERT_FALSE(img.empty()) << name;
     EXPECT_GE(img.cols, 640) << name;
