@@ -228,8 +228,16 @@ void list_plots(const ServiceContext& context, const PathParams& params, Reply r
   if (!job->folder.empty() && job->kind != "capture" &&
       within_data_dir(context.data_dir, std::filesystem::path(job->folder) / "plots")) {
     const std::string base = "/v1/jobs/" + std::to_string(job->id) + "/plots/";
-    for (const auto& name : plot_names(context.data_dir / job->folder / "plots"))
-      plots.push_back({{"name", name}, {"image", base + name}});
+    const std::filesystem::path dir = context.data_dir / job->folder / "plots";
+    for (const auto& name : plot_names(dir)) {
+      nlohmann::json plot = {{"name", name}, {"image", base + name}};
+      // The chart's data beside it (analysis/plot.h), for pages that draw it themselves.
+      const std::string data = std::filesystem::path(name).replace_extension(".json").string();
+      std::error_code ec;
+      if (std::filesystem::is_regular_file(dir / data, ec))
+        plot["data"] = "/v1/jobs/" + std::to_string(job->id) + "/files/plots/" + data;
+      plots.push_back(std::move(plot));
+    }
   }
   reply(json_response(200, {{"job_id", job->id},
                             {"kind", job->kind},

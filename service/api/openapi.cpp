@@ -388,9 +388,10 @@ void add_dashboard_paths(json& paths, const json& camera_id, const json& job_id,
                  merge(ok(200, "region statistics", object),
                        error_responses({400, 401, 404, 422, 503})))}};
   paths["/v1/jobs/{id}/plots"] = {
-      {"get", operation("The plots an analysis or calibration job drew", "jobs", {job_id},
-                        merge(ok(200, "{plots: [{name, image}]}", object),
-                              error_responses({400, 401, 404})))}};
+      {"get",
+       operation("The plots an analysis or calibration job drew", "jobs", {job_id},
+                 merge(ok(200, "{plots: [{name, image, data}]}: data, the chart as JSON", object),
+                       error_responses({400, 401, 404})))}};
   paths["/v1/jobs/{id}/plots/{name}"] = {
       {"get",
        operation("One plot (PNG)", "jobs",

@@ -3,7 +3,7 @@
 // capture form, jobs. Everything goes through camlabd's public API (docs/service.md).
 
 import { api, clearToken, enc, onUnauthorized, setToken, token } from './api.js';
-import { setUpCaptureForm } from './captures.js';
+import { setUpCaptureForm, showFormats } from './captures.js';
 import { ControlsPanel } from './controls.js';
 import { drawHistogram } from './histogram.js';
 import { JobsPanel } from './jobs.js';
@@ -86,6 +86,7 @@ async function refreshCamera() {
   try {
     const camera = await api(`/v1/cameras/${enc(state.cameraId)}`);
     controls.render(camera);
+    showFormats($('capture-form'), camera.formats);
     const busy = camera.running_job !== null && camera.running_job !== undefined;
     state.cameraReady = camera.available && !camera.measuring_latency;
     $('camera-state').textContent = !camera.available ? 'unavailable'

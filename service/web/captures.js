@@ -18,6 +18,8 @@ export function captureRequest(form) {
   const request = { kind, repeats };
   const label = form.querySelector('#capture-label').value.trim();
   if (label) request.label = label;
+  const format = form.querySelector('#capture-format').value;
+  if (format) request.format = JSON.parse(format);
   if (kind === 'bracket') {
     request.exposures_us = numbers(form.querySelector('#bracket-exposures').value, 'Exposures');
   } else if (kind === 'focus_stack') {
@@ -33,6 +35,32 @@ export function captureRequest(form) {
     request.step = Number(form.querySelector('#lens-map-step').value);
   }
   return request;
+}
+
+// The camera's formats, sizes and frame rates (GET /v1/cameras/{id}) to choose from; the
+// first choice leaves it to camlabd (the format keeping the most signal, the largest
+// size). Rebuilt only when the list changes, so a choice survives the periodic refresh.
+export function showFormats(form, formats) {
+  const select = form.querySelector('#capture-format');
+  const key = JSON.stringify(formats || []);
+  if (select.dataset.key === key) return;
+  select.dataset.key = key;
+  const chosen = select.value;
+  const options = [new Option("camlabd's choice: most signal, largest size", '')];
+  for (const f of formats || [])
+    for (const size of f.sizes || [])
+      for (const interval of size.intervals.length ? size.intervals : [null]) {
+        const value = { fourcc: f.fourcc, width: size.width_px, height: size.height_px };
+        let text = `${f.fourcc.trim()} ${size.width_px} x ${size.height_px}`;
+        if (interval && interval.frame_interval_s > 0) {
+          value.frame_interval_us = Math.round(interval.frame_interval_s * 1e6);
+          text += ` @ ${Number(interval.frames_per_second.toFixed(2))} frames/s`;
+        }
+        text += f.description ? ` (${f.description})` : '';
+        options.push(new Option(text, JSON.stringify(value)));
+      }
+  select.replaceChildren(...options);
+  if ([...select.options].some((o) => o.value === chosen)) select.value = chosen;
 }
 
 // Wires the form; `cameraId()` gives the selected camera, `onQueued(job)` is told of the job.

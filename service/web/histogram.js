@@ -49,6 +49,33 @@ export function drawHistogram(canvas, table, histogram, { log }) {
     ctx.stroke();
   }
 
+  // Samples at or above the white level pile up in the bin under its dashed line, where a
+  // line alone would hide them: each channel's clipped bin gets a triangle at its count
+  // and the share clipped beside it.
+  let labelY = top + 26;
+  const whiteBin = Math.min(histogram.bins - 1, Math.floor(histogram.white_level_dn / histogram.bin_width_dn));
+  for (const c of histogram.channels) {
+    if (!c.clipped_high) continue;
+    const n = c.counts.slice(whiteBin).reduce((a, b) => a + b, 0);
+    const px = x((whiteBin + 0.5) * histogram.bin_width_dn);
+    const py = y(n);
+    ctx.fillStyle = COLOURS[c.channel] || '#fff';
+    ctx.strokeStyle = '#f66';
+    ctx.beginPath();
+    ctx.moveTo(px, py - 2);
+    ctx.lineTo(px - 6, py - 12);
+    ctx.lineTo(px + 6, py - 12);
+    ctx.closePath();
+    ctx.fill();
+    ctx.stroke();
+    ctx.font = '11px sans-serif';
+    ctx.textAlign = 'right';
+    ctx.fillText(`${c.channel} ${(100 * c.clipped_high_fraction).toFixed(2)} % clipped`, px - 8, labelY);
+    labelY += 13;
+  }
+  ctx.textAlign = 'left';
+  canvas.dataset.clippedMarked = String(histogram.channels.filter((c) => c.clipped_high).length);
+
   // DN ticks under the axis (the last one right-aligned to stay inside), the unit below.
   ctx.fillStyle = '#aaa';
   ctx.font = '11px sans-serif';

@@ -5,6 +5,7 @@
 // uncertainty).
 
 import { api, esc, imageUrl, readEvents, request, sleep } from './api.js';
+import { drawChart } from './charts.js';
 import { resultLines } from './summaries.js';
 
 const FINAL = new Set(['succeeded', 'failed', 'cancelled', 'interrupted', 'device_lost']);
@@ -265,6 +266,8 @@ export class JobsPanel {
     }
   }
 
+  // Each plot as an interactive chart (uPlot, from the plot's data) where it is one of
+  // points and lines, else gnuplot's PNG; the PNG of a chart is a click away.
   async showPlots(job) {
     const { plots: all } = await api(`/v1/jobs/${job.id}/plots`);
     // Raw-DN images are data, not pictures (their display-mapped twin is shown); they are
@@ -272,20 +275,45 @@ export class JobsPanel {
     const plots = all.filter((plot) => !plot.name.endsWith('_raw.png'));
     for (const plot of plots) {
       const figure = document.createElement('figure');
-      const img = document.createElement('img');
-      img.className = 'plot';
-      img.alt = plot.name;
-      img.dataset.name = plot.name;
-      const url = await imageUrl(plot.image);
-      this.urls.push(url);
-      img.src = url;
+      figure.dataset.name = plot.name;
+      this.e.plots.append(figure);
+      const chart = plot.data ? await api(plot.data).catch(() => null) : null;
+      const holder = document.createElement('div');
+      holder.className = 'chart';
+      figure.append(holder);
+      if (chart && drawChart(holder, chart)) {
+        figure.dataset.drawn = 'chart';
+        const toggle = document.createElement('button');
+        toggle.type = 'button';
+        toggle.textContent = 'PNG';
+        toggle.title = "gnuplot's drawing of the same data, as --plots writes it";
+        toggle.addEventListener('click', async () => {
+          toggle.disabled = true;
+          figure.append(await this.plotImage(job, plot));
+        });
+        figure.append(toggle);
+      } else {
+        holder.remove();
+        figure.dataset.drawn = 'image';
+        figure.append(await this.plotImage(job, plot));
+      }
       const caption = document.createElement('figcaption');
       caption.textContent = plot.name.replace(/\.png$/, '').replaceAll('_', ' ');
-      figure.append(img, caption);
-      this.e.plots.append(figure);
+      figure.append(caption);
     }
     if (!plots.length && job.state === 'succeeded')
       this.e.plots.textContent = 'This job drew no plots.';
+  }
+
+  async plotImage(job, plot) {
+    const img = document.createElement('img');
+    img.className = 'plot';
+    img.alt = plot.name;
+    img.dataset.name = plot.name;
+    const url = await imageUrl(plot.image);
+    this.urls.push(url);
+    img.src = url;
+    return img;
   }
 
   async showFrames(job) {

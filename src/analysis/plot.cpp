@@ -233,6 +233,54 @@ std::string gnuplot_script(const std::filesystem::path& png_path, const PlotSpec
   return s + data + "plot " + terms + "\n";
 }
 
+nlohmann::json to_json(const PlotSpec& spec) {
+  using nlohmann::json;
+  auto values = [](const std::vector<double>& v) {
+    json out = json::array();
+    for (double x : v) out.push_back(std::isfinite(x) ? json(x) : json(nullptr));
+    return out;
+  };
+  auto range = [](const std::optional<std::pair<double, double>>& r) {
+    return r ? json::array({r->first, r->second}) : json(nullptr);
+  };
+  json series = json::array();
+  for (const PlotSeries& s : spec.series) {
+    json j = {{"label", s.label},
+              {"line", s.line},
+              {"colour", format_printf("#%02x%02x%02x", s.color_bgr & 255, (s.color_bgr >> 8) & 255,
+                                       (s.color_bgr >> 16) & 255)},
+              {"x", values(s.x)},
+              {"y", values(s.y)}};
+    if (!s.y_error.empty()) j["y_error"] = values(s.y_error);
+    if (!s.dx.empty()) j["dx"] = values(s.dx), j["dy"] = values(s.dy);
+    if (s.bar_width > 0) j["bar_width"] = s.bar_width;
+    series.push_back(std::move(j));
+  }
+  json out = {{"title", spec.title},
+              {"x_label", spec.x_label},
+              {"y_label", spec.y_label},
+              {"log_x", spec.log_x},
+              {"log_y", spec.log_y},
+              {"y_down", spec.y_down},
+              {"x_range", range(spec.x_range)},
+              {"y_range", range(spec.y_range)},
+              {"series", std::move(series)}};
+  if (spec.heatmap) {
+    const PlotHeatmap& h = *spec.heatmap;
+    out["heatmap"] = {{"cols", h.cols},
+                      {"rows", h.rows},
+                      {"x0", h.x0},
+                      {"x1", h.x1},
+                      {"y0", h.y0},
+                      {"y1", h.y1},
+                      {"label", h.label},
+                      {"log_scale", h.log_scale},
+                      {"range", range(h.range)},
+                      {"values", values(h.values)}};
+  }
+  return out;
+}
+
 Status write_plot(const std::filesystem::path& png_path, const PlotSpec& spec) {
   int points = 0;
   const std::string script = gnuplot_script(png_path, spec, &points);
@@ -241,6 +289,10 @@ Status write_plot(const std::filesystem::path& png_path, const PlotSpec& spec) {
   std::filesystem::path script_path = png_path;
   script_path.replace_extension(".gp");
   if (Status written = write_file_atomically(script_path, script); !written) return written;
+  std::filesystem::path data_path = png_path;
+  data_path.replace_extension(".json");
+  if (Status written = write_file_atomically(data_path, to_json(spec).dump() + "\n"); !written)
+    return written;
   return run_gnuplot(script_path);
 }
 

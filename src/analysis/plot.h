@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "base/result.h"
 
 namespace camlab::analysis {
@@ -56,11 +58,19 @@ struct PlotSpec {
   int width_px = 640, height_px = 420;
 };
 
-// Writes the PNG and, beside it, the gnuplot script that drew it (png_path with ".gp").
+// Writes the PNG and, beside it, the gnuplot script that drew it (png_path with ".gp")
+// and the chart's data (".json", to_json below).
 // Non-finite points (and non-positive ones on a log axis) are skipped. Errors:
 // "empty_plot" (no drawable point and no heat map), "io_error", "plotter_failed" (gnuplot
 // missing, or it refused the script: its message).
 Status write_plot(const std::filesystem::path& png_path, const PlotSpec& spec);
+
+// What the plot shows, as data, for pages that draw it themselves (the dashboard's
+// interactive charts): {title, x_label, y_label, log_x, log_y, y_down, x_range, y_range,
+// series: [{label, line, colour: "#rrggbb", x, y, y_error?, dx?, dy?, bar_width?}],
+// heatmap?: {cols, rows, x0, x1, y0, y1, label, log_scale, range?, values}}; non-finite
+// numbers become null. write_plot() writes it beside the PNG (png_path with ".json").
+nlohmann::json to_json(const PlotSpec& spec);
 
 // The script write_plot() runs, with the data inline; `points` gets the number of
 // drawable points of all series.

@@ -133,6 +133,25 @@ async function main() {
   check(Math.abs(ratio - 2) < 0.06, `the histogram's mean above black follows the exposure: x${ratio.toFixed(3)} for x2`);
   await page.screenshot({ path: path.join(screenshots, 'exposure-histogram.png') });
 
+  // Overexposed: the clipped bin is marked with its share, as camlabd counts it.
+  const setExposure = async (value) => {
+    await page.fill(exposureInput, String(value));
+    await page.locator(exposureInput).evaluate((el) => el.dispatchEvent(new Event('change')));
+    await page.waitForFunction((t) => (document.querySelector('[data-applied-for="exposure_time_absolute"]') || {})
+      .textContent?.includes(`applied ${t}`), value, { timeout: 10000 });
+  };
+  const maxExposure = Number(await page.getAttribute(exposureInput, 'max'));
+  await setExposure(Math.min(maxExposure, target * 40));
+  const clippedShown = await waitFor('the clipped bin to be marked', () => page.evaluate(() =>
+    Number(document.querySelector('#histogram-canvas').dataset.clippedMarked) > 0 &&
+    document.querySelector('#histogram-stats').textContent), 20000).catch(() => '');
+  const servedHistogram = await (await fetch(`${base}/v1/cameras/${encodeURIComponent(cameraId)}/histogram`, { headers: auth })).json();
+  const share = (servedHistogram.channels[0].clipped_high_fraction * 100).toFixed(1);
+  check(Boolean(clippedShown) && servedHistogram.channels[0].clipped_high > 0,
+    `overexposed, the histogram marks its clipped bin (camlabd: ${share} % clipped)`);
+  await page.locator('#histogram-panel').screenshot({ path: path.join(screenshots, 'histogram-clipped.png') });
+  await setExposure(target);
+
   // Overlays: focus peaking and clipping.
   await page.check('#live-peaking');
   await page.check('#live-clipping');
@@ -149,6 +168,20 @@ async function main() {
   check(green > 100, `focus peaking marks the sharp edges (${green} px)`);
   await page.locator('#live-panel').screenshot({ path: path.join(screenshots, 'live-overlays.png') });
 
+  // The camera's formats, sizes and frame rates to choose from: every one it lists; the
+  // bracket is taken in a chosen one (a linear one other than camlabd's own choice, if any).
+  const camera = await (await fetch(`${base}/v1/cameras/${encodeURIComponent(cameraId)}`, { headers: auth })).json();
+  const listed = camera.formats.reduce((n, f) => n + f.sizes.reduce((m, z) => m + Math.max(1, z.intervals.length), 0), 0);
+  await page.waitForFunction((n) => document.querySelectorAll('#capture-format option').length === n + 1,
+    listed, { timeout: 10000 }).catch(() => {});
+  const formatOptions = await page.evaluate(() =>
+    [...document.querySelectorAll('#capture-format option')].map((o) => o.value).filter((v) => v).map((v) => JSON.parse(v)));
+  check(formatOptions.length === listed && listed > 0,
+    `the capture form offers each of the camera's ${listed} formats x sizes x frame rates`);
+  const linear = formatOptions.filter((f) => !['MJPG', 'JPEG', 'YUYV'].includes(f.fourcc.trim()));
+  const chosenFormat = linear[linear.length - 1] || formatOptions[0];
+  await page.selectOption('#capture-format', JSON.stringify(chosenFormat));
+
   // A bracket from the page, then its exposure analysis and the linearity plot.
   await page.selectOption('#capture-kind', 'bracket');
   await page.fill('#bracket-exposures', '1000, 2000, 4000, 8000');
@@ -161,12 +194,31 @@ async function main() {
     [...document.querySelectorAll('#job-frames img.thumbnail')].every((i) => i.complete && i.naturalWidth > 0),
   null, { timeout: 30000 });
   check(true, 'its 8 frames show as thumbnails with their settings');
+  const bracketJob = await (await fetch(`${base}/v1/jobs/${jobId}`, { headers: auth })).json();
+  const frameMeta = await (await fetch(`${base}/v1/jobs/${jobId}/frames/0/meta`, { headers: auth })).json();
+  check(bracketJob.request.format.fourcc.trim() === chosenFormat.fourcc.trim() &&
+    bracketJob.request.format.width === chosenFormat.width &&
+    frameMeta.delivered_format.trim() === chosenFormat.fourcc.trim(),
+  `the bracket ran in the format chosen on the page (${chosenFormat.fourcc.trim()} ${chosenFormat.width} x ${chosenFormat.height}; frames delivered as ${frameMeta.delivered_format})`);
   await page.click('#job-actions button[data-analysis="exposure"]');
+  await page.waitForSelector('#job-plots figure[data-name="linearity.png"][data-drawn="chart"] .uplot canvas',
+    { timeout: 120000 });
+  // The interactive chart holds the plot's own data: every point the analysis wrote.
+  const analysisId = await page.evaluate(() => document.querySelector('#job-panel').dataset.jobId);
+  const plotList = (await (await fetch(`${base}/v1/jobs/${analysisId}/plots`, { headers: auth })).json()).plots;
+  const linearityData = await (await fetch(`${base}${plotList.find((p) => p.name === 'linearity.png').data}`,
+    { headers: auth })).json();
+  const finite = linearityData.series.reduce((n, s) => n + s.y.filter((v, i) => v !== null && s.x[i] !== null).length, 0);
+  const chartPoints = Number(await page.evaluate(() =>
+    document.querySelector('#job-plots figure[data-name="linearity.png"] .chart').dataset.points));
+  check(chartPoints === finite && finite > 0,
+    `the exposure analysis started from the page charts its linearity (uPlot, ${chartPoints} points of the plot's data)`);
+  await page.click('#job-plots figure[data-name="linearity.png"] button');
   await page.waitForFunction(() => {
-    const img = document.querySelector('#job-plots img.plot[data-name="linearity.png"]');
+    const img = document.querySelector('#job-plots figure[data-name="linearity.png"] img.plot');
     return img && img.complete && img.naturalWidth > 0;
-  }, null, { timeout: 120000 });
-  check(true, 'the exposure analysis started from the page shows its linearity plot');
+  }, null, { timeout: 20000 });
+  check(true, "and its PNG (gnuplot's drawing) one click away");
   const summary = await page.textContent('#job-summary');
   const linearity = Number((summary.match(/linearity: max error ([\d.]+) %/) || [])[1]);
   check(linearity < 1, `the bracket is linear within 1 % (max error ${linearity} %)`);

@@ -102,13 +102,15 @@ async function main() {
     check(!/NaN|undefined/.test(shown), `the ${what}'s summary shows no NaN or undefined`);
     const plots = (await call(`/v1/jobs/${jobId}/plots`)).plots.filter((p) => !p.name.endsWith('_raw.png'));
     if (plots.length) {
-      await page.waitForFunction((n) => {
-        const images = [...document.querySelectorAll('#job-plots img.plot')];
-        return images.length === n && images.every((i) => i.complete && i.naturalWidth > 0);
-      }, plots.length, { timeout: 30000 }).catch(() => {});
-      const loaded = await page.evaluate(() =>
-        [...document.querySelectorAll('#job-plots img.plot')].filter((i) => i.naturalWidth > 0).length);
-      check(loaded === plots.length, `the ${what} shows its ${plots.length} plot(s)`);
+      // Each an interactive chart or, for heat maps and the like, gnuplot's PNG.
+      const shownPlots = () => page.evaluate(() => [...document.querySelectorAll('#job-plots figure')]
+        .filter((f) => (f.dataset.drawn === 'chart' && f.querySelector('.uplot canvas')) ||
+          (f.dataset.drawn === 'image' && f.querySelector('img.plot').complete &&
+           f.querySelector('img.plot').naturalWidth > 0)).length);
+      await waitFor(`the ${what}'s plots`, async () => (await shownPlots()) === plots.length, 30000).catch(() => {});
+      const charts = await page.evaluate(() => document.querySelectorAll('#job-plots figure[data-drawn="chart"]').length);
+      check(await shownPlots() === plots.length,
+        `the ${what} shows its ${plots.length} plot(s), ${charts} as interactive charts`);
     }
     await page.locator('#job-panel').screenshot({ path: path.join(screenshots, `result-${kind}-${capture}.png`) });
   }
