@@ -2,7 +2,8 @@
 // MIT, from npm; docs/dashboard.md says why uPlot) from the data each plot's PNG was drawn
 // from (analysis/plot.h: GET .../files/plots/NAME.json). Hovering reads every series' value;
 // dragging zooms, a double click resets. Charts of points and lines are drawn here; heat
-// maps, vector fields and bar charts keep gnuplot's PNG, which is always a click away.
+// maps, vector fields, bar charts and image panels keep gnuplot's PNG, which is always a
+// click away.
 
 /* global uPlot */
 
@@ -10,7 +11,9 @@ const SIZE = { width: 640, height: 380 };
 
 // One chart of points and lines, or null when the data is of another kind.
 export function drawChart(container, chart) {
-  if (typeof uPlot === 'undefined' || chart.heatmap ||
+  // Image panels (y down, one pixel as long on both axes) stay gnuplot's, drawn as the
+  // imager is.
+  if (typeof uPlot === 'undefined' || chart.heatmap || chart.y_down ||
     chart.series.some((s) => s.dx || s.bar_width) || !chart.series.length) return null;
   // uPlot's series share one x array: the union of every series' x, each series null where
   // it has no point (lines span those gaps).

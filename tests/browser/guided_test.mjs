@@ -3,17 +3,21 @@
 // page: a session is started, a view taken; the panel must show the suggestion camlabd
 // made (the same words as GET /v1/calibration-sessions/{id}) and draw the suggested board
 // over the live view; the same view taken again is refused as a repeat of view 0, and the
-// page says so with camlabd's code. Every wait is bounded.
+// page says so with camlabd's code. Then a calibration of a rendered set of 40 views (the
+// same board in 40 poses, `camlab render`) opens on its summary: the model, the RMS, the
+// field of view and focal length with their 1-sigma errors as the report gives them, and
+// its plots. Every wait is bounded.
 //
-//   node guided_test.mjs CAMLABD_PATH SOURCE_DIR
+//   node guided_test.mjs CAMLABD_PATH SOURCE_DIR CAMLAB_CLI_PATH
+import { execFileSync } from 'node:child_process';
 import path from 'node:path';
-import { check, loggedInPage, run, screenshots, startDaemon } from './harness.mjs';
+import { check, loggedInPage, run, screenshots, startDaemon, waitFor } from './harness.mjs';
 
-const [camlabd, sourceDir] = process.argv.slice(2);
+const [camlabd, sourceDir, cli] = process.argv.slice(2);
 
 async function main() {
   const examples = path.join(sourceDir || '', 'mock_device', 'examples');
-  const { base, token, auth } = await startDaemon(camlabd, ['--no-scan',
+  const { base, token, auth, data } = await startDaemon(camlabd, ['--no-scan',
     '--camera-spec', path.join(examples, 'camera_wide_1280x800.json'),
     '--scene', path.join(examples, 'scene_chessboard_calibration.json')]);
   const session = async (id) => (await fetch(`${base}/v1/calibration-sessions/${id}`, { headers: auth })).json();
@@ -79,6 +83,39 @@ async function main() {
   await page.click('#guided-cancel');
   await page.waitForSelector('#guided-session', { state: 'hidden', timeout: 10000 });
   check((await session(id)).state === 'cancelled', 'Cancel session ends the session');
+  // A calibration's page: what the report says, with units and 1-sigma errors.
+  execFileSync(cli, ['render', '--camera', path.join(examples, 'camera_wide_1280x800.json'),
+    '--scene', path.join(examples, 'scene_chessboard_calibration.json'),
+    '--out', path.join(data, 'imports', 'calib-set')], { stdio: 'ignore', timeout: 120000 });
+  const queued = await (await fetch(`${base}/v1/calibrations`, {
+    method: 'POST', headers: { ...auth, 'Content-Type': 'application/json' },
+    // One model, not the search over four: the page, not model selection, is under test.
+    body: JSON.stringify({ folder: 'imports/calib-set', inner_corners: [14, 10], spacing_m: 0.04,
+      model: 'LENSMODEL_OPENCV8' }),
+  })).json();
+  const calibration = await waitFor('the calibration to end', async () => {
+    const job = await (await fetch(`${base}/v1/jobs/${queued.id}?wait=20`, { headers: auth })).json();
+    return ['queued', 'running'].includes(job.state) ? null : job;
+  }, 240000);
+  check(calibration.state === 'succeeded', `the calibration of the rendered set (job ${queued.id}) succeeded`);
+  await page.click(`#jobs tr[data-job-id="${queued.id}"]`);
+  await page.waitForSelector(`#job-panel[data-job-id="${queued.id}"] #job-plots figure`, { timeout: 30000 });
+  const report = calibration.result.report;
+  const summary = await page.textContent('#job-summary');
+  const fov = `field of view ${report.fov_deg.horizontal.toFixed(2)} ± ${report.sigma_1.fov_deg.horizontal.toFixed(2)} x ` +
+    `${report.fov_deg.vertical.toFixed(2)} ± ${report.sigma_1.fov_deg.vertical.toFixed(2)} deg`;
+  check(summary.includes(`lens model ${report.lensmodel}`) &&
+    summary.includes(`RMS reprojection error ${report.residuals.rms_px.toFixed(3)} px over ${report.views.used} of ${report.views.total} views`),
+  `the calibration's page gives its model and RMS (${report.lensmodel}, ${report.residuals.rms_px.toFixed(3)} px)`);
+  check(summary.includes(fov) && summary.includes(`focal length ${report.fx_px.toFixed(2)} ± ${report.sigma_1.fx_px.toFixed(2)}`),
+    `and its FOV and focal length with their 1-sigma errors: "${fov}"`);
+  await page.waitForFunction(() => {
+    const img = document.querySelector('#job-plots figure[data-name="uncertainty.png"] img.plot');
+    return img && img.complete && img.naturalWidth > 0;
+  }, null, { timeout: 30000 });
+  check(true, 'and its projection uncertainty map');
+  await page.locator('#job-panel').screenshot({ path: path.join(screenshots, 'result-calibration.png') });
+
   check(consoleErrors.length === 0, `no console errors${consoleErrors.length ? `: ${consoleErrors.join(' | ')}` : ''}`);
 }
 

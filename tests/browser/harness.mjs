@@ -45,7 +45,8 @@ export async function startDaemon(camlabd, args = []) {
     return m ? Number(m[1]) : 0;
   }, 60000);
   const token = fs.readFileSync(path.join(dataDir, 'data', 'token'), 'utf8').trim();
-  return { base: `http://127.0.0.1:${port}`, token, auth: { Authorization: `Bearer ${token}` }, log };
+  return { base: `http://127.0.0.1:${port}`, token, auth: { Authorization: `Bearer ${token}` }, log,
+    data: path.join(dataDir, 'data') };
 }
 
 export async function launchBrowser() {

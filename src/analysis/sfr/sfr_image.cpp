@@ -8,7 +8,6 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "analysis/analysis_summary.h"
 #include "analysis/channel_signal.h"
 #include "analysis/edge/edge_finder.h"
 #include "base/format.h"
@@ -112,7 +111,15 @@ json summary_json(const Tally& t) {
   return {{"kind", "sfr"}, {"edges", t.edges}, {"measured", t.measured}, {"left_out", t.left_out}};
 }
 
-std::string summary_line(const Tally& t) { return summary_text(summary_json(t)); }
+// The words of analysis_summary.cpp's "sfr" summary (this room cannot include it: the
+// arrows point from the top of analysis/ into its rooms).
+std::string summary_line(const Tally& t) {
+  std::string left_text;
+  for (const auto& [status, count] : t.left_out)
+    left_text += (left_text.empty() ? "" : ", ") + std::to_string(count) + " " + status;
+  return "summary: " + std::to_string(t.measured) + " of " + std::to_string(t.edges) +
+         " edge fit(s) measured; left out: " + (left_text.empty() ? "none" : left_text) + "\n";
+}
 
 std::vector<EdgeSegment> edges_in(const cv::Mat& f, const SfrImageOptions& options) {
   EdgeFinderOptions finder;

@@ -10,6 +10,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "../../integration/cli_runner.h"
+#include "analysis/analysis_summary.h"
 #include "capture_fixture.h"
 #include "mock_device/render/render_capture.h"
 #include "sfr_edges.h"
@@ -216,6 +217,12 @@ TEST(AnalyzeCli, SfrOfAnEdgeDrawnHereIsItsClosedForm) {
   }
   // The finder may hand over the edge in two collinear pieces; each is measured.
   EXPECT_GE(measured, 1) << run.out;
+  // The text's summary line is the summary's own words (written twice: sfr/ cannot
+  // include analysis_summary.h).
+  const auto text = camlab::testing::run_cli("analyze sfr " + (dir / "edge.png").string());
+  EXPECT_NE(text.out.find(analysis::summary_text(report["summary"])), std::string::npos)
+      << text.out << "\n"
+      << report["summary"].dump();
 
   cv::imwrite((dir / "flat.png").string(), cv::Mat(120, 120, CV_8U, cv::Scalar(90)));
   const auto flat = camlab::testing::run_cli("analyze sfr " + (dir / "flat.png").string());
