@@ -167,6 +167,8 @@ async function main() {
   });
   check(green > 100, `focus peaking marks the sharp edges (${green} px)`);
   await page.locator('#live-panel').screenshot({ path: path.join(screenshots, 'live-overlays.png') });
+  // The rest needs no preview frames: paused, camlabd renders none beside the captures.
+  await page.click('#live-pause');
 
   // The camera's formats, sizes and frame rates to choose from: every one it lists; the
   // bracket is taken in a chosen one (a linear one other than camlabd's own choice, if any).

@@ -64,6 +64,7 @@ async function main() {
   }, first.suggestion);
   check(onOutline >= 8, `the suggested board is drawn over the live view along its top edge (${onOutline} of 19 samples)`);
   await page.locator('#live-panel').screenshot({ path: path.join(screenshots, 'guided-live.png') });
+  await page.click('#live-pause');  // the rest needs no preview frames
 
   // The board has not moved: the next view repeats view 0 and is refused with the reason.
   await page.click('#guided-take');
