@@ -52,10 +52,12 @@ std::string series_block(const PlotSpec& spec, const PlotSeries& s, const std::s
   std::string block = name + " << EOD\n";
   for (size_t i = 0; i < s.x.size() && i < s.y.size(); ++i) {
     if (!drawable(s.x[i], s.y[i])) continue;
+    // A vector is drawn whole or not at all (its end, too, must be drawable).
+    if (vectors &&
+        (i >= s.dx.size() || i >= s.dy.size() || !drawable(s.x[i] + s.dx[i], s.y[i] + s.dy[i])))
+      continue;
     block += number(s.x[i]) + " " + number(s.y[i]);
     if (vectors) {
-      if (i >= s.dx.size() || i >= s.dy.size() || !drawable(s.x[i] + s.dx[i], s.y[i] + s.dy[i]))
-        continue;
       block += " " + number(s.dx[i]) + " " + number(s.dy[i]);
     } else if (!s.y_error.empty()) {
       block += " " + number(i < s.y_error.size() && std::isfinite(s.y_error[i]) ? s.y_error[i] : 0);
