@@ -91,13 +91,19 @@ Status align_views(const std::vector<CalibrationRun>& runs,
   return {};
 }
 
-// `auto`: each camera's own selection; the one with the most parameters for all.
+// A model of mrcal's fisheye family: no pinhole core, a field up to 180 deg and beyond.
+bool is_fisheye_model(const std::string& lensmodel) {
+  return lensmodel.find("STEREOGRAPHIC") != std::string::npos ||
+         lensmodel.find("LONLAT") != std::string::npos ||
+         lensmodel.find("LATLON") != std::string::npos;
+}
+
+// `auto`: each camera's own selection, then common_rig_lensmodel().
 Result<std::string> rig_model(const RigCalibrateOptions& options, RigCalibrationRun* run) {
   const CalibrationData& first = run->data.cameras[0];
   if (options.model != "auto")
     return configured_lensmodel(options.model, first.imager_width_px, first.imager_height_px, 90);
-  std::string richest;
-  int richest_params = 0;
+  std::vector<LensModel> own;
   for (size_t c = 0; c < run->data.cameras.size(); ++c) {
     if (Status go = check_not_cancelled(options.cancel, "rig calibration"); !go) return go.error();
     CalibrationData seen = run->data.cameras[c];
@@ -109,16 +115,37 @@ Result<std::string> rig_model(const RigCalibrateOptions& options, RigCalibration
     auto selection = select_model(seen, o, default_candidate_models());
     if (!selection)
       return selection.error().with_context(format_printf("camera %zu, model selection: ", c));
-    const std::string& name = selection->chosen.model.lensmodel;
-    run->own_models.push_back(name);
-    const int params = static_cast<int>(selection->chosen.model.intrinsics.size());
-    if (params > richest_params) {
-      richest = name;
-      richest_params = params;
-    }
+    run->own_models.push_back(selection->chosen.model.lensmodel);
+    own.push_back(selection->chosen.model);
   }
-  return richest;
+  return common_rig_lensmodel(own);
 }
+
+}  // namespace
+
+Result<std::string> common_rig_lensmodel(const std::vector<LensModel>& own) {
+  if (own.empty()) return make_error("invalid_argument", "no camera's model to choose from");
+  std::string richest;
+  size_t richest_params = 0;
+  double widest_fov_deg = 0;
+  int fisheyes = 0;
+  for (const LensModel& m : own) {
+    if (m.intrinsics.size() > richest_params) {
+      richest = m.lensmodel;
+      richest_params = m.intrinsics.size();
+    }
+    fisheyes += is_fisheye_model(m.lensmodel);
+    const auto fov = field_of_view_parts(m);
+    if (fov && fov->horizontal_deg) widest_fov_deg = std::max(widest_fov_deg, *fov->horizontal_deg);
+  }
+  const bool mixed = fisheyes > 0 && fisheyes < static_cast<int>(own.size());
+  if (!mixed || richest.find("SPLINED") != std::string::npos) return richest;
+  // Every camera's own field at least; 180 deg where no model gave a horizontal field.
+  return configured_lensmodel("LENSMODEL_SPLINED_STEREOGRAPHIC", own[0].width_px, own[0].height_px,
+                              widest_fov_deg > 0 ? widest_fov_deg : 180.0);
+}
+
+namespace {
 
 // A part of the report that could not be made: its error as camlabd and --json give errors.
 nlohmann::json error_json(const Error& error) {

@@ -3,10 +3,10 @@
 // views matched across cameras by file name (a rig view is the images of one name, e.g.
 // view-0001.png in every camera's folder; a camera without the name, or without the board
 // in it, does not see that view), the lens model (given, or `auto`: each camera's own
-// selection, model_selection.h, and the richest of those for all, as one solve takes one
-// model), the joint solve (rig_solver.h), and the files: camera-N.cameramodel (mrcal's
-// format and convention: camera 0 at the reference, each file's extrinsics rt_cam_ref)
-// and rig.json (the report).
+// selection, model_selection.h, and one model for all from those, common_rig_lensmodel(),
+// as one solve takes one model), the joint solve (rig_solver.h), and the files:
+// camera-N.cameramodel (mrcal's format and convention: camera 0 at the reference, each file's
+// extrinsics rt_cam_ref) and rig.json (the report).
 //
 // Reentrant.
 #pragma once
@@ -60,6 +60,13 @@ struct RigCalibrationRun {
   nlohmann::json report;           // what rig.json holds
   std::vector<std::string> files;  // written
 };
+
+// The one model a rig is solved in (mrcal 2.2 solves one model for every camera), from each
+// camera's own choice: the one with the most parameters; but where a fisheye (mrcal's
+// stereographic, splined or lon/lat models) sits beside pinhole-core lenses, the splined
+// stereographic model over the widest field any camera's model sees (180 deg where none
+// states one), which fits both. Error "invalid_argument" for no cameras.
+Result<std::string> common_rig_lensmodel(const std::vector<LensModel>& own);
 
 // Errors: those of read_board_views() per camera (with "camera N: " before the message),
 // "imager_mismatch" is not one (cameras may differ), and solve_rig()'s.

@@ -25,7 +25,9 @@
 // noise leaves undetermined, not the spread of a fixed-intrinsics fit.
 //
 // Limits (mrcal 2.2's C API): one lens model for every camera of a solve (their parameters
-// are each camera's own; mixed pinhole and fisheye rigs need a model that fits both).
+// are each camera's own; mixed pinhole and fisheye rigs take the splined model, whose
+// frames are not the lenses' axes and whose regularisation biases the baselines: the
+// warning "splined_model" says so).
 //
 // Reentrant: no state between calls.
 #pragma once

@@ -123,6 +123,14 @@ inline std::vector<RigCameraTruth> ring_truth(double step_deg) {
   return truth;
 }
 
+// The ring: ring_truth(step_deg) with camera `fisheye` a 180 deg fisheye
+// (stereographic, r = 2 f tan(theta / 2), f 320 px across 1280 px) in place of its wide lens.
+inline std::vector<RigCameraTruth> ring_with_fisheye_truth(double step_deg, int fisheye) {
+  auto truth = ring_truth(step_deg);
+  truth[fisheye].lens = {"LENSMODEL_STEREOGRAPHIC", {320, 320, 639.5, 399.5}, 1280, 800};
+  return truth;
+}
+
 // The truth's lenses and poses in a solution (`shape`'s other fields kept).
 inline RigSolution truth_solution(const std::vector<RigCameraTruth>& truth,
                                   RigSolution shape = {}) {
