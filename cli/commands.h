@@ -28,4 +28,7 @@ void register_analyze_command(CLI::App& app);
 // `camlab lightfield render|refocus|stack|depth|decode` (cli/lightfield_command.cpp).
 void register_lightfield_command(CLI::App& app);
 
+// `camlab stereo rectify|triangulate` (cli/stereo_command.cpp).
+void register_stereo_command(CLI::App& app);
+
 }  // namespace camlab::cli

@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   camlab::cli::register_calibrate_command(app);
   camlab::cli::register_analyze_command(app);
   camlab::cli::register_lightfield_command(app);
+  camlab::cli::register_stereo_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::Success& e) {

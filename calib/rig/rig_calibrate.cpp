@@ -13,6 +13,7 @@
 #include "calib/model_selection.h"
 #include "calib/rig/rectification.h"
 #include "calib/rig/rig_drift.h"
+#include "calib/rig/rig_folder.h"
 #include "calib/rig/rig_range.h"
 
 namespace camlab::calib {
@@ -181,6 +182,15 @@ nlohmann::json rig_report_json(const RigCalibrationRun& run) {
   }
   nlohmann::json views = nlohmann::json::array();
   for (int v : s.views_used) views.push_back(run.view_names.at(v));
+  // The whole covariance, for triangulations' uncertainty (rig_folder.h), where it is small.
+  nlohmann::json covariance = nullptr;
+  if (s.parameter_count > 0 && s.parameter_count <= kRigCovarianceStoredMax &&
+      s.parameter_covariance.size() == static_cast<size_t>(s.parameter_count) * s.parameter_count)
+    covariance = {{"parameters", s.parameter_count},
+                  {"order",
+                   "every camera's intrinsics (camera 0 first), then rt_cam_ref of cameras 1..N-1; "
+                   "row-major"},
+                  {"values", s.parameter_covariance}};
   return {
       {"cameras", cameras},
       {"reference",
@@ -191,6 +201,7 @@ nlohmann::json rig_report_json(const RigCalibrationRun& run) {
       {"views", views},
       {"board", {{"cols", s.board.cols}, {"rows", s.board.rows}, {"spacing_m", s.board.spacing_m}}},
       {"calobject_warp_m", s.calobject_warp},
+      {"parameter_covariance", covariance},
       {"warnings", s.warnings},
       {"range_uncertainty", run.range_uncertainty},
       {"drift", run.drift},

@@ -35,6 +35,29 @@ struct RangeUncertainty {
 Result<RangeUncertainty> triangulated_range_uncertainty(const RigSolution& solution, int camera,
                                                         double range_m);
 
+// A point matched in camera 0 and another camera, triangulated with its uncertainty: the
+// pixels' own noise (pixel_sigma_px per coordinate, carried through by the numerical
+// gradient) and, when the solution carries its parameter covariance, the calibration's
+// (every parameter of the two cameras, cross terms included, as above). A match whose two
+// rays pass far apart (miss_mm, their closest distance) is a wrong match or a wrong
+// calibration: the caller judges it against the sigmas.
+struct TriangulatedPoint {
+  std::array<double, 3> point_m{};  // in camera 0's frame
+  double range_m = 0;               // from camera 0's centre
+  double miss_mm = 0;               // the two rays' closest distance
+  double range_sigma_mm = 0;        // from both parts below
+  double range_sigma_pixels_mm = 0;
+  double range_sigma_calibration_mm = -1;  // -1: the solution carries no covariance
+  std::array<double, 3> point_sigma_mm{};  // per axis of camera 0's frame, both parts
+};
+
+// Errors: "out_of_range" (camera not in 1..N-1, a negative pixel sigma),
+// "projection_failed" (parallel rays, or a point behind either camera).
+Result<TriangulatedPoint> triangulate_point(const RigSolution& solution, int camera,
+                                            const std::array<double, 2>& q0,
+                                            const std::array<double, 2>& q_other,
+                                            double pixel_sigma_px);
+
 // The point where the rays of pixel q0 of camera 0 and pixel q of camera `camera` pass
 // closest (their midpoint), in camera 0's frame, through the given lenses and pose.
 Result<std::array<double, 3>> triangulate_midpoint(const LensModel& camera0, const LensModel& other,

@@ -79,6 +79,8 @@ INSTANTIATE_TEST_SUITE_P(
         Case{"analyze defocus DIR/not_a_capture", "not_a_capture"},
         Case{"analyze exposure DIR/not_a_capture", "not_a_capture"},
         Case{"analyze focus DIR/not_a_capture", "not_a_capture"},
+        Case{"stereo triangulate --rig DIR --pixels 1,2,3,4", "io_error"},
+        Case{"stereo rectify --rig DIR DIR/broken.json DIR/broken.json --out DIR/rect", "io_error"},
         Case{"optics fov --no-such-flag", "invalid_argument"}),
     [](const ::testing::TestParamInfo<Case>& info) { return "Case" + std::to_string(info.index); });
 

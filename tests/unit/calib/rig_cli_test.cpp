@@ -1,5 +1,6 @@
 // `camlab calibrate --rig` end to end on a synthetic pair's corners (corners.vnl, one a
 // camera): the files mrcal's tools read, and what mrcal itself reads from them.
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -14,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "base/format.h"
 #include "calib/corners/corners_vnl.h"
 #include "calib/rig/rig_pose.h"
 #include "synthetic_rig.h"
@@ -241,6 +243,30 @@ TEST(RigCli, RealStereoPairAgreesWithOpenCvsStereoCalibration) {
   std::printf("real pair rectified: epipolar residual %.3f px RMS over %d corners\n",
               epipolar["rms_px"].get<double>(), epipolar["corners"].get<int>());
   EXPECT_LT(epipolar["rms_px"].get<double>(), 0.3);
+
+  // `camlab stereo triangulate` on OpenCV's refined corners of each view: the board's
+  // outer corners come back its size apart (8 x 25 mm along a row, 5 x 25 mm down a column).
+  double worst_mm = 0;
+  for (size_t v = 0; v < left.size(); ++v) {
+    std::string pixels;
+    for (int k : {0, 8, 45, 53})
+      pixels += format_printf(" --pixels %.4f,%.4f,%.4f,%.4f", left[v][k].x, left[v][k].y,
+                              right[v][k].x, right[v][k].y);
+    const auto tri = run_cli("stereo triangulate --rig " + tmp.path.string() + pixels + " --json");
+    ASSERT_EQ(tri.exit_code, 0) << tri.err << tri.out;
+    const auto points = nlohmann::json::parse(tri.out)["points"];
+    auto at = [&](int i) {
+      return cv::Vec3d(points[i]["point_m"].get<std::array<double, 3>>().data());
+    };
+    const double row_mm = cv::norm(at(1) - at(0)) * 1000, row2_mm = cv::norm(at(3) - at(2)) * 1000;
+    const double column_mm = cv::norm(at(2) - at(0)) * 1000,
+                 column2_mm = cv::norm(at(3) - at(1)) * 1000;
+    worst_mm = std::max({worst_mm, std::abs(row_mm - 200), std::abs(row2_mm - 200),
+                         std::abs(column_mm - 125), std::abs(column2_mm - 125)});
+    std::printf("view %zu at %.2f m: rows %.2f and %.2f mm (200), columns %.2f and %.2f mm (125)\n",
+                v, points[0]["range_m"].get<double>(), row_mm, row2_mm, column_mm, column2_mm);
+  }
+  EXPECT_LT(worst_mm, 1.5);
 }
 
 // Three calibrations: the rig, the same rig with fresh views, and the rig with camera 1
@@ -308,6 +334,163 @@ TEST(RigCli, RefusesMixedSourcesAndAMissingImager) {
               " --imager 640x480 --board 10x7 --spacing-m 0.05 --out x.cameramodel");
   EXPECT_EQ(two_without_rig.exit_code, 2) << two_without_rig.err;
   EXPECT_NE(two_without_rig.err.find("--rig"), std::string::npos) << two_without_rig.err;
+}
+
+// Points in camera 0's frame (m) that both cameras of the pair see.
+const std::vector<cv::Vec3d> kStereoPoints = {
+    {-0.2, -0.1, 1.5}, {0.1, 0.15, 2.5}, {0.05, 0.0, 4.0}};
+
+// A point's true pixels in camera 0 and camera 1 of the pair.
+std::array<double, 4> true_pixels(const std::vector<testing::RigCameraTruth>& truth,
+                                  const cv::Vec3d& p0) {
+  const cv::Vec4d p1 = testing::rt_matrix(truth[1].rt_cam_ref) * cv::Vec4d(p0[0], p0[1], p0[2], 1);
+  auto q0 = project(truth[0].lens, {p0[0], p0[1], p0[2]});
+  auto q1 = project(truth[1].lens, {p1[0], p1[1], p1[2]});
+  EXPECT_TRUE(q0.ok() && q1.ok());
+  return {(*q0)[0], (*q0)[1], (*q1)[0], (*q1)[1]};
+}
+
+// The pair's corners in `dir` (write_pair_corners) calibrated into the rig folder `rig`.
+void calibrate_pair(const fs::path& dir, const fs::path& rig) {
+  const auto run = run_cli("calibrate --rig --corners " + (dir / "cam0.vnl").string() +
+                           " --corners " + (dir / "cam1.vnl").string() +
+                           " --imager 640x480 --imager 1280x800 --board 10x7 --spacing-m 0.05 "
+                           "--model LENSMODEL_OPENCV4 --out " +
+                           rig.string());
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+}
+
+// `camlab stereo triangulate` on the calibrated pair: the true pixels of known points give
+// the points back within the uncertainty the calibration states (the pixels exact, so the
+// calibration's part alone), and a pixel noise adds its own part.
+TEST(RigCli, StereoTriangulateGivesTheTruthWithinTheStatedSigma) {
+  TempDir tmp;
+  const auto truth = write_pair_corners(tmp.path);
+  const fs::path rig = tmp.path / "rig";
+  ASSERT_NO_FATAL_FAILURE(calibrate_pair(tmp.path, rig));
+  std::string pixels;
+  for (const cv::Vec3d& p : kStereoPoints) {
+    const auto q = true_pixels(truth, p);
+    pixels += format_printf(" --pixels %.6f,%.6f,%.6f,%.6f", q[0], q[1], q[2], q[3]);
+  }
+  const auto run =
+      run_cli("stereo triangulate --rig " + rig.string() + pixels + " --pixel-sigma 0 --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
+  const auto out = nlohmann::json::parse(run.out);
+  EXPECT_TRUE(out["calibration_uncertainty"].get<bool>());
+  ASSERT_EQ(out["points"].size(), kStereoPoints.size());
+  for (size_t i = 0; i < kStereoPoints.size(); ++i) {
+    const auto& j = out["points"][i];
+    const auto p = j["point_m"].get<std::array<double, 3>>();
+    const double range_error_mm = (j["range_m"].get<double>() - cv::norm(kStereoPoints[i])) * 1000;
+    const double sigma_mm = j["range_sigma_mm"].get<double>();
+    std::printf("point %zu: range %.4f m, error %.3f mm, sigma %.3f mm; rays %.4f mm apart\n", i,
+                j["range_m"].get<double>(), range_error_mm, sigma_mm, j["miss_mm"].get<double>());
+    EXPECT_EQ(j["range_sigma_pixels_mm"].get<double>(), 0.0);
+    EXPECT_NEAR(j["range_sigma_calibration_mm"].get<double>(), sigma_mm, 1e-9);
+    EXPECT_GT(sigma_mm, 0);
+    EXPECT_LT(std::abs(range_error_mm), 3 * sigma_mm);
+    const auto axis_sigma = j["point_sigma_mm"].get<std::array<double, 3>>();
+    for (int k = 0; k < 3; ++k)
+      EXPECT_LT(std::abs(p[k] - kStereoPoints[i][k]) * 1000, 3 * axis_sigma[k] + 1e-3)
+          << "point " << i << " axis " << k;
+  }
+  // Half a pixel of matching noise: its part grows with the range squared over the baseline.
+  const auto noisy =
+      run_cli("stereo triangulate --rig " + rig.string() + pixels + " --pixel-sigma 0.5 --json");
+  ASSERT_EQ(noisy.exit_code, 0) << noisy.err;
+  const auto noisy_points = nlohmann::json::parse(noisy.out)["points"];
+  const double near_mm = noisy_points[0]["range_sigma_pixels_mm"].get<double>();
+  const double far_mm = noisy_points[2]["range_sigma_pixels_mm"].get<double>();
+  std::printf("0.5 px of matching noise: %.2f mm at %.2f m, %.2f mm at %.2f m\n", near_mm,
+              cv::norm(kStereoPoints[0]), far_mm, cv::norm(kStereoPoints[2]));
+  const double squared = std::pow(cv::norm(kStereoPoints[2]) / cv::norm(kStereoPoints[0]), 2);
+  EXPECT_GT(far_mm / near_mm, 0.6 * squared);
+  EXPECT_LT(far_mm / near_mm, 1.6 * squared);
+  // Pixels that are no match: rays behind a camera, or the wrong count of numbers.
+  const auto wrong = run_cli("stereo triangulate --rig " + rig.string() +
+                             " --pixels 10,240,1270,400 --pixel-sigma 0 --json");
+  EXPECT_EQ(wrong.exit_code, 2) << wrong.out;
+  EXPECT_NE(wrong.out.find("projection_failed"), std::string::npos) << wrong.out;
+  const auto odd = run_cli("stereo triangulate --rig " + rig.string() + " --pixels 1,2,3 --json");
+  EXPECT_EQ(odd.exit_code, 2);
+  EXPECT_NE(odd.out.find("invalid_argument"), std::string::npos) << odd.out;
+}
+
+// `camlab stereo rectify`: blobs drawn at the true pixels of known points in each camera's
+// image land on one row in the two rectified images, their disparity f B / z.
+TEST(RigCli, StereoRectifyPutsEachPointOnOneRow) {
+  TempDir tmp;
+  const auto truth = write_pair_corners(tmp.path);
+  const fs::path rig = tmp.path / "rig";
+  ASSERT_NO_FATAL_FAILURE(calibrate_pair(tmp.path, rig));
+  // 16-bit images, blob i peaking at 10000 (i + 1) DN, a Gaussian of 2.5 px.
+  cv::Mat images[2] = {cv::Mat::zeros(480, 640, CV_16UC1), cv::Mat::zeros(800, 1280, CV_16UC1)};
+  for (size_t i = 0; i < kStereoPoints.size(); ++i) {
+    const auto q = true_pixels(truth, kStereoPoints[i]);
+    for (int c = 0; c < 2; ++c)
+      for (int y = 0; y < images[c].rows; ++y)
+        for (int x = 0; x < images[c].cols; ++x) {
+          const double d2 = std::pow(x - q[2 * c], 2) + std::pow(y - q[2 * c + 1], 2);
+          if (d2 < 100)
+            images[c].at<uint16_t>(y, x) =
+                cv::saturate_cast<uint16_t>(10000.0 * (i + 1) * std::exp(-d2 / (2 * 2.5 * 2.5)));
+        }
+  }
+  cv::imwrite((tmp.path / "cam0.png").string(), images[0]);
+  cv::imwrite((tmp.path / "cam1.png").string(), images[1]);
+  const auto run = run_cli(
+      "stereo rectify --rig " + rig.string() + " " + (tmp.path / "cam0.png").string() + " " +
+      (tmp.path / "cam1.png").string() + " --out " + (tmp.path / "rectified").string() + " --json");
+  ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
+  const auto out = nlohmann::json::parse(run.out);
+  const double focal_px = out["focal_px"].get<double>();
+  const double baseline_m = out["baseline_m"].get<double>();
+  cv::Mat rectified[2];
+  for (int c = 0; c < 2; ++c) {
+    rectified[c] = cv::imread(out["files"][c].get<std::string>(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(rectified[c].type(), CV_16UC1);
+  }
+  // Each blob's centroid (weighted by its values over its connected pixels above 2000 DN),
+  // the blob told by its peak: 10000 (i + 1) DN less what the resampling spreads.
+  auto centroid = [](const cv::Mat& m, size_t i) {
+    cv::Mat labels;
+    const int n = cv::connectedComponents(m > 2000, labels, 8, CV_32S);
+    std::vector<double> sx(n), sy(n), sw(n), peak(n);
+    for (int y = 0; y < m.rows; ++y)
+      for (int x = 0; x < m.cols; ++x) {
+        const int l = labels.at<int>(y, x);
+        if (l == 0) continue;
+        const double v = m.at<uint16_t>(y, x);
+        sx[l] += v * x;
+        sy[l] += v * y;
+        sw[l] += v;
+        peak[l] = std::max(peak[l], v);
+      }
+    for (int l = 1; l < n; ++l)
+      if (std::lround(peak[l] / 10000) == static_cast<long>(i + 1))
+        return cv::Point2d(sx[l] / sw[l], sy[l] / sw[l]);
+    ADD_FAILURE() << "no blob " << i;
+    return cv::Point2d(0, 0);
+  };
+  for (size_t i = 0; i < kStereoPoints.size(); ++i) {
+    const cv::Point2d a = centroid(rectified[0], i), b = centroid(rectified[1], i);
+    const double disparity = a.x - b.x;
+    // The point's depth along the rectified axis: its distance projected on that axis is
+    // what f B / disparity gives; the range from camera 0 bounds it from above.
+    const double z_m = focal_px * baseline_m / disparity;
+    std::printf("point %zu: rows %.3f and %.3f, disparity %.2f px, depth %.4f m (range %.4f)\n", i,
+                a.y, b.y, disparity, z_m, cv::norm(kStereoPoints[i]));
+    EXPECT_NEAR(a.y, b.y, 0.3) << "point " << i;
+    EXPECT_GT(disparity, 0);
+    EXPECT_LT(z_m, cv::norm(kStereoPoints[i]) * 1.001);
+    EXPECT_GT(z_m, 0.9 * kStereoPoints[i][2]);
+  }
+  const auto mismatched = run_cli(
+      "stereo rectify --rig " + rig.string() + " " + (tmp.path / "cam1.png").string() + " " +
+      (tmp.path / "cam0.png").string() + " --out " + (tmp.path / "again").string() + " --json");
+  EXPECT_EQ(mismatched.exit_code, 2);
+  EXPECT_NE(mismatched.out.find("imager_mismatch"), std::string::npos) << mismatched.out;
 }
 
 }  // namespace rig_cli_test
