@@ -121,6 +121,12 @@ std::unique_ptr<VcamSession> start_session(const VcamArgs& args, const CommandEr
   if (!mock::write_udev_database(udev.string(), camera_names))
     errors.fail("io_error", "cannot write the fake udev database in " + udev.string());
 
+  // udev's persistent names, /dev/v4l/by-id and by-path (how rig configurations tell
+  // cameras apart).
+  const fs::path dev_v4l = work / "dev-v4l";
+  if (!mock::write_v4l_links(dev_v4l.string(), camera_names))
+    errors.fail("io_error", "cannot write the /dev/v4l links in " + dev_v4l.string());
+
   const char* existing_preload = std::getenv("LD_PRELOAD");
   session->environment = {
       {"LD_PRELOAD", preload + (existing_preload ? std::string(" ") + existing_preload : "")},
@@ -128,6 +134,7 @@ std::unique_ptr<VcamSession> start_session(const VcamArgs& args, const CommandEr
       {"CAMLAB_VCAM_COUNT", std::to_string(device_count)},
       {"CAMLAB_VCAM_SYSFS", sysfs.string()},
       {"CAMLAB_VCAM_UDEV", udev.string()},
+      {"CAMLAB_VCAM_DEV_V4L", dev_v4l.string()},
   };
   return session;
 }

@@ -56,6 +56,7 @@ std::vector<ExtraEntry> extra_entries(const char* path) {
   if (p == "/dev") {
     for (int n = 0; n < count; ++n) extras.push_back({"video" + std::to_string(n), DT_CHR});
     for (int n = 0; n < count; ++n) extras.push_back({"media" + std::to_string(n), DT_CHR});
+    if (has_fake_dev_v4l()) extras.push_back({"v4l", DT_DIR});
   }
   if (!has_fake_sysfs()) return extras;
   if (p == "/sys/class") {

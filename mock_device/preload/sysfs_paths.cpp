@@ -4,10 +4,12 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <climits>
 #include <cstdlib>
 #include <cstring>
 
 #include "mock_device/preload/directory_listing.h"
+#include "mock_device/preload/real_libc.h"
 #include "mock_device/v4l2/fake_sysfs.h"
 
 namespace camlab::mock::preload {
@@ -18,6 +20,7 @@ struct Config {
   int count = 1;
   std::string root;       // the fake sysfs; empty: none
   std::string udev_root;  // the fake udev database; empty: none
+  std::string v4l_root;   // what /dev/v4l holds; empty: none
 };
 
 const Config& config() {
@@ -26,6 +29,7 @@ const Config& config() {
     if (const char* text = std::getenv("CAMLAB_VCAM_COUNT")) c.count = std::max(1, std::atoi(text));
     if (const char* root = std::getenv("CAMLAB_VCAM_SYSFS")) c.root = root;
     if (const char* root = std::getenv("CAMLAB_VCAM_UDEV")) c.udev_root = root;
+    if (const char* root = std::getenv("CAMLAB_VCAM_DEV_V4L")) c.v4l_root = root;
     return c;
   }();
   return c;
@@ -50,9 +54,32 @@ int vcam_count() { return config().count; }
 bool has_fake_sysfs() { return !config().root.empty(); }
 bool has_fake_udev_database() { return !config().udev_root.empty(); }
 
+bool has_fake_dev_v4l() { return !config().v4l_root.empty(); }
+
+const char* device_behind_v4l_link(const char* path, std::string* storage) {
+  const Config& c = config();
+  if (!path || c.v4l_root.empty() || !starts_with(path, "/dev/v4l/by-")) return nullptr;
+  std::string redirected;
+  if (!redirect_sysfs_path(path, &redirected)) return nullptr;
+  char target[PATH_MAX];
+  const ssize_t n = real().readlink(redirected.c_str(), target, sizeof target - 1);
+  if (n <= 0) return nullptr;
+  target[n] = '\0';
+  // write_v4l_links' targets: ../../videoN.
+  const char* name = std::strrchr(target, '/');
+  name = name ? name + 1 : target;
+  if (std::strncmp(name, "video", 5) != 0) return nullptr;
+  *storage = std::string("/dev/") + name;
+  return storage->c_str();
+}
+
 const char* redirect_sysfs_path(const char* path, std::string* storage) {
   const Config& c = config();
   if (!path) return nullptr;
+  if (!c.v4l_root.empty() && starts_with(path, "/dev/v4l") && (path[8] == '\0' || path[8] == '/')) {
+    *storage = c.v4l_root + (path + 8);  // keep everything after "/dev/v4l"
+    return storage->c_str();
+  }
   if (!c.udev_root.empty() && starts_with(path, "/run/udev/")) {
     if (!camlab::mock::is_fake_udev_path(path, c.count)) return nullptr;
     *storage = c.udev_root + (path + 9);  // keep everything after "/run/udev"

@@ -7,7 +7,8 @@
 // properties from /run/udev/data/c81:N. The trees are real files in folders `camlab vcam
 // run` writes (CAMLAB_VCAM_SYSFS and CAMLAB_VCAM_UDEV, mock_device/v4l2/fake_sysfs.h);
 // paths under those roots are redirected into them, and paths resolved inside the sysfs
-// tree are reported back under /sys.
+// tree are reported back under /sys. /dev/v4l (udev's persistent names) is a third such
+// tree (CAMLAB_VCAM_DEV_V4L).
 //
 // Thread-safe (configuration read once).
 #pragma once
@@ -22,6 +23,15 @@ int vcam_count();
 // (CAMLAB_VCAM_UDEV).
 bool has_fake_sysfs();
 bool has_fake_udev_database();
+
+// Whether the run has the /dev/v4l links (CAMLAB_VCAM_DEV_V4L: a folder standing for
+// /dev/v4l, with by-id/ and by-path/ links to ../../videoN, fake_sysfs.h).
+bool has_fake_dev_v4l();
+
+// The video node a /dev/v4l link names ("/dev/videoN", in `storage`), for the calls that
+// follow links (open, stat, realpath): the link's target is relative to /dev/v4l/by-*,
+// not to the folder it really lies in. nullptr for any other path.
+const char* device_behind_v4l_link(const char* path, std::string* storage);
 
 // The redirected path, or nullptr when `path` is not one of the fake trees'. The
 // returned pointer lives in `storage`.

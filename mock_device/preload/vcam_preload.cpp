@@ -61,9 +61,13 @@ struct Node {
 };
 
 // The virtual node a path names, if any: /dev/videoN or /dev/mediaN for N below
-// CAMLAB_VCAM_COUNT.
-bool virtual_node(const char* path, Node* node) {
+// CAMLAB_VCAM_COUNT, or (`follow`: for the calls that follow links) a /dev/v4l link to one.
+bool virtual_node(const char* path, Node* node, bool follow = true) {
   if (!path) return false;
+  std::string storage;
+  if (follow)
+    if (const char* device = camlab::mock::preload::device_behind_v4l_link(path, &storage))
+      path = device;
   NodeKind kind;
   if (std::strncmp(path, "/dev/video", 10) == 0)
     kind = NodeKind::kVideo;
@@ -113,8 +117,8 @@ auto on_real_path_at(int dirfd, const char* path, Call call) {
 }
 
 template <class Call>
-int stat_path(const char* path, struct stat* st, Call call) {
-  if (Node node; virtual_node(path, &node)) {
+int stat_path(const char* path, struct stat* st, Call call, bool follow = true) {
+  if (Node node; virtual_node(path, &node, follow)) {
     fill_node_stat(node, st);
     return 0;
   }
@@ -306,6 +310,9 @@ ssize_t llistxattr(const char* path, char* list, size_t size) {
 }
 
 char* realpath(const char* path, char* resolved) {
+  std::string device;
+  if (const char* behind = camlab::mock::preload::device_behind_v4l_link(path, &device))
+    path = behind;
   if (Node node; virtual_node(path, &node)) {
     if (!resolved && !(resolved = static_cast<char*>(std::malloc(PATH_MAX)))) return nullptr;
     std::strncpy(resolved, path, PATH_MAX - 1);
@@ -423,7 +430,8 @@ int stat64(const char* path, struct stat64* st) {
 }
 
 int lstat(const char* path, struct stat* st) {
-  return stat_path(path, st, [&](const char* p) { return real().lstat(p, st); });
+  return stat_path(
+      path, st, [&](const char* p) { return real().lstat(p, st); }, false);
 }
 int lstat64(const char* path, struct stat64* st) {
   return lstat(path, reinterpret_cast<struct stat*>(st));
@@ -432,7 +440,7 @@ int lstat64(const char* path, struct stat64* st) {
 int fstatat(int dirfd, const char* path, struct stat* st, int flags) {
   // fstatat(fd, "", st, AT_EMPTY_PATH) is fstat(fd).
   if (path[0] == '\0' && (flags & AT_EMPTY_PATH)) return fstat(dirfd, st);
-  if (Node node; virtual_node(path, &node)) {
+  if (Node node; virtual_node(path, &node, !(flags & AT_SYMLINK_NOFOLLOW))) {
     fill_node_stat(node, st);
     return 0;
   }
@@ -464,7 +472,7 @@ int statx(int dirfd, const char* path, int flags, unsigned mask, struct statx* o
   const bool by_fd = path[0] == '\0' && (flags & AT_EMPTY_PATH);
   std::shared_ptr<RemoteFile> file = by_fd ? BrokerClient::get().find(dirfd) : nullptr;
   if (file) node = {file->kind(), file->index()};
-  if (file || (!by_fd && virtual_node(path, &node))) {
+  if (file || (!by_fd && virtual_node(path, &node, !(flags & AT_SYMLINK_NOFOLLOW)))) {
     std::memset(out, 0, sizeof *out);
     out->stx_mask = STATX_TYPE | STATX_MODE | STATX_NLINK;
     out->stx_mode = S_IFCHR | 0660;

@@ -39,21 +39,61 @@ std::string usb_interface_path(const std::string& root, int index) {
   return root + "/" + std::string(kHostControllerRelative) + "/usb1/" + port + "/" + port + ":1.0";
 }
 
+namespace {
+
+// udev's names: characters other than letters, digits and #+-.:=@_ become underscores
+// (ID_MODEL).
+std::string udev_model_name(std::string model) {
+  for (char& c : model)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && !std::strchr("#+-.:=@_", c)) c = '_';
+  return model;
+}
+
+std::string usb_serial(int index) { return "camlab-vcam-" + std::to_string(index); }
+
+}  // namespace
+
+std::string v4l_by_id_name(const std::string& camera_name, int index) {
+  return "usb-camlab_" + udev_model_name(camera_name) + "_" + usb_serial(index) + "-video-index0";
+}
+
+std::string v4l_by_path_name(int index) {
+  return "platform-camlab_vcam_hcd.0-usb-0:" + std::to_string(index + 1) + ":1.0-video-index0";
+}
+
+bool write_v4l_links(const std::string& root, const std::vector<std::string>& camera_names) {
+  bool ok = true;
+  for (size_t i = 0; i < camera_names.size() && ok; ++i) {
+    const int index = static_cast<int>(i);
+    const fs::path target = "../../video" + std::to_string(i);
+    for (const auto& [folder, name] :
+         {std::pair<std::string, std::string>{"by-id", v4l_by_id_name(camera_names[i], index)},
+          {"by-path", v4l_by_path_name(index)}}) {
+      std::error_code ec;
+      const fs::path link = fs::path(root) / folder / name;
+      fs::create_directories(link.parent_path(), ec);
+      fs::remove(link, ec);
+      fs::create_symlink(target, link, ec);
+      ok = ok && !ec;
+    }
+  }
+  return ok;
+}
+
 bool write_udev_database(const std::string& root, const std::vector<std::string>& camera_names) {
   bool ok = true;
   for (size_t i = 0; i < camera_names.size() && ok; ++i) {
     const std::string number = std::to_string(i);
     const std::string port = std::to_string(i + 1);
-    // udev's names: characters other than letters, digits and #+-.:=@_ become
-    // underscores (ID_MODEL), and a path id of the port.
-    std::string model = camera_names[i];
-    for (char& c : model)
-      if (!std::isalnum(static_cast<unsigned char>(c)) && !std::strchr("#+-.:=@_", c)) c = '_';
-    const std::string serial = "camlab-vcam-" + number;
+    const std::string model = udev_model_name(camera_names[i]);
+    const std::string serial = usb_serial(static_cast<int>(i));
     ok = write_file(fs::path(root) / "data" / ("c" + std::to_string(kVideoMajor) + ":" + number),
-                    "I:1\n"
-                    "E:ID_V4L_VERSION=2\n"
-                    "E:ID_V4L_PRODUCT=" +
+                    "S:v4l/by-id/" + v4l_by_id_name(camera_names[i], static_cast<int>(i)) +
+                        "\nS:v4l/by-path/" + v4l_by_path_name(static_cast<int>(i)) +
+                        "\n"
+                        "I:1\n"
+                        "E:ID_V4L_VERSION=2\n"
+                        "E:ID_V4L_PRODUCT=" +
                         camera_names[i] +
                         "\n"
                         "E:ID_V4L_CAPABILITIES=:capture:\n"
@@ -105,7 +145,7 @@ bool write_sysfs_tree(const std::string& root_text, const std::vector<std::strin
          write_file(usb_device / "bcdDevice", "0100\n") &&
          write_file(usb_device / "manufacturer", "camlab\n") &&
          write_file(usb_device / "product", name + "\n") &&
-         write_file(usb_device / "serial", "camlab-vcam-" + number + "\n") &&
+         write_file(usb_device / "serial", usb_serial(n) + "\n") &&
          write_file(usb_device / "removable", "removable\n") &&
          write_file(usb_device / "speed", "480\n") && write_file(usb_device / "busnum", "1\n") &&
          write_file(usb_device / "devnum", devnum + "\n") &&

@@ -22,8 +22,9 @@
 //
 // Beside it, a udev database (write_udev_database), as udev's rules leave it for a UVC
 // camera: UDEV/data/c81:N with v4l_id's ID_V4L_VERSION, ID_V4L_PRODUCT and
-// ID_V4L_CAPABILITIES, and usb_id's vendor, model and serial. GStreamer's device monitor
-// lists only video nodes whose ID_V4L_VERSION is 2. UDEV stands for /run/udev.
+// ID_V4L_CAPABILITIES, usb_id's vendor, model and serial, and the /dev/v4l links as
+// S: lines. GStreamer's device monitor lists only video nodes whose ID_V4L_VERSION is 2.
+// UDEV stands for /run/udev.
 //
 // A transport (the preload library) must redirect exactly the paths is_fake_sysfs_path()
 // accepts into ROOT, and report /dev/videoN and /dev/mediaN as character devices with
@@ -61,6 +62,19 @@ bool write_sysfs_tree(const std::string& root, int count);
 // The same, with the cameras' names (one per camera; they become the USB product and the
 // video node's name).
 bool write_sysfs_tree(const std::string& root, const std::vector<std::string>& camera_names);
+
+// The persistent names udev's 60-persistent-v4l.rules give a UVC camera's video node,
+// links under /dev/v4l to ../../videoN: by-id from the bus and the USB serial (the model
+// and "camlab-vcam-N"), by-path from the port the camera sits on. Rig configurations name
+// cameras by them, since /dev/videoN numbers follow the order devices appear in.
+//   by-id:   usb-camlab_<model>_camlab-vcam-N-video-index0
+//   by-path: platform-camlab_vcam_hcd.0-usb-0:P:1.0-video-index0   (P = N + 1)
+std::string v4l_by_id_name(const std::string& camera_name, int index);
+std::string v4l_by_path_name(int index);
+
+// Writes root/by-id/NAME and root/by-path/NAME, relative links to ../../videoN, for each
+// camera (root stands for /dev/v4l). Returns false when a link cannot be made.
+bool write_v4l_links(const std::string& root, const std::vector<std::string>& camera_names);
 
 namespace sysfs_detail {
 

@@ -137,6 +137,31 @@ TEST_F(VcamClients, ARigsCamerasAreItsDevicesEachWithItsOwnSpec) {
   EXPECT_NE(both.err.find("excludes"), std::string::npos) << both.err;
 }
 
+// udev's persistent names: each camera of a rig under /dev/v4l/by-id (by its USB serial)
+// and by-path (by its port), links to its own node, which v4l2-ctl opens through the link
+// (the right camera's 1280x800 format through its by-path name) and ls lists as links.
+TEST_F(VcamClients, PersistentNamesUnderDevV4lLeadToEachRigCamera) {
+  if (!installed("v4l2-ctl")) GTEST_SKIP() << "v4l2-ctl (v4l-utils) is not installed";
+  const std::string rig = CAMLAB_SOURCE_DIR "/mock_device/examples/rig_stereo_pair.json";
+  const std::string right_by_path =
+      "/dev/v4l/by-path/platform-camlab_vcam_hcd.0-usb-0:2:1.0-video-index0";
+  auto run = run_cli("vcam run --rig " + rig +
+                     " -- sh -c 'ls /dev && ls -l /dev/v4l/by-id /dev/v4l/by-path && "
+                     "timeout -k 5 60 v4l2-ctl -d " +
+                     right_by_path +
+                     " --get-fmt-video && readlink -f /dev/v4l/by-id/*camlab-vcam-0-video-index0'");
+  ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
+  EXPECT_NE(run.out.find("\nv4l\n"), std::string::npos) << "/dev lists v4l\n" << run.out;
+  for (const char* link :
+       {"usb-camlab_camlab_virtual_640x480__OPENCV4_camlab-vcam-0-video-index0 -> ../../video0",
+        "camlab-vcam-1-video-index0 -> ../../video1",
+        "platform-camlab_vcam_hcd.0-usb-0:1:1.0-video-index0 -> ../../video0",
+        "platform-camlab_vcam_hcd.0-usb-0:2:1.0-video-index0 -> ../../video1"})
+    EXPECT_NE(run.out.find(link), std::string::npos) << link << " in\n" << run.out;
+  EXPECT_NE(run.out.find("Width/Height      : 1280/800"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("\n/dev/video0\n"), std::string::npos) << run.out;
+}
+
 // gst-device-monitor lists the camera through whichever provider finds it: V4L2's (udev
 // probed, /dev/video0, its caps with the frame rates) or, on a machine with Debian's
 // gstreamer1.0-libcamera (as most that run libcamera have), libcamera's, which then hides
