@@ -2,7 +2,9 @@
 // `camlab calibrate --rig --out` writes): a pair's images rectified, and points matched in
 // two cameras triangulated with their uncertainty.
 #include <cstdio>
+#include <fstream>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -29,8 +31,30 @@ struct StereoArgs {
   double az_fov_deg = 0, el_fov_deg = 0;
   // triangulate
   std::vector<double> pixels;
+  std::string matches_path;
   double pixel_sigma_px = -1;
 };
+
+// A matches file: one point a line, "x0 y0 xN yN" (px), '#' starts a comment; appended to
+// `pixels`. Errors name the line.
+void read_matches(const std::string& path, std::vector<double>* pixels,
+                  const CommandErrors& errors) {
+  std::ifstream in(path);
+  if (!in) errors.fail("io_error", "cannot read " + path);
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    line = line.substr(0, line.find('#'));
+    std::istringstream fields(line);
+    std::vector<double> values;
+    for (double v; fields >> v;) values.push_back(v);
+    const bool all_read = fields.eof();
+    if (values.empty() && all_read) continue;
+    if (!all_read || values.size() != 4)
+      errors.fail("invalid_argument", format_printf("%s:%d: a match is 4 numbers, x0 y0 xN yN (px)",
+                                                    path.c_str(), number));
+    pixels->insert(pixels->end(), values.begin(), values.end());
+  }
+}
 
 calib::RigSolution load_rig(const StereoArgs& args, const CommandErrors& errors) {
   calib::RigSolution rig = errors.take(calib::read_rig_folder(args.rig_dir));
@@ -61,11 +85,13 @@ void run_rectify(const StereoArgs& args) {
 
 void run_triangulate(const StereoArgs& args) {
   const CommandErrors errors("camlab stereo triangulate", args.json);
-  if (args.pixels.empty() || args.pixels.size() % 4 != 0)
+  std::vector<double> pixels = args.pixels;
+  if (!args.matches_path.empty()) read_matches(args.matches_path, &pixels, errors);
+  if (pixels.empty() || pixels.size() % 4 != 0)
     errors.fail("invalid_argument",
-                format_printf("--pixels takes x0,y0,x%d,y%d per point (px): camera 0's pixel, "
-                              "then camera %d's; %zu numbers given",
-                              args.camera, args.camera, args.camera, args.pixels.size()));
+                format_printf("give matches with --pixels x0,y0,x%d,y%d per point (px; camera 0's "
+                              "pixel, then camera %d's) or --matches FILE; %zu numbers given",
+                              args.camera, args.camera, args.camera, pixels.size()));
   const calib::RigSolution rig = load_rig(args, errors);
   // The pixels' noise: given, else the corner noise the calibration showed.
   double sigma_px = args.pixel_sigma_px;
@@ -78,9 +104,9 @@ void run_triangulate(const StereoArgs& args) {
     sigma_source = "the calibration's corner noise";
   }
   nlohmann::json points = nlohmann::json::array();
-  for (size_t i = 0; i < args.pixels.size(); i += 4) {
-    const std::array<double, 2> q0{args.pixels[i], args.pixels[i + 1]};
-    const std::array<double, 2> q1{args.pixels[i + 2], args.pixels[i + 3]};
+  for (size_t i = 0; i < pixels.size(); i += 4) {
+    const std::array<double, 2> q0{pixels[i], pixels[i + 1]};
+    const std::array<double, 2> q1{pixels[i + 2], pixels[i + 3]};
     auto p = calib::triangulate_point(rig, args.camera, q0, q1, sigma_px);
     if (!p) errors.fail(p.error().with_context(format_printf("point %zu: ", i / 4)));
     nlohmann::json j = {{"pixel_camera0", q0},
@@ -178,8 +204,11 @@ void register_stereo_command(CLI::App& app) {
   triangulate
       ->add_option("--pixels", args->pixels,
                    "x0,y0,xN,yN per point (px), repeatable: camera 0's pixel, then camera N's")
-      ->required()
       ->delimiter(',');
+  triangulate
+      ->add_option("--matches", args->matches_path,
+                   "a file of matches, one a line: x0 y0 xN yN (px); '#' comments")
+      ->check(CLI::ExistingFile);
   triangulate
       ->add_option("--pixel-sigma", args->pixel_sigma_px,
                    "the matched pixels' noise per coordinate (px); default: the calibration's "

@@ -246,13 +246,20 @@ TEST(RigCli, RealStereoPairAgreesWithOpenCvsStereoCalibration) {
 
   // `camlab stereo triangulate` on OpenCV's refined corners of each view: the board's
   // outer corners come back its size apart (8 x 25 mm along a row, 5 x 25 mm down a column).
+  // Even views through --pixels, odd ones through a matches file.
   double worst_mm = 0;
   for (size_t v = 0; v < left.size(); ++v) {
-    std::string pixels;
-    for (int k : {0, 8, 45, 53})
+    std::string pixels, matches = "# x0 y0 x1 y1: OpenCV's corners 0, 8, 45 and 53\n";
+    for (int k : {0, 8, 45, 53}) {
       pixels += format_printf(" --pixels %.4f,%.4f,%.4f,%.4f", left[v][k].x, left[v][k].y,
                               right[v][k].x, right[v][k].y);
-    const auto tri = run_cli("stereo triangulate --rig " + tmp.path.string() + pixels + " --json");
+      matches += format_printf("%.4f %.4f\t%.4f %.4f\n", left[v][k].x, left[v][k].y, right[v][k].x,
+                               right[v][k].y);
+    }
+    const fs::path matches_file = tmp.path / "matches.txt";
+    std::ofstream(matches_file) << matches;
+    const std::string source = v % 2 ? " --matches " + matches_file.string() : pixels;
+    const auto tri = run_cli("stereo triangulate --rig " + tmp.path.string() + source + " --json");
     ASSERT_EQ(tri.exit_code, 0) << tri.err << tri.out;
     const auto points = nlohmann::json::parse(tri.out)["points"];
     auto at = [&](int i) {
@@ -415,6 +422,11 @@ TEST(RigCli, StereoTriangulateGivesTheTruthWithinTheStatedSigma) {
   const auto odd = run_cli("stereo triangulate --rig " + rig.string() + " --pixels 1,2,3 --json");
   EXPECT_EQ(odd.exit_code, 2);
   EXPECT_NE(odd.out.find("invalid_argument"), std::string::npos) << odd.out;
+  std::ofstream(tmp.path / "bad_matches.txt") << "# fine\n1 2 3 4\n1 2 3\n";
+  const auto bad = run_cli("stereo triangulate --rig " + rig.string() + " --matches " +
+                           (tmp.path / "bad_matches.txt").string() + " --json");
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.out.find("bad_matches.txt:3"), std::string::npos) << bad.out;
 }
 
 // `camlab stereo rectify`: blobs drawn at the true pixels of known points in each camera's
