@@ -81,6 +81,21 @@ RigParameters parameters_from(const RigParameters& shape, const std::vector<doub
   return p;
 }
 
+// The rig's lenses and poses in parameter_covariance's order, after checking that `camera`
+// is one of the rig's other cameras.
+Result<RigParameters> pair_parameters(const RigSolution& solution, int camera) {
+  const int n = static_cast<int>(solution.cameras.size());
+  if (camera < 1 || camera >= n)
+    return make_error("out_of_range",
+                      format_printf("camera %d: the other camera is one of 1..%d", camera, n - 1));
+  RigParameters base;
+  for (const auto& cam : solution.cameras) {
+    base.models.push_back(cam.model);
+    base.rt_cam_ref.push_back(cam.rt_cam_ref);
+  }
+  return base;
+}
+
 // The point's (x, y, z) and range from camera 0.
 using PointAndRange = std::array<double, 4>;
 PointAndRange point_and_range(const std::array<double, 3>& p) {
@@ -125,17 +140,11 @@ Result<std::vector<PointAndRange>> parameter_gradient(const RigParameters& base,
 Result<RangeUncertainty> triangulated_range_uncertainty(const RigSolution& solution, int camera,
                                                         double range_m) {
   const int n = static_cast<int>(solution.cameras.size());
-  if (camera < 1 || camera >= n)
-    return make_error("out_of_range",
-                      format_printf("camera %d: the other camera is one of 1..%d", camera, n - 1));
+  RigParameters base;
+  CAMLAB_ASSIGN(base, pair_parameters(solution, camera));
   if (!(range_m > 0 && range_m <= 1e5))
     return make_error("out_of_range",
                       format_printf("range %g m: a range is in (0, 100000] m", range_m));
-  RigParameters base;
-  for (const auto& cam : solution.cameras) {
-    base.models.push_back(cam.model);
-    base.rt_cam_ref.push_back(cam.rt_cam_ref);
-  }
   const std::vector<double> x0 = parameter_vector(base);
   const size_t k = x0.size();
   if (static_cast<int>(k) != solution.parameter_count ||
@@ -201,18 +210,11 @@ Result<TriangulatedPoint> triangulate_point(const RigSolution& solution, int cam
                                             const std::array<double, 2>& q0,
                                             const std::array<double, 2>& q_other,
                                             double pixel_sigma_px) {
-  const int n = static_cast<int>(solution.cameras.size());
-  if (camera < 1 || camera >= n)
-    return make_error("out_of_range",
-                      format_printf("camera %d: the other camera is one of 1..%d", camera, n - 1));
+  RigParameters base;
+  CAMLAB_ASSIGN(base, pair_parameters(solution, camera));
   if (!(pixel_sigma_px >= 0 && pixel_sigma_px < 1e3))
     return make_error("out_of_range",
                       format_printf("pixel sigma %g px: it is in [0, 1000) px", pixel_sigma_px));
-  RigParameters base;
-  for (const auto& cam : solution.cameras) {
-    base.models.push_back(cam.model);
-    base.rt_cam_ref.push_back(cam.rt_cam_ref);
-  }
   const LensModel& m0 = base.models[0];
   const LensModel& other = base.models[camera];
   const Rt& rt = base.rt_cam_ref[camera];
@@ -224,21 +226,21 @@ Result<TriangulatedPoint> triangulate_point(const RigSolution& solution, int cam
                                     "camera: not one point, or not this rig",
                                     q0[0], q0[1], q_other[0], q_other[1]));
   TriangulatedPoint out;
-  CAMLAB_ASSIGN(out.point_m, triangulate_midpoint(m0, other, rt, q0, q_other));
+  out.point_m = meeting.midpoint;
   out.range_m = std::hypot(out.point_m[0], out.point_m[1], out.point_m[2]);
   out.miss_mm = meeting.miss_m * 1000;
 
-  // Gradients by central differences of (x, y, z, range) against each input.
-  std::array<double, 16> covariance{};  // 4 x 4: x, y, z, range (m^2)
+  // Gradients by central differences of (x, y, z, range) against each input; the
+  // variances of the four (m^2) from the inputs' covariance, g^T C g each.
+  PointAndRange variance{};
   auto add_term = [&](const std::vector<PointAndRange>& gradient, const std::vector<double>& cov) {
     const size_t k = gradient.size();
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) {
-        double v = 0;
-        for (size_t a = 0; a < k; ++a)
-          for (size_t b = 0; b < k; ++b) v += gradient[a][r] * cov[a * k + b] * gradient[b][c];
-        covariance[4 * r + c] += v;
-      }
+    for (int r = 0; r < 4; ++r) {
+      double v = 0;
+      for (size_t a = 0; a < k; ++a)
+        for (size_t b = 0; b < k; ++b) v += gradient[a][r] * cov[a * k + b] * gradient[b][r];
+      variance[r] += v;
+    }
   };
   // The pixels: independent, pixel_sigma_px per coordinate.
   std::vector<PointAndRange> pixel_gradient(4);
@@ -256,7 +258,7 @@ Result<TriangulatedPoint> triangulate_point(const RigSolution& solution, int cam
   std::vector<double> pixel_covariance(16, 0.0);
   for (int j = 0; j < 4; ++j) pixel_covariance[5 * j] = pixel_sigma_px * pixel_sigma_px;
   add_term(pixel_gradient, pixel_covariance);
-  out.range_sigma_pixels_mm = std::sqrt(std::max(0.0, covariance[15])) * 1000;
+  out.range_sigma_pixels_mm = std::sqrt(std::max(0.0, variance[3])) * 1000;
 
   // The calibration: camera 0's and this camera's parameters (the others do not move it).
   const std::vector<double> x0 = parameter_vector(base);
@@ -265,13 +267,12 @@ Result<TriangulatedPoint> triangulate_point(const RigSolution& solution, int cam
       solution.parameter_covariance.size() == k * k) {
     std::vector<PointAndRange> gradient;
     CAMLAB_ASSIGN(gradient, parameter_gradient(base, camera, q0, q_other));
-    const double before = covariance[15];
+    const double before = variance[3];
     add_term(gradient, solution.parameter_covariance);
-    out.range_sigma_calibration_mm = std::sqrt(std::max(0.0, covariance[15] - before)) * 1000;
+    out.range_sigma_calibration_mm = std::sqrt(std::max(0.0, variance[3] - before)) * 1000;
   }
-  out.range_sigma_mm = std::sqrt(std::max(0.0, covariance[15])) * 1000;
-  for (int r = 0; r < 3; ++r)
-    out.point_sigma_mm[r] = std::sqrt(std::max(0.0, covariance[5 * r])) * 1000;
+  out.range_sigma_mm = std::sqrt(std::max(0.0, variance[3])) * 1000;
+  for (int r = 0; r < 3; ++r) out.point_sigma_mm[r] = std::sqrt(std::max(0.0, variance[r])) * 1000;
   return out;
 }
 
