@@ -224,8 +224,17 @@ TEST(LiveHub, ACallbackHoldingTheLastReferenceToItsViewerMayCloseItWhenDropped) 
   auto closed = owner->closed->get_future();
   (*viewer)->next([owner](Result<EncodedFrame>) {});
   owner.reset();
-  std::thread([v = *viewer] { v->close(); }).detach();
-  if (closed.wait_for(5s) != std::future_status::ready) {
+  // The thread's reference may be the viewer's last: it is dropped, and said so, before the
+  // hub goes out of scope (a viewer destroyed after its hub would lock a freed mutex).
+  auto released = std::make_shared<std::promise<void>>();
+  auto thread_done = released->get_future();
+  std::thread([v = *viewer, released]() mutable {
+    v->close();
+    v.reset();
+    released->set_value();
+  }).detach();
+  if (closed.wait_for(5s) != std::future_status::ready ||
+      thread_done.wait_for(5s) != std::future_status::ready) {
     // A hub deadlocked on itself cannot be cleaned up: the process ends here.
     std::fprintf(stderr, "FAILED: close() did not return within 5 s (deadlocked)\n");
     std::_Exit(1);
