@@ -35,10 +35,23 @@ struct RowLine {
   double x_at(double y) const { return a + b * y; }
 };
 
+// The region's ends: a pixel belongs to it when its place along the edge, measured from
+// the segment's middle, is within the half length. Whole rows would not do: a row crosses
+// the edge at the slant, so its ends reach hw tan(slant) along the edge past its crossing
+// (14 px at 30 deg for hw 24), over a square's corner into the next side, whose opposite
+// step then sits in the ESF.
+struct AlongEdge {
+  double mid_x = 0, mid_y = 0, b = 0, norm = 1, half_length = 0;
+  bool inside(double x, double y) const {
+    return std::fabs(((x - mid_x) * b + (y - mid_y)) / norm) <= half_length;
+  }
+};
+
 // Step 2: the per-row centroids of the windowed derivative, and the line through them.
 // Rows whose window leaves the image, or whose derivative sums to nothing, are skipped.
 std::optional<RowLine> fit_edge_line(const WorkingView& view, const RowLine& guess, int row_lo,
-                                     int row_hi, double half_x, int* rows_used) {
+                                     int row_hi, double half_x, const AlongEdge& along,
+                                     int* rows_used) {
   double sy = 0, sx = 0, syy = 0, sxy = 0;
   int n = 0;
   for (int y = row_lo; y <= row_hi; ++y) {
@@ -46,6 +59,9 @@ std::optional<RowLine> fit_edge_line(const WorkingView& view, const RowLine& gue
     const int lo = static_cast<int>(std::floor(c - half_x)),
               hi = static_cast<int>(std::ceil(c + half_x));
     if (lo < 1 || hi > view.cols() - 2) continue;
+    // Only rows whose whole window lies in the region: a window reaching past a corner
+    // holds the next side's step, which would pull the centroid.
+    if (!along.inside(lo, y) || !along.inside(hi, y)) continue;
     double num = 0, den = 0;
     for (int x = lo; x <= hi; ++x) {
       const double u = (x - c) / half_x;
@@ -132,11 +148,15 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
     *lo = std::max(0, static_cast<int>(std::ceil(mid_y - half_rows)));
     *hi = std::min(view.rows() - 1, static_cast<int>(std::floor(mid_y + half_rows)));
   };
+  auto along_edge = [&](const RowLine& l) {
+    return AlongEdge{l.x_at(mid_y), mid_y, l.b, std::sqrt(1 + l.b * l.b), half_length};
+  };
   int row_lo = 0, row_hi = 0, rows_used = 0;
   for (int pass = 0; pass < 2; ++pass) {
     row_range(line, &row_lo, &row_hi);
-    const auto fitted = fit_edge_line(line_view, line, row_lo, row_hi,
-                                      hw * std::sqrt(1 + line.b * line.b), &rows_used);
+    const auto fitted =
+        fit_edge_line(line_view, line, row_lo, row_hi, hw * std::sqrt(1 + line.b * line.b),
+                      along_edge(line), &rows_used);
     if (!fitted) {
       r.status = std::string(kSfrNoEdge);
       r.message =
@@ -166,6 +186,7 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
   std::vector<int> count(static_cast<size_t>(bins), 0);
   int rows = 0;
   bool clipped = false;
+  const AlongEdge along = along_edge(line);
   for (int y = row_lo; y <= row_hi; ++y) {
     const double c = line.x_at(y);
     const int lo = static_cast<int>(std::floor(c - hw * norm)),
@@ -175,7 +196,7 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
     for (int x = lo; x <= hi; ++x) {
       const double d = (x - c) / norm;
       const int bin = static_cast<int>(std::floor((d + hw) * os));
-      if (bin < 0 || bin >= bins) continue;
+      if (bin < 0 || bin >= bins || !along.inside(x, y)) continue;
       const double v = view.at(y, x);
       if (!std::isfinite(v)) continue;  // a site of another colour
       if (options.saturation_level > 0 && v >= options.saturation_level) clipped = true;

@@ -4,11 +4,13 @@
 //
 // Method (ISO 12233:2014 e-SFR, docs/analysis.md "SFR"):
 //   1. the region: pixels within half_length of the segment's middle along it and within
-//      half_width across it; the image is read transposed when the edge is nearer
-//      horizontal, so that rows cross it;
-//   2. the edge's line: per row, the centroid of the row's derivative under a Hamming
-//      window; a straight line fitted to the centroids (least squares), twice, the second
-//      time with the windows centred on the first line;
+//      half_width across it (cut along the edge, not by whole rows: a row reaches
+//      half_width x tan(slant) along the edge past its crossing, over a square's corner);
+//      the image is read transposed when the edge is nearer horizontal, so that rows
+//      cross it;
+//   2. the edge's line: per row whose window lies in the region, the centroid of the
+//      row's derivative under a Hamming window; a straight line fitted to the centroids
+//      (least squares), twice, the second time with the windows centred on the first line;
 //   3. the ESF: every pixel of the region binned by its perpendicular distance from the
 //      line into bins 1/oversampling px wide (4x: the edge's slant spreads the pixels'
 //      phases); each bin's mean value placed at its samples' mean distance, and the ESF

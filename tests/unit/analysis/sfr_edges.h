@@ -9,8 +9,11 @@
 #include <numbers>
 #include <random>
 #include <utility>
+#include <vector>
 
 #include <opencv2/core.hpp>
+
+#include "analysis/edge/edge_measure.h"
 
 namespace camlab::analysis::sfr_edges {
 
@@ -62,6 +65,65 @@ inline cv::Mat draw_edge(const Optics& optics, double angle_deg, bool turned, un
       image.at<float>(y, x) = static_cast<float>(200 + 800 * sum / (kSub * kSub) + noise(rng));
     }
   return image;
+}
+
+// A dark square of side `side_px` turned `angle_deg` about the centre of a `canvas_px`
+// image, through a Gaussian blur of sigma `optics.size_px` (only a Gaussian: its blur of a
+// square is exact as a product, the square's coverage along each of its axes), 8 x 8
+// samples a pixel, noise at contrast-to-noise `cnr`. Returns the image; `corners` gets the
+// square's corners in order (image px), so that corners k and k + 1 bound one side.
+inline cv::Mat draw_square(const Optics& optics, double angle_deg, double side_px, int canvas_px,
+                           unsigned seed, double cnr, std::vector<cv::Point2d>* corners) {
+  const double a = angle_deg * kPi / 180, c = 0.5 * (canvas_px - 1) + 0.31, h = 0.5 * side_px;
+  const double ux = std::cos(a), uy = std::sin(a), vx = -std::sin(a), vy = std::cos(a);
+  auto inside = [&](double t) {  // the blurred coverage of [-h, h] at t along one axis
+    return 0.5 * (std::erf((t + h) / (std::sqrt(2.0) * optics.size_px)) -
+                  std::erf((t - h) / (std::sqrt(2.0) * optics.size_px)));
+  };
+  cv::Mat image(canvas_px, canvas_px, CV_32F);
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0, cnr > 0 ? 800.0 / cnr : 1e-12);
+  for (int y = 0; y < canvas_px; ++y)
+    for (int x = 0; x < canvas_px; ++x) {
+      double sum = 0;
+      for (int sy = 0; sy < kSub; ++sy)
+        for (int sx = 0; sx < kSub; ++sx) {
+          const double px = x - 0.5 + (sx + 0.5) / kSub - c, py = y - 0.5 + (sy + 0.5) / kSub - c;
+          sum += inside(px * ux + py * uy) * inside(px * vx + py * vy);
+        }
+      image.at<float>(y, x) = static_cast<float>(1000 - 800 * sum / (kSub * kSub) + noise(rng));
+    }
+  if (corners) {
+    corners->clear();
+    for (const auto& [su, sv] : {std::pair{-1, -1}, {1, -1}, {1, 1}, {-1, 1}})
+      corners->push_back({c + h * (su * ux + sv * vx), c + h * (su * uy + sv * vy)});
+  }
+  return image;
+}
+
+// The edge set the accuracy figures are quoted on (docs/analysis.md): Gaussian sigma
+// 0.45-1.6 px and disks 1.5-5 px, each at 5 angles off the columns and off the rows: 90.
+struct TestEdge {
+  Optics optics;
+  double angle_deg = 0;
+  bool turned = false;
+};
+inline std::vector<TestEdge> test_edges() {
+  std::vector<TestEdge> edges;
+  for (bool disk : {false, true})
+    for (double size : disk ? std::vector<double>{1.5, 2.5, 3.5, 5.0}
+                            : std::vector<double>{0.45, 0.6, 0.8, 1.1, 1.6})
+      for (double angle : {2.5, 5.0, 8.0, 12.0, 20.0})
+        for (bool turned : {false, true}) edges.push_back({Optics{disk, size}, angle, turned});
+  return edges;
+}
+
+// The segment measured on draw_edge()'s image: 120 px of the edge about the centre.
+inline EdgeSegment centre_segment(double angle_deg, bool turned) {
+  const double a = angle_deg * kPi / 180, c = 0.5 * (kSize - 1);
+  double ux = std::sin(a), uy = std::cos(a);  // along the edge
+  if (turned) std::swap(ux, uy);
+  return {"edge", c - 60 * ux, c - 60 * uy, c + 60 * ux, c + 60 * uy, 0};
 }
 
 inline double true_mtf50(const Optics& optics, double angle_deg) {
