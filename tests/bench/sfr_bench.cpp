@@ -12,6 +12,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
+#include <string>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -71,6 +73,7 @@ void time_12mp_frame(int threads) {
   SfrImageOptions o;
   std::vector<double> seconds;
   size_t edges = 0, measured = 0;
+  std::map<std::string, int> left_out;  // status and message: count
   for (int run = 0; run < 5; ++run) {
     const auto t0 = std::chrono::steady_clock::now();
     const auto r = analyze_sfr(frame, "chart_12mp", o);
@@ -81,12 +84,18 @@ void time_12mp_frame(int threads) {
     }
     edges = r->report["edges"].size();
     measured = 0;
-    for (const auto& e : r->report["edges"]) measured += e["status"] == "ok";
+    left_out.clear();
+    for (const auto& e : r->report["edges"]) {
+      measured += e["status"] == "ok";
+      if (e["status"] != "ok")
+        ++left_out[e["status"].get<std::string>() + ": " + e.value("message", std::string())];
+    }
   }
   std::printf(
       "\n12 MP chart (4000 x 3000, 9 x 7 squares, 252 sides): %zu edges found, %zu measured, "
       "%.3f s a frame (median of 5, %d OpenCV threads)\n",
       edges, measured, median(seconds), threads);
+  for (const auto& [why, count] : left_out) std::printf("  left out %d: %s\n", count, why.c_str());
 }
 
 int main(int argc, char** argv) {

@@ -5,12 +5,14 @@
 // 8 x 8 samples a pixel, written as 16-bit PNGs (both tools read the same files), without
 // noise and at contrast-to-noise 50 (SEEDS noise draws of each). MTF Mapper reads each
 // image as one region (--single-roi); camlab measures the segment through the centre the
-// unit tests use (120 px along it). Prints each tool's MTF50 error against the closed-form
-// truth: p95 over the edges whose truth lies in 0.2-0.3 cycles/px, p95 and worst over all,
-// the mean (bias), and the time per edge (camlab: the SFR call; MTF Mapper: the whole
-// process, start-up included).
+// unit tests use (120 px along it) and the whole edge. Prints each tool's MTF50 error against the
+// closed-form truth: p95 over the edges whose truth lies in 0.2-0.3 cycles/px, p95 and worst over
+// all, the mean (bias), and the time per edge (camlab: the SFR call; MTF Mapper: the whole process,
+// start-up included).
 //
 //   sfr_compare_bench MTF_MAPPER [SEEDS=4] [WORKDIR=/tmp/camlab_sfr_compare]
+//
+// MTF_MAPPER "-": camlab alone.
 //
 // Not run by ctest: MTF Mapper is not a Debian package.
 #include <algorithm>
@@ -106,7 +108,7 @@ int main(int argc, char** argv) {
       "| tool | noise | edges | p95, truth 0.2-0.3 cy/px | p95, all | worst | mean (bias) | time "
       "per edge | not measured |\n|---|---|---|---|---|---|---|---|---|\n");
   for (double cnr : {0.0, 50.0}) {
-    Tally camlab, mapper;
+    Tally camlab, camlab_whole, mapper;
     unsigned seed = 1;
     for (int draw = 0; draw < (cnr > 0 ? seeds : 1); ++draw)
       for (const auto& [optics, angle, turned] : test_edges()) {
@@ -125,8 +127,16 @@ int main(int argc, char** argv) {
           camlab.add(*r->mtf50_cy_px, truth, camlab_s);
         else
           ++camlab.failed;
+        // The whole edge, as MTF Mapper reads it: every row of the image.
+        const auto whole = slanted_edge_sfr(
+            read, centre_segment(angle, turned, 0.5 * kSize / std::cos(angle * kPi / 180)));
+        if (whole.ok() && whole->status == "ok" && whole->mtf50_cy_px)
+          camlab_whole.add(*whole->mtf50_cy_px, truth, camlab_s);
+        else
+          ++camlab_whole.failed;
         t0 = std::chrono::steady_clock::now();
-        const auto m = mtf_mapper_mtf50(binary, png, work / "mtf_mapper");
+        const auto m =
+            binary == "-" ? std::nullopt : mtf_mapper_mtf50(binary, png, work / "mtf_mapper");
         const double mapper_s =
             std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         if (m)
@@ -136,6 +146,7 @@ int main(int argc, char** argv) {
       }
     const char* noise = cnr > 0 ? "CNR 50" : "none";
     print_row("camlab", noise, camlab);
+    print_row("camlab, the whole edge", noise, camlab_whole);
     print_row("MTF Mapper", noise, mapper);
   }
   return 0;

@@ -54,10 +54,45 @@ struct Tally {
 Result<json> measure_edges(const cv::Mat& f, const std::vector<EdgeSegment>& edges,
                            const SfrImageOptions& options, double lp_per_mm_per_cy_px,
                            std::string* text, Tally* tally) {
-  json list = json::array();
+  std::vector<SfrResult> results;
   for (const EdgeSegment& e : edges) {
     auto r = slanted_edge_sfr(f, e, options.sfr);
     if (!r) return r.error();
+    results.push_back(std::move(*r));
+  }
+  // Another edge through the region: its step sits in the ESF beside this one's (a star's
+  // converging sides, a narrow gap), which the SFR alone cannot always tell. Only segments
+  // that are edges count (the finder's stray lines show no step), each on the line its SFR
+  // found (so that two pieces or two ridges of one edge lie on one line and count once).
+  std::vector<EdgeSegment> steps;
+  std::vector<size_t> step_of(edges.size(), edges.size());
+  for (size_t k = 0; k < edges.size(); ++k) {
+    if (results[k].status == kSfrNoEdge) continue;
+    const EdgeSegment& e = edges[k];
+    const double half = 0.5 * std::hypot(e.end_x_px - e.start_x_px, e.end_y_px - e.start_y_px);
+    const double a = results[k].angle_deg * std::numbers::pi / 180;
+    const double cx = results[k].centre_x_px, cy = results[k].centre_y_px;
+    step_of[k] = steps.size();
+    steps.push_back({e.name, cx - half * std::cos(a), cy - half * std::sin(a),
+                     cx + half * std::cos(a), cy + half * std::sin(a), 0});
+  }
+  for (size_t k = 0; k < edges.size(); ++k) {
+    SfrResult& r = results[k];
+    if (r.status != kSfrOk) continue;
+    if (const auto neighbour = neighbour_in_region(steps, step_of[k], options.sfr)) {
+      r.status = std::string(kSfrNeighbourInRegion);
+      r.message = steps[neighbour->index].name + " passes " +
+                  format_significant(neighbour->distance_px, 3) +
+                  " px from this edge's line, inside the region read (" +
+                  format_significant(options.sfr.half_width_px, 3) +
+                  " px each side): a narrower --half-width, or a chart with more room";
+    }
+  }
+
+  json list = json::array();
+  for (size_t k = 0; k < edges.size(); ++k) {
+    const EdgeSegment& e = edges[k];
+    const SfrResult* r = &results[k];
     ++tally->edges;
     const std::string field = field_orientation(*r, f.size());
     json j = {{"name", e.name},

@@ -13,6 +13,14 @@ namespace {
 constexpr double kNearAxisDeg = 2.0;
 constexpr double kFrequencyStep = 0.005, kMaxFrequency = 1.0;  // cycles/px
 constexpr int kMinRows = 16;
+// How far inside the place where the edge leaves its line (straight_extent) the region
+// stops, px: the blur carries the bend that far.
+constexpr double kBendMarginPx = 2.0;
+// The half width of the windows that look for the bend (px across the edge).
+constexpr double kBendWindowPx = 6.0;
+// Where the ESF's tails begin (rises of 10-90% plus a margin from the edge's centre), and
+// the widest box that smooths them (half width).
+constexpr double kTailCoreRises = 0.75, kTailCoreMarginPx = 1.0, kTailMaxHalfPx = 4.0;
 
 // The region read in working coordinates: rows cross the edge (the image transposed when
 // the edge is nearer horizontal), so the edge runs x = a + b y with |b| <= 1.
@@ -41,17 +49,59 @@ struct RowLine {
 // (14 px at 30 deg for hw 24), over a square's corner into the next side, whose opposite
 // step then sits in the ESF.
 struct AlongEdge {
-  double mid_x = 0, mid_y = 0, b = 0, norm = 1, half_length = 0;
+  double mid_x = 0, mid_y = 0, b = 0, norm = 1, lo = 0, hi = 0;  // lo <= 0 <= hi, px
   bool inside(double x, double y) const {
-    return std::fabs(((x - mid_x) * b + (y - mid_y)) / norm) <= half_length;
+    const double position = ((x - mid_x) * b + (y - mid_y)) / norm;
+    return position >= lo && position <= hi;
   }
 };
+
+struct RowCentroid {
+  int row = 0;
+  double x = 0;
+};
+
+// Where the edge stays on its line: from the row nearest `mid_y` outward, the rows whose
+// centroid lies within the tolerance of `line` (4 robust standard deviations of all the
+// rows', at least 0.3 px), until two in a row do not. Returns the along-edge positions
+// (px from the middle, as AlongEdge's) of the last row kept each way, or the region's own
+// bound where the rows ran out first. A segment the finder ran past a corner, or past the
+// vertex where a star's side meets the next, ends where the edge bends, not where it
+// was drawn.
+std::pair<double, double> straight_extent(const std::vector<RowCentroid>& rows, const RowLine& line,
+                                          double mid_y, double norm, double lo, double hi) {
+  if (rows.size() < 8) return {lo, hi};
+  std::vector<double> deviation;
+  for (const RowCentroid& c : rows) deviation.push_back(std::fabs(c.x - line.x_at(c.row)));
+  std::vector<double> sorted = deviation;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
+                   sorted.end());
+  const double tolerance = std::max(0.5, 6 * 1.4826 * sorted[sorted.size() / 2]);
+  size_t middle = 0;
+  for (size_t k = 1; k < rows.size(); ++k)
+    if (std::fabs(rows[k].row - mid_y) < std::fabs(rows[middle].row - mid_y)) middle = k;
+  auto walk = [&](int direction, double bound) {
+    size_t kept = middle;
+    int misses = 0;
+    for (long k = static_cast<long>(middle) + direction;
+         k >= 0 && k < static_cast<long>(rows.size()); k += direction) {
+      if (deviation[static_cast<size_t>(k)] > tolerance) {
+        if (++misses == 3) return (rows[kept].row - mid_y) * norm;
+      } else {
+        misses = 0, kept = static_cast<size_t>(k);
+      }
+    }
+    return bound;
+  };
+  return {walk(-1, lo), walk(+1, hi)};
+}
 
 // Step 2: the per-row centroids of the windowed derivative, and the line through them.
 // Rows whose window leaves the image, or whose derivative sums to nothing, are skipped.
 std::optional<RowLine> fit_edge_line(const WorkingView& view, const RowLine& guess, int row_lo,
                                      int row_hi, double half_x, const AlongEdge& along,
-                                     int* rows_used) {
+                                     int* rows_used, std::vector<RowCentroid>* centroids) {
+  centroids->clear();
   double sy = 0, sx = 0, syy = 0, sxy = 0;
   int n = 0;
   for (int y = row_lo; y <= row_hi; ++y) {
@@ -74,6 +124,7 @@ std::optional<RowLine> fit_edge_line(const WorkingView& view, const RowLine& gue
     if (!(std::fabs(den) > 1e-12)) continue;
     const double centroid = num / den;
     if (!(std::fabs(centroid - c) <= half_x)) continue;
+    centroids->push_back({y, centroid});
     sy += y, sx += centroid, syy += double(y) * y, sxy += double(y) * centroid;
     ++n;
   }
@@ -86,9 +137,81 @@ std::optional<RowLine> fit_edge_line(const WorkingView& view, const RowLine& gue
   return line;
 }
 
+// The ESF's tails smoothed: past `core_bins` from the edge's centre each bin becomes the
+// mean of a box centred on it, half as wide as its distance past the core (up to
+// `max_half_bins`), kept inside the array so that it stays centred (a linear trend passes
+// unchanged). Past the spread the ESF is flat and only noise moves it; the LSF's noise at
+// the frequencies MTF50 lies at comes mostly from there (the core holds the signal), and a
+// box a few pixels wide removes those frequencies while the level, the zero frequency the
+// SFR is normalised by, passes.
+void smooth_tails(std::vector<double>* esf, double centre_bin, double core_bins,
+                  int max_half_bins) {
+  const int n = static_cast<int>(esf->size());
+  std::vector<double> prefix(static_cast<size_t>(n) + 1, 0.0);
+  for (int k = 0; k < n; ++k)
+    prefix[static_cast<size_t>(k) + 1] =
+        prefix[static_cast<size_t>(k)] + (*esf)[static_cast<size_t>(k)];
+  std::vector<double> out(*esf);
+  for (int k = 0; k < n; ++k) {
+    const double past = std::fabs(k - centre_bin) - core_bins;
+    if (past <= 0) continue;
+    const int half = std::min({static_cast<int>(past), max_half_bins, k, n - 1 - k});
+    if (half < 1) continue;
+    out[static_cast<size_t>(k)] =
+        (prefix[static_cast<size_t>(k + half) + 1] - prefix[static_cast<size_t>(k - half)]) /
+        (2 * half + 1);
+  }
+  *esf = std::move(out);
+}
+
 double sinc(double x) { return std::fabs(x) < 1e-12 ? 1.0 : std::sin(x) / x; }
 
 }  // namespace
+
+std::optional<NeighbourInRegion> neighbour_in_region(const std::vector<EdgeSegment>& edges,
+                                                     size_t self, const SfrOptions& options) {
+  constexpr double kEndMarginPx = 6, kSameEdgeSine = 0.05, kSameEdgePx = 3;  // 0.05: 3 deg
+  if (self >= edges.size()) return std::nullopt;
+  const EdgeSegment& a = edges[self];
+  const double length = std::hypot(a.end_x_px - a.start_x_px, a.end_y_px - a.start_y_px);
+  if (!(length > 0)) return std::nullopt;
+  const double ux = (a.end_x_px - a.start_x_px) / length, uy = (a.end_y_px - a.start_y_px) / length;
+  const double mx = 0.5 * (a.start_x_px + a.end_x_px), my = 0.5 * (a.start_y_px + a.end_y_px);
+  const double half_length =
+      (options.half_length_px > 0 ? options.half_length_px : 0.5 * length - 4) - kEndMarginPx;
+  if (half_length <= 0) return std::nullopt;
+  std::optional<NeighbourInRegion> nearest;
+  for (size_t k = 0; k < edges.size(); ++k) {
+    if (k == self) continue;
+    const EdgeSegment& b = edges[k];
+    // Along and across the edge's line at b's ends; both linear along b.
+    const double a0 = (b.start_x_px - mx) * ux + (b.start_y_px - my) * uy,
+                 a1 = (b.end_x_px - mx) * ux + (b.end_y_px - my) * uy;
+    const double c0 = (b.start_y_px - my) * ux - (b.start_x_px - mx) * uy,
+                 c1 = (b.end_y_px - my) * ux - (b.end_x_px - mx) * uy;
+    const double b_length = std::hypot(b.end_x_px - b.start_x_px, b.end_y_px - b.start_y_px);
+    if (!(b_length > 0)) continue;
+    if (std::fabs(c1 - c0) / b_length < kSameEdgeSine && std::fabs(c0) < kSameEdgePx &&
+        std::fabs(c1) < kSameEdgePx)
+      continue;  // a collinear piece of the same edge
+    // The part of b with |along| <= half_length: t in [lo, hi] of b's start-to-end.
+    double lo = 0, hi = 1;
+    if (std::fabs(a1 - a0) < 1e-12) {
+      if (std::fabs(a0) > half_length) continue;
+    } else {
+      double t0 = (-half_length - a0) / (a1 - a0), t1 = (half_length - a0) / (a1 - a0);
+      if (t0 > t1) std::swap(t0, t1);
+      lo = std::max(lo, t0), hi = std::min(hi, t1);
+      if (lo > hi) continue;
+    }
+    const double c_lo = c0 + lo * (c1 - c0), c_hi = c0 + hi * (c1 - c0);
+    const double distance =
+        (c_lo > 0) != (c_hi > 0) ? 0.0 : std::min(std::fabs(c_lo), std::fabs(c_hi));
+    if (distance < options.half_width_px && (!nearest || distance < nearest->distance_px))
+      nearest = NeighbourInRegion{k, distance};
+  }
+  return nearest;
+}
 
 std::optional<double> frequency_at(const std::vector<double>& frequency_cy_px,
                                    const std::vector<double>& sfr, double level) {
@@ -143,20 +266,24 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
   const double half_length =
       options.half_length_px > 0 ? options.half_length_px : std::max(0.0, 0.5 * length - 4.0);
   const double hw = options.half_width_px;
+  double along_lo = -half_length, along_hi = half_length;  // the region along the edge, px
   auto row_range = [&](const RowLine& l, int* lo, int* hi) {
-    const double half_rows = half_length / std::sqrt(1 + l.b * l.b);
-    *lo = std::max(0, static_cast<int>(std::ceil(mid_y - half_rows)));
-    *hi = std::min(view.rows() - 1, static_cast<int>(std::floor(mid_y + half_rows)));
+    const double norm = std::sqrt(1 + l.b * l.b);
+    *lo = std::max(0, static_cast<int>(std::ceil(mid_y + along_lo / norm)));
+    *hi = std::min(view.rows() - 1, static_cast<int>(std::floor(mid_y + along_hi / norm)));
   };
   auto along_edge = [&](const RowLine& l) {
-    return AlongEdge{l.x_at(mid_y), mid_y, l.b, std::sqrt(1 + l.b * l.b), half_length};
+    return AlongEdge{l.x_at(mid_y), mid_y, l.b, std::sqrt(1 + l.b * l.b), along_lo, along_hi};
   };
   int row_lo = 0, row_hi = 0, rows_used = 0;
-  for (int pass = 0; pass < 2; ++pass) {
+  std::vector<RowCentroid> centroids;
+  // Twice on the whole segment, then, where the edge leaves its line before the segment's
+  // end (straight_extent), once more on the straight part alone.
+  for (int pass = 0; pass < 3; ++pass) {
     row_range(line, &row_lo, &row_hi);
     const auto fitted =
         fit_edge_line(line_view, line, row_lo, row_hi, hw * std::sqrt(1 + line.b * line.b),
-                      along_edge(line), &rows_used);
+                      along_edge(line), &rows_used, &centroids);
     if (!fitted) {
       r.status = std::string(kSfrNoEdge);
       r.message =
@@ -164,6 +291,35 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
       return r;
     }
     line = *fitted;
+    if (pass == 1) {
+      // Every row of the whole segment, windows reaching past its ends allowed, and
+      // narrow (kBendWindowPx each side) so that they reach along the edge little past
+      // their row: near a vertex the window meets the next side, and the centroids leave
+      // the line there.
+      const double norm_now = std::sqrt(1 + line.b * line.b), full = 0.5 * length;
+      const int full_lo = std::max(0, static_cast<int>(std::ceil(mid_y - full / norm_now))),
+                full_hi = std::min(view.rows() - 1,
+                                   static_cast<int>(std::floor(mid_y + full / norm_now)));
+      AlongEdge anywhere = along_edge(line);
+      anywhere.lo = -1e9, anywhere.hi = 1e9;
+      int whole_used = 0;
+      fit_edge_line(line_view, line, full_lo, full_hi, std::min(hw, kBendWindowPx) * norm_now,
+                    anywhere, &whole_used, &centroids);
+      const auto [lo, hi] = straight_extent(centroids, line, mid_y, norm_now, -full - 1, full + 1);
+      // The region stops kBendMarginPx inside where the edge leaves its line (the blur
+      // carries the bend that far), and never beyond its own ends.
+      const double new_lo = std::max(along_lo, lo + kBendMarginPx),
+                   new_hi = std::min(along_hi, hi - kBendMarginPx);
+      if (new_lo == along_lo && new_hi == along_hi) break;
+      if (!(new_hi - new_lo > 8)) {
+        r.status = std::string(kSfrTooFewRows);
+        r.message = "the edge leaves its line within " +
+                    format_significant(std::max(0.0, new_hi - new_lo), 3) +
+                    " px: a corner or another edge is in the way";
+        return r;
+      }
+      along_lo = new_lo, along_hi = new_hi;
+    }
   }
   const double norm = std::sqrt(1 + line.b * line.b);
   const double slant = std::atan(std::fabs(line.b));
@@ -270,6 +426,11 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
     while (k10 < bins - 1 && smooth[static_cast<size_t>(k10)] < 0.1) ++k10;
     while (k90 > 0 && smooth[static_cast<size_t>(k90)] > 0.9) --k90;
     r.rise_10_90_px = std::max(0, k90 - k10) / static_cast<double>(os);
+    // The tails past the spread (a disk's reaches 0.63 rises from its centre, a Gaussian's
+    // 3 sigma 1.2 rises), smoothed by boxes up to 4 px wide each side.
+    smooth_tails(&esf, 0.5 * (k10 + k90),
+                 (kTailCoreRises * r.rise_10_90_px + kTailCoreMarginPx) * os,
+                 static_cast<int>(kTailMaxHalfPx * os));
   }
 
   // Step 4: the LSF, windowed about its centroid.

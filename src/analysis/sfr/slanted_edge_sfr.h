@@ -11,10 +11,16 @@
 //   2. the edge's line: per row whose window lies in the region, the centroid of the
 //      row's derivative under a Hamming window; a straight line fitted to the centroids
 //      (least squares), twice, the second time with the windows centred on the first line;
+//      then the region ends 2 px inside where the edge leaves that line (rows of the whole
+//      segment under 6 px windows, three in a row off it: a segment the finder ran past a
+//      vertex), and the line is fitted once more;
 //   3. the ESF: every pixel of the region binned by its perpendicular distance from the
-//      line into bins 1/oversampling px wide (4x: the edge's slant spreads the pixels'
-//      phases); each bin's mean value placed at its samples' mean distance, and the ESF
+//      line into bins 1/oversampling px wide (8 a pixel by default: the slant spreads the
+//      pixels' phases); each bin's mean value placed at its samples' mean distance, and the ESF
 //      on the bin centres interpolated linearly between those (empty bins included);
+//      the ESF's tails (past 0.75 rises + 1 px from the edge) smoothed by boxes that widen
+//      with the distance, up to 4 px each side: only noise moves the ESF there, and at the
+//      frequencies MTF50 lies at (0.1-0.4 cycles/px) that noise was most of the LSF's;
 //   4. the LSF: the ESF's central difference, under a window centred on its centroid:
 //      flat to 1.25 rises + 1.5 px each side, a cosine taper to twice that (the noise past
 //      the spread left out);
@@ -58,6 +64,9 @@ inline constexpr std::string_view kSfrNoEdge = "no_edge";  // no step across the
 // spread dips below zero by over a third of its rise, or its SFR never falls to 0.5
 // (which an area-sampling pixel alone makes it do by 0.6 cycles/px).
 inline constexpr std::string_view kSfrNotAStep = "not_a_step";
+// Another edge runs through the region (neighbour_in_region()): its step would sit in the
+// ESF beside this one's.
+inline constexpr std::string_view kSfrNeighbourInRegion = "neighbour_in_region";
 
 struct SfrResult {
   std::string status = std::string(kSfrOk);  // kSfr...; anything but ok: figures not to be used
@@ -88,6 +97,18 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& image, const EdgeSegment& edge
 // on the line its luminance shows. NaN samples are skipped.
 Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometry,
                                    const EdgeSegment& edge, const SfrOptions& options = {});
+
+// Another edge of `edges` (not `edges[self]`, nor a collinear piece of the same edge)
+// that passes through the SFR region of `edges[self]` under `options`: within the half
+// width of its line, inside its length by more than 6 px (an adjacent side of a square
+// meets it at the region's end; the finder places ends within a few px). The neighbour's
+// index and its least distance from the line (px); none when the region is clear.
+struct NeighbourInRegion {
+  size_t index = 0;
+  double distance_px = 0;
+};
+std::optional<NeighbourInRegion> neighbour_in_region(const std::vector<EdgeSegment>& edges,
+                                                     size_t self, const SfrOptions& options = {});
 
 // The frequency (cycles/px) where `sfr` first falls to `level`, linearly interpolated;
 // none when it stays above.

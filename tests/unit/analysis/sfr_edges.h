@@ -118,12 +118,13 @@ inline std::vector<TestEdge> test_edges() {
   return edges;
 }
 
-// The segment measured on draw_edge()'s image: 120 px of the edge about the centre.
-inline EdgeSegment centre_segment(double angle_deg, bool turned) {
-  const double a = angle_deg * kPi / 180, c = 0.5 * (kSize - 1);
+// The segment measured on draw_edge()'s image: 120 px of the edge about the centre (or
+// `half_length_px` each side).
+inline EdgeSegment centre_segment(double angle_deg, bool turned, double half_length_px = 60) {
+  const double a = angle_deg * kPi / 180, c = 0.5 * (kSize - 1), h = half_length_px;
   double ux = std::sin(a), uy = std::cos(a);  // along the edge
   if (turned) std::swap(ux, uy);
-  return {"edge", c - 60 * ux, c - 60 * uy, c + 60 * ux, c + 60 * uy, 0};
+  return {"edge", c - h * ux, c - h * uy, c + h * ux, c + h * uy, 0};
 }
 
 inline double true_mtf50(const Optics& optics, double angle_deg) {

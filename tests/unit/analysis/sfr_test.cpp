@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
+#include "analysis/sfr/sfr_image.h"
 #include "analysis/sfr/slanted_edge_sfr.h"
 #include "sfr_edges.h"
 
@@ -67,8 +68,10 @@ TEST(SlantedEdgeSfr, Mtf50WithoutNoiseIsTheClosedFormTruth) {
   EXPECT_LE(worst, 0.005);
 }
 
-// At contrast-to-noise 50 on 113-row edges the noise dominates: p95 2.0% near 0.25
-// cycles/px, worst 2.8% when written (issue 34 asks 1% and 2.5%: not reached).
+// At contrast-to-noise 50 on 113-row edges the noise dominates: p95 1.56% near 0.25
+// cycles/px, worst 1.71% when written (2.05% and 2.53% before the ESF's tails were
+// smoothed; issue 34 asks 1% p95: see docs/analysis.md for the comparison with MTF Mapper
+// on these edges).
 TEST(SlantedEdgeSfr, Mtf50AtContrastToNoise50) {
   const Mtf50Errors e = mtf50_errors(50);
   ASSERT_GE(e.near_quarter.size(), 10u);
@@ -78,8 +81,8 @@ TEST(SlantedEdgeSfr, Mtf50AtContrastToNoise50) {
       "CNR 50: MTF50 near 0.25 cycles/px p95 %.2f%% over %zu edges; worst of all %zu: "
       "%.2f%%\n",
       100 * p95_quarter, e.near_quarter.size(), e.all.size(), 100 * worst);
-  EXPECT_LE(p95_quarter, 0.025);
-  EXPECT_LE(worst, 0.04);
+  EXPECT_LE(p95_quarter, 0.02);
+  EXPECT_LE(worst, 0.025);
 }
 
 // The sides of a square turned 25-40 deg, each measured on its whole length, corner to
@@ -104,6 +107,54 @@ TEST(SlantedEdgeSfr, SidesOfASquareTurnedFarFromTheAxesAreEachTheirOwnEdge) {
           << angle << " deg, side " << k << ": MTF50 " << *r->mtf50_cy_px << ", truth " << truth;
     }
   }
+}
+
+// The region's neighbours, as geometry: a side crossing at 45 deg inside the region and a
+// parallel edge 10 px off are neighbours; the adjacent side meeting at the region's end, a
+// collinear piece of the same edge and a parallel edge 30 px off (past the 24 px half
+// width) are not.
+TEST(SlantedEdgeSfr, NeighbourInRegionIsAnotherStepWithinTheHalfWidth) {
+  const EdgeSegment edge{"edge_0", 100, 40, 100, 160, 0};  // 120 px, straight down
+  auto with = [&](EdgeSegment other) {
+    other.name = "edge_1";
+    return neighbour_in_region({edge, other}, 0);
+  };
+  const auto crossing = with({"", 80, 60, 120, 100, 0});  // 45 deg, crosses the line
+  ASSERT_TRUE(crossing.has_value());
+  EXPECT_EQ(crossing->index, 1u);
+  EXPECT_NEAR(crossing->distance_px, 0, 1e-9);
+  const auto parallel = with({"", 110, 50, 110, 150, 0});
+  ASSERT_TRUE(parallel.has_value());
+  EXPECT_NEAR(parallel->distance_px, 10, 1e-9);
+  // A square's next side from the corner at (100, 160), a few px off the segment's end.
+  EXPECT_FALSE(with({"", 100, 162, 220, 162, 0}).has_value());
+  EXPECT_FALSE(with({"", 100.5, 150, 100.5, 220, 0}).has_value());  // a collinear piece
+  EXPECT_FALSE(with({"", 130, 40, 130, 160, 0}).has_value());
+  EXPECT_FALSE(neighbour_in_region({edge}, 0).has_value());
+}
+
+// A star of two squares, one turned 45 deg from the other (eight points, sides at four
+// orientations): each side meets the next at a vertex of 135 deg, and the finder's
+// segments run a few px past it, where the next side's step enters the region (MTF50 7%
+// low, status ok, before the region stopped where the edge leaves its line). Every side
+// found is measured within 2% of the truth or flagged: none gives a silently wrong number.
+TEST(SlantedEdgeSfr, AStarsSidesAreMeasuredOnTheirStraightPartOnly) {
+  const Optics optics{false, 0.8};
+  const cv::Mat a = draw_square(optics, 10, 150, 320, 21, 0, nullptr);
+  const cv::Mat b = draw_square(optics, 55, 150, 320, 22, 0, nullptr);
+  const cv::Mat star = cv::min(a, b);  // dark where either square is
+  auto report = analyze_sfr(star, "star", SfrImageOptions{});
+  ASSERT_TRUE(report.ok()) << report.error().message;
+  int measured = 0;
+  for (const auto& e : report->report["edges"]) {
+    if (e["status"] != "ok") continue;
+    ++measured;
+    const double slant = e["slant_deg"].get<double>();
+    EXPECT_NEAR(e["mtf50_cy_px"].get<double>() / true_mtf50(optics, slant), 1, 0.02)
+        << e["name"] << " at " << e["centre_px"] << ", slant " << slant;
+  }
+  std::printf("star: %zu sides found, %d measured\n", report->report["edges"].size(), measured);
+  EXPECT_GE(measured, 3);
 }
 
 TEST(SlantedEdgeSfr, FlagsWhatItCannotMeasure) {
