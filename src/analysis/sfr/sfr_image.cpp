@@ -5,6 +5,7 @@
 #include <map>
 #include <numbers>
 
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -54,9 +55,16 @@ struct Tally {
 Result<json> measure_edges(const cv::Mat& f, const std::vector<EdgeSegment>& edges,
                            const SfrImageOptions& options, double lp_per_mm_per_cy_px,
                            std::string* text, Tally* tally) {
+  // The edges side by side on OpenCV's threads (slanted_edge_sfr is reentrant): a 12 MP
+  // chart's 316 take 0.1 s on one core.
+  std::vector<Result<SfrResult>> measured(edges.size(), SfrResult{});
+  cv::parallel_for_(cv::Range(0, static_cast<int>(edges.size())), [&](const cv::Range& range) {
+    for (int k = range.start; k < range.end; ++k)
+      measured[static_cast<size_t>(k)] =
+          slanted_edge_sfr(f, edges[static_cast<size_t>(k)], options.sfr);
+  });
   std::vector<SfrResult> results;
-  for (const EdgeSegment& e : edges) {
-    auto r = slanted_edge_sfr(f, e, options.sfr);
+  for (auto& r : measured) {
     if (!r) return r.error();
     results.push_back(std::move(*r));
   }

@@ -485,16 +485,23 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
   int first = 0, last = bins - 1;
   while (first < last && lsf[static_cast<size_t>(first)] == 0) ++first;
   while (last > first && lsf[static_cast<size_t>(last)] == 0) --last;
+  // In real arithmetic: std::complex's product goes through libgcc's __muldc3 (its NaN
+  // and infinity cases), a tenth of a 12 MP chart's time.
   for (double fr = 0; fr <= kMaxFrequency + 1e-9; fr += kFrequencyStep) {
-    std::complex<double> sum_f = 0;
     const double w = -2 * std::numbers::pi * fr * bin_px;
-    const std::complex<double> step = std::polar(1.0, w);
-    std::complex<double> phasor = std::polar(1.0, w * (first - centroid));
-    for (int k = first; k <= last; ++k, phasor *= step)
-      sum_f += lsf[static_cast<size_t>(k)] * phasor;
+    const double step_re = std::cos(w), step_im = std::sin(w);
+    double phasor_re = std::cos(w * (first - centroid)),
+           phasor_im = std::sin(w * (first - centroid));
+    double sum_re = 0, sum_im = 0;
+    for (int k = first; k <= last; ++k) {
+      const double v = lsf[static_cast<size_t>(k)];
+      sum_re += v * phasor_re, sum_im += v * phasor_im;
+      const double re = phasor_re * step_re - phasor_im * step_im;
+      phasor_im = phasor_re * step_im + phasor_im * step_re, phasor_re = re;
+    }
     const double correction = sinc(2 * std::numbers::pi * fr * bin_px);
     r.frequency_cy_px.push_back(fr);
-    r.sfr.push_back(std::abs(sum_f) / std::abs(dc) / correction);
+    r.sfr.push_back(std::hypot(sum_re, sum_im) / std::abs(dc) / correction);
   }
   r.mtf50_cy_px = frequency_at(r.frequency_cy_px, r.sfr, 0.5);
   r.mtf30_cy_px = frequency_at(r.frequency_cy_px, r.sfr, 0.3);
