@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <system_error>
 
 #include <opencv2/imgcodecs.hpp>
@@ -313,6 +314,44 @@ Result<Paths> write_lens_map_plots(const fs::path& dir, const nlohmann::json& re
       if (!p->x.empty()) map.series.push_back(*p);
     if (Status st = plot(dir / ("lensmap_surface_" + tag + ".png"), map, &written); !st)
       return st.error();
+
+    // MTF50 across the field, as lens makers chart it against image height: each edge's
+    // MTF50 at the axis' best focus (interpolated between the sweep's two nearest
+    // positions) over its distance from the centre, sagittal and meridional apart. Where
+    // the two classes part with height, the lens is astigmatic; where both fall, the field
+    // curves away from the axis' focus.
+    PlotSpec field;
+    field.title =
+        format_printf("MTF50 across the field at the axis' best focus (%.1f), ", p0) + stop;
+    field.x_label = "image height (half diagonals from the centre)";
+    field.y_label = "MTF50 (cycles/px)";
+    field.x_range = std::pair<double, double>{0, 1};
+    PlotSeries by_class[3] = {series("sagittal edges", false, 0xc00000),
+                              series("meridional edges", false, 0x0000c0),
+                              series("other edges", false, 0x808080)};
+    for (const nlohmann::json& e : s["edges"]) {
+      if (e["status"] != "ok") continue;
+      const auto& points = e.value("through_focus_mtf50", nlohmann::json::array());
+      std::optional<double> at_p0;
+      for (size_t k = 1; k < points.size() && !at_p0; ++k) {
+        const double a = points[k - 1][0].get<double>(), b = points[k][0].get<double>();
+        if ((a - p0) * (b - p0) > 0 || a == b) continue;
+        const double t = (p0 - a) / (b - a);
+        at_p0 = (1 - t) * points[k - 1][1].get<double>() + t * points[k][1].get<double>();
+      }
+      if (!at_p0) continue;  // the sweep does not reach the axis' focus for this edge
+      const std::string kind = e.value("field", std::string());
+      PlotSeries& into = by_class[kind == "sagittal" ? 0 : kind == "meridional" ? 1 : 2];
+      const double u = (e["centre_px"][0].get<double>() - cx) / half_diagonal,
+                   v = (e["centre_px"][1].get<double>() - cy) / half_diagonal;
+      into.x.push_back(std::hypot(u, v));
+      into.y.push_back(*at_p0);
+    }
+    for (PlotSeries& p : by_class)
+      if (!p.x.empty()) field.series.push_back(std::move(p));
+    if (!field.series.empty())
+      if (Status st = plot(dir / ("lensmap_field_mtf50_" + tag + ".png"), field, &written); !st)
+        return st.error();
 
     // MTF50 through focus: one line an edge, sagittal blue, meridional red, the rest grey;
     // a legend entry per class.

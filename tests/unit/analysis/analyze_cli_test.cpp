@@ -333,14 +333,26 @@ TEST(AnalyzeCli, LensmapOfTheThinLensIsAFlatSurfaceAtItsFocusForTheChart) {
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto report = nlohmann::json::parse(run.out);
   ASSERT_EQ(report["surfaces"].size(), 1u);
-  // The plots: the surface over the imager and the through-focus curves, each a PNG the
-  // report lists; every edge's curve is in the report too.
-  ASSERT_EQ(report["plots"].size(), 2u) << report["plots"].dump();
-  for (const char* name : {"lensmap_surface_f1_4.png", "lensmap_through_focus_f1_4.png"}) {
+  // The plots: the surface over the imager, MTF50 across the field and the through-focus
+  // curves, each a PNG the report lists; every edge's curve is in the report too.
+  ASSERT_EQ(report["plots"].size(), 3u) << report["plots"].dump();
+  for (const char* name : {"lensmap_surface_f1_4.png", "lensmap_field_mtf50_f1_4.png",
+                           "lensmap_through_focus_f1_4.png"}) {
     const cv::Mat png = cv::imread((plots / name).string());
     EXPECT_FALSE(png.empty()) << name;
     EXPECT_GE(png.cols, 400) << name;
   }
+  // MTF50 across the field: a point per edge measured (the thin lens is in focus over the
+  // whole flat chart at its axis' best focus, so every edge is sharp there).
+  std::ifstream field_json(plots / "lensmap_field_mtf50_f1_4.json");
+  const auto field = nlohmann::json::parse(field_json);
+  size_t points = 0;
+  for (const auto& series : field["series"])
+    for (const auto& mtf50 : series["y"]) {
+      ++points;
+      EXPECT_GT(mtf50.get<double>(), 0.3) << series["label"];
+    }
+  EXPECT_GE(points, 30u);
   std::filesystem::remove_all(plots);
   for (const auto& edge : report["surfaces"][0]["edges"]) {
     if (edge["status"] != "ok") continue;
