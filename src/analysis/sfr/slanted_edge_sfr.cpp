@@ -521,6 +521,20 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
     r.status = std::string(kSfrNearAxis);
     r.message = "the edge is " + format_significant(r.slant_deg, 3) +
                 " deg off a pixel axis: under 2 deg the rows sample too few phases of it";
+  } else if (const double off_diagonal = std::fabs(std::fabs(line.b) - 1);
+             rows * off_diagonal < 1.0) {
+    // At 45 deg every pixel centre lies x - y apart from the line, a lattice 0.71 px apart
+    // across it (coarser than the ESF's half-pixel Nyquist spacing for a pixel's own
+    // blur): the bins between stay empty and the ESF is interpolated over them. Off 45 deg
+    // the rows drift across that lattice by |1 - |b|| each; they must drift a whole step.
+    r.status = std::string(kSfrNearDiagonal);
+    // |1 - tan(45 deg + d)| is about 2 d (rad): rows x 2 d >= 1.
+    r.message = "the edge is " + format_significant(std::fabs(45 - r.slant_deg), 2) +
+                " deg off 45 deg: the pixel centres lie on a lattice 0.71 px apart across it, "
+                "and its " +
+                std::to_string(rows) + " rows do not drift across that lattice (turn it " +
+                format_significant(90 / std::numbers::pi / std::max(rows, 1), 2) +
+                " deg or more from 45)";
   } else if (clipped) {
     r.status = std::string(kSfrClipped);
     r.message = "pixels of the region reach the clipping level: the ESF's top is cut";

@@ -56,6 +56,9 @@ struct SfrOptions {
 
 inline constexpr std::string_view kSfrOk = "ok";
 inline constexpr std::string_view kSfrNearAxis = "near_axis";
+// Within a fraction of a degree of 45: the pixel centres fall on a lattice 0.71 px apart
+// across the edge, too coarse for the ESF, unless the rows drift across it.
+inline constexpr std::string_view kSfrNearDiagonal = "near_diagonal";
 inline constexpr std::string_view kSfrClipped = "clipped";
 inline constexpr std::string_view kSfrWindowTooShort = "window_too_short";
 inline constexpr std::string_view kSfrTooFewRows = "too_few_rows";
