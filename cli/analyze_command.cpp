@@ -34,6 +34,7 @@ struct AnalyzeArgs {
   double half_width_px = 24;
   double min_edge_px = 40;
   double focus_step_mm = 0;
+  std::string transfer = "auto";
 };
 
 // The report to --report, then the JSON (--json) or the text summary to stdout.
@@ -70,6 +71,9 @@ void run_sfr(const AnalyzeArgs& args) {
   o.pixel_pitch_um = args.pixel_um;
   o.sfr.half_width_px = args.half_width_px;
   o.min_edge_length_px = args.min_edge_px;
+  o.transfer = args.transfer == "linear" ? analysis::ImageTransfer::kLinear
+               : args.transfer == "srgb" ? analysis::ImageTransfer::kSrgb
+                                         : analysis::ImageTransfer::kAuto;
   if (std::filesystem::is_directory(args.dir)) {
     // A capture folder: the same run as camlabd's analysis job of kind "sfr".
     analysis::AnalyzeOptions folder;
@@ -171,6 +175,12 @@ void register_analyze_command(CLI::App& app) {
   sfr->add_option("--min-edge", args->min_edge_px, "shortest edge measured (px)")
       ->capture_default_str()
       ->check(CLI::Range(16.0, 100000.0));
+  sfr->add_option("--transfer", args->transfer,
+                  "how an image file's values relate to light (the SFR is measured on linear "
+                  "values): auto (8-bit files sRGB-encoded, 16-bit linear), linear, srgb; "
+                  "capture folders are read as stored")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "linear", "srgb"}));
   sfr->callback([args] { run_sfr(*args); });
 
   CLI::App* lensmap = analyze->add_subcommand(

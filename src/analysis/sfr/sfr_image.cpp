@@ -345,10 +345,34 @@ Result<SfrImageReport> analyze_sfr_image(const std::string& path, const SfrImage
   if (image.empty()) return make_error("bad_image", "cannot read an image from " + path);
   if (image.depth() != CV_8U && image.depth() != CV_16U)
     return make_error("bad_image", path + ": only 8- and 16-bit images are measured");
-  if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2BGR);
-  if (image.channels() == 3) cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);
-  if (image.channels() != 1) return make_error("bad_image", path + ": unsupported channel count");
-  return analyze_sfr(image, path, options);
+  if (image.channels() != 1 && image.channels() != 3 && image.channels() != 4)
+    return make_error("bad_image", path + ": unsupported channel count");
+  const bool assumed = options.transfer == ImageTransfer::kAuto;
+  const bool srgb = options.transfer == ImageTransfer::kSrgb || (assumed && image.depth() == CV_8U);
+  // Linear values first (sRGB decoded per channel, before the luminance is formed), in
+  // the file's code range so that the finder's thresholds see the same contrast scale.
+  const double full_scale = image.depth() == CV_8U ? 255.0 : 65535.0;
+  cv::Mat linear;
+  image.convertTo(linear, CV_32F, 1.0 / full_scale);
+  if (srgb) {
+    cv::Mat values = linear.reshape(1);  // every channel's value, in place
+    values.forEach<float>([](float& v, const int*) {
+      v = v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+    });
+  }
+  if (linear.channels() == 4) cv::cvtColor(linear, linear, cv::COLOR_BGRA2BGR);
+  if (linear.channels() == 3) cv::cvtColor(linear, linear, cv::COLOR_BGR2GRAY);
+  linear *= full_scale;
+  auto report = analyze_sfr(linear, path, options);
+  if (!report) return report;
+  const std::string transfer = srgb ? "srgb" : "linear";
+  report->report["transfer"] = {{"encoding", transfer}, {"assumed", assumed}};
+  const std::string why =
+      !assumed ? "given with --transfer"
+      : srgb   ? "assumed for an 8-bit file; --transfer linear if its values are linear"
+               : "assumed for a 16-bit file; --transfer srgb if it is sRGB-encoded";
+  report->text = "values: " + transfer + " (" + why + ")\n" + report->text;
+  return report;
 }
 
 }  // namespace camlab::analysis

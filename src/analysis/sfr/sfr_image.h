@@ -20,10 +20,17 @@ namespace camlab::analysis {
 // The most edges measured in a frame: the longest, when a frame has more.
 inline constexpr int kSfrMaxEdges = 1000;
 
+// How a plain image's values relate to light (ISO 12233 measures on linear values: an
+// encoded ESF is bent, and MTF50 comes out 10% or more off). auto: 8-bit files are taken
+// as sRGB-encoded (what cameras and editors write), 16-bit as linear (raw developers,
+// camlab's own frames).
+enum class ImageTransfer { kAuto, kLinear, kSrgb };
+
 struct SfrImageOptions {
   SfrOptions sfr;
-  double pixel_pitch_um = 0;       // 0: MTF in cycles/px only
-  double min_edge_length_px = 40;  // edges found shorter than this are not measured
+  ImageTransfer transfer = ImageTransfer::kAuto;  // plain images only (not capture folders)
+  double pixel_pitch_um = 0;                      // 0: MTF in cycles/px only
+  double min_edge_length_px = 40;                 // edges found shorter than this are not measured
 };
 
 struct SfrImageReport {
@@ -32,8 +39,9 @@ struct SfrImageReport {
 };
 
 // Reads `path` (PNG, JPEG, TIFF...: 8 or 16 bits, grey or colour; colour as its
-// luminance) and measures every edge found. Errors: "bad_image" (unreadable, or a depth
-// other than 8/16 bits), "no_edge_geometry" (no straight edge found), and
+// luminance), decodes its values to linear by `options.transfer` (the report's
+// "transfer" says which, and whether assumed) and measures every edge found. Errors: "bad_image"
+// (unreadable, or a depth other than 8/16 bits), "no_edge_geometry" (no straight edge found), and
 // slanted_edge_sfr()'s.
 Result<SfrImageReport> analyze_sfr_image(const std::string& path, const SfrImageOptions& options);
 
