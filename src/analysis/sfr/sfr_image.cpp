@@ -234,8 +234,9 @@ Result<SfrImageReport> analyze_sfr(const cv::Mat& image, const std::string& name
                                    const SfrImageOptions& options) {
   if (image.empty() || image.channels() != 1)
     return make_error("bad_image", "the SFR needs a single-channel image");
-  cv::Mat f;
-  image.convertTo(f, CV_32F);
+  // A float image (a decoded file) is read in place, as the finder and the SFR read it.
+  cv::Mat f = image;
+  if (image.type() != CV_32F) image.convertTo(f, CV_32F);
   const std::vector<EdgeSegment> edges = edges_in(f, options);
   if (edges.empty()) return no_edges(options, name);
   const double lp_per_mm_per_cy_px =

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <complex>
 #include <numbers>
 
 #include "base/format.h"
@@ -62,8 +61,8 @@ struct RowCentroid {
 };
 
 // Where the edge stays on its line: from the row nearest `mid_y` outward, the rows whose
-// centroid lies within the tolerance of `line` (4 robust standard deviations of all the
-// rows', at least 0.3 px), until two in a row do not. Returns the along-edge positions
+// centroid lies within the tolerance of `line` (6 robust standard deviations of all the
+// rows', at least 0.5 px), until three in a row do not. Returns the along-edge positions
 // (px from the middle, as AlongEdge's) of the last row kept each way, or the region's own
 // bound where the rows ran out first. A segment the finder ran past a corner, or past the
 // vertex where a star's side meets the next, ends where the edge bends, not where it
@@ -166,6 +165,12 @@ void smooth_tails(std::vector<double>* esf, double centre_bin, double core_bins,
 
 double sinc(double x) { return std::fabs(x) < 1e-12 ? 1.0 : std::sin(x) / x; }
 
+// The region's half length along a segment `length_px` long: the option's, or the
+// segment's half less 4 px (its ends are where the finder placed the corners).
+double region_half_length(double length_px, const SfrOptions& options) {
+  return options.half_length_px > 0 ? options.half_length_px : std::max(0.0, 0.5 * length_px - 4);
+}
+
 }  // namespace
 
 std::optional<NeighbourInRegion> neighbour_in_region(const std::vector<EdgeSegment>& edges,
@@ -177,8 +182,7 @@ std::optional<NeighbourInRegion> neighbour_in_region(const std::vector<EdgeSegme
   if (!(length > 0)) return std::nullopt;
   const double ux = (a.end_x_px - a.start_x_px) / length, uy = (a.end_y_px - a.start_y_px) / length;
   const double mx = 0.5 * (a.start_x_px + a.end_x_px), my = 0.5 * (a.start_y_px + a.end_y_px);
-  const double half_length =
-      (options.half_length_px > 0 ? options.half_length_px : 0.5 * length - 4) - kEndMarginPx;
+  const double half_length = region_half_length(length, options) - kEndMarginPx;
   if (half_length <= 0) return std::nullopt;
   std::optional<NeighbourInRegion> nearest;
   for (size_t k = 0; k < edges.size(); ++k) {
@@ -263,8 +267,7 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
   line.b = (x1 - x0) / (y1 - y0);
   line.a = x0 - line.b * y0;
   const double mid_y = 0.5 * (y0 + y1);
-  const double half_length =
-      options.half_length_px > 0 ? options.half_length_px : std::max(0.0, 0.5 * length - 4.0);
+  const double half_length = region_half_length(length, options);
   const double hw = options.half_width_px;
   double along_lo = -half_length, along_hi = half_length;  // the region along the edge, px
   auto row_range = [&](const RowLine& l, int* lo, int* hi) {
@@ -474,7 +477,7 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
 
   // Step 5: the SFR.
   const double bin_px = 1.0 / os;
-  std::complex<double> dc = 0;
+  double dc = 0;
   for (int k = 0; k < bins; ++k) dc += lsf[static_cast<size_t>(k)];
   if (!(std::abs(dc) > 0)) {
     r.status = std::string(kSfrNoEdge);
