@@ -103,11 +103,13 @@ Result<CaptureFolderWriter> CaptureFolderWriter::create(const fs::path& dir,
       {"source", source},
       {"parameters", parameters},
   };
-  if (Status status = writer.write_manifest(false); !status) return status.error();
+  // The journal first: a reader takes the manifest as the folder's existence (camlabd lists
+  // a running job's frames once it appears), so the journal must be there when it is.
   writer.journal_fd_.reset(::openat(writer.dir_fd_.get(), kFrameJournalName,
                                     O_WRONLY | O_CREAT | O_EXCL | O_APPEND | O_CLOEXEC, 0600));
   if (!writer.journal_fd_ || ::fchmod(writer.journal_fd_.get(), data_file_mode()) != 0)
     return io_error(dir / kFrameJournalName, "cannot create", errno);
+  if (Status status = writer.write_manifest(false); !status) return status.error();
   // The manifest's and the journal's names are on disk before any frame is.
   if (::fsync(writer.dir_fd_.get()) != 0) return io_error(dir, "cannot flush folder", errno);
   return writer;

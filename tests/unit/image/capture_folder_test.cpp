@@ -2,8 +2,10 @@
 // readable, and broken or hostile folders give specific errors.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <filesystem>
 #include <fstream>
+#include <thread>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -99,6 +101,34 @@ TEST_F(CaptureFolderTest, ACaptureCutShortIsReadableAndSaysIncomplete) {
   // No temporary files are left behind by the atomic writes.
   for (const auto& entry : fs::directory_iterator(dir))
     EXPECT_NE(entry.path().filename().string()[0], '.') << entry.path();
+}
+
+// camlabd lists a running job's frames as soon as its manifest appears; the folder must open
+// from that moment (the journal written second once answered 404 to a poll between the two).
+TEST_F(CaptureFolderTest, AFolderOpensFromTheMomentItsManifestAppears) {
+  constexpr int kFolders = 300;  // bounded: each creation is a few file operations
+  std::atomic<int> created{-1};
+  std::atomic<bool> done{false};
+  std::string first_failure;
+  int opened_while_new = 0;
+  std::thread reader([&] {
+    while (!done.load()) {
+      const int k = created.load() + 1;  // the folder being created now, or next
+      const fs::path candidate = dir / std::to_string(k);
+      if (!fs::exists(candidate / "manifest.json")) continue;
+      auto folder = CaptureFolder::open(candidate);
+      if (!folder && first_failure.empty()) first_failure = folder.error().message;
+      if (folder) ++opened_while_new;
+    }
+  });
+  for (int k = 0; k < kFolders; ++k) {
+    ASSERT_TRUE(CaptureFolderWriter::create(dir / std::to_string(k), "bracket", {}, {}).ok());
+    created.store(k);
+  }
+  done.store(true);
+  reader.join();
+  EXPECT_TRUE(first_failure.empty()) << first_failure;
+  EXPECT_GT(opened_while_new, 0) << "the reader never met a folder as it was made";
 }
 
 TEST_F(CaptureFolderTest, RefusesToOverwriteANonEmptyFolder) {
