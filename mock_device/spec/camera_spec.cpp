@@ -253,7 +253,17 @@ Result<CameraSpec> parse_camera_spec(const nlohmann::json& json) {
   CAMLAB_ASSIGN(spec.timing.control_latency_frames,
                 timing.integer("control_latency_frames", 0, 16, 0));
 
-  CAMLAB_ASSIGN(spec.isp.jpeg_quality, root.child("isp").integer("jpeg_quality", 1, 100, 90));
+  JsonFields isp = root.child("isp");
+  CAMLAB_ASSIGN(spec.isp.jpeg_quality, isp.integer("jpeg_quality", 1, 100, 90));
+  std::string transfer;
+  CAMLAB_ASSIGN(transfer, isp.string("transfer", "linear"));
+  const auto named = transfer_function_named(transfer);
+  if (!named || *named == TransferFunction::kOther)
+    return make_error("invalid_argument",
+                      "isp.transfer must be \"linear\", \"srgb\" or "
+                      "\"bt709\", not \"" +
+                          transfer + "\"");
+  spec.isp.transfer = *named;
 
   JsonFields controls = root.child("controls");
   // exposure_time_absolute is in 100 us units and cannot exceed the frame interval.

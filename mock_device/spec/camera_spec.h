@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "base/result.h"
+#include "base/transfer_function.h"
 
 namespace camlab::mock {
 
@@ -129,6 +130,9 @@ struct ControlsSpec {
 // data (RGB, YUV, JPEG).
 struct IspSpec {
   int jpeg_quality = 90;  // libjpeg quality of MJPEG frames, 1..100
+  // The curve the processed formats' values are encoded with, and declare (xfer_func):
+  // linear (the default), or sRGB / BT.709 as a webcam's YUYV and MJPEG are.
+  TransferFunction transfer = TransferFunction::kLinear;
 };
 
 // A light-field (plenoptic) camera (docs/virtual-camera.md, "Light fields"): its views

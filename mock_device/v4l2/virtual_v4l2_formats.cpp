@@ -112,7 +112,8 @@ std::optional<FrameSize> frame_size(const OfferedFormat& format, const SensorSpe
   return size;
 }
 
-void fill_pix_format(const OfferedFormat& format, FrameSize size, v4l2_pix_format* pix) {
+void fill_pix_format(const OfferedFormat& format, FrameSize size, v4l2_pix_format* pix,
+                     TransferFunction isp_transfer) {
   pix->pixelformat = format.fourcc;
   pix->width = size.width;
   pix->height = size.height;
@@ -130,13 +131,18 @@ void fill_pix_format(const OfferedFormat& format, FrameSize size, v4l2_pix_forma
       pix->sizeimage = pix->bytesperline * size.height;
       break;
   }
-  pix->priv = 0;
+  // The kernel's core marks the extended fields (colour, transfer) valid in every reply.
+  pix->priv = V4L2_PIX_FMT_PRIV_MAGIC;
   pix->flags = 0;
-  // Raw samples declare no colour; the image processor's formats are linear (no
-  // transfer function: the DN above black, scaled) with sRGB primaries, RGB at full
-  // range, YCbCr as BT.601 at limited range, JPEG (JFIF) BT.601 at full range.
+  // Raw samples declare no colour; the image processor's formats have sRGB primaries,
+  // RGB at full range, YCbCr as BT.601 at limited range, JPEG (JFIF) BT.601 at full
+  // range, and the ISP's curve: linear (no transfer function: the DN above black,
+  // scaled), sRGB left at DEFAULT for the colour space to imply (as many drivers do), or
+  // BT.709 said outright (as uvcvideo does from a camera's colour matching descriptor).
   pix->colorspace = V4L2_COLORSPACE_SRGB;
-  pix->xfer_func = V4L2_XFER_FUNC_NONE;
+  pix->xfer_func = isp_transfer == TransferFunction::kSrgb    ? V4L2_XFER_FUNC_DEFAULT
+                   : isp_transfer == TransferFunction::kBt709 ? V4L2_XFER_FUNC_709
+                                                              : V4L2_XFER_FUNC_NONE;
   switch (format.kind) {
     case FormatKind::kGrey:
     case FormatKind::kY16:
@@ -146,6 +152,7 @@ void fill_pix_format(const OfferedFormat& format, FrameSize size, v4l2_pix_forma
     case FormatKind::kBayerMipi10:
     case FormatKind::kBayerMipi12:
       pix->colorspace = V4L2_COLORSPACE_RAW;
+      pix->xfer_func = V4L2_XFER_FUNC_NONE;
       pix->ycbcr_enc = V4L2_YCBCR_ENC_DEFAULT;
       pix->quantization = V4L2_QUANTIZATION_DEFAULT;
       break;

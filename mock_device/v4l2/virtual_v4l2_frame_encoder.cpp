@@ -26,9 +26,13 @@ void put16(uint8_t* p, uint16_t v) {
   p[1] = static_cast<uint8_t>(v >> 8);
 }
 
-// A monochrome sensor's frame: GREY, Y16, YUYV (grey).
-void write_mono(const cv::Mat& dn, int bit_depth, FormatKind kind, const v4l2_pix_format& pix,
-                uint8_t* out) {
+// A monochrome sensor's frame: GREY, Y16 (raw), YUYV (grey, the ISP's curve).
+void write_mono(const cv::Mat& dn, const SensorSpec& sensor, FormatKind kind,
+                TransferFunction transfer, const v4l2_pix_format& pix, uint8_t* out) {
+  const int bit_depth = sensor.bit_depth;
+  // YUYV keeps the sensor's black pedestal (camlab's capture states it as the black
+  // level); a curve applies to the light above it.
+  const double black8 = std::ldexp(static_cast<double>(sensor.black_level_dn), 8 - bit_depth);
   for (uint32_t y = 0; y < pix.height; ++y) {
     const float* row = dn.ptr<float>(static_cast<int>(y));
     uint8_t* line = out + static_cast<size_t>(y) * pix.bytesperline;
@@ -45,7 +49,12 @@ void write_mono(const cv::Mat& dn, int bit_depth, FormatKind kind, const v4l2_pi
       } else {  // YUYV, limited range as declared: grey, so U = V = 128
         const double grey =
             std::clamp(std::ldexp(static_cast<double>(v), 8 - bit_depth), 0.0, 255.0);
-        line[2 * x] = to_byte(16 + 219.0 * grey / 255.0);
+        const double encoded =
+            transfer == TransferFunction::kLinear
+                ? grey  // noise below black kept, as it always was
+                : black8 +
+                      (255.0 - black8) * encode_light(transfer, (grey - black8) / (255.0 - black8));
+        line[2 * x] = to_byte(16 + 219.0 * encoded / 255.0);
         line[2 * x + 1] = 128;
       }
     }
@@ -177,7 +186,7 @@ Result<std::vector<uint8_t>> jpeg_of(const cv::Mat& rgb, int quality, uint32_t s
 }  // namespace
 
 Result<std::vector<uint8_t>> encode_frame(const cv::Mat& raw_dn, const SensorSpec& sensor,
-                                          int jpeg_quality, const OfferedFormat& format,
+                                          const IspSpec& isp, const OfferedFormat& format,
                                           const v4l2_pix_format& pix) {
   cv::Mat dn;
   raw_dn.convertTo(dn, CV_32F);
@@ -188,7 +197,7 @@ Result<std::vector<uint8_t>> encode_frame(const cv::Mat& raw_dn, const SensorSpe
       cv::resize(dn, dn, cv::Size(static_cast<int>(pix.width), static_cast<int>(pix.height)), 0, 0,
                  cv::INTER_AREA);  // 2x2 binning
     std::vector<uint8_t> bytes(pix.sizeimage, 0);
-    write_mono(dn, sensor.bit_depth, format.kind, pix, bytes.data());
+    write_mono(dn, sensor, format.kind, isp.transfer, pix, bytes.data());
     return bytes;
   }
   if (binned) dn = bin_bayer(dn);
@@ -199,8 +208,11 @@ Result<std::vector<uint8_t>> encode_frame(const cv::Mat& raw_dn, const SensorSpe
     write_bayer(dn, sensor.bit_depth, format, pix, bytes.data());
     return bytes;
   }
-  const cv::Mat rgb = demosaic_to_rgb(dn, sensor);
-  if (format.kind == FormatKind::kMjpeg) return jpeg_of(rgb, jpeg_quality, pix.sizeimage);
+  cv::Mat rgb = demosaic_to_rgb(dn, sensor);
+  if (isp.transfer != TransferFunction::kLinear)
+    rgb.reshape(1).forEach<float>(
+        [&](float& v, const int*) { v = 255.0f * encode_light(isp.transfer, v / 255.0f); });
+  if (format.kind == FormatKind::kMjpeg) return jpeg_of(rgb, isp.jpeg_quality, pix.sizeimage);
   std::vector<uint8_t> bytes(pix.sizeimage, 0);
   write_isp(rgb, format.kind, pix, bytes.data());
   return bytes;

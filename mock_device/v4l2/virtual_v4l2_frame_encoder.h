@@ -32,8 +32,9 @@ namespace camlab::mock {
 
 // `raw_dn`: CV_8UC1 or CV_16UC1 of the sensor's size; `pix` from fill_pix_format. Returns
 // the frame's bytes: sizeimage of them, or the JPEG's length (at most sizeimage) for MJPG.
+// The processed formats carry the ISP's curve (isp.transfer); raw formats stay linear.
 Result<std::vector<uint8_t>> encode_frame(const cv::Mat& raw_dn, const SensorSpec& sensor,
-                                          int jpeg_quality, const OfferedFormat& format,
+                                          const IspSpec& isp, const OfferedFormat& format,
                                           const v4l2_pix_format& pix);
 
 }  // namespace camlab::mock

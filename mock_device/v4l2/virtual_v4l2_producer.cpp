@@ -114,8 +114,8 @@ bool VirtualV4l2Device::render_into(int index, uint64_t sequence,
   }
   Result<std::vector<uint8_t>> bytes = make_error("internal", "not rendered");
   if (frame)
-    bytes = encode_frame(frame->image, renderer_.camera().sensor,
-                         renderer_.camera().isp.jpeg_quality, offered, format);
+    bytes = encode_frame(frame->image, renderer_.camera().sensor, renderer_.camera().isp, offered,
+                         format);
   else
     bytes = frame.error();
   lock.lock();

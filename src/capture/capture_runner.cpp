@@ -265,6 +265,7 @@ Status Runner::process(const device::Frame& frame) {
     sidecar.black_level_dn = converted->black_level_dn;
     sidecar.white_level_dn = converted->white_level_dn;
     sidecar.linear = converted->linear;
+    sidecar.transfer = converted->transfer;
     sidecar.frames_discarded = not_kept_since_last_;
     sidecar.settings = change.settings;
     if (nlohmann::json report = report_json(frame.meta); !report.empty()) {

@@ -183,7 +183,9 @@ Result<ConvertedFrame> convert_frame(const device::Frame& frame, const device::S
       out = unpack_raw(frame, format, info, sensor_bit_depth, black_level_dn);
       break;
   }
-  out.linear = info.linear;
+  // A webcam's YUYV declares sRGB or BT.709: its DN are not light until decoded.
+  out.transfer = format.transfer;
+  out.linear = info.linear && format.transfer == TransferFunction::kLinear;
   out.pixel_format = stored_format_name(info, out.bit_depth);
   out.delivered_format = fourcc_name(format.fourcc);
   return out;

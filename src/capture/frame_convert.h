@@ -33,10 +33,11 @@ struct ConvertedFrame {
   image::FrameLayout layout = image::FrameLayout::kMono;
   std::string cfa_pattern;  // "RGGB" ... for a mosaic, else ""
   int bit_depth = 8;
-  int black_level_dn = 0;        // in DN of bit_depth bits
-  int white_level_dn = 255;      // the largest DN the format can carry: 2^bit_depth - 1
-                                 // (235 for limited-range YUYV luma)
-  bool linear = true;            // false for JPEG
+  int black_level_dn = 0;    // in DN of bit_depth bits
+  int white_level_dn = 255;  // the largest DN the format can carry: 2^bit_depth - 1
+                             // (235 for limited-range YUYV luma)
+  bool linear = true;        // false for JPEG and for a declared curve (transfer)
+  TransferFunction transfer = TransferFunction::kLinear;  // the format's, as declared
   std::string pixel_format;      // what the stored DN are: "GREY", "Y12", "SRGGB10", "RGB3", "MJPG"
   std::string delivered_format;  // the V4L2 fourcc as the camera sent it ("pRAA", "NV12")
 };

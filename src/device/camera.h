@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "base/result.h"
+#include "base/transfer_function.h"
 
 namespace camlab::device {
 
@@ -76,6 +77,9 @@ struct StreamFormat {
   FrameInterval interval;
   YcbcrQuantization quantization = YcbcrQuantization::kDefault;
   YcbcrEncoding ycbcr_encoding = YcbcrEncoding::kDefault;
+  // How the values relate to light, as the camera declares it (base/transfer_function.h);
+  // linear unless it says otherwise.
+  TransferFunction transfer = TransferFunction::kLinear;
 };
 
 struct FrameMetadata {

@@ -45,10 +45,21 @@ std::string_view name_of(FrameLayout layout) {
 }
 
 Status check_mono_linear(const FrameSidecar& sidecar, const std::string& what) {
-  if (!sidecar.linear)
-    return make_error("not_linear", what + " is a JPEG (" + sidecar.delivered_format +
-                                        "): gamma-encoded and lossy, so its DN are not "
-                                        "proportional to light; capture a raw format instead");
+  if (!sidecar.linear) {
+    const bool jpeg = sidecar.pixel_format == "MJPG" || sidecar.pixel_format == "JPEG";
+    const std::string curve = sidecar.transfer == TransferFunction::kLinear ? ""
+                              : sidecar.transfer == TransferFunction::kOther
+                                  ? "a tone curve"
+                                  : "the " + std::string(name_of(sidecar.transfer)) + " curve";
+    return make_error("not_linear",
+                      what +
+                          (jpeg ? " is a JPEG (" + sidecar.delivered_format + "): lossy" +
+                                      (curve.empty() ? "" : " and encoded with " + curve)
+                                : " (" + sidecar.delivered_format + ") is encoded with " + curve +
+                                      ", as the camera declared") +
+                          ", so its DN are not proportional to light; capture a raw or "
+                          "linear format instead (GREY, Y16, a Bayer format)");
+  }
   if (sidecar.layout != FrameLayout::kMono)
     return make_error("unsupported", what + " is " +
                                          (sidecar.layout == FrameLayout::kMosaic
@@ -75,6 +86,7 @@ nlohmann::json to_json(const FrameSidecar& sidecar) {
                              ? sidecar.white_level_dn
                              : (1 << std::clamp(sidecar.bit_depth, 1, 16)) - 1},
       {"linear", sidecar.linear},
+      {"transfer", name_of(sidecar.transfer)},
       {"frames_discarded", sidecar.frames_discarded},
       {"settings", sidecar.settings},
       {"labels", sidecar.labels},
@@ -112,6 +124,17 @@ Result<FrameSidecar> frame_sidecar_from_json(const nlohmann::json& json) {
     if (json.contains("cfa_pattern") && !json["cfa_pattern"].is_null())
       sidecar.cfa_pattern = json["cfa_pattern"].get<std::string>();
     sidecar.linear = json.value("linear", true);
+    sidecar.transfer = sidecar.linear ? TransferFunction::kLinear : TransferFunction::kOther;
+    if (json.contains("transfer")) {
+      const auto named = transfer_function_named(json["transfer"].get<std::string>());
+      if (!named)
+        return make_error("bad_sidecar", "frame sidecar: transfer " + json["transfer"].dump() +
+                                             " is not linear, srgb, bt709 or other");
+      sidecar.transfer = *named;
+    }
+    if (sidecar.transfer != TransferFunction::kLinear && sidecar.linear)
+      return make_error("bad_sidecar", "frame sidecar: linear is true but transfer is " +
+                                           std::string(name_of(sidecar.transfer)));
     if (sidecar.bit_depth >= 1 && sidecar.bit_depth <= 16)
       sidecar.white_level_dn = json.value("white_level_dn", (1 << sidecar.bit_depth) - 1);
     sidecar.frames_discarded = json.value("frames_discarded", 0);

@@ -36,6 +36,7 @@
 #include <opencv2/core.hpp>
 
 #include "base/result.h"
+#include "base/transfer_function.h"
 #include "base/unique_fd.h"
 #include "image/pixel_format.h"
 #include "image/png_encoder.h"
@@ -66,7 +67,11 @@ struct FrameSidecar {
   // The largest DN the format carries; 0 means full scale, 2^bit_depth - 1 (what every
   // writer means unless the camera clips lower). Always set when read from a folder.
   int white_level_dn = 0;
-  bool linear = true;        // false for JPEG frames: gamma-encoded, lossy
+  bool linear = true;  // false for JPEG frames (lossy) and frames with a curve (transfer)
+  // How the DN relate to light above black, as the camera declared it (base/
+  // transfer_function.h); frames written before camlab recorded it: linear when `linear`,
+  // else other (not decoded).
+  TransferFunction transfer = TransferFunction::kLinear;
   int frames_discarded = 0;  // frames dropped before this one while settings settled
   nlohmann::json settings = nlohmann::json::object();
   nlohmann::json labels = nlohmann::json::object();  // e.g. {"sweep_index": 2, "repeat": 1}
@@ -75,8 +80,9 @@ struct FrameSidecar {
 
 nlohmann::json to_json(const FrameSidecar& sidecar);
 
-// For measurements that read mono, light-linear frames: "not_linear" for JPEG frames,
-// "unsupported" for mosaics and RGB frames, naming `what` ("frame 3 of DIR").
+// For measurements that read mono, light-linear frames: "not_linear" for JPEG frames and
+// frames with a curve, "unsupported" for mosaics and RGB frames, naming `what` ("frame 3
+// of DIR").
 Status check_mono_linear(const FrameSidecar& sidecar, const std::string& what);
 Result<FrameSidecar> frame_sidecar_from_json(const nlohmann::json& json);
 

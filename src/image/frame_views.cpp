@@ -1,5 +1,9 @@
 #include "image/frame_views.h"
 
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
 #include <opencv2/imgproc.hpp>
 
 namespace camlab::image {
@@ -49,6 +53,48 @@ Result<cv::Mat> luminance_view(const cv::Mat& stored, const FrameSidecar& sideca
   cv::Mat grey;
   cv::cvtColor(*picture, grey, cv::COLOR_BGR2GRAY);
   return grey;
+}
+
+Result<LightFrame> decode_to_light(const cv::Mat& stored, const FrameSidecar& sidecar) {
+  if (sidecar.transfer == TransferFunction::kLinear) return LightFrame{stored, sidecar, false};
+  if (!is_decodable(sidecar.transfer)) return check_mono_linear(sidecar, "the frame").error();
+  if (stored.depth() != CV_8U && stored.depth() != CV_16U)
+    return make_error("bad_image", "only 8- and 16-bit frames are decoded to light");
+  const int black = sidecar.black_level_dn;
+  const int white = sidecar.white_level_dn > 0 ? sidecar.white_level_dn
+                                               : (1 << std::clamp(sidecar.bit_depth, 1, 16)) - 1;
+  if (white <= black)
+    return make_error("bad_sidecar", "white level " + std::to_string(white) +
+                                         " DN is not above the black level " +
+                                         std::to_string(black) + " DN");
+  // One entry per code the stored depth can hold.
+  std::vector<uint16_t> table(stored.depth() == CV_8U ? 256 : 65536);
+  for (size_t code = 0; code < table.size(); ++code) {
+    const double v = (static_cast<double>(code) - black) / (white - black);
+    table[code] =
+        static_cast<uint16_t>(std::lround(65535.0 * decode_to_light(sidecar.transfer, v)));
+  }
+  LightFrame out;
+  out.stored.create(stored.size(), CV_MAKETYPE(CV_16U, stored.channels()));
+  const int samples = stored.cols * stored.channels();
+  for (int y = 0; y < stored.rows; ++y) {
+    uint16_t* row = out.stored.ptr<uint16_t>(y);
+    if (stored.depth() == CV_8U) {
+      const uint8_t* in = stored.ptr<uint8_t>(y);
+      for (int x = 0; x < samples; ++x) row[x] = table[in[x]];
+    } else {
+      const uint16_t* in = stored.ptr<uint16_t>(y);
+      for (int x = 0; x < samples; ++x) row[x] = table[in[x]];
+    }
+  }
+  out.sidecar = sidecar;
+  out.sidecar.bit_depth = 16;
+  out.sidecar.black_level_dn = 0;
+  out.sidecar.white_level_dn = 65535;
+  out.sidecar.transfer = TransferFunction::kLinear;
+  out.sidecar.linear = sidecar.pixel_format != "MJPG" && sidecar.pixel_format != "JPEG";
+  out.decoded = true;
+  return out;
 }
 
 Result<CfaPlanes> cfa_planes(const cv::Mat& stored, const FrameSidecar& sidecar) {

@@ -19,6 +19,19 @@ namespace camlab::image {
 // rgb frames weighted the same. For corners and edge geometry, not for radiometry.
 Result<cv::Mat> luminance_view(const cv::Mat& stored, const FrameSidecar& sidecar);
 
+// A frame whose DN carry the curve the camera declared (sidecar.transfer sRGB or BT.709,
+// a webcam's YUYV or MJPEG), decoded to light: 16-bit DN proportional to light, black 0,
+// white 65535 (the code range between the frame's black and white levels; codes outside
+// it clip), transfer linear; `linear` stays false for a JPEG (lossy). 16 bits keep every
+// 8-bit code apart after decoding. A linear frame comes back as it is (decoded false);
+// "not_linear" for a curve camlab does not know (transfer other).
+struct LightFrame {
+  cv::Mat stored;
+  FrameSidecar sidecar;
+  bool decoded = false;
+};
+Result<LightFrame> decode_to_light(const cv::Mat& stored, const FrameSidecar& sidecar);
+
 // The frame as a picture, with the stored depth: mono frames as they are (one channel),
 // mosaics demosaiced (bilinear, OpenCV) to B, G, R, rgb frames as they are (B, G, R).
 // For display, not for radiometry.

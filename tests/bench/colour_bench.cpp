@@ -201,8 +201,7 @@ void format_table(int repeats) {
       std::vector<uint8_t> bytes;
       for (int i = 0; i < repeats; ++i) {
         const auto start = Clock::now();
-        bytes =
-            or_exit(encode_frame(frame.image, sensor, renderer.camera().isp.jpeg_quality, f, pix));
+        bytes = or_exit(encode_frame(frame.image, sensor, renderer.camera().isp, f, pix));
         seconds.push_back(std::chrono::duration<double>(Clock::now() - start).count());
       }
       std::array<double, 3> truth{};
@@ -246,8 +245,9 @@ void jpeg_table() {
   v4l2_pix_format rgb_pix{}, jpeg_pix{};
   fill_pix_format(rgb, *frame_size(rgb, sensor, 0), &rgb_pix);
   fill_pix_format(jpeg, *frame_size(jpeg, sensor, 0), &jpeg_pix);
-  const auto reference = channel_means(or_exit(encode_frame(frame.image, sensor, 90, rgb, rgb_pix)),
-                                       rgb, rgb_pix, sensor);
+  const auto reference = channel_means(
+      or_exit(encode_frame(frame.image, sensor, IspSpec{.jpeg_quality = 90}, rgb, rgb_pix)), rgb,
+      rgb_pix, sensor);
   std::printf(
       "\nMJPG of a textured colour target (noise on) against RGB3 of the same mosaic; "
       "sizeimage %u bytes\n",
@@ -257,8 +257,8 @@ void jpeg_table() {
       "|---|---|---|---|---|---|\n");
   for (int quality : {50, 75, 90, 95}) {
     const auto start = Clock::now();
-    const std::vector<uint8_t> bytes =
-        or_exit(encode_frame(frame.image, sensor, quality, jpeg, jpeg_pix));
+    const std::vector<uint8_t> bytes = or_exit(
+        encode_frame(frame.image, sensor, IspSpec{.jpeg_quality = quality}, jpeg, jpeg_pix));
     const double ms = std::chrono::duration<double>(Clock::now() - start).count() * 1e3;
     const auto got = channel_means(bytes, jpeg, jpeg_pix, sensor);
     std::printf("| %d | %zu | %.2f | %+.3f | %+.3f | %+.3f |\n", quality, bytes.size(), ms,

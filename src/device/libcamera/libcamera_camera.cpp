@@ -5,6 +5,7 @@
 
 #include <libcamera/camera.h>
 #include <libcamera/camera_manager.h>
+#include <libcamera/color_space.h>
 #include <libcamera/control_ids.h>
 #include <libcamera/framebuffer.h>
 #include <libcamera/framebuffer_allocator.h>
@@ -369,6 +370,22 @@ class LibcameraCamera final : public Camera {
     format.height = cfg.size.height;
     format.bytes_per_line = cfg.stride;
     format.size_bytes = cfg.frameSize;
+    // The curve the pipeline reports for the stream (from the V4L2 format's colour fields
+    // on uvcvideo); no colour space reported leaves it linear, as on a raw stream.
+    if (cfg.colorSpace) {
+      using Transfer = libcamera::ColorSpace::TransferFunction;
+      switch (cfg.colorSpace->transferFunction) {
+        case Transfer::Linear:
+          format.transfer = TransferFunction::kLinear;
+          break;
+        case Transfer::Srgb:
+          format.transfer = TransferFunction::kSrgb;
+          break;
+        case Transfer::Rec709:
+          format.transfer = TransferFunction::kBt709;
+          break;
+      }
+    }
     return format;
   }
 

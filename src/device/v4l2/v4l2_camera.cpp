@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "device/v4l2/v4l2_control_names.h"
+#include "device/v4l2/v4l2_transfer.h"
 
 namespace camlab::device {
 
@@ -297,6 +298,11 @@ Result<StreamFormat> V4l2Camera::configure(const StreamFormat& requested) {
   applied.size_bytes = format.fmt.pix.sizeimage;
   applied.quantization = quantization_of(format.fmt.pix);
   applied.ycbcr_encoding = ycbcr_encoding_of(format.fmt.pix);
+  // xfer_func is an extended field: valid only with the magic the kernel's core sets.
+  applied.transfer = transfer_function_of(format.fmt.pix.colorspace,
+                                          format.fmt.pix.priv == V4L2_PIX_FMT_PRIV_MAGIC
+                                              ? format.fmt.pix.xfer_func
+                                              : static_cast<uint32_t>(V4L2_XFER_FUNC_DEFAULT));
   v4l2_streamparm parm{};
   parm.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
   if (requested.interval.denominator != 0) {

@@ -17,6 +17,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "device/v4l2/v4l2_camera.h"
+#include "device/v4l2/v4l2_transfer.h"
 #include "mock_device/v4l2/virtual_v4l2_io.h"
 #include "test_specs.h"
 
@@ -253,6 +254,37 @@ TEST(MonochromeYuyv, CarriesLimitedRangeLumaOfTheGreyLevel) {
   EXPECT_EQ(frame->data[2 * (5 * 32 + 5) + 1], 128);
   ASSERT_TRUE(cam->requeue(*frame).ok());
   ASSERT_TRUE(cam->stop().ok());
+}
+
+// The curve a format declares, resolved as the kernel's V4L2_MAP_XFER_FUNC_DEFAULT: only
+// an explicit NONE or a raw colour space is linear; a webcam's SRGB or REC709 is not.
+TEST(TransferOfV4l2Format, DefaultMapsByColourSpaceAndExplicitValuesAreKept) {
+  using device::transfer_function_of;
+  EXPECT_EQ(transfer_function_of(V4L2_COLORSPACE_RAW, V4L2_XFER_FUNC_DEFAULT),
+            TransferFunction::kLinear);
+  EXPECT_EQ(transfer_function_of(V4L2_COLORSPACE_SRGB, V4L2_XFER_FUNC_DEFAULT),
+            TransferFunction::kSrgb);
+  EXPECT_EQ(transfer_function_of(V4L2_COLORSPACE_JPEG, V4L2_XFER_FUNC_DEFAULT),
+            TransferFunction::kSrgb);
+  EXPECT_EQ(transfer_function_of(V4L2_COLORSPACE_REC709, V4L2_XFER_FUNC_DEFAULT),
+            TransferFunction::kBt709);
+  EXPECT_EQ(transfer_function_of(V4L2_COLORSPACE_SMPTE170M, V4L2_XFER_FUNC_DEFAULT),
+            TransferFunction::kBt709);
+  EXPECT_EQ(transfer_function_of(V4L2_COLORSPACE_OPRGB, V4L2_XFER_FUNC_DEFAULT),
+            TransferFunction::kOther);
+  EXPECT_EQ(transfer_function_of(V4L2_COLORSPACE_SRGB, V4L2_XFER_FUNC_NONE),
+            TransferFunction::kLinear);
+  EXPECT_EQ(transfer_function_of(V4L2_COLORSPACE_SRGB, V4L2_XFER_FUNC_709),
+            TransferFunction::kBt709);
+  EXPECT_EQ(transfer_function_of(V4L2_COLORSPACE_SRGB, V4L2_XFER_FUNC_SMPTE2084),
+            TransferFunction::kOther);
+  // The kernel's own macro agrees wherever camlab decodes.
+  for (uint32_t cs : {V4L2_COLORSPACE_SRGB, V4L2_COLORSPACE_JPEG, V4L2_COLORSPACE_REC709,
+                      V4L2_COLORSPACE_BT2020, V4L2_COLORSPACE_RAW}) {
+    const uint32_t mapped = V4L2_MAP_XFER_FUNC_DEFAULT(cs);
+    EXPECT_EQ(transfer_function_of(cs, V4L2_XFER_FUNC_DEFAULT), transfer_function_of(cs, mapped))
+        << "colorspace " << cs;
+  }
 }
 
 }  // namespace

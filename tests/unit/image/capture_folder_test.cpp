@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <thread>
@@ -305,6 +306,57 @@ TEST_F(CaptureFolderTest, InconsistentColourKeysAreBadSidecars) {
       << "4095 does not fit in 10 bits";
   EXPECT_EQ(with({{"white_level_dn", 10}, {"black_level_dn", 64}}).error().code,
             ErrorCode::kBadSidecar);
+}
+
+// The curve a camera declared travels with each frame; a sidecar that contradicts itself
+// or names no known curve is refused rather than read as light.
+TEST(FrameSidecarTransfer, TheDeclaredCurveRoundTripsAndContradictionsAreRefused) {
+  FrameSidecar yuyv;
+  yuyv.pixel_format = "GREY";
+  yuyv.delivered_format = "YUYV";
+  yuyv.black_level_dn = 16;
+  yuyv.white_level_dn = 235;
+  yuyv.linear = false;
+  yuyv.transfer = TransferFunction::kBt709;
+  auto back = frame_sidecar_from_json(to_json(yuyv));
+  ASSERT_TRUE(back.ok()) << back.error().message;
+  EXPECT_EQ(back->transfer, TransferFunction::kBt709);
+  EXPECT_FALSE(back->linear);
+
+  nlohmann::json old = to_json(yuyv);
+  old.erase("transfer");
+  EXPECT_EQ(frame_sidecar_from_json(old)->transfer, TransferFunction::kOther)
+      << "a non-linear frame from before the key: its curve is unknown";
+  old["linear"] = true;
+  EXPECT_EQ(frame_sidecar_from_json(old)->transfer, TransferFunction::kLinear);
+
+  nlohmann::json bad = to_json(yuyv);
+  bad["transfer"] = "gamma 2.2";
+  EXPECT_EQ(frame_sidecar_from_json(bad).error().code, "bad_sidecar");
+  bad["transfer"] = 2.2;
+  EXPECT_EQ(frame_sidecar_from_json(bad).error().code, "bad_sidecar");
+  bad["transfer"] = "srgb";
+  bad["linear"] = true;
+  EXPECT_EQ(frame_sidecar_from_json(bad).error().code, "bad_sidecar") << "linear and a curve";
+
+  // Decoding: every code of the range to its light; an unknown curve is refused.
+  cv::Mat codes(1, 4, CV_8UC1);
+  codes.at<uint8_t>(0, 0) = 10;   // below black: no light
+  codes.at<uint8_t>(0, 1) = 16;   // black
+  codes.at<uint8_t>(0, 2) = 126;  // (126 - 16) / 219 = 0.502: BT.709 decodes to 0.2589
+  codes.at<uint8_t>(0, 3) = 240;  // above white: clipped to white
+  auto light = decode_to_light(codes, yuyv);
+  ASSERT_TRUE(light.ok()) << light.error().message;
+  EXPECT_TRUE(light->decoded);
+  EXPECT_EQ(light->stored.at<uint16_t>(0, 0), 0);
+  EXPECT_EQ(light->stored.at<uint16_t>(0, 1), 0);
+  EXPECT_NEAR(light->stored.at<uint16_t>(0, 2) / 65535.0,
+              std::pow((110.0 / 219.0 + 0.099) / 1.099, 1 / 0.45), 1e-5);
+  EXPECT_EQ(light->stored.at<uint16_t>(0, 3), 65535);
+  EXPECT_EQ(light->sidecar.transfer, TransferFunction::kLinear);
+  EXPECT_EQ(light->sidecar.white_level_dn, 65535);
+  yuyv.transfer = TransferFunction::kOther;
+  EXPECT_EQ(decode_to_light(codes, yuyv).error().code, "not_linear");
 }
 
 TEST(FrameViews, CfaPlanesHoldTheSamplesOfEachColour) {
