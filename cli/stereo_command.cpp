@@ -1,6 +1,7 @@
 // `camlab stereo rectify|triangulate`: the products of a calibrated rig (the folder
 // `camlab calibrate --rig --out` writes): a pair's images rectified, and points matched in
 // two cameras triangulated with their uncertainty.
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <memory>
@@ -29,6 +30,7 @@ struct StereoArgs {
   // rectify
   std::string image0, image_other, out;
   double az_fov_deg = 0, el_fov_deg = 0;
+  std::string rectification = "auto";
   // triangulate
   std::vector<double> pixels;
   std::string matches_path;
@@ -68,17 +70,24 @@ calib::RigSolution load_rig(const StereoArgs& args, const CommandErrors& errors)
 void run_rectify(const StereoArgs& args) {
   const CommandErrors errors("camlab stereo rectify", args.json);
   const calib::RigSolution rig = load_rig(args, errors);
-  const calib::StereoRectification r =
-      errors.take(calib::rectify_pair(rig, args.camera, args.az_fov_deg, args.el_fov_deg));
+  const bool latlon =
+      args.rectification == "latlon" ||
+      (args.rectification == "auto" &&
+       calib::suited_rectified_model(rig.cameras[0].model, args.az_fov_deg, args.el_fov_deg) ==
+           calib::RectifiedModel::kLatlon);
+  const calib::StereoRectification r = errors.take(calib::rectify_pair(
+      rig, args.camera, args.az_fov_deg, args.el_fov_deg,
+      latlon ? calib::RectifiedModel::kLatlon : calib::RectifiedModel::kPinhole));
   const nlohmann::json out =
       errors.take(calib::rectify_image_files(r, rig, args.image0, args.image_other, args.out));
   if (args.json) {
     std::printf("%s\n", out.dump(2).c_str());
     return;
   }
-  std::printf("rectified camera 0 and camera %d: %dx%d px, focal %.2f px, baseline %.2f mm\n",
-              args.camera, r.rectified.width_px, r.rectified.height_px, r.rectified.intrinsics[0],
-              r.baseline_m * 1000);
+  std::printf(
+      "rectified camera 0 and camera %d (%s): %dx%d px, focal %.2f px%s, baseline %.2f mm\n",
+      args.camera, latlon ? "lat-lon" : "pinhole", r.rectified.width_px, r.rectified.height_px,
+      r.rectified.intrinsics[0], latlon ? " a radian" : "", r.baseline_m * 1000);
   std::printf("%s\n", out["range_rule"].get<std::string>().c_str());
   for (const auto& f : out["files"]) std::printf("wrote %s\n", f.get<std::string>().c_str());
 }
@@ -175,9 +184,10 @@ void register_stereo_command(CLI::App& app) {
   };
   CLI::App* rectify = cmd->add_subcommand(
       "rectify",
-      "rectify camera 0's and camera N's images: both turned to the baseline, one pinhole\n"
-      "model (mrcal-stereo's LENSMODEL_PINHOLE rectification); writes rectified-0.png and\n"
-      "rectified-N.png at the input's bit depth");
+      "rectify camera 0's and camera N's images: both turned to the baseline, one model for\n"
+      "both (mrcal-stereo's rectification: LENSMODEL_PINHOLE, or LENSMODEL_LATLON, even in\n"
+      "angle, for wide and fisheye pairs); writes rectified-0.png and rectified-N.png at the\n"
+      "input's bit depth, and prints how to turn a match's columns into a range");
   add_common(rectify);
   rectify->add_option("IMAGE0", args->image0, "camera 0's image")
       ->required()
@@ -188,12 +198,20 @@ void register_stereo_command(CLI::App& app) {
   rectify->add_option("--out", args->out, "output folder")->required();
   rectify
       ->add_option("--az-fov-deg", args->az_fov_deg,
-                   "rectified field along the baseline (deg; default camera 0's, at most 150)")
-      ->check(CLI::Range(0.0, 170.0));
+                   "rectified field along the baseline (deg; default camera 0's, at most 150 "
+                   "for a pinhole, 180 for lat-lon; a pinhole spans under 170)")
+      ->check(CLI::Range(0.0, 180.0));
   rectify
       ->add_option("--el-fov-deg", args->el_fov_deg,
                    "rectified field across the baseline (deg; default camera 0's)")
-      ->check(CLI::Range(0.0, 170.0));
+      ->check(CLI::Range(0.0, 180.0));
+  rectify
+      ->add_option("--rectification", args->rectification,
+                   "pinhole (straight lines stay straight; the image grows as tan of the half "
+                   "field), latlon (rows are epipolar planes' angles, columns angles within "
+                   "them: a 180-deg fisheye pair fits), or auto (latlon past 120 deg of field, "
+                   "asked for or camera 0's; default)")
+      ->check(CLI::IsMember({"auto", "pinhole", "latlon"}));
   rectify->callback([args] { run_rectify(*args); });
 
   CLI::App* triangulate = cmd->add_subcommand(

@@ -304,7 +304,8 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
     }
   std::vector<StereoRectification> rectified;
   for (int c = 1; c < n; ++c) {
-    auto r = rectify_pair(out.solution, c);
+    auto r =
+        rectify_pair(out.solution, c, 0, 0, suited_rectified_model(out.solution.cameras[0].model));
     if (!r) {
       out.rectification.push_back({{"camera", c}, {"error", error_json(r.error())}});
       continue;
@@ -357,8 +358,8 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
         const fs::path path =
             options.out_dir / format_printf("rectified-%d-%d.cameramodel", r.camera, which);
         const std::string comment =
-            format_printf("camlab calibrate --rig: camera %d of the pair 0-%d, rectified (pinhole)",
-                          which, r.camera);
+            format_printf("camlab calibrate --rig: camera %d of the pair 0-%d, rectified (%s)",
+                          which, r.camera, r.rectified.lensmodel.c_str());
         if (Status s = write_file_atomically(
                 path, cameramodel_text(r.rectified, comment,
                                        which == 0 ? r.rt_rect_ref : r.rt_rect_other_ref));

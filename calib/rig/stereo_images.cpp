@@ -38,6 +38,16 @@ Result<nlohmann::json> rectify_image_files(const StereoRectification& r, const R
     files.push_back(out.string());
   }
   const double focal_px = r.rectified.intrinsics[0];
+  const bool latlon = r.rectified.lensmodel == "LENSMODEL_LATLON";
+  const std::string range_rule =
+      latlon ? format_printf(
+                   "columns are angles: az = (x - %.6g) / %.6g rad in each image; range from "
+                   "camera 0 = %.6g m x cos(az_%d) / sin(az_0 - az_%d)",
+                   r.rectified.intrinsics[2], focal_px, r.baseline_m, r.camera, r.camera)
+             : format_printf(
+                   "depth along the rectified axis z = %.6g m px / disparity px (disparity = "
+                   "x in rectified-0 minus x in rectified-%d)",
+                   focal_px * r.baseline_m, r.camera);
   return nlohmann::json{
       {"files", files},
       {"camera", r.camera},
@@ -45,10 +55,8 @@ Result<nlohmann::json> rectify_image_files(const StereoRectification& r, const R
       {"focal_px", focal_px},
       {"principal_point_px", {r.rectified.intrinsics[2], r.rectified.intrinsics[3]}},
       {"baseline_m", r.baseline_m},
-      {"range_rule",
-       format_printf("depth along the rectified axis z = %.6g m px / disparity px (disparity = "
-                     "x in rectified-0 minus x in rectified-%d)",
-                     focal_px * r.baseline_m, r.camera)}};
+      {"rectification", r.rectified.lensmodel},
+      {"range_rule", range_rule}};
 }
 
 }  // namespace camlab::calib

@@ -498,6 +498,28 @@ TEST(RigCli, StereoRectifyPutsEachPointOnOneRow) {
     EXPECT_LT(z_m, cv::norm(kStereoPoints[i]) * 1.001);
     EXPECT_GT(z_m, 0.9 * kStereoPoints[i][2]);
   }
+  EXPECT_EQ(out["rectification"], "LENSMODEL_PINHOLE") << "auto, for a 62-deg camera 0";
+  // Lat-lon: the columns are angles, and the rule the command prints gives the range.
+  const auto latlon_run =
+      run_cli("stereo rectify --rig " + rig.string() + " " + (tmp.path / "cam0.png").string() +
+              " " + (tmp.path / "cam1.png").string() + " --out " + (tmp.path / "latlon").string() +
+              " --rectification latlon --json");
+  ASSERT_EQ(latlon_run.exit_code, 0) << latlon_run.err << latlon_run.out;
+  const auto latlon = nlohmann::json::parse(latlon_run.out);
+  EXPECT_EQ(latlon["rectification"], "LENSMODEL_LATLON");
+  const double cx = latlon["principal_point_px"][0].get<double>();
+  const double f = latlon["focal_px"].get<double>();
+  for (int c = 0; c < 2; ++c)
+    rectified[c] = cv::imread(latlon["files"][c].get<std::string>(), cv::IMREAD_UNCHANGED);
+  for (size_t i = 0; i < kStereoPoints.size(); ++i) {
+    const cv::Point2d a = centroid(rectified[0], i), b = centroid(rectified[1], i);
+    const double az0 = (a.x - cx) / f, az1 = (b.x - cx) / f;
+    const double range_m = baseline_m * std::cos(az1) / std::sin(az0 - az1);
+    std::printf("lat-lon, point %zu: rows %.3f and %.3f, range %.4f m (truth %.4f)\n", i, a.y, b.y,
+                range_m, cv::norm(kStereoPoints[i]));
+    EXPECT_NEAR(a.y, b.y, 0.3) << "point " << i;
+    EXPECT_NEAR(range_m / cv::norm(kStereoPoints[i]), 1.0, 0.01) << "point " << i;
+  }
   const auto mismatched = run_cli(
       "stereo rectify --rig " + rig.string() + " " + (tmp.path / "cam1.png").string() + " " +
       (tmp.path / "cam0.png").string() + " --out " + (tmp.path / "again").string() + " --json");
