@@ -220,13 +220,21 @@ class OpenFile {
                   sizeof(int));
     }
     const UniqueFd exported(fd_out);  // the client gets its own copy; ours closes here
+    // A dequeued USERPTR buffer: its frame's memfd (the device's, borrowed) goes along, and
+    // the client copies the frame to the application's pointer (broker_client.cpp).
+    int userptr_fd = -1;
+    if (const auto* b = reinterpret_cast<const v4l2_buffer*>(arg.data());
+        result == 0 && request == VIDIOC_DQBUF && b->memory == V4L2_MEMORY_USERPTR) {
+      VirtualV4l2Device::BufferMemory source{};
+      if (device_->userptr_source(b->index, &source) == 0) userptr_fd = source.memfd;
+    }
     std::vector<uint8_t> body(arg_size);
     std::memcpy(body.data(), arg.data(), arg_size);
     for (size_t i = 0; i < specs.size(); ++i) {
       const auto* bytes = reinterpret_cast<const uint8_t*>(buffers[i].data());
       body.insert(body.end(), bytes, bytes + specs[i].size_bytes);
     }
-    return reply(socket, out, body, fd_out);
+    return reply(socket, out, body, fd_out >= 0 ? fd_out : userptr_fd);
   }
 
   int mmap(int socket, const RequestHeader& header) {

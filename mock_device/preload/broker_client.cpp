@@ -122,6 +122,17 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
         !copy_from_user(message.data() + at, user_pointers[i], buffers[i].size_bytes))
       return fail(EFAULT);
   }
+  // A USERPTR buffer must be memory the application has (vb2 pins it at QBUF); the broker
+  // cannot see ours, so it is checked here.
+  const auto* buffer = reinterpret_cast<const v4l2_buffer*>(arg.data());
+  const bool userptr =
+      (request == VIDIOC_QBUF || request == VIDIOC_DQBUF) && buffer->memory == V4L2_MEMORY_USERPTR;
+  uint8_t probe = 0;
+  if (userptr && request == VIDIOC_QBUF && buffer->m.userptr != 0 && buffer->length > 0 &&
+      (!copy_from_user(&probe, reinterpret_cast<const void*>(buffer->m.userptr), 1) ||
+       !copy_from_user(&probe,
+                       reinterpret_cast<const void*>(buffer->m.userptr + buffer->length - 1), 1)))
+    return fail(EFAULT);
   int fd_in = -1;
   if (const uint32_t field = broker::fd_in_field(request, arg.data()); field != broker::kNoField)
     std::memcpy(&fd_in, reinterpret_cast<uint8_t*>(arg.data()) + field, sizeof fd_in);
@@ -172,6 +183,14 @@ int RemoteFile::ioctl_once(unsigned long request, void* user_arg) {
       const int fd = fds.empty() ? -1 : fds[0].release();  // the application's now
       std::memcpy(reinterpret_cast<uint8_t*>(arg.data()) + out.fd_field_offset, &fd, sizeof fd);
       if (!fds.empty()) fds.erase(fds.begin());
+    }
+    // A dequeued USERPTR buffer: the frame from the memfd that came with the reply to the
+    // application's pointer, as uvcvideo copies it into the buffer.
+    if (userptr && request == VIDIOC_DQBUF && result >= 0) {
+      const size_t bytes = buffer->bytesused;
+      if (fds.empty() || ::pread(fds[0].get(), reinterpret_cast<void*>(buffer->m.userptr), bytes,
+                                 0) != static_cast<ssize_t>(bytes))
+        error = EFAULT;
     }
     // Like the kernel, write the struct back for _IOR and _IOWR ioctls (error_idx and
     // friends are reported on failure too).

@@ -184,6 +184,12 @@ int VirtualV4l2Device::buffer_for_mmap(off_t offset, size_t length, BufferMemory
   return queue_.buffer_for_mmap(offset, length, out);
 }
 
+int VirtualV4l2Device::userptr_source(uint32_t index, BufferMemory* out) {
+  std::lock_guard lock(mutex_);
+  if (unplugged_) return -ENODEV;
+  return queue_.userptr_source(index, out);
+}
+
 void VirtualV4l2Device::note_mapping(off_t offset, int delta) {
   std::lock_guard lock(mutex_);
   queue_.note_mapping(offset, delta);

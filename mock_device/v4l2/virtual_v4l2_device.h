@@ -98,6 +98,9 @@ class VirtualV4l2Device {
   using BufferMemory = VirtualV4l2Queue::BufferMemory;  // memfd, address, length
   int buffer_for_mmap(off_t offset, size_t length, BufferMemory* out);
   void note_mapping(off_t offset, int delta);  // mmap (+1) / munmap (-1) bookkeeping
+  // A dequeued USERPTR buffer's frame (VirtualV4l2Queue::userptr_source), or -errno; the
+  // memory stays while the buffer is dequeued and the buffers are not freed.
+  int userptr_source(uint32_t index, BufferMemory* out);
 
   // poll(2) semantics for an open file: POLLIN|POLLRDNORM when a buffer is done,
   // POLLPRI when an event is pending, POLLERR when unplugged or not streaming.

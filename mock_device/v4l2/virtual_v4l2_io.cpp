@@ -7,6 +7,7 @@
 #include <sys/uio.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -152,8 +153,28 @@ int VirtualV4l2Io::close(int fd) {
 int VirtualV4l2Io::ioctl(int fd, unsigned long request, void* arg) {
   OpenFile file;
   if (!find(fd, &file)) return ::ioctl(fd, request, arg);
-  const int result =
+  const auto* buffer = static_cast<const v4l2_buffer*>(arg);
+  const bool userptr = !file.media && arg != nullptr &&
+                       (request == VIDIOC_QBUF || request == VIDIOC_DQBUF) &&
+                       buffer->memory == V4L2_MEMORY_USERPTR;
+  // A USERPTR buffer must be memory the application has (vb2 pins it at QBUF).
+  uint8_t probe = 0;
+  if (userptr && request == VIDIOC_QBUF && buffer->m.userptr != 0 && buffer->length > 0 &&
+      (copy_from_self(buffer->m.userptr, &probe, 1) != 0 ||
+       copy_from_self(buffer->m.userptr + buffer->length - 1, &probe, 1) != 0)) {
+    errno = EFAULT;
+    return -1;
+  }
+  int result =
       file.media ? media_ioctl(file, request, arg) : file.device->ioctl(file.file, request, arg);
+  if (result == 0 && userptr && request == VIDIOC_DQBUF) {
+    // The frame to the application's pointer, as uvcvideo copies it into the buffer.
+    VirtualV4l2Device::BufferMemory source{};
+    result = file.device->userptr_source(buffer->index, &source);
+    if (result == 0)
+      result = copy_to_self(buffer->m.userptr, source.address,
+                            std::min<size_t>(buffer->bytesused, source.length));
+  }
   if (result < 0) {
     errno = -result;
     return -1;

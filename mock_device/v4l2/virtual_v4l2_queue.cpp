@@ -44,10 +44,13 @@ void VirtualV4l2Queue::free_buffers() {
 int VirtualV4l2Queue::check_reqbufs(int file, v4l2_requestbuffers* request) const {
   if (request->type != V4L2_BUF_TYPE_VIDEO_CAPTURE) return -EINVAL;
   // The same capabilities whatever memory is asked for (v4l2-compliance checks it).
-  request->capabilities = V4L2_BUF_CAP_SUPPORTS_MMAP | V4L2_BUF_CAP_SUPPORTS_DMABUF;
+  request->capabilities =
+      V4L2_BUF_CAP_SUPPORTS_MMAP | V4L2_BUF_CAP_SUPPORTS_USERPTR | V4L2_BUF_CAP_SUPPORTS_DMABUF;
   request->flags = 0;  // no cache hints: V4L2_MEMORY_FLAG_NON_COHERENT is not supported
   std::memset(request->reserved, 0, sizeof request->reserved);
-  if (request->memory != V4L2_MEMORY_MMAP && request->memory != V4L2_MEMORY_DMABUF) return -EINVAL;
+  if (request->memory != V4L2_MEMORY_MMAP && request->memory != V4L2_MEMORY_USERPTR &&
+      request->memory != V4L2_MEMORY_DMABUF)
+    return -EINVAL;
   return check_busy(file);
 }
 
@@ -87,6 +90,7 @@ int VirtualV4l2Queue::reqbufs(int file, v4l2_requestbuffers* request, uint32_t s
       free_buffers();
       return -ENOMEM;
     }
+    b.user_length = sizeimage;  // vb2 reports the format's size until QBUF gives one
     buffers_.push_back(std::move(b));
   }
   stride_bytes_ = length;
@@ -112,6 +116,9 @@ int VirtualV4l2Queue::querybuf(v4l2_buffer* buffer, uint32_t sizeimage) const {
   if (memory_ == V4L2_MEMORY_DMABUF) {
     buffer->m.fd = b.user_fd;
     buffer->length = b.dmabuf_length;
+  } else if (memory_ == V4L2_MEMORY_USERPTR) {
+    buffer->m.userptr = b.user_pointer;
+    buffer->length = b.user_length;
   } else {
     buffer->m.offset = static_cast<uint32_t>(index * stride_bytes_);
     buffer->length = sizeimage;
@@ -136,6 +143,13 @@ int VirtualV4l2Queue::qbuf(int file, v4l2_buffer* buffer, int dmabuf_fd, uint32_
     const int fd = dmabuf_fd >= 0 ? dmabuf_fd : buffer->m.fd;
     if (int error = import_dmabuf(b, fd, buffer->length, sizeimage); error < 0) return error;
     b.user_fd = buffer->m.fd;
+  }
+  if (memory_ == V4L2_MEMORY_USERPTR) {
+    // vb2's __prepare_userptr: no pointer, or room for less than a frame, is EINVAL
+    // (whether the memory is there is the caller's check: it is the client's memory).
+    if (buffer->m.userptr == 0 || buffer->length < sizeimage) return -EINVAL;
+    b.user_pointer = buffer->m.userptr;
+    b.user_length = buffer->length;
   }
   b.state = Buffer::State::kQueued;
   queued_order_.push_back(static_cast<int>(buffer->index));
@@ -182,6 +196,9 @@ void VirtualV4l2Queue::dqbuf(v4l2_buffer* buffer) {
   if (memory_ == V4L2_MEMORY_DMABUF) {
     buffer->m.fd = b.user_fd;
     buffer->length = b.dmabuf_length;
+  } else if (memory_ == V4L2_MEMORY_USERPTR) {
+    buffer->m.userptr = b.user_pointer;
+    buffer->length = b.user_length;
   } else {
     buffer->m.offset = static_cast<uint32_t>(static_cast<size_t>(index) * stride_bytes_);
   }
@@ -203,6 +220,13 @@ int VirtualV4l2Queue::expbuf(v4l2_exportbuffer* exported) const {
   if (!fd) return -errno;
   std::memset(exported->reserved, 0, sizeof exported->reserved);
   exported->fd = fd.release();  // the caller's now
+  return 0;
+}
+
+int VirtualV4l2Queue::userptr_source(uint32_t index, BufferMemory* out) const {
+  if (memory_ != V4L2_MEMORY_USERPTR || index >= buffers_.size()) return -EINVAL;
+  const Buffer& b = buffers_[index];
+  *out = {b.memfd.get(), b.mapping.data(), b.mapping.size()};
   return 0;
 }
 
@@ -264,7 +288,9 @@ uint8_t* VirtualV4l2Queue::filling_memory(int index, uint64_t generation) const 
 void VirtualV4l2Queue::complete(int index, v4l2_buffer done, uint32_t sizeimage) {
   Buffer& buffer = buffers_[static_cast<size_t>(index)];
   done.memory = memory_;
-  done.length = memory_ == V4L2_MEMORY_DMABUF ? buffer.dmabuf_length : sizeimage;
+  done.length = memory_ == V4L2_MEMORY_DMABUF    ? buffer.dmabuf_length
+                : memory_ == V4L2_MEMORY_USERPTR ? buffer.user_length
+                                                 : sizeimage;
   buffer.done = done;
   buffer.state = Buffer::State::kDone;
   done_order_.push_back(index);

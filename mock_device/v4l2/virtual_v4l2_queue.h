@@ -2,7 +2,10 @@
 // queue's owner; others are EBUSY) 2 to VB2_MAX_FRAME buffers, MMAP buffers live in memfds
 // the device maps once and clients map by offset or export (EXPBUF), DMABUF buffers are
 // imported at QBUF by mapping the fd the client brings, and buffers go queued -> filling
-// -> done -> dequeued, each step in FIFO order.
+// -> done -> dequeued, each step in FIFO order. USERPTR buffers (as uvcvideo offers, whose
+// frames are copied into the buffer anyway) are filled in memfds of the device's own, and
+// the frame is copied to the application's pointer at DQBUF by whoever serves the client
+// (userptr_source: VirtualV4l2Io in process, the broker's client across processes).
 //
 // Every memfd and mapping is owned (UniqueFd, MappedBuffer): freeing the buffers closes and
 // unmaps them. The generation changes whenever they are freed, so a frame rendered without
@@ -61,6 +64,9 @@ class VirtualV4l2Queue {
   void dqbuf(v4l2_buffer* buffer);
   // A new fd of this process for an MMAP buffer's memory, in exported->fd; the caller owns it.
   int expbuf(v4l2_exportbuffer* exported) const;
+  // Where the frame of dequeued USERPTR buffer `index` is (its memfd, borrowed), for the
+  // copy to the application's pointer; -EINVAL for other memory or indices.
+  int userptr_source(uint32_t index, BufferMemory* out) const;
   // -EINVAL without buffers; already streaming is no error.
   int streamon();
   // vb2 returns every buffer to the application, done or not.
@@ -94,6 +100,9 @@ class VirtualV4l2Queue {
     dev_t import_device = 0;
     ino_t import_inode = 0;
     uint32_t dmabuf_length = 0;
+    // USERPTR: the application's pointer and length, as QBUF gave them (reported back).
+    unsigned long user_pointer = 0;
+    uint32_t user_length = 0;
     enum class State { kDequeued, kQueued, kFilling, kDone } state = State::kDequeued;
     v4l2_buffer done{};  // filled when State::kDone
     int mappings = 0;    // client mappings (VirtualV4l2Io, the broker)

@@ -114,6 +114,29 @@ TEST_F(Vcam, V4l2ComplianceReportsNoFailures) {
   const std::string summary = run.out.substr(total, run.out.find('\n', total) - total);
   EXPECT_NE(summary.find("Failed: 0,"), std::string::npos) << summary << "\n" << run.out;
   EXPECT_EQ(run.exit_code, 0) << summary;
+  // USERPTR streaming is among what it checked (the virtual device offers it, as uvcvideo).
+  EXPECT_NE(run.out.find("test USERPTR (select): OK"), std::string::npos) << run.out;
+}
+
+// v4l2-ctl streaming into its own memory (USERPTR, across the broker) gets the bytes it
+// gets through MMAP, frame for frame (the scene is noise-free).
+TEST_F(Vcam, UserptrStreamingDeliversTheFramesMmapDoes) {
+  if (!fs::exists("/usr/bin/v4l2-ctl")) GTEST_SKIP() << "v4l2-ctl (v4l-utils) is not installed";
+  const std::string stream =
+      "v4l2-ctl -d /dev/video0 --set-fmt-video pixelformat=GREY "
+      "--stream-count 3 ";
+  auto run = run_cli(vcam() + "sh -c '" + stream + "--stream-user --stream-to " +
+                     (dir / "user.raw").string() + " && " + stream + "--stream-mmap --stream-to " +
+                     (dir / "mmap.raw").string() + "'");
+  ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
+  auto read_all = [](const fs::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string user = read_all(dir / "user.raw"), mmap = read_all(dir / "mmap.raw");
+  EXPECT_GT(user.size(), 0u);
+  EXPECT_EQ(user.size(), mmap.size());
+  EXPECT_TRUE(user == mmap) << "USERPTR frames differ from MMAP ones";
 }
 
 TEST_F(Vcam, ReturnsTheCommandsExitStatusAndRefusesBadSpecs) {

@@ -8,6 +8,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstring>
 #include <vector>
 
@@ -210,6 +211,56 @@ TEST_F(BufferSharing, DmabufImportRendersIntoTheClientsMemory) {
   ASSERT_EQ(stream(false), 0);
   EXPECT_EQ(reqbufs(0, V4L2_MEMORY_DMABUF), 0);
   for (int m : memfds) close(m);
+}
+
+// USERPTR, as uvcvideo offers: the application's own memory gets each frame at DQBUF, the
+// same bytes MMAP streaming delivers; QBUF refuses what vb2 refuses.
+TEST_F(BufferSharing, UserptrBuffersReceiveTheFrameMmapDelivers) {
+  const std::vector<uint8_t> expected = mmap_frame();
+  ASSERT_EQ(reqbufs(2, V4L2_MEMORY_USERPTR), 2);
+  v4l2_buffer queried{};
+  queried.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  queried.index = 1;
+  ASSERT_EQ(io->ioctl(fd, VIDIOC_QUERYBUF, &queried), 0);
+  EXPECT_EQ(queried.memory, static_cast<uint32_t>(V4L2_MEMORY_USERPTR));
+  EXPECT_EQ(queried.length, kFrameBytes) << "sizeimage until a buffer is queued";
+  EXPECT_EQ(io->mmap(kFrameBytes, PROT_READ, MAP_SHARED, fd, 0), MAP_FAILED) << "nothing to map";
+
+  auto queue_user = [&](uint32_t index, void* pointer, uint32_t length) {
+    v4l2_buffer b{};
+    b.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    b.memory = V4L2_MEMORY_USERPTR;
+    b.index = index;
+    b.m.userptr = reinterpret_cast<unsigned long>(pointer);
+    b.length = length;
+    return io->ioctl(fd, VIDIOC_QBUF, &b) == 0 ? 0 : -errno;
+  };
+  std::vector<std::vector<uint8_t>> memory(2, std::vector<uint8_t>(kFrameBytes + 100, 0xAB));
+  EXPECT_EQ(queue_user(0, nullptr, kFrameBytes), -EINVAL) << "no pointer";
+  EXPECT_EQ(queue_user(0, memory[0].data(), kFrameBytes - 1), -EINVAL) << "shorter than a frame";
+  // An address nothing is mapped at: a page reserved and then given back.
+  void* gone =
+      mmap(nullptr, kFrameBytes, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  ASSERT_NE(gone, MAP_FAILED);
+  munmap(gone, kFrameBytes);
+  EXPECT_EQ(queue_user(0, gone, kFrameBytes), -EFAULT) << "memory the application lacks";
+
+  for (uint32_t i = 0; i < 2; ++i) ASSERT_EQ(queue_user(i, memory[i].data(), kFrameBytes + 100), 0);
+  ASSERT_EQ(stream(true), 0);
+  for (int frame = 0; frame < 4; ++frame) {
+    v4l2_buffer done = dequeue(V4L2_MEMORY_USERPTR);
+    ASSERT_LT(done.index, 2u);
+    EXPECT_EQ(done.m.userptr, reinterpret_cast<unsigned long>(memory[done.index].data()));
+    EXPECT_EQ(done.length, kFrameBytes + 100) << "the length QBUF gave";
+    EXPECT_EQ(done.bytesused, kFrameBytes);
+    EXPECT_TRUE(std::equal(expected.begin(), expected.end(), memory[done.index].begin()))
+        << "frame " << frame;
+    EXPECT_EQ(memory[done.index][kFrameBytes], 0xAB) << "nothing written past bytesused";
+    std::fill(memory[done.index].begin(), memory[done.index].end(), 0xAB);
+    ASSERT_EQ(queue_user(done.index, memory[done.index].data(), kFrameBytes + 100), 0);
+  }
+  ASSERT_EQ(stream(false), 0);
+  EXPECT_EQ(reqbufs(0, V4L2_MEMORY_USERPTR), 0);
 }
 
 TEST_F(BufferSharing, DmabufQbufRejectsWhatVb2Rejects) {

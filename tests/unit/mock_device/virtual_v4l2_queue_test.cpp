@@ -68,13 +68,15 @@ class VirtualV4l2QueueTest : public ::testing::Test {
 };
 
 TEST_F(VirtualV4l2QueueTest, ReqbufsGivesTwoToThirtyTwoBuffersToOneOwner) {
+  constexpr uint32_t kAllMemory =
+      V4L2_BUF_CAP_SUPPORTS_MMAP | V4L2_BUF_CAP_SUPPORTS_USERPTR | V4L2_BUF_CAP_SUPPORTS_DMABUF;
   EXPECT_EQ(reqbufs(1), 2);
-  EXPECT_EQ(capabilities, V4L2_BUF_CAP_SUPPORTS_MMAP | V4L2_BUF_CAP_SUPPORTS_DMABUF);
+  EXPECT_EQ(capabilities, kAllMemory);
   EXPECT_EQ(queue.owner(), kOwner);
   EXPECT_EQ(reqbufs(100), 32);  // VB2_MAX_FRAME
   EXPECT_EQ(reqbufs(4, V4L2_MEMORY_MMAP, kOther), -EBUSY);
-  EXPECT_EQ(reqbufs(4, V4L2_MEMORY_USERPTR), -EINVAL);
-  EXPECT_EQ(capabilities, V4L2_BUF_CAP_SUPPORTS_MMAP | V4L2_BUF_CAP_SUPPORTS_DMABUF);
+  EXPECT_EQ(reqbufs(4, V4L2_MEMORY_OVERLAY), -EINVAL);
+  EXPECT_EQ(capabilities, kAllMemory);
   EXPECT_TRUE(queue.holds_format());
   EXPECT_EQ(reqbufs(0), 0);  // frees, and gives the queue up
   EXPECT_EQ(queue.owner(), 0);
