@@ -24,6 +24,8 @@
 #include "service/api/service_context.h"
 #include "service/fleet/fleet.h"
 #include "service/fleet/host_identity.h"
+#include "service/fleet/local_sync_site.h"
+#include "service/fleet/sync_captures.h"
 #include "service/http/listener.h"
 #include "service/jobs/calibration_sessions.h"
 #include "service/jobs/compute_jobs.h"
@@ -192,6 +194,14 @@ int run_daemon(const DaemonConfig& config) {
   context.live = &live;
   context.events = &events;
   context.fleet = fleet.get();
+  // One camlabd alone synchronises its own cameras (a rig on one machine, SQLite).
+  std::unique_ptr<LocalSyncSite> local_site;
+  std::unique_ptr<SyncCaptures> local_sync;
+  if (!fleet) {
+    local_site = std::make_unique<LocalSyncSite>(**store, **cameras);
+    local_sync = std::make_unique<SyncCaptures>(*local_site);
+    context.sync = local_sync.get();
+  }
   add_all_routes(router, context);
 
   net::io_context ioc(config.io_threads);
@@ -202,6 +212,7 @@ int run_daemon(const DaemonConfig& config) {
   }
 
   (*cameras)->start();
+  if (local_sync) local_sync->start();
   compute.start();
   sessions.start();
   waiters.start();
@@ -280,6 +291,14 @@ int run_daemon(const DaemonConfig& config) {
   sessions.stop();
   (*cameras)->stop();
   compute.stop();
+  if (local_sync) {
+    // Its captures ended with the cameras; a synchronised capture still waiting for them
+    // ends interrupted too (everything else has ended by now).
+    local_sync->stop();
+    (void)(*store)->interrupt_unfinished(
+        "camlabd stopped while this synchronised capture was running; the frames written are "
+        "kept");
+  }
   if (fleet)
     fleet->leave("camlabd on host " + config.host_name +
                  " stopped while this job was queued or running; the frames written "

@@ -200,10 +200,12 @@ void add_fleet_routes(Router& router, const ServiceContext& context) {
               "A synchronised capture: cameras on several hosts start at a common time (202 "
               "with the job; its result compares the frames' start times)",
               [context](const ApiRequest& request, const PathParams&, Reply reply) {
-                if (!context.fleet) return reply(error_response(not_in_a_fleet()));
+                // A fleet's cameras on any host, else this camlabd's own.
+                SyncCaptures* sync = context.fleet ? &context.fleet->sync() : context.sync;
+                if (!sync) return reply(error_response(not_in_a_fleet()));
                 auto body = parse_json_object(request.body);
                 if (!body) return reply(error_response(body.error()));
-                auto job = context.fleet->sync().submit(*body);
+                auto job = sync->submit(*body);
                 if (!job) return reply(error_response(job.error()));
                 reply(accepted_job(*job));
               }});

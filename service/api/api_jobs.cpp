@@ -19,6 +19,7 @@
 #include "image/capture_folder.h"
 #include "service/api/api_lookup.h"
 #include "service/api/service_context.h"
+#include "service/fleet/sync_captures.h"
 #include "service/jobs/camera_set.h"
 #include "service/jobs/compute_jobs.h"
 #include "service/jobs/job_waiters.h"
@@ -188,6 +189,13 @@ void cancel_job(const ServiceContext& context, const PathParams& params, Reply r
     if (!now || !now->has_value())
       return reply(error_response("io_error", "job vanished while cancelling"));
     job = **now;
+  }
+  // A synchronised capture of this camlabd's cameras: each of its captures is cancelled.
+  if (job->state == JobState::kRunning && job->kind == "sync_capture" && context.sync &&
+      context.sync->cancel(job->id)) {
+    nlohmann::json json = to_json(*job);
+    json["cancel_requested"] = true;
+    return reply(json_response(202, json));
   }
   if (job->state == JobState::kRunning) {
     auto worker = job->camera_id.empty() ? nullptr : context.cameras->find(job->camera_id);

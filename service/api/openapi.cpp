@@ -531,7 +531,8 @@ json openapi_document(bool include_test_routes) {
                         merge(ok(200, "{host, hosts: [{name, url, state, cameras}]}", object),
                               error_responses({401, 422, 503})))}};
   paths["/v1/sync-captures"] = {
-      {"post", operation("A synchronised capture: cameras on several hosts start at a common time",
+      {"post", operation("A synchronised capture: cameras (on several hosts of a fleet, or this "
+                         "camlabd's own) start at a common time",
                          "fleet", json::array(),
                          merge(ok(202,
                                   "the parent job (kind sync_capture); its result compares the "

@@ -14,6 +14,7 @@ class CalibrationSessions;
 class CameraSet;
 class ComputeWorker;
 class Fleet;
+class SyncCaptures;
 class JobStore;
 class JobEvents;
 class JobWaiters;
@@ -32,6 +33,9 @@ struct ServiceContext {
   LiveHub* live = nullptr;      // null: live views, histograms and thumbnails answer 503
   JobEvents* events = nullptr;  // null: GET /v1/events answers 503
   Fleet* fleet = nullptr;       // null: one camlabd (SQLite); /v1/fleet answers unsupported
+  // Synchronised captures of this camlabd's own cameras when it is no fleet host (a
+  // fleet's are fleet->sync()); null: POST /v1/sync-captures answers not_in_a_fleet.
+  SyncCaptures* sync = nullptr;
 };
 
 // Registration of each group of routes (one file each).

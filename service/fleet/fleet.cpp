@@ -120,6 +120,15 @@ Result<JobRecord> Fleet::submit(const CameraTarget& target, const std::string& k
                        kind == "capture" ? "captures/job-" : "", frames_total);
 }
 
+void Fleet::cancel_running(int64_t id) { (void)fleet_.request_cancel(id); }
+
+std::map<std::string, HostClock> Fleet::clocks() {
+  std::map<std::string, HostClock> out;
+  for (const FleetHost& host : registry_.hosts())
+    out[host.name] = {host.clock_offset_us, host.clock_uncertainty_us};
+  return out;
+}
+
 Result<std::string> Fleet::url_of(const std::string& name) {
   const std::optional<FleetHost> host = registry_.host(name);
   if (!host) return make_error("host_unavailable", "no host '" + clipped(name) + "' in the fleet");

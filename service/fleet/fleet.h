@@ -18,6 +18,7 @@
 #include "service/fleet/fleet_dispatcher.h"
 #include "service/fleet/fleet_member.h"
 #include "service/fleet/fleet_registry.h"
+#include "service/fleet/sync_capture_site.h"
 #include "service/store/fleet_store.h"
 
 namespace camlab::service {
@@ -27,20 +28,7 @@ class CameraWorker;
 class JobStore;
 class SyncCaptures;
 
-// A camera of the fleet, found by its id.
-struct CameraTarget {
-  std::string host;                      // its host
-  std::string camera_id;                 // its id on that host
-  std::shared_ptr<CameraWorker> worker;  // this host's camera; null for another host's
-  PublishedCamera camera;                // what a capture request is checked against
-  nlohmann::json description;            // as its host published it
-  bool available = false;
-  std::string unavailable_reason;
-
-  std::string fleet_id() const { return fleet_camera_id(camera_id, host); }
-};
-
-class Fleet {
+class Fleet : public SyncCaptureSite {
  public:
   Fleet(FleetStore& fleet, JobStore& store, CameraSet& cameras, FleetOptions options,
         int max_queued_jobs);
@@ -57,21 +45,25 @@ class Fleet {
 
   const std::string& host() const { return options_.host; }
   FleetStore& store() { return fleet_; }
-  JobStore& jobs() { return store_; }
+  JobStore& jobs() override { return store_; }
   FleetRegistry& registry() { return registry_; }
   SyncCaptures& sync() { return *sync_; }
 
   // The camera `id` names: "CAMERA@HOST", or "CAMERA" for one of this host's. Errors:
   // "not_found" (listing the cameras), "host_unavailable" (its host is not serving).
-  Result<CameraTarget> resolve(const std::string& id);
+  Result<CameraTarget> resolve(const std::string& id) override;
   // `request` checked as a capture for the camera, as its host would check it.
   Result<capture::CapturePlan> plan(const CameraTarget& target,
-                                    const nlohmann::json& request) const;
+                                    const nlohmann::json& request) const override;
   // A job for the camera, waiting for its host to claim it. Errors: "no_device" (the
   // camera is not available), "too_many_jobs" (more than max_queued_jobs wait for it),
   // "host_unavailable", "database_unavailable".
   Result<JobRecord> submit(const CameraTarget& target, const std::string& kind,
-                           const nlohmann::json& request, int frames_total);
+                           const nlohmann::json& request, int frames_total) override;
+  // A running job, here or on another host: its host's dispatcher passes the request on.
+  void cancel_running(int64_t id) override;
+  // Each live host's clock offset to the database's.
+  std::map<std::string, HostClock> clocks() override;
   // Where host `name`'s API is reached, or "host_unavailable" when it is not live.
   Result<std::string> url_of(const std::string& name);
 

@@ -3,7 +3,6 @@
 #include <set>
 
 #include "base/log.h"
-#include "service/fleet/fleet.h"
 #include "service/jobs/sync_schedule.h"
 
 namespace camlab::service {
@@ -51,9 +50,9 @@ Result<JobRecord> SyncCaptures::submit(const nlohmann::json& body) {
                             "' (allowed: cameras, capture, start_in_ms, max_late_ms, max_skew_us)");
   if (!body.contains("cameras") || !body["cameras"].is_array() || body["cameras"].empty() ||
       body["cameras"].size() > static_cast<size_t>(kMaxSyncCameras))
-    return make_error("invalid_request", "cameras must be a list of 1 to " +
-                                             std::to_string(kMaxSyncCameras) +
-                                             " camera ids (CAMERA@HOST, GET /v1/fleet)");
+    return make_error("invalid_request",
+                      "cameras must be a list of 1 to " + std::to_string(kMaxSyncCameras) +
+                          " camera ids (GET /v1/cameras; CAMERA@HOST in a fleet, GET /v1/fleet)");
   if (!body.contains("capture") || !body["capture"].is_object())
     return make_error("invalid_request",
                       "capture must be a capture request, e.g. {\"kind\": \"single\"}");
@@ -73,11 +72,11 @@ Result<JobRecord> SyncCaptures::submit(const nlohmann::json& body) {
     const std::string where = "cameras[" + std::to_string(i) + "]: ";
     const nlohmann::json& id = body["cameras"][i];
     if (!id.is_string()) return make_error("invalid_request", where + "a camera id is a string");
-    auto target = fleet_.resolve(id.get<std::string>());
+    auto target = site_.resolve(id.get<std::string>());
     if (!target) return target.error().with_context(where);
     if (!seen.insert(target->fleet_id()).second)
       return make_error("invalid_request", where + target->fleet_id() + " is listed twice");
-    auto plan = fleet_.plan(*target, body["capture"]);
+    auto plan = site_.plan(*target, body["capture"]);
     if (!plan) return plan.error().with_context(where);
     if (!target->available)
       return make_error("no_device", where + "camera " + target->fleet_id() +
@@ -93,11 +92,11 @@ Result<JobRecord> SyncCaptures::submit(const nlohmann::json& body) {
   capture["schedule"] = {{"start_at_unix_ms", parent.start_at_unix_ms},
                          {"max_late_ms", max_late_ms}};
   auto undo = [&](const Error& error) -> Error {
-    for (int64_t job : parent.jobs) (void)fleet_.jobs().cancel_queued(job);
+    for (int64_t job : parent.jobs) (void)site_.jobs().cancel_queued(job);
     return error;
   };
   for (size_t i = 0; i < targets.size(); ++i) {
-    auto job = fleet_.submit(targets[i], "capture", capture, frames[i]);
+    auto job = site_.submit(targets[i], "capture", capture, frames[i]);
     if (!job) return undo(job.error().with_context("cameras[" + std::to_string(i) + "]: "));
     parent.jobs.push_back(job->id);
     parent.cameras.push_back(targets[i].fleet_id());
@@ -108,9 +107,9 @@ Result<JobRecord> SyncCaptures::submit(const nlohmann::json& body) {
       {"start_in_ms", start_in_ms}, {"max_late_ms", max_late_ms},
       {"max_skew_us", max_skew_us}, {"start_at_unix_ms", parent.start_at_unix_ms},
       {"jobs", parent.jobs}};
-  auto created = fleet_.jobs().create("sync_capture", "", request, "", parent.frames_total);
+  auto created = site_.jobs().create("sync_capture", "", request, "", parent.frames_total);
   if (!created) return undo(created.error());
-  if (auto started = fleet_.jobs().start(created->id); !started || !*started)
+  if (auto started = site_.jobs().start(created->id); !started || !*started)
     return undo(started ? make_error("internal", "the synchronised capture did not start")
                         : started.error());
   {
@@ -121,7 +120,7 @@ Result<JobRecord> SyncCaptures::submit(const nlohmann::json& body) {
   log_info(log::Category::kJobs, "job %lld: synchronised capture of %zu cameras at %lld",
            static_cast<long long>(created->id), parent.jobs.size(),
            static_cast<long long>(parent.start_at_unix_ms));
-  auto now = fleet_.jobs().get(created->id);
+  auto now = site_.jobs().get(created->id);
   return now && now->has_value() ? **now : *created;
 }
 
@@ -134,12 +133,12 @@ bool SyncCaptures::cancel(int64_t id) {
     jobs = it->second.jobs;
   }
   for (int64_t job : jobs) {
-    auto cancelled = fleet_.jobs().cancel_queued(job);
+    auto cancelled = site_.jobs().cancel_queued(job);
     if (cancelled && *cancelled) continue;
-    auto record = fleet_.jobs().get(job);
+    auto record = site_.jobs().get(job);
     if (!record || !record->has_value() || (*record)->state != JobState::kRunning) continue;
-    // Running, here or on another host: its host's dispatcher passes it to the worker.
-    (void)fleet_.store().request_cancel(job);
+    // Running, here or on another host.
+    site_.cancel_running(job);
   }
   return true;
 }
@@ -163,7 +162,7 @@ bool SyncCaptures::check(int64_t id, const Parent& parent) {
   int frames_done = 0, frames_discarded = 0;
   bool all_ended = true;
   for (int64_t job : parent.jobs) {
-    auto record = fleet_.jobs().get(job);
+    auto record = site_.jobs().get(job);
     if (!record || !record->has_value()) return false;  // the database is away: next time
     frames_done += (*record)->frames_done;
     frames_discarded += (*record)->frames_discarded;
@@ -171,14 +170,13 @@ bool SyncCaptures::check(int64_t id, const Parent& parent) {
     children.push_back(**record);
   }
   if (!all_ended) {
-    (void)fleet_.jobs().progress(id, frames_done, parent.frames_total, frames_discarded);
+    (void)site_.jobs().progress(id, frames_done, parent.frames_total, frames_discarded);
     return false;
   }
   std::map<std::string, HostClock> clocks;
-  for (const FleetHost& host : fleet_.registry().hosts())
+  for (const auto& [name, clock] : site_.clocks())
     for (const JobRecord& child : children)
-      if (child.host == host.name)
-        clocks[host.name] = {host.clock_offset_us, host.clock_uncertainty_us};
+      if (child.host == name) clocks[name] = clock;
   const nlohmann::json result = summarize_sync_capture(parent.start_at_unix_ms, parent.cameras,
                                                        children, clocks, parent.max_skew_us);
   // Failed: the first camera's that did not capture gives the code, each says why.
@@ -192,13 +190,13 @@ bool SyncCaptures::check(int64_t id, const Parent& parent) {
               job_state_name(children[i].state) +
               (children[i].error_message.empty() ? "" : " (" + children[i].error_message + ")");
   }
-  (void)fleet_.jobs().progress(id, frames_done, parent.frames_total, frames_discarded);
+  (void)site_.jobs().progress(id, frames_done, parent.frames_total, frames_discarded);
   const std::optional<Error> error =
       failed.empty() ? std::nullopt
                      : std::optional<Error>(
                            Error(code, "not every camera captured at the common start: " + failed));
-  auto finished = fleet_.jobs().finish(
-      id, failed.empty() ? JobState::kSucceeded : JobState::kFailed, error, result);
+  auto finished = site_.jobs().finish(id, failed.empty() ? JobState::kSucceeded : JobState::kFailed,
+                                      error, result);
   if (!finished)
     log_warning(log::Category::kJobs, "job %lld: %s", static_cast<long long>(id),
                 finished.error().message.c_str());

@@ -1,7 +1,8 @@
 // Synchronised captures (POST /v1/sync-captures; service/jobs/sync_schedule.h has the
 // schedule and the result): the request is checked against every camera, a capture job is
 // submitted for each camera to its host with the common start, and the parent job
-// ("sync_capture", run by the host that took the request) waits for them. Its progress is
+// ("sync_capture", run by the host that took the request) waits for them. The cameras are
+// a fleet's, or one camlabd's own (sync_capture_site.h). Its progress is
 // the sum of theirs; once all have ended it ends with the comparison of their frames'
 // start times: succeeded when every camera captured, else failed, naming which did not.
 //
@@ -22,11 +23,10 @@
 #include <nlohmann/json.hpp>
 
 #include "base/result.h"
+#include "service/fleet/sync_capture_site.h"
 #include "service/store/job_store.h"
 
 namespace camlab::service {
-
-class Fleet;
 
 // Limits of a synchronised capture request.
 inline constexpr int kMaxSyncCameras = 32;
@@ -37,7 +37,7 @@ inline constexpr int64_t kDefaultMaxSkewUs = 1000, kMaxSyncSkewUs = 1000000;
 
 class SyncCaptures {
  public:
-  explicit SyncCaptures(Fleet& fleet) : fleet_(fleet) {}
+  explicit SyncCaptures(SyncCaptureSite& site) : site_(site) {}
   ~SyncCaptures();
   SyncCaptures(const SyncCaptures&) = delete;
   SyncCaptures& operator=(const SyncCaptures&) = delete;
@@ -66,7 +66,7 @@ class SyncCaptures {
   // Ends the parent when every capture has (true), else updates its progress.
   bool check(int64_t id, const Parent& parent);
 
-  Fleet& fleet_;
+  SyncCaptureSite& site_;
   std::mutex mutex_;
   std::condition_variable wake_;
   bool stopping_ = false;
