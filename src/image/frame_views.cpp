@@ -87,13 +87,20 @@ Result<LightFrame> decode_to_light(const cv::Mat& stored, const FrameSidecar& si
       for (int x = 0; x < samples; ++x) row[x] = table[in[x]];
     }
   }
-  out.sidecar = sidecar;
-  out.sidecar.bit_depth = 16;
-  out.sidecar.black_level_dn = 0;
-  out.sidecar.white_level_dn = 65535;
-  out.sidecar.transfer = TransferFunction::kLinear;
-  out.sidecar.linear = sidecar.pixel_format != "MJPG" && sidecar.pixel_format != "JPEG";
+  out.sidecar = light_sidecar(sidecar);
   out.decoded = true;
+  return out;
+}
+
+FrameSidecar light_sidecar(const FrameSidecar& sidecar) {
+  if (!is_decodable(sidecar.transfer) || sidecar.transfer == TransferFunction::kLinear)
+    return sidecar;
+  FrameSidecar out = sidecar;
+  out.bit_depth = 16;
+  out.black_level_dn = 0;
+  out.white_level_dn = 65535;
+  out.transfer = TransferFunction::kLinear;
+  out.linear = sidecar.pixel_format != "MJPG" && sidecar.pixel_format != "JPEG";
   return out;
 }
 

@@ -31,6 +31,8 @@ struct LightFrame {
   bool decoded = false;
 };
 Result<LightFrame> decode_to_light(const cv::Mat& stored, const FrameSidecar& sidecar);
+// The sidecar decode_to_light gives a frame of `sidecar` (the same for a linear one).
+FrameSidecar light_sidecar(const FrameSidecar& sidecar);
 
 // The frame as a picture, with the stored depth: mono frames as they are (one channel),
 // mosaics demosaiced (bilinear, OpenCV) to B, G, R, rgb frames as they are (B, G, R).

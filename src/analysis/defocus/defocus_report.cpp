@@ -126,6 +126,15 @@ FrameResult measure_frame(const image::CaptureFolder& folder, int index,
     out.status = image.error();
     return out;
   }
+  // A frame with the curve its camera declared (a webcam's YUYV) is decoded to light:
+  // the blur is fitted to the light's edge profile.
+  auto light = image::decode_to_light(*image, *side);
+  if (!light) {
+    out.status = light.error();
+    return out;
+  }
+  *image = std::move(light->stored);
+  *side = std::move(light->sidecar);
   auto signal = channel_signal(*image, *side, channel);
   if (!signal) {
     out.status = signal.error();
@@ -380,7 +389,7 @@ Result<DefocusReport> analyze_defocus(const std::filesystem::path& capture_dir,
   image::FrameSidecar first;
   CAMLAB_ASSIGN(first, folder.load_sidecar(0));
   std::vector<std::string> channels;
-  CAMLAB_ASSIGN(channels, measurable_channels(first));
+  CAMLAB_ASSIGN(channels, measurable_channels(image::light_sidecar(first)));
   std::vector<EdgeSegment> detected;
   CAMLAB_ASSIGN(detected, detect_edges(folder, options));
   if (channels.size() == 1) return analyze_channel(folder, options, detected, channels[0]);

@@ -35,12 +35,21 @@ struct Entry {
 // The image a focus stack of `view` reads: the mono frame (""), the luminance of a colour
 // frame ("Y"), or one plane of channel R, G or B (a mosaic's first plane of that colour,
 // at half resolution; an RGB frame's plane).
+// A frame with the curve its camera declared (a webcam's YUYV) is decoded to light first.
 Result<cv::Mat> view_of(const image::CaptureFolder& folder, int index, const std::string& view) {
-  if (view.empty()) return folder.load_image(index);
   image::FrameSidecar side;
   cv::Mat stored;
   CAMLAB_ASSIGN(side, folder.load_sidecar(index));
   CAMLAB_ASSIGN(stored, folder.load_stored_image(index));
+  image::LightFrame light;
+  CAMLAB_ASSIGN(light, image::decode_to_light(stored, side));
+  stored = std::move(light.stored);
+  side = std::move(light.sidecar);
+  if (view.empty()) {
+    if (Status mono = image::check_mono_linear(side, "frame " + std::to_string(index)); !mono)
+      return mono.error();
+    return stored;
+  }
   if (view == "Y") return image::luminance_view(stored, side);
   if (side.layout == image::FrameLayout::kRgb) return channel_samples(stored, side, view);
   image::CfaPlanes planes;
@@ -61,6 +70,7 @@ Result<FocusReport> focus_of(const image::CaptureFolder& folder, const std::vect
   {
     image::FrameSidecar first;
     CAMLAB_ASSIGN(first, folder.load_sidecar(entries.front().index));
+    first = image::light_sidecar(first);  // as view_of reads the frames
     // An RGB frame's planes come from an ISP, black already removed.
     stack_options.black_level = first.layout == image::FrameLayout::kRgb ? 0 : first.black_level_dn;
   }
@@ -116,7 +126,7 @@ Result<FocusReport> analyze_focus(const std::filesystem::path& capture_dir,
   image::FrameSidecar first;
   CAMLAB_ASSIGN(first, folder.load_sidecar(0));
   std::vector<std::string> channels;
-  CAMLAB_ASSIGN(channels, measurable_channels(first));
+  CAMLAB_ASSIGN(channels, measurable_channels(image::light_sidecar(first)));
   std::vector<Entry> entries;
   bool have_distance = true;
   for (int i = 0; i < count; ++i) {

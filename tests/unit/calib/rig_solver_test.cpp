@@ -200,9 +200,10 @@ TEST(RigSolve, RingWithAFisheyeIsSolvedInOneSplinedModel) {
           1000 * cv::norm(centre(truth[a].rt_cam_ref) - centre(truth[b].rt_cam_ref));
       std::printf("cameras %d-%d: %.3f mm apart (truth %.3f; sigma %.3f mm)\n", a, b, solved_mm,
                   truth_mm, a == 0 ? s->cameras[b].baseline_sigma_mm : 0.0);
-      if (a == 0)
+      if (a == 0) {
         EXPECT_LT(std::abs(solved_mm - truth_mm), 2.5 * s->cameras[b].baseline_sigma_mm)
             << "camera " << b << ": baseline sigma " << s->cameras[b].baseline_sigma_mm << " mm";
+      }
       EXPECT_LT(std::abs(solved_mm - truth_mm), 0.01 * truth_mm) << "cameras " << a << "-" << b;
     }
   for (int c = 0; c < 4; ++c) EXPECT_LT(s->cameras[c].rms_px, 0.45) << "camera " << c;

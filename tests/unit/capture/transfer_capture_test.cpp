@@ -9,6 +9,7 @@
 //                          encoder and decoder)
 //   MTF50 decoded          within 1% of a linear YUYV capture of the same edge
 //   MTF50 read as linear   more than 2% off (what the sidecar's curve saves)
+//   blur disk decoded      within 0.1 px of the thin lens's 2.057 px (read as light: 2-10% high)
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -16,6 +17,7 @@
 #include <fstream>
 
 #include "analysis/channel_signal.h"
+#include "analysis/defocus/defocus_report.h"
 #include "analysis/sfr/sfr_image.h"
 #include "base/transfer_function.h"
 #include "capture/capture_runner.h"
@@ -34,10 +36,10 @@ constexpr double kDark = 0.02, kLight = 0.8;  // 40:1, a printed chart's
 
 // Mono, 12 bits, black 64, noise-free (the curve is under test); focused at infinity, so
 // the edge 4 m away is blurred by a 2-px disk.
-json edge_camera_json(const char* transfer) {
+json edge_camera_json(const char* transfer, bool noise = false) {
   json camera = mock::testing::pinhole_camera_json(kEdgeWidth, kEdgeHeight);
-  camera["sensor"]["read_noise_e"] = 0.0;
-  camera["sensor"]["shot_noise"] = false;
+  camera["sensor"]["read_noise_e"] = noise ? 5.0 : 0.0;
+  camera["sensor"]["shot_noise"] = noise;
   camera["timing"] = {{"frame_interval_us", 10000}, {"control_latency_frames", 0}};
   camera["controls"]["exposure_time_absolute"] = {
       {"min", 1}, {"max", 100}, {"default", kEdgeExposureSteps}};
@@ -58,9 +60,9 @@ json edge_scene_json() {
 }
 
 // One YUYV frame of the edge into `dir`.
-void capture_yuyv(const char* transfer, const std::filesystem::path& dir) {
+void capture_yuyv(const char* transfer, const std::filesystem::path& dir, bool noise = false) {
   testing::VirtualCamera vcam =
-      testing::open_virtual_camera(edge_camera_json(transfer), edge_scene_json(), false);
+      testing::open_virtual_camera(edge_camera_json(transfer, noise), edge_scene_json(), false);
   auto controls = vcam.camera->controls();
   auto formats = vcam.camera->formats();
   ASSERT_TRUE(controls.ok() && formats.ok());
@@ -84,6 +86,17 @@ double truth_light(double reflectance) {
   EXPECT_TRUE(frame.ok());
   const double electrons = frame->truth["electrons_per_unit_reflectance"].get<double>();
   return reflectance * electrons / 20000.0;  // full well, the spec's
+}
+
+// A copy of capture `from` whose sidecar claims linear values: what camlab read before it
+// recorded the curve.
+void copy_as_misread(const std::filesystem::path& from, const std::filesystem::path& to) {
+  std::filesystem::copy(from, to, std::filesystem::copy_options::recursive);
+  const auto sidecar_path = to / "frame_000000.json";
+  json sidecar = json::parse(std::ifstream(sidecar_path));
+  sidecar["transfer"] = "linear";
+  sidecar["linear"] = true;
+  std::ofstream(sidecar_path) << sidecar.dump();
 }
 
 std::vector<double> mtf50s(const analysis::SfrImageReport& report) {
@@ -153,14 +166,7 @@ TEST(TransferCapture, TheSfrOfAnSrgbCaptureIsTheLinearCapturesOnceDecoded) {
   EXPECT_EQ(decoded->report["transfer"]["encoding"], "srgb");
   EXPECT_EQ(linear->report["transfer"]["encoding"], "linear");
 
-  // The same frame's sidecar made to claim linear values: what camlab read before it
-  // recorded the curve.
-  std::filesystem::copy(dir / "srgb", dir / "misread", std::filesystem::copy_options::recursive);
-  const auto sidecar_path = dir / "misread" / "frame_000000.json";
-  json sidecar = json::parse(std::ifstream(sidecar_path));
-  sidecar["transfer"] = "linear";
-  sidecar["linear"] = true;
-  std::ofstream(sidecar_path) << sidecar.dump();
+  copy_as_misread(dir / "srgb", dir / "misread");
   auto misread = analysis::analyze_sfr_folder(dir / "misread", options);
   ASSERT_TRUE(misread.ok()) << misread.error().message;
 
@@ -176,6 +182,45 @@ TEST(TransferCapture, TheSfrOfAnSrgbCaptureIsTheLinearCapturesOnceDecoded) {
     EXPECT_GT(std::abs(wrong[k] / want[k] - 1.0), 0.02)
         << "edge " << k << ": read as linear " << wrong[k] << " vs " << want[k];
   }
+}
+
+// The circle of confusion from the same frames: decoded, the blur disk fitted to the sRGB
+// capture's edges is the linear capture's (read as codes, the gamma bends the edge).
+TEST(TransferCapture, TheBlurDiskOfAnSrgbCaptureIsTheLinearCapturesOnceDecoded) {
+  testing::ScratchDir dir("transfer_coc");
+  // With shot and read noise, as a camera's frames have (a noise-free decoded frame's
+  // flat light side looks like a clip to the clip detector).
+  capture_yuyv("linear", dir / "linear", true);
+  capture_yuyv("srgb", dir / "srgb", true);
+  copy_as_misread(dir / "srgb", dir / "misread");
+  // Every edge of the chart is 4 m away: one blur disk, the thin lens's 2.057 px.
+  auto disks = [](const std::filesystem::path& folder) {
+    auto report = analysis::analyze_defocus(folder, analysis::DefocusOptions{});
+    EXPECT_TRUE(report.ok()) << report.error().message;
+    std::vector<double> out;
+    if (report)
+      for (const auto& target : report->targets)
+        if (target.frames.at(0).edge.measured())
+          out.push_back(target.frames.at(0).edge.diameter_px);
+    return out;
+  };
+  const std::vector<double> linear = disks(dir / "linear"), decoded = disks(dir / "srgb"),
+                            misread = disks(dir / "misread");
+  auto text = [](const std::vector<double>& v) {
+    std::string s;
+    for (double d : v) s += " " + std::to_string(d).substr(0, 5);
+    return s;
+  };
+  std::printf(
+      "blur disks (thin lens 2.057 px): linear capture%s; srgb decoded%s; read as "
+      "linear%s\n",
+      text(linear).c_str(), text(decoded).c_str(), text(misread).c_str());
+  EXPECT_GE(decoded.size(), 2u);
+  for (double d : linear) EXPECT_NEAR(d, 2.057, 0.1) << "linear capture";
+  for (double d : decoded) EXPECT_NEAR(d, 2.057, 0.1) << "srgb decoded";
+  int misread_off = 0;
+  for (double d : misread) misread_off += std::abs(d - 2.057) > 0.1;
+  EXPECT_GT(misread_off, 0) << "the gamma read as light bends the edge";
 }
 
 }  // namespace
