@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <linux/videodev2.h>
+#include <pthread.h>
 #include <sys/ioctl.h>
 #include <sys/mman.h>
 #include <sys/socket.h>
@@ -256,11 +257,37 @@ short RemoteFile::poll_events(short requested) {
   return static_cast<short>(out.revents);
 }
 
+RemoteFile::~RemoteFile() {
+  if (!socket_ || shared_with_child_) return;
+  // Our end says EOF; the broker releases the file and then shuts the connection, which
+  // we wait for (bounded: a broker that is gone or stuck does not hang close(2)).
+  const int socket = socket_.get();
+  if (::shutdown(socket, SHUT_WR) != 0) return;
+  for (int waited_ms = 0; waited_ms < 1000; waited_ms += 10) {
+    uint8_t discard[64];
+    const ssize_t n = ::recv(socket, discard, sizeof discard, MSG_DONTWAIT);
+    if (n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR)) return;
+    if (n < 0) wait_readable(socket, 10);
+  }
+}
+
 BrokerClient& BrokerClient::get() {
   // Never destroyed: interposed calls may arrive from other threads and from atexit
   // handlers while the process exits.
-  static BrokerClient* client = new BrokerClient;
+  static BrokerClient* client = [] {
+    auto* made = new BrokerClient;
+    // After a fork the parent's open files may be shared with the child: their last close
+    // here must not end the child's (no EOF handshake for them).
+    pthread_atfork(
+        nullptr, [] { get().mark_all_shared(); }, nullptr);
+    return made;
+  }();
   return *client;
+}
+
+void BrokerClient::mark_all_shared() {
+  std::lock_guard lock(mutex_);
+  for (auto& [fd, file] : files_) file->mark_shared();
 }
 
 int BrokerClient::open(broker::NodeKind kind, int index, int flags) {

@@ -38,6 +38,12 @@ class RemoteFile {
       : socket_(std::move(socket)), kind_(kind), index_(index) {}
   RemoteFile(const RemoteFile&) = delete;
   RemoteFile& operator=(const RemoteFile&) = delete;
+  // The last close, as the kernel's: the broker has released the file (the buffers freed,
+  // the queue given up) before this returns, so an open right after finds the device
+  // free. Not when a child may share the connection (after fork): then a plain close.
+  ~RemoteFile();
+  // A fork happened while this file was open: a child may hold the connection too.
+  void mark_shared() { shared_with_child_ = true; }
 
   broker::NodeKind kind() const { return kind_; }
   int index() const { return index_; }
@@ -60,6 +66,7 @@ class RemoteFile {
   int ioctl_once(unsigned long request, void* user_arg);
 
   RealFd socket_;  // the connection to the broker: the open file, closed with it
+  std::atomic<bool> shared_with_child_{false};
   broker::NodeKind kind_;
   int index_;
   std::mutex mutex_;
@@ -88,6 +95,9 @@ class BrokerClient {
 
   // poll(2)/ppoll(2) over any mix of fds. timeout: null waits forever.
   int poll(pollfd* fds, nfds_t count, const timespec* timeout, const sigset_t* mask);
+
+  // Every open file may be shared with a child (called after fork, in the parent).
+  void mark_all_shared();
 
  private:
   struct Mapping {
