@@ -99,12 +99,6 @@ Result<CameraTarget> Fleet::resolve(const std::string& id) {
   return target;
 }
 
-Result<capture::CapturePlan> Fleet::plan(const CameraTarget& target,
-                                         const nlohmann::json& request) const {
-  return capture::plan_capture(request, target.camera.controls, target.camera.formats,
-                               target.camera.traits);
-}
-
 Result<JobRecord> Fleet::submit(const CameraTarget& target, const std::string& kind,
                                 const nlohmann::json& request, int frames_total) {
   if (!target.available)

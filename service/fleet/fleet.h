@@ -52,9 +52,6 @@ class Fleet : public SyncCaptureSite {
   // The camera `id` names: "CAMERA@HOST", or "CAMERA" for one of this host's. Errors:
   // "not_found" (listing the cameras), "host_unavailable" (its host is not serving).
   Result<CameraTarget> resolve(const std::string& id) override;
-  // `request` checked as a capture for the camera, as its host would check it.
-  Result<capture::CapturePlan> plan(const CameraTarget& target,
-                                    const nlohmann::json& request) const override;
   // A job for the camera, waiting for its host to claim it. Errors: "no_device" (the
   // camera is not available), "too_many_jobs" (more than max_queued_jobs wait for it),
   // "host_unavailable", "database_unavailable".

@@ -24,12 +24,6 @@ Result<CameraTarget> LocalSyncSite::resolve(const std::string& id) {
   return target;
 }
 
-Result<capture::CapturePlan> LocalSyncSite::plan(const CameraTarget& target,
-                                                 const nlohmann::json& request) const {
-  return capture::plan_capture(request, target.camera.controls, target.camera.formats,
-                               target.camera.traits);
-}
-
 Result<JobRecord> LocalSyncSite::submit(const CameraTarget& target, const std::string& kind,
                                         const nlohmann::json& request, int frames_total) {
   if (!target.available || !target.worker)

@@ -17,8 +17,6 @@ class LocalSyncSite : public SyncCaptureSite {
   LocalSyncSite(JobStore& store, CameraSet& cameras) : store_(store), cameras_(cameras) {}
 
   Result<CameraTarget> resolve(const std::string& id) override;
-  Result<capture::CapturePlan> plan(const CameraTarget& target,
-                                    const nlohmann::json& request) const override;
   // Queued on the camera's worker, as POST /v1/cameras/{id}/captures queues it.
   Result<JobRecord> submit(const CameraTarget& target, const std::string& kind,
                            const nlohmann::json& request, int frames_total) override;

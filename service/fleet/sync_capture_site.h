@@ -44,9 +44,13 @@ class SyncCaptureSite {
   virtual ~SyncCaptureSite() = default;
   // The camera `id` names; "not_found" listing the cameras there are.
   virtual Result<CameraTarget> resolve(const std::string& id) = 0;
-  // `request` checked as a capture for the camera, as its host would check it.
-  virtual Result<capture::CapturePlan> plan(const CameraTarget& target,
-                                            const nlohmann::json& request) const = 0;
+  // `request` checked as a capture for the camera, as its host would check it (against
+  // the controls, formats and traits the target carries, wherever the camera is).
+  Result<capture::CapturePlan> plan(const CameraTarget& target,
+                                    const nlohmann::json& request) const {
+    return capture::plan_capture(request, target.camera.controls, target.camera.formats,
+                                 target.camera.traits);
+  }
   // A job for the camera (queued for it). Errors: "no_device", "too_many_jobs", ...
   virtual Result<JobRecord> submit(const CameraTarget& target, const std::string& kind,
                                    const nlohmann::json& request, int frames_total) = 0;

@@ -12,6 +12,7 @@
 #include "analysis/channel_signal.h"
 #include "analysis/edge/edge_finder.h"
 #include "base/format.h"
+#include "base/transfer_function.h"
 #include "image/capture_folder.h"
 #include "image/frame_views.h"
 
@@ -377,7 +378,7 @@ Result<SfrImageReport> analyze_sfr_image(const std::string& path, const SfrImage
   if (srgb) {
     cv::Mat values = linear.reshape(1);  // every channel's value, in place
     values.forEach<float>([](float& v, const int*) {
-      v = v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+      v = static_cast<float>(decode_to_light(TransferFunction::kSrgb, v));
     });
   }
   if (linear.channels() == 4) cv::cvtColor(linear, linear, cv::COLOR_BGRA2BGR);
