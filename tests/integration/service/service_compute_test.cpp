@@ -539,8 +539,10 @@ TEST(ServiceRigAlone, AThreeCameraRigIsCapturedInSyncWithoutAFleet) {
   const json& views = result["rig_views"];
   EXPECT_GE(views["complete"].get<int>(), 6) << views.dump(1);
   EXPECT_EQ(views["over_bound"], 0) << views.dump(1);
-  ASSERT_TRUE(result["skew_us"]["max"].is_number_integer()) << result.dump(1);
-  const int64_t worst_us = result["skew_us"]["max"].get<int64_t>();
+  // The rig views' skew (frames grouped by start time): under load a camera may begin one
+  // tick later, which shifts the k-th frames of "skew_us" by an interval, not the views.
+  ASSERT_TRUE(views["worst_skew_us"].is_number_integer()) << views.dump(1);
+  const int64_t worst_us = views["worst_skew_us"].get<int64_t>();
   std::printf("one camlabd, 3 cameras: %d complete rig views, worst skew %lld us\n",
               views["complete"].get<int>(), static_cast<long long>(worst_us));
   EXPECT_LE(worst_us, 1000) << "one host, one frame clock";
