@@ -1,7 +1,10 @@
 // The live view: reads GET /v1/cameras/{id}/live (multipart/x-mixed-replace, one JPEG per
 // part with its Content-Length and frame headers) and draws each frame on a canvas.
 // Reconnects after a pause when the stream ends (the camera was unplugged, camlabd
-// restarted); shows the frame rate received, which holds the cap while the camera keeps up.
+// restarted); shows the rate of the frames shown, which holds the cap while the camera
+// keeps up. The rate is taken on the camera's clock (X-Frame-Timestamp-Ns), not on arrival:
+// a busy browser or network delivers frames in bunches, and arrival times would then show
+// a rate above the cap that camlabd never sent.
 
 import { chunks, enc, sleep } from './api.js';
 
@@ -53,7 +56,7 @@ export class LiveView {
     this.status = status;
     this.context = canvas.getContext('2d');
     this.controller = null;
-    this.arrivals = [];  // times of the frames of the last 3 s, for the rate shown
+    this.arrivals = [];  // camera timestamps (ms) of the frames of the last 3 s, for the rate
     this.frames = 0;
     this.overlay = null;  // (context, width, height) => draws over each frame shown
   }
@@ -107,12 +110,16 @@ export class LiveView {
     if (this.overlay) this.overlay(this.context, this.canvas.width, this.canvas.height);
     this.canvas.dataset.overlay = this.overlay ? '1' : '';
     const repeated = part.headers['x-frame-repeated'] === '1';
-    const now = performance.now();
+    const stampMs = Number(part.headers['x-frame-timestamp-ns']) / 1e6;
     if (!repeated) {
       this.frames += 1;
-      this.arrivals.push(now);
+      // A camera that restarted its clock begins a new window.
+      const last = this.arrivals[this.arrivals.length - 1];
+      if (!Number.isFinite(stampMs) || (last !== undefined && stampMs <= last)) this.arrivals = [];
+      if (Number.isFinite(stampMs)) this.arrivals.push(stampMs);
     }
-    while (this.arrivals.length && now - this.arrivals[0] > 3000) this.arrivals.shift();
+    const newest = this.arrivals[this.arrivals.length - 1];
+    while (this.arrivals.length && newest - this.arrivals[0] > 3000) this.arrivals.shift();
     const rate = this.arrivals.length > 1
       ? (this.arrivals.length - 1) / ((this.arrivals[this.arrivals.length - 1] - this.arrivals[0]) / 1000)
       : 0;
