@@ -397,8 +397,9 @@ void register_calibrate_command(CLI::App& app) {
                 "a camera (camera 0 first, the reference), views matched by file name; --out "
                 "is a folder that gets camera-N.cameramodel (mrcal's extrinsics, relative to "
                 "camera 0) and rig.json (each camera's pose with its 1-sigma rotation in deg "
-                "and translation in mm). --model auto selects each camera's model and solves "
-                "all with the richest (one model a solve)");
+                "and translation in mm). --model auto selects each camera's model on its own "
+                "views and each camera keeps it (a fisheye beside pinhole lenses included); "
+                "--model NAME gives every camera NAME");
   cmd->add_option("--board", args->board, "Inner corners COLSxROWS, e.g. 14x10")->required();
   cmd->add_option("--spacing-m", args->spacing_m, "Corner spacing in metres")->required();
   cmd->add_option("--model", args->model, "auto (default) or a mrcal LENSMODEL_... name");

@@ -92,20 +92,20 @@ Status align_views(const std::vector<CalibrationRun>& runs,
   return {};
 }
 
-// A model of mrcal's fisheye family: no pinhole core, a field up to 180 deg and beyond.
-bool is_fisheye_model(const std::string& lensmodel) {
-  return lensmodel.find("STEREOGRAPHIC") != std::string::npos ||
-         lensmodel.find("LONLAT") != std::string::npos ||
-         lensmodel.find("LATLON") != std::string::npos;
-}
-
-// `auto`: each camera's own selection, then common_rig_lensmodel().
-Result<std::string> rig_model(const RigCalibrateOptions& options, RigCalibrationRun* run) {
-  const CalibrationData& first = run->data.cameras[0];
-  if (options.model != "auto")
-    return configured_lensmodel(options.model, first.imager_width_px, first.imager_height_px, 90);
-  std::vector<LensModel> own;
-  for (size_t c = 0; c < run->data.cameras.size(); ++c) {
+// Each camera's lens model: the one given, for all; or with `auto` each camera's own
+// selection (model_selection.h) on its own views, which the joint solve keeps
+// (rig_joint_solve.h solves cameras of different models together).
+Result<std::vector<std::string>> rig_models(const RigCalibrateOptions& options,
+                                            RigCalibrationRun* run) {
+  const size_t n = run->data.cameras.size();
+  if (options.model != "auto") {
+    const CalibrationData& first = run->data.cameras[0];
+    std::string model;
+    CAMLAB_ASSIGN(model, configured_lensmodel(options.model, first.imager_width_px,
+                                              first.imager_height_px, 90));
+    return std::vector<std::string>(n, model);
+  }
+  for (size_t c = 0; c < n; ++c) {
     if (Status go = check_not_cancelled(options.cancel, "rig calibration"); !go) return go.error();
     CalibrationData seen = run->data.cameras[c];
     std::erase_if(seen.views, [](const BoardView& v) { return v.present_count() == 0; });
@@ -117,34 +117,11 @@ Result<std::string> rig_model(const RigCalibrateOptions& options, RigCalibration
     if (!selection)
       return selection.error().with_context(format_printf("camera %zu, model selection: ", c));
     run->own_models.push_back(selection->chosen.model.lensmodel);
-    own.push_back(selection->chosen.model);
   }
-  return common_rig_lensmodel(own);
+  return run->own_models;
 }
 
 }  // namespace
-
-Result<std::string> common_rig_lensmodel(const std::vector<LensModel>& own) {
-  if (own.empty()) return make_error("invalid_argument", "no camera's model to choose from");
-  std::string richest;
-  size_t richest_params = 0;
-  double widest_fov_deg = 0;
-  int fisheyes = 0;
-  for (const LensModel& m : own) {
-    if (m.intrinsics.size() > richest_params) {
-      richest = m.lensmodel;
-      richest_params = m.intrinsics.size();
-    }
-    fisheyes += is_fisheye_model(m.lensmodel);
-    const auto fov = field_of_view_parts(m);
-    if (fov && fov->horizontal_deg) widest_fov_deg = std::max(widest_fov_deg, *fov->horizontal_deg);
-  }
-  const bool mixed = fisheyes > 0 && fisheyes < static_cast<int>(own.size());
-  if (!mixed || richest.find("SPLINED") != std::string::npos) return richest;
-  // Every camera's own field at least; 180 deg where no model gave a horizontal field.
-  return configured_lensmodel("LENSMODEL_SPLINED_STEREOGRAPHIC", own[0].width_px, own[0].height_px,
-                              widest_fov_deg > 0 ? widest_fov_deg : 180.0);
-}
 
 namespace {
 
@@ -212,15 +189,14 @@ nlohmann::json rig_report_json(const RigCalibrationRun& run) {
 
 std::string rig_report_text(const RigCalibrationRun& run) {
   const RigSolution& s = run.solution;
-  std::string text = format_printf(
-      "rig of %zu cameras, %zu views, %s: RMS %.3f px, corner noise %.3f px\n", s.cameras.size(),
-      s.views_used.size(), s.cameras.empty() ? "" : s.cameras[0].model.lensmodel.c_str(), s.rms_px,
-      s.corner_sigma_px);
+  std::string text =
+      format_printf("rig of %zu cameras, %zu views: RMS %.3f px, corner noise %.3f px\n",
+                    s.cameras.size(), s.views_used.size(), s.rms_px, s.corner_sigma_px);
   for (size_t c = 0; c < s.cameras.size(); ++c) {
     const RigCamera& cam = s.cameras[c];
-    text +=
-        format_printf("camera %zu: %dx%d, fx %.2f px, %d views, RMS %.3f px", c, cam.model.width_px,
-                      cam.model.height_px, cam.model.intrinsics[0], cam.views, cam.rms_px);
+    text += format_printf("camera %zu: %s, %dx%d, fx %.2f px, %d views, RMS %.3f px", c,
+                          cam.model.lensmodel.c_str(), cam.model.width_px, cam.model.height_px,
+                          cam.model.intrinsics[0], cam.views, cam.rms_px);
     if (c > 0)
       text += format_printf(
           "; baseline %.2f +- %.3f mm; rotation sigma %.4f/%.4f/%.4f deg, translation sigma "
@@ -279,10 +255,8 @@ Result<RigCalibrationRun> calibrate_rig(const RigCalibrateOptions& options) {
   if (Status aligned = align_views(runs, options.cameras, options.view_of_frame, &out); !aligned)
     return aligned.error();
   const LibraryStderrCapture quiet_mrcal;
-  std::string model;
-  CAMLAB_ASSIGN(model, rig_model(options, &out));
   RigSolveOptions solve_options;
-  solve_options.lensmodel = model;
+  CAMLAB_ASSIGN(solve_options.lensmodels, rig_models(options, &out));
   solve_options.board_warp = options.board_warp;
   solve_options.cancel = options.cancel;
   CAMLAB_ASSIGN(out.solution, solve_rig(out.data, solve_options));

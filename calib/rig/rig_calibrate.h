@@ -2,9 +2,9 @@
 // from its own source (a folder of images, a capture folder, or a corners.vnl file), the
 // views matched across cameras by file name (a rig view is the images of one name, e.g.
 // view-0001.png in every camera's folder; a camera without the name, or without the board
-// in it, does not see that view), the lens model (given, or `auto`: each camera's own
-// selection, model_selection.h, and one model for all from those, common_rig_lensmodel(),
-// as one solve takes one model), the joint solve (rig_solver.h), and the files:
+// in it, does not see that view), the lens models (one given for all, or `auto`: each
+// camera's own selection, model_selection.h, kept in the joint solve), the joint solve
+// (rig_solver.h), and the files:
 // camera-N.cameramodel (mrcal's format and convention: camera 0 at the reference, each file's
 // extrinsics rt_cam_ref) and rig.json (the report).
 //
@@ -48,7 +48,7 @@ struct RigCalibrateOptions {
 struct RigCalibrationRun {
   RigData data;                         // views aligned by name
   std::vector<std::string> view_names;  // per rig view
-  std::vector<std::string> own_models;  // per camera with `auto`: its own selection
+  std::vector<std::string> own_models;  // per camera with `auto`: its own selection, solved in
   RigSolution solution;
   nlohmann::json range_uncertainty = nlohmann::json::array();  // per camera 1..N-1
   nlohmann::json drift;                                        // with drift_from
@@ -60,13 +60,6 @@ struct RigCalibrationRun {
   nlohmann::json report;           // what rig.json holds
   std::vector<std::string> files;  // written
 };
-
-// The one model a rig is solved in (mrcal 2.2 solves one model for every camera), from each
-// camera's own choice: the one with the most parameters; but where a fisheye (mrcal's
-// stereographic, splined or lon/lat models) sits beside pinhole-core lenses, the splined
-// stereographic model over the widest field any camera's model sees (180 deg where none
-// states one), which fits both. Error "invalid_argument" for no cameras.
-Result<std::string> common_rig_lensmodel(const std::vector<LensModel>& own);
 
 // Errors: those of read_board_views() per camera (with "camera N: " before the message),
 // "imager_mismatch" is not one (cameras may differ), and solve_rig()'s.

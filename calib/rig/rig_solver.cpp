@@ -16,6 +16,8 @@
 #include "calib/mrcal_api.h"
 #include "calib/report.h"
 #include "calib/rig/board_labels.h"
+#include "calib/rig/rig_joint_solve.h"
+#include "calib/rig/rig_problem.h"
 #include "calib/solver.h"
 
 namespace camlab::calib {
@@ -23,25 +25,6 @@ namespace camlab::calib {
 namespace {
 
 constexpr double kDegPerRad = 180 / M_PI;
-
-// The joint problem in mrcal's arrays: camera c's intrinsics at c * nparams, extrinsics
-// of cameras 1..N-1 (camera 0 is the reference), one frame per used rig view, one
-// observation per (used view, camera that solved it), ordered by frame as mrcal wants.
-struct RigProblem {
-  mrcal_lensmodel_t lensmodel{};
-  int nparams = 0;
-  int ncameras = 0;
-  std::vector<double> intrinsics;
-  std::vector<mrcal_pose_t> extrinsics;
-  std::vector<mrcal_pose_t> frames;
-  std::vector<mrcal_observation_board_t> observations;
-  std::vector<mrcal_point3_t> pool;
-  std::vector<uint8_t> missing;  // per pool entry: not detected
-  std::vector<int> imagersizes;
-  mrcal_calobject_warp_t warp{};
-  mrcal_problem_selections_t sel{};
-  std::vector<double> x;
-};
 
 mrcal_pose_t to_pose(const Rt& rt) {
   mrcal_pose_t p;
@@ -56,81 +39,110 @@ Rt from_pose(const mrcal_pose_t& p) {
   return {p.r.xyz[0], p.r.xyz[1], p.r.xyz[2], p.t.xyz[0], p.t.xyz[1], p.t.xyz[2]};
 }
 
-size_t stack_bytes(const RigProblem& p) {
-  const size_t state = p.intrinsics.size() + 6 * (p.extrinsics.size() + p.frames.size()) + 2;
-  return (size_t{16} << 20) + 64 * state + 16 * 2 * p.pool.size();
+// mrcal's selections for the problem of one lens model (every camera's lensmodels[0]).
+mrcal_problem_selections_t one_model_selections(const RigProblem& p) {
+  mrcal_problem_selections_t sel{};
+  sel.do_optimize_intrinsics_core = true;
+  sel.do_optimize_intrinsics_distortions = p.nparams[0] > 4;
+  sel.do_optimize_extrinsics = true;
+  sel.do_optimize_frames = true;
+  sel.do_optimize_calobject_warp = p.board_warp;
+  sel.do_apply_regularization = p.nparams[0] > 4;
+  sel.do_apply_outlier_rejection = p.reject_outliers;
+  return sel;
 }
 
 int measurement_count(const RigProblem& p, const BoardSpec& b) {
   return mrcal_num_measurements(static_cast<int>(p.observations.size()), 0, b.cols, b.rows,
                                 p.ncameras, p.ncameras - 1, static_cast<int>(p.frames.size()), 0, 0,
-                                p.sel, &p.lensmodel);
+                                one_model_selections(p), &p.lensmodels[0]);
 }
 
 int state_count(const RigProblem& p) {
   return mrcal_num_states(p.ncameras, p.ncameras - 1, static_cast<int>(p.frames.size()), 0, 0,
-                          static_cast<int>(p.observations.size()), p.sel, &p.lensmodel);
+                          static_cast<int>(p.observations.size()), one_model_selections(p),
+                          &p.lensmodels[0]);
 }
 
-Status optimize_rig(RigProblem* p, const BoardSpec& b) {
+// Every camera one model: mrcal_optimize itself, with its outlier rejection.
+Status optimize_rig_one_model(RigProblem* p, const BoardSpec& b) {
   const int nx = measurement_count(*p, b);
   p->x.assign(nx, 0.0);
   const mrcal_problem_constants_t constants = {-1.0, -1.0};
   mrcal_stats_t stats{};
   stats.rms_reproj_error__pixels = -1;
-  const Status ran = run_with_stack(stack_bytes(*p), [&] {
-    stats = mrcal_optimize(
-        nullptr, 0, p->x.data(), nx * static_cast<int>(sizeof(double)), p->intrinsics.data(),
-        p->extrinsics.data(), p->frames.data(), nullptr, &p->warp, p->ncameras, p->ncameras - 1,
-        static_cast<int>(p->frames.size()), 0, 0, p->observations.data(), nullptr,
-        static_cast<int>(p->observations.size()), 0, p->pool.data(), &p->lensmodel,
-        p->imagersizes.data(), p->sel, &constants, b.spacing_m, b.cols, b.rows, false, false);
+  const Status ran = run_with_stack(p->solver_stack_bytes(), [&] {
+    stats = mrcal_optimize(nullptr, 0, p->x.data(), nx * static_cast<int>(sizeof(double)),
+                           p->intrinsics.data(), p->extrinsics.data(), p->frames.data(), nullptr,
+                           &p->warp, p->ncameras, p->ncameras - 1,
+                           static_cast<int>(p->frames.size()), 0, 0, p->observations.data(),
+                           nullptr, static_cast<int>(p->observations.size()), 0, p->pool.data(),
+                           &p->lensmodels[0], p->imagersizes.data(), one_model_selections(*p),
+                           &constants, b.spacing_m, b.cols, b.rows, false, false);
   });
   if (!ran) return ran;
-  bool finite =
-      std::isfinite(stats.rms_reproj_error__pixels) && stats.rms_reproj_error__pixels >= 0;
-  for (double v : p->intrinsics) finite = finite && std::isfinite(v);
-  for (const auto* poses : {&p->extrinsics, &p->frames})
-    for (const auto& pose : *poses)
-      for (int k = 0; k < 3; ++k)
-        finite = finite && std::isfinite(pose.r.xyz[k]) && std::isfinite(pose.t.xyz[k]);
+  const bool finite = std::isfinite(stats.rms_reproj_error__pixels) &&
+                      stats.rms_reproj_error__pixels >= 0 && p->finite_state();
   if (!finite) return make_error("solve_failed", "the joint rig solve did not converge");
   return {};
 }
 
-// sigma^2 (J^T J)^-1 J_obs^T J_obs (J^T J)^-1 in full units (rig_solver.h), with sigma
-// from the board residuals; returns sigma.
-Result<double> rig_state_covariance(const RigProblem& p, const BoardSpec& b, cv::Mat* covariance) {
+// J^T J and J_obs^T J_obs of the one-model problem, from mrcal_optimizer_callback.
+Result<RigInformation> rig_information_one_model(const RigProblem& p, const BoardSpec& b) {
+  const mrcal_problem_selections_t sel = one_model_selections(p);
+  const int n = p.ncameras;
   const int nobs = static_cast<int>(p.observations.size());
   const int nframes = static_cast<int>(p.frames.size());
   const int nstate = state_count(p);
   const int nmeas = measurement_count(p, b);
   const int nmeas_boards = mrcal_num_measurements_boards(nobs, b.cols, b.rows);
-  const int nnz = _mrcal_num_j_nonzero(nobs, 0, b.cols, b.rows, p.ncameras, p.ncameras - 1, nframes,
-                                       0, 0, p.observations.data(), nullptr, p.sel, &p.lensmodel);
+  const int nnz = _mrcal_num_j_nonzero(nobs, 0, b.cols, b.rows, n, n - 1, nframes, 0, 0,
+                                       p.observations.data(), nullptr, sel, &p.lensmodels[0]);
   std::vector<double> b_packed(nstate), x(nmeas);
   SparseJacobian j(nstate, nmeas, nnz);
   const mrcal_problem_constants_t constants = {-1.0, -1.0};
   bool evaluated = false;
-  const Status ran = run_with_stack(stack_bytes(p), [&] {
+  const Status ran = run_with_stack(p.solver_stack_bytes(), [&] {
     evaluated = mrcal_optimizer_callback(
         b_packed.data(), nstate * static_cast<int>(sizeof(double)), x.data(),
         nmeas * static_cast<int>(sizeof(double)), &j.jt, p.intrinsics.data(), p.extrinsics.data(),
-        p.frames.data(), nullptr, &p.warp, p.ncameras, p.ncameras - 1, nframes, 0, 0,
-        p.observations.data(), nullptr, nobs, 0, p.pool.data(), &p.lensmodel, p.imagersizes.data(),
-        p.sel, &constants, b.spacing_m, b.cols, b.rows, false);
+        p.frames.data(), nullptr, &p.warp, n, n - 1, nframes, 0, 0, p.observations.data(), nullptr,
+        nobs, 0, p.pool.data(), &p.lensmodels[0], p.imagersizes.data(), sel, &constants,
+        b.spacing_m, b.cols, b.rows, false);
   });
   if (!ran) return ran.error();
   if (!evaluated)
     return make_error("solve_failed", "mrcal_optimizer_callback failed on the solved rig");
-  cv::Mat jtj, jobs;
-  j.information(nmeas_boards, &jtj, &jobs);
+  RigInformation info;
+  j.information(nmeas_boards, &info.jtj, &info.jobs);
+  info.unpack_scale.assign(nstate, 1.0);
+  mrcal_unpack_solver_state_vector(info.unpack_scale.data(), n, n - 1, nframes, 0, 0, sel,
+                                   &p.lensmodels[0]);
+  info.layout.intrinsics_state_at.assign(n, -1);
+  info.layout.intrinsics_solved.assign(n, 0);
+  info.layout.extrinsics_state_at.assign(n, -1);
+  for (int c = 0; c < n; ++c) {
+    info.layout.intrinsics_state_at[c] =
+        mrcal_state_index_intrinsics(c, n, n - 1, nframes, 0, 0, nobs, sel, &p.lensmodels[0]);
+    info.layout.intrinsics_solved[c] = mrcal_num_states_intrinsics(1, sel, &p.lensmodels[0]);
+    if (c > 0)
+      info.layout.extrinsics_state_at[c] =
+          mrcal_state_index_extrinsics(c - 1, n, n - 1, nframes, 0, 0, nobs, sel, &p.lensmodels[0]);
+  }
+  return info;
+}
+
+// sigma^2 (J^T J)^-1 J_obs^T J_obs (J^T J)^-1 in full units (rig_solver.h), with sigma
+// from the board residuals of the inliers; returns sigma.
+Result<double> rig_state_covariance(const RigProblem& p, const RigInformation& info,
+                                    cv::Mat* covariance) {
+  const int nstate = info.jtj.rows;
   // The noise: the board measurements of inliers (2 a corner), less the states they fit.
   double sum_sq = 0;
   int inlier_measurements = 0;
   for (size_t k = 0; k < p.pool.size(); ++k)
     if (p.pool[k].z > 0 && !p.missing[k]) {
-      sum_sq += x[2 * k] * x[2 * k] + x[2 * k + 1] * x[2 * k + 1];
+      sum_sq += p.x[2 * k] * p.x[2 * k] + p.x[2 * k + 1] * p.x[2 * k + 1];
       inlier_measurements += 2;
     }
   const int dof = inlier_measurements - nstate;
@@ -140,16 +152,13 @@ Result<double> rig_state_covariance(const RigProblem& p, const BoardSpec& b, cv:
                                                      inlier_measurements, nstate));
   const double sigma = std::sqrt(sum_sq / dof);
   cv::Mat inv;
-  if (cv::invert(jtj, inv, cv::DECOMP_CHOLESKY) == 0)
+  if (cv::invert(info.jtj, inv, cv::DECOMP_CHOLESKY) == 0)
     return make_error("singular",
                       "J^T J of the rig solve is singular: the views do not determine every "
                       "camera's pose (a camera seen through too few shared views, or motion "
                       "about one axis only)");
-  std::vector<double> unpack(nstate, 1.0);
-  mrcal_unpack_solver_state_vector(unpack.data(), p.ncameras, p.ncameras - 1, nframes, 0, 0, p.sel,
-                                   &p.lensmodel);
-  cv::Mat d = cv::Mat::diag(cv::Mat(unpack));
-  *covariance = sigma * sigma * (d * inv * jobs * inv * d);
+  cv::Mat d = cv::Mat::diag(cv::Mat(info.unpack_scale));
+  *covariance = sigma * sigma * (d * inv * info.jobs * inv * d);
   return sigma;
 }
 
@@ -208,9 +217,19 @@ RigData turned_rig_data(const RigData& data, const RigSolution& solution) {
 Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& options) {
   const auto t0 = std::chrono::steady_clock::now();
   if (Status valid = check_data(input); !valid) return valid.error();
-  int nparams = 0;
-  CAMLAB_ASSIGN(nparams, lensmodel_param_count(options.lensmodel));
   const int n = static_cast<int>(input.cameras.size());
+  if (!options.lensmodels.empty() && static_cast<int>(options.lensmodels.size()) != n)
+    return make_error("invalid_argument",
+                      format_printf("%zu lens models for %d cameras: one a camera, or one for all",
+                                    options.lensmodels.size(), n));
+  std::vector<std::string> lensmodel_names(n, options.lensmodel);
+  if (!options.lensmodels.empty()) lensmodel_names = options.lensmodels;
+  std::vector<int> nparams(n);
+  for (int c = 0; c < n; ++c) {
+    auto count = lensmodel_param_count(lensmodel_names[c]);
+    if (!count) return count.error().with_context(format_printf("camera %d: ", c));
+    nparams[c] = *count;
+  }
   const BoardSpec board = input.cameras[0].board;
   const int per_view = board.cols * board.rows;
   RigSolution out;
@@ -229,7 +248,7 @@ Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& optio
                                       "needs at least 3",
                                       c, seen));
     SolveOptions o;
-    o.lensmodel = options.lensmodel;
+    o.lensmodel = lensmodel_names[c];
     o.reject_outliers = options.reject_outliers;
     o.board_warp = options.board_warp;
     o.compute_covariance = false;
@@ -253,13 +272,14 @@ Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& optio
   // knots, held by mrcal's regularisation only), and that regularisation biases a joint
   // solve: on the 4-camera ring with a 180 deg fisheye (rig_solver_test.cpp) baselines came
   // out 0.4-0.6% long at 60 views, 1.6-1.8 sigma, and 2.6 sigma at 40 views.
-  if (options.lensmodel.find("SPLINED") != std::string::npos)
-    out.warnings.push_back(
-        "splined_model: every camera has a splined model (mrcal solves one model for all the "
-        "cameras of a rig, and a fisheye beside pinhole lenses needs it): each camera's "
-        "rotation is in its spline's own frame, not its optical axis; baselines and "
-        "triangulated points are what to use, and they carry a bias of up to about 2 stated "
-        "sigma; use 60 or more rig views");
+  for (int c = 0; c < n; ++c)
+    if (lensmodel_names[c].find("SPLINED") != std::string::npos)
+      out.warnings.push_back(format_printf(
+          "splined_model: camera %d has a splined model: its rotation is in its spline's own "
+          "frame, not its optical axis (a turn trades with the knots, held by mrcal's "
+          "regularisation only); baselines and triangulated points are what to use, and they "
+          "carry a bias of up to about 2 stated sigma; use 60 or more rig views",
+          c));
   RigLabelling labelling;
   CAMLAB_ASSIGN(labelling, chain_and_label(&poses, board, &out.warnings));
   const std::vector<Rt>& rt_cam_ref = labelling.rt_cam_ref;
@@ -271,8 +291,13 @@ Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& optio
   RigProblem p;
   p.ncameras = n;
   p.nparams = nparams;
-  mrcal_lensmodel_from_name(&p.lensmodel, options.lensmodel.c_str());
+  p.lensmodel_names = lensmodel_names;
+  p.board_warp = options.board_warp;
+  p.reject_outliers = options.reject_outliers;
   for (int c = 0; c < n; ++c) {
+    p.lensmodels.emplace_back();
+    mrcal_lensmodel_from_name(&p.lensmodels.back(), lensmodel_names[c].c_str());
+    p.intrinsics_at.push_back(static_cast<int>(p.intrinsics.size()));
     p.intrinsics.insert(p.intrinsics.end(), single[c].model.intrinsics.begin(),
                         single[c].model.intrinsics.end());
     p.imagersizes.push_back(data.cameras[c].imager_width_px);
@@ -321,15 +346,14 @@ Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& optio
       }
     }
   }
-  p.sel.do_optimize_intrinsics_core = true;
-  p.sel.do_optimize_intrinsics_distortions = p.nparams > 4;
-  p.sel.do_optimize_extrinsics = true;
-  p.sel.do_optimize_frames = true;
-  p.sel.do_optimize_calobject_warp = options.board_warp;
-  p.sel.do_apply_regularization = p.nparams > 4;
-  p.sel.do_apply_outlier_rejection = options.reject_outliers;
   if (Status go = check_not_cancelled(options.cancel, "rig calibration"); !go) return go.error();
-  if (Status solved = optimize_rig(&p, board); !solved) return solved.error();
+  // One model for all: mrcal_optimize; a model per camera: one mrcal problem a camera,
+  // stacked (rig_joint_solve.h).
+  const bool stacked = options.stacked_solve || !p.one_lensmodel();
+  if (Status solved = stacked ? optimize_rig_per_camera(&p, board, options.cancel)
+                              : optimize_rig_one_model(&p, board);
+      !solved)
+    return solved.error();
 
   // Residuals per camera, the covariance, and the extrinsics' sigmas.
   out.cameras.resize(n);
@@ -351,25 +375,23 @@ Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& optio
       ++cam.inliers;
     }
   }
+  RigInformation information;
+  CAMLAB_ASSIGN(information, stacked ? rig_information_per_camera(p, board)
+                                     : rig_information_one_model(p, board));
   cv::Mat covariance;
-  CAMLAB_ASSIGN(out.corner_sigma_px, rig_state_covariance(p, board, &covariance));
+  CAMLAB_ASSIGN(out.corner_sigma_px, rig_state_covariance(p, information, &covariance));
   // The covariance of every camera's intrinsics and extrinsics (rig_solver.h's layout):
-  // each state's index in mrcal's vector, -1 for a parameter the solve held.
+  // each state's index in the solve's vector, -1 for a parameter the solve held.
   std::vector<int> index;
-  const int nframes = static_cast<int>(p.frames.size());
-  const int nobs = static_cast<int>(p.observations.size());
+  std::vector<size_t> extrinsics_at(n, 0);  // per camera: its rt_cam_ref's row in the layout
   for (int c = 0; c < n; ++c) {
-    int at = mrcal_state_index_intrinsics(c, n, n - 1, nframes, 0, 0, nobs, p.sel, &p.lensmodel);
-    for (int k = 0; k < nparams; ++k) {
-      const bool solved =
-          k < 4 ? p.sel.do_optimize_intrinsics_core : p.sel.do_optimize_intrinsics_distortions;
-      index.push_back(solved && at >= 0 ? at++ : -1);
-    }
+    const int at = information.layout.intrinsics_state_at[c];
+    for (int k = 0; k < nparams[c]; ++k)
+      index.push_back(at >= 0 && k < information.layout.intrinsics_solved[c] ? at + k : -1);
   }
   for (int c = 1; c < n; ++c) {
-    const int at =
-        mrcal_state_index_extrinsics(c - 1, n, n - 1, nframes, 0, 0, nobs, p.sel, &p.lensmodel);
-    for (int k = 0; k < 6; ++k) index.push_back(at + k);
+    extrinsics_at[c] = index.size();
+    for (int k = 0; k < 6; ++k) index.push_back(information.layout.extrinsics_state_at[c] + k);
   }
   out.parameter_count = static_cast<int>(index.size());
   out.parameter_covariance.assign(index.size() * index.size(), 0.0);
@@ -379,9 +401,9 @@ Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& optio
         out.parameter_covariance[a * index.size() + b] = covariance.at<double>(index[a], index[b]);
   for (int c = 0; c < n; ++c) {
     RigCamera& cam = out.cameras[c];
-    cam.model.lensmodel = options.lensmodel;
-    cam.model.intrinsics.assign(p.intrinsics.begin() + c * nparams,
-                                p.intrinsics.begin() + (c + 1) * nparams);
+    cam.model.lensmodel = lensmodel_names[c];
+    cam.model.intrinsics.assign(p.intrinsics.begin() + p.intrinsics_at[c],
+                                p.intrinsics.begin() + p.intrinsics_at[c] + nparams[c]);
     cam.model.width_px = data.cameras[c].imager_width_px;
     cam.model.height_px = data.cameras[c].imager_height_px;
     cam.rms_px = cam.inliers ? std::sqrt(sum_sq[c] / cam.inliers) : 0;
@@ -391,7 +413,7 @@ Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& optio
     if (c == 0) continue;
     cam.rt_cam_ref = from_pose(p.extrinsics[c - 1]);
     // Its rt_cam_ref's block of the parameter covariance.
-    const size_t at = static_cast<size_t>(n) * nparams + 6 * (c - 1);
+    const size_t at = extrinsics_at[c];
     cv::Matx66d block;
     for (int a = 0; a < 6; ++a)
       for (int b = 0; b < 6; ++b) {

@@ -24,10 +24,10 @@
 // frames and intrinsics it trades with are marginalised, so the sigma is what the corner
 // noise leaves undetermined, not the spread of a fixed-intrinsics fit.
 //
-// Limits (mrcal 2.2's C API): one lens model for every camera of a solve (their parameters
-// are each camera's own; mixed pinhole and fisheye rigs take the splined model, whose
-// frames are not the lenses' axes and whose regularisation biases the baselines: the
-// warning "splined_model" says so).
+// Lens models: one for all (mrcal_optimize solves the rig as one problem), or one a camera
+// (mrcal 2.2 solves one model per problem, so the rig is then one mrcal problem a camera,
+// stacked and solved together: rig_joint_solve.h). A splined model's frame is not its
+// lens's axis and its regularisation biases baselines: the warning "splined_model" says so.
 //
 // Reentrant: no state between calls.
 #pragma once
@@ -53,6 +53,13 @@ struct RigData {
 
 struct RigSolveOptions {
   std::string lensmodel = "LENSMODEL_OPENCV8";  // every camera's model (configured name)
+  // Or one a camera (configured names): each camera keeps the model its own data chose,
+  // and cameras of different models are solved as stacked per-camera problems
+  // (rig_joint_solve.h).
+  std::vector<std::string> lensmodels;
+  // Solve stacked per-camera problems even when every camera has one model (tests compare
+  // the stacked solve with mrcal_optimize's).
+  bool stacked_solve = false;
   bool reject_outliers = true;
   bool board_warp = true;
   const std::atomic<bool>* cancel = nullptr;  // set: stop at the next solve ("cancelled")

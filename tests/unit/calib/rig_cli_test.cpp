@@ -37,13 +37,10 @@ struct TempDir {
 // The pair of rig_solver_test.cpp, written as one corners.vnl a camera, the views named
 // camN/viewK.png (the rig matches them by viewK.png).
 // `seed` draws the poses and noise; `camera1_yaw_deg` turns camera 1 further.
-std::vector<testing::RigCameraTruth> write_pair_corners(const fs::path& dir, uint32_t seed = 7,
-                                                        double camera1_yaw_deg = 0) {
-  const auto truth = testing::stereo_pair_truth(camera1_yaw_deg);
-  testing::RigViewSpec spec;
-  spec.seed = seed;
+void write_rig_corners(const fs::path& dir, const std::vector<testing::RigCameraTruth>& truth,
+                       const testing::RigViewSpec& spec) {
   RigData data = testing::make_rig_views(truth, BoardSpec{10, 7, 0.05}, spec);
-  for (int c = 0; c < 2; ++c) {
+  for (size_t c = 0; c < truth.size(); ++c) {
     std::vector<BoardView> seen;
     for (size_t v = 0; v < data.cameras[c].views.size(); ++v) {
       BoardView view = data.cameras[c].views[v];
@@ -53,6 +50,14 @@ std::vector<testing::RigCameraTruth> write_pair_corners(const fs::path& dir, uin
     }
     std::ofstream(dir / ("cam" + std::to_string(c) + ".vnl")) << to_corners_vnl(seen);
   }
+}
+
+std::vector<testing::RigCameraTruth> write_pair_corners(const fs::path& dir, uint32_t seed = 7,
+                                                        double camera1_yaw_deg = 0) {
+  const auto truth = testing::stereo_pair_truth(camera1_yaw_deg);
+  testing::RigViewSpec spec;
+  spec.seed = seed;
+  write_rig_corners(dir, truth, spec);
   return truth;
 }
 
@@ -106,6 +111,67 @@ TEST(RigCli, WritesCameraModelsMrcalReadsWithTheTruthsExtrinsics) {
   }
   EXPECT_EQ(v[1][6], 1280);
   EXPECT_EQ(v[1][7], 800);
+}
+
+// `--model auto` on a wide lens beside a 180 deg fisheye (the ring, its first two
+// cameras): each camera keeps its own selection, the fisheye STEREOGRAPHIC and the wide lens
+// an OpenCV model, the pair is solved together without the splined model, and mrcal reads
+// both files with their models.
+TEST(RigCli, AutoKeepsEachCamerasOwnModelBesideAFisheye) {
+  TempDir tmp;
+  auto truth = testing::ring_with_fisheye_truth(60, 1);
+  truth.resize(2);
+  testing::RigViewSpec spec;
+  spec.views = 30;
+  spec.distance_min_m = 0.6;
+  spec.distance_max_m = 1.4;
+  write_rig_corners(tmp.path, truth, spec);
+  const fs::path out = tmp.path / "rig";
+  const auto run = run_cli("calibrate --rig --corners " + (tmp.path / "cam0.vnl").string() +
+                           " --corners " + (tmp.path / "cam1.vnl").string() +
+                           " --imager 1280x800 --imager 1280x800 --board 10x7 --spacing-m 0.05 "
+                           "--model auto --json --out " +
+                           out.string());
+  ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
+  const auto report = nlohmann::json::parse(run.out);
+  const auto& cameras = report["cameras"];
+  const std::string wide = cameras[0]["lensmodel"], fisheye = cameras[1]["lensmodel"];
+  std::printf("own models: %s, %s\n", wide.c_str(), fisheye.c_str());
+  EXPECT_EQ(wide.rfind("LENSMODEL_OPENCV", 0), 0u) << wide;
+  EXPECT_EQ(fisheye, "LENSMODEL_STEREOGRAPHIC");
+  EXPECT_EQ(cameras[0]["own_lensmodel"], wide);
+  EXPECT_EQ(cameras[1]["own_lensmodel"], fisheye);
+  for (const auto& w : report["warnings"])
+    EXPECT_EQ(w.get<std::string>().find("splined"), std::string::npos) << w;
+  const Rt rt = cameras[1]["rt_cam_ref"].get<Rt>();
+  const double rotation_deg = rotation_between_deg(rt, truth[1].rt_cam_ref);
+  const auto sigma_deg = cameras[1]["rotation_sigma_deg"].get<std::vector<double>>();
+  const double baseline_mm = cameras[1]["baseline_m"].get<double>() * 1000;
+  const double baseline_sigma_mm = cameras[1]["baseline_sigma_mm"].get<double>();
+  const cv::Matx44d pose = testing::rt_matrix(truth[1].rt_cam_ref).inv();
+  const double truth_mm = 1000 * std::hypot(pose(0, 3), pose(1, 3), pose(2, 3));
+  std::printf(
+      "fisheye: rotation error %.4f deg (sigma %.4f %.4f %.4f), baseline %.3f +- %.3f mm "
+      "(truth %.3f)\n",
+      rotation_deg, sigma_deg[0], sigma_deg[1], sigma_deg[2], baseline_mm, baseline_sigma_mm,
+      truth_mm);
+  EXPECT_LT(rotation_deg, 3 * std::hypot(sigma_deg[0], sigma_deg[1], sigma_deg[2]));
+  EXPECT_LT(std::abs(baseline_mm - truth_mm), 3 * baseline_sigma_mm);
+  if (!fs::exists("/usr/bin/python3")) GTEST_SKIP() << "Debian's python3 (with mrcal) is absent";
+  const fs::path script = tmp.path / "read.py";
+  std::ofstream(script) << "import mrcal, sys\n"
+                           "for f in sys.argv[1:]:\n"
+                           "    print(mrcal.cameramodel(f).intrinsics()[0])\n";
+  const std::string command = "/usr/bin/python3 " + script.string() + " " +
+                              (out / "camera-0.cameramodel").string() + " " +
+                              (out / "camera-1.cameramodel").string();
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  char names[2][128] = {};
+  for (auto& name : names) ASSERT_EQ(std::fscanf(pipe, "%127s", name), 1);
+  ASSERT_EQ(pclose(pipe), 0);
+  EXPECT_EQ(std::string(names[0]), wide);
+  EXPECT_EQ(std::string(names[1]), fisheye);
 }
 
 // mrcal's own tool on the same corners (one corners.vnl, the cameras told apart by their

@@ -131,6 +131,27 @@ inline std::vector<RigCameraTruth> ring_with_fisheye_truth(double step_deg, int 
   return truth;
 }
 
+// The truth's rt with its rotation vector written nearest `near`'s: a turn by pi about an
+// axis is both +pi and -pi (the ring's camera 3 looks backwards), and turns 2 pi apart are
+// one turn; errors are taken in the solution's chart.
+inline Rt rt_nearest(Rt truth, const Rt& near) {
+  const double angle = std::hypot(truth[0], truth[1], truth[2]);
+  if (angle < 1e-9) return truth;
+  Rt best = truth;
+  double best_distance = 1e300;
+  for (int turns = -1; turns <= 1; ++turns) {
+    Rt candidate = truth;
+    for (int k = 0; k < 3; ++k) candidate[k] = truth[k] * (1 + turns * 2 * M_PI / angle);
+    const double d =
+        std::hypot(candidate[0] - near[0], candidate[1] - near[1], candidate[2] - near[2]);
+    if (d < best_distance) {
+      best_distance = d;
+      best = candidate;
+    }
+  }
+  return best;
+}
+
 // The truth's lenses and poses in a solution (`shape`'s other fields kept).
 inline RigSolution truth_solution(const std::vector<RigCameraTruth>& truth,
                                   RigSolution shape = {}) {
