@@ -109,8 +109,6 @@ nlohmann::json summarize_sync_capture(int64_t start_at_unix_ms,
                                       int64_t max_skew_us) {
   nlohmann::json per_camera = nlohmann::json::array();
   std::vector<FrameStart> frame_starts;
-  // starts[k]: the k-th kept frame's start on each camera that has one.
-  std::vector<std::vector<int64_t>> starts;
   std::vector<int64_t> intervals_us;
   for (size_t c = 0; c < children.size(); ++c) {
     const JobRecord& child = children[c];
@@ -125,8 +123,6 @@ nlohmann::json summarize_sync_capture(int64_t start_at_unix_ms,
         if (frame["start_unix_us"].is_number_integer()) {
           const int64_t start_us = frame["start_unix_us"].get<int64_t>();
           entry["after_start_us"] = start_us - start_at_unix_ms * 1000;
-          if (starts.size() <= static_cast<size_t>(k)) starts.resize(k + 1);
-          starts[k].push_back(start_us);
           // The view names the frame by its index in the capture folder (frame_NNNNNN).
           frame_starts.push_back({static_cast<int>(c), frame.value("index", k), start_us});
         }
@@ -146,38 +142,41 @@ nlohmann::json summarize_sync_capture(int64_t start_at_unix_ms,
       camera["error"] = {{"code", child.error_code}, {"message", child.error_message}};
     per_camera.push_back(std::move(camera));
   }
-  nlohmann::json per_frame = nlohmann::json::array();
+  const int64_t interval_us = median(intervals_us);
+  // The skew of each trigger, from the rig views (frames grouped by start time): pairing the
+  // cameras' k-th frames instead would give a whole interval to every frame of a camera
+  // that began a tick later or dropped one, although its frames met the others' triggers.
+  const std::vector<RigView> views =
+      group_rig_views(std::move(frame_starts), static_cast<int>(children.size()), interval_us);
+  nlohmann::json per_view = nlohmann::json::array();
   int64_t worst_us = -1;
-  for (const auto& frame_starts : starts) {
-    if (frame_starts.size() < 2) {
-      per_frame.push_back(nullptr);  // one camera alone has no skew
+  for (const RigView& view : views) {
+    const auto cameras_in_view = std::count_if(view.frames.begin(), view.frames.end(),
+                                               [](const auto& f) { return f.has_value(); });
+    if (cameras_in_view < 2) {
+      per_view.push_back(nullptr);  // one camera alone has no skew
       continue;
     }
-    const auto [low, high] = std::minmax_element(frame_starts.begin(), frame_starts.end());
-    per_frame.push_back(*high - *low);
-    worst_us = std::max(worst_us, *high - *low);
+    per_view.push_back(view.skew_us);
+    worst_us = std::max(worst_us, view.skew_us);
   }
-  const int64_t interval_us = median(intervals_us);
   nlohmann::json host_clocks = nlohmann::json::array();
   for (const auto& [host, clock] : clocks)
     host_clocks.push_back({{"host", host},
                            {"offset_to_database_us", clock.offset_us},
                            {"uncertainty_us", clock.uncertainty_us}});
-  return {
-      {"start_at_unix_ms", start_at_unix_ms},
-      {"cameras", per_camera},
-      {"skew_us",
-       {{"per_frame", per_frame},
-        {"first_frame", per_frame.empty() ? nlohmann::json(nullptr) : per_frame[0]},
-        {"max", worst_us >= 0 ? nlohmann::json(worst_us) : nlohmann::json(nullptr)}}},
-      {"frame_interval_us", interval_us > 0 ? nlohmann::json(interval_us) : nullptr},
-      {"skew_frames", worst_us >= 0 && interval_us > 0
-                          ? nlohmann::json(static_cast<double>(worst_us) / interval_us)
-                          : nlohmann::json(nullptr)},
-      {"rig_views", rig_views_json(group_rig_views(std::move(frame_starts),
-                                                   static_cast<int>(children.size()), interval_us),
-                                   max_skew_us)},
-      {"host_clocks", host_clocks}};
+  return {{"start_at_unix_ms", start_at_unix_ms},
+          {"cameras", per_camera},
+          {"skew_us",
+           {{"per_view", per_view},
+            {"first_view", per_view.empty() ? nlohmann::json(nullptr) : per_view[0]},
+            {"max", worst_us >= 0 ? nlohmann::json(worst_us) : nlohmann::json(nullptr)}}},
+          {"frame_interval_us", interval_us > 0 ? nlohmann::json(interval_us) : nullptr},
+          {"skew_frames", worst_us >= 0 && interval_us > 0
+                              ? nlohmann::json(static_cast<double>(worst_us) / interval_us)
+                              : nlohmann::json(nullptr)},
+          {"rig_views", rig_views_json(views, max_skew_us)},
+          {"host_clocks", host_clocks}};
 }
 
 }  // namespace camlab::service

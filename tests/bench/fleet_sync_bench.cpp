@@ -72,7 +72,7 @@ void run(int interval_us, int runs, int frames) {
     }
     const json& result = job["result"];
     worst_us.push_back(result["skew_us"]["max"].get<double>());
-    first_us.push_back(result["skew_us"]["first_frame"].get<double>());
+    first_us.push_back(result["skew_us"]["first_view"].get<double>());
     in_frames.push_back(result["skew_frames"].get<double>());
     for (const json& camera : result["cameras"]) late_us.push_back(camera["late_us"].get<double>());
   }

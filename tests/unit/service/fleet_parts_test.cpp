@@ -196,8 +196,8 @@ TEST(SyncSchedule, TheParentComparesTheCamerasFrameByFrame) {
       child(13, "c", JobState::kSucceeded, {t0 + 2500, t0 + 25000}, 20010)};
   const nlohmann::json summary = summarize_sync_capture(
       start_ms, {"cam@a", "cam@b", "cam@c"}, children, {{"a", {12, 40}}, {"b", {-30, 41}}});
-  EXPECT_EQ(summary["skew_us"]["per_frame"], nlohmann::json({3000, 4000, nullptr}));
-  EXPECT_EQ(summary["skew_us"]["first_frame"], 3000);
+  EXPECT_EQ(summary["skew_us"]["per_view"], nlohmann::json({3000, 4000, nullptr}));
+  EXPECT_EQ(summary["skew_us"]["first_view"], 3000);
   EXPECT_EQ(summary["skew_us"]["max"], 4000);
   EXPECT_EQ(summary["frame_interval_us"], 20000);  // the median of 20000, 20000, 20010
   EXPECT_DOUBLE_EQ(summary["skew_frames"].get<double>(), 0.2);
@@ -231,7 +231,9 @@ TEST(SyncSchedule, RigViewsPairFramesByStartTimeNotByOrder) {
       child(23, "a", JobState::kSucceeded, {t0 + 1500, t0 + 21500, t0 + 41500}, 20000)};
   const nlohmann::json summary =
       summarize_sync_capture(start_ms, {"x@a", "y@a", "z@a"}, children, {}, 1000);
-  EXPECT_EQ(summary["skew_us"]["per_frame"][1], 20200) << "by order: a wrong pairing";
+  // Each trigger's skew, not the 20200 us that pairing the cameras' second frames would give.
+  EXPECT_EQ(summary["skew_us"]["per_view"], nlohmann::json({1500, 1500, 1500}));
+  EXPECT_EQ(summary["skew_us"]["max"], 1500);
   const nlohmann::json& rig = summary["rig_views"];
   ASSERT_EQ(rig["views"].size(), 3u) << rig.dump(1);
   EXPECT_EQ(rig["views"][0]["frames"], nlohmann::json({0, 0, 0}));
