@@ -141,15 +141,8 @@ void put_controls(const ServiceContext& context, const ApiRequest& request,
 void queue_job(const ServiceContext& context, const std::shared_ptr<CameraWorker>& worker,
                const std::string& kind, const nlohmann::json& request, int frames_total,
                const Reply& reply) {
-  if (Status accepted = worker->can_accept_job(); !accepted)
-    return reply(error_response(accepted.error()));
-  auto job = context.store->create(kind, worker->id(), request,
-                                   kind == "capture" ? "captures/job-" : "", frames_total);
+  auto job = worker->store_and_enqueue(*context.store, kind, request, frames_total);
   if (!job) return reply(error_response(job.error()));
-  if (auto s = worker->enqueue_job(job->id); !s) {
-    (void)context.store->finish(job->id, JobState::kCancelled, s.error(), nullptr);
-    return reply(error_response(s.error()));
-  }
   ApiResponse response = json_response(202, to_json(*job));
   response.headers.emplace_back("Location", "/v1/jobs/" + std::to_string(job->id));
   reply(std::move(response));

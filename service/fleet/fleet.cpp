@@ -66,16 +66,11 @@ Result<CameraTarget> Fleet::resolve(const std::string& id) {
   target.camera_id = camera_id;
   target.host = host.empty() ? options_.host : host;
   if (target.host == options_.host) {
-    target.worker = cameras_.find(camera_id);
-    if (!target.worker)
+    std::shared_ptr<CameraWorker> worker = cameras_.find(camera_id);
+    if (!worker)
       return make_error("not_found", "no camera '" + clipped(id) + "' (cameras of the fleet: " +
                                          camera_list(registry_.hosts()) + ")");
-    const CameraSnapshot s = target.worker->snapshot();
-    target.camera = {s.controls, s.formats, s.traits};
-    target.description = describe_for_fleet(s);
-    target.available = s.available && !s.gone;
-    target.unavailable_reason = s.unavailable_reason;
-    return target;
+    return local_camera_target(std::move(worker), target.host, describe_for_fleet);
   }
   const std::optional<FleetHost> owner = registry_.host(target.host);
   if (!owner)

@@ -6,6 +6,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -22,6 +23,7 @@
 namespace camlab::service {
 
 class CameraWorker;
+struct CameraSnapshot;
 
 // A camera of the site, found by its id.
 struct CameraTarget {
@@ -38,6 +40,13 @@ struct CameraTarget {
     return host.empty() ? camera_id : fleet_camera_id(camera_id, host);
   }
 };
+
+// The target of a camera this camlabd serves (`host` its name in a fleet, "" alone), from
+// the worker's snapshot: what a capture request is checked against and whether it is
+// available; `describe` gives the description the site publishes.
+CameraTarget local_camera_target(
+    std::shared_ptr<CameraWorker> worker, const std::string& host,
+    const std::function<nlohmann::json(const CameraSnapshot&)>& describe);
 
 class SyncCaptureSite {
  public:

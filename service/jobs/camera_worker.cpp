@@ -128,6 +128,19 @@ Status CameraWorker::can_accept_job() const {
   return {};
 }
 
+Result<JobRecord> CameraWorker::store_and_enqueue(JobStore& store, const std::string& kind,
+                                                  const nlohmann::json& request, int frames_total) {
+  if (Status accepted = can_accept_job(); !accepted) return accepted.error();
+  auto job =
+      store.create(kind, id(), request, kind == "capture" ? "captures/job-" : "", frames_total);
+  if (!job) return job.error();
+  if (Status queued = enqueue_job(job->id); !queued) {
+    (void)store.finish(job->id, JobState::kCancelled, queued.error(), nullptr);
+    return queued.error();
+  }
+  return job;
+}
+
 Status CameraWorker::enqueue_job(int64_t job_id) {
   {
     std::lock_guard lock(mutex_);

@@ -135,6 +135,12 @@ class CameraWorker {
   Status enqueue_job(int64_t id);
   // Whether enqueue_job would take a job now; the error it would give otherwise.
   Status can_accept_job() const;
+  // Stores a job of `kind` for this camera in `store` and queues it: what
+  // POST /v1/cameras/{id}/captures and a synchronised capture's children both do. A job
+  // the queue refuses after it was stored ends cancelled with the refusal, which is
+  // returned; a refusal before storing stores nothing.
+  Result<JobRecord> store_and_enqueue(JobStore& store, const std::string& kind,
+                                      const nlohmann::json& request, int frames_total);
   // Requests cancellation of job `id` if it is the one running; false otherwise.
   bool cancel_running(int64_t id);
   // Takes job `id` out of the queue (it was cancelled while queued), so that its slot is
