@@ -83,11 +83,6 @@ Result<RigSolution> read_rig_folder(const fs::path& dir) {
                                       ": a rig folder holds camera-0.cameramodel and "
                                       "camera-1.cameramodel at least (camlab calibrate --rig "
                                       "--out writes them)");
-  for (const RigCamera& cam : rig.cameras)
-    if (cam.model.lensmodel != rig.cameras[0].model.lensmodel)
-      return make_error("invalid_argument",
-                        dir.string() + ": the cameras' models differ (" + cam.model.lensmodel +
-                            ", " + rig.cameras[0].model.lensmodel + "); a rig has one model");
   const fs::path report_file = dir / "rig.json";
   if (!fs::exists(report_file)) return rig;
   std::ifstream in(report_file);

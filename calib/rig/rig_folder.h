@@ -22,8 +22,8 @@ inline constexpr int kRigCovarianceStoredMax = 200;
 // The rig's cameras (model, rt_cam_ref) and, from rig.json, corner_sigma_px, each camera's
 // rt_covariance and sigmas, and parameter_covariance when stored. Errors: "io_error" (no
 // camera-0.cameramodel and camera-1.cameramodel, or a file that does not read),
-// "invalid_argument" (cameras with different models, as no camlab rig has, or a rig.json
-// whose cameras disagree with the models).
+// "invalid_argument" (a rig.json whose cameras disagree with the models). The cameras'
+// models may differ (each camera keeps its own, rig_solver.h).
 Result<RigSolution> read_rig_folder(const std::filesystem::path& dir);
 
 }  // namespace camlab::calib
