@@ -6,6 +6,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <opencv2/calib3d.hpp>
 
 #include "calib/lens_model.h"
 #include "calib/rig/board_labels.h"
@@ -337,6 +338,77 @@ TEST(RigSolve, RingWithAFisheyeKeepsEachCamerasModel) {
   // spread (about 0.07 at this count).
   EXPECT_GT(rms, 0.7);
   EXPECT_LT(rms, 1.35);
+}
+
+// Two 180 deg fisheyes 60 deg apart whose views of the board are partial (corners off
+// either imager), so the two cameras see different corner counts in shared views. camlab
+// solves them as they are. OpenCV 4.6's fisheye stereo calibration, given the same views
+// (and the lenses' focal length and centre, held), refuses them: its extrinsic
+// initialisation calls the first board "ill-conditioned" (CALIB_CHECK_COND).
+TEST(RigSolve, AFisheyePairWithPartialViewsSolvesWhereOpenCvRefuses) {
+  auto truth = testing::ring_with_fisheye_truth(60, 1);
+  truth.resize(2);
+  truth[0].lens = truth[1].lens;
+  testing::RigViewSpec spec;
+  spec.views = 40;
+  spec.distance_min_m = 0.4;
+  spec.distance_max_m = 1.0;
+  const RigData data = testing::make_rig_views(truth, kBoard, spec);
+  int unequal = 0;
+  for (size_t v = 0; v < data.cameras[0].views.size(); ++v) {
+    const int a = data.cameras[0].views[v].present_count(),
+              b = data.cameras[1].views[v].present_count();
+    unequal += a > 0 && b > 0 && a != b;
+  }
+  RigSolveOptions options;
+  options.lensmodels = {"LENSMODEL_STEREOGRAPHIC", "LENSMODEL_STEREOGRAPHIC"};
+  auto s = solve_rig(data, options);
+  ASSERT_TRUE(s.ok()) << s.error().message;
+  const RigCamera& cam = s->cameras[1];
+  const Rt exact = testing::rt_nearest(truth[1].rt_cam_ref, cam.rt_cam_ref);
+  std::printf(
+      "fisheye pair, %d shared views with unequal corner counts: rotation error %.4f deg, "
+      "baseline %.3f +- %.3f mm\n",
+      unequal, rotation_between_deg(cam.rt_cam_ref, exact), cam.baseline_m * 1000,
+      cam.baseline_sigma_mm);
+  EXPECT_GE(unequal, 5);
+  for (int k = 0; k < 6; ++k)
+    EXPECT_LT(std::abs(cam.rt_cam_ref[k] - exact[k]), 3 * std::sqrt(cam.rt_covariance[7 * k]))
+        << "component " << k;
+  // OpenCV's fisheye stereo calibration on the same views, each camera's corners as it saw
+  // them: refused.
+  std::vector<std::vector<cv::Point3d>> object;
+  std::vector<std::vector<cv::Point2d>> left, right;
+  for (size_t v = 0; v < data.cameras[0].views.size(); ++v) {
+    std::vector<cv::Point3d> o;
+    std::vector<cv::Point2d> l, r;
+    for (int k = 0; k < kBoard.cols * kBoard.rows; ++k) {
+      const auto& a = data.cameras[0].views[v].corners[k];
+      const auto& b = data.cameras[1].views[v].corners[k];
+      if (a.present) l.emplace_back(a.x_px, a.y_px);
+      if (b.present) r.emplace_back(b.x_px, b.y_px);
+      if (a.present)
+        o.emplace_back((k % kBoard.cols) * kBoard.spacing_m, (k / kBoard.cols) * kBoard.spacing_m,
+                       0);
+    }
+    if (l.size() < 8 || r.size() < 8) continue;
+    object.push_back(o);
+    left.push_back(l);
+    right.push_back(r);
+  }
+  cv::Matx33d k0 = cv::Matx33d::eye(), k1 = cv::Matx33d::eye(), rotation;
+  cv::Vec4d d0, d1;
+  cv::Vec3d translation;
+  bool refused = false;
+  try {
+    k0 = k1 = cv::Matx33d(320, 0, 639.5, 0, 320, 399.5, 0, 0, 1);
+    cv::fisheye::stereoCalibrate(object, left, right, k0, d0, k1, d1, {1280, 800}, rotation,
+                                 translation, cv::fisheye::CALIB_FIX_INTRINSIC);
+  } catch (const cv::Exception& e) {
+    refused = true;
+    std::printf("OpenCV's fisheye::stereoCalibrate: %s\n", e.what());
+  }
+  EXPECT_TRUE(refused) << "OpenCV took point lists of unequal lengths";
 }
 
 // A detector that names a plain board's corners from the other end in some views of one
