@@ -11,6 +11,7 @@ namespace {
 nlohmann::json traits_json(const capture::CameraTraits& traits) {
   return {{"sensor_bit_depth", traits.sensor_bit_depth},
           {"black_level_dn", traits.black_level_dn},
+          {"isp_subtracts_black", traits.isp_subtracts_black},
           {"gain_unity", traits.gain_unity},
           {"f_number_by_iris_position", traits.f_number_by_iris_position},
           {"focal_mm", traits.focal_mm},
@@ -92,6 +93,7 @@ Result<PublishedCamera> read_published_camera(const nlohmann::json& description)
     const nlohmann::json traits = description.value("traits", nlohmann::json::object());
     camera.traits.sensor_bit_depth = traits.value("sensor_bit_depth", 0);
     camera.traits.black_level_dn = traits.value("black_level_dn", 0);
+    camera.traits.isp_subtracts_black = traits.value("isp_subtracts_black", false);
     camera.traits.gain_unity = traits.value("gain_unity", 0);
     camera.traits.f_number_by_iris_position =
         traits.value("f_number_by_iris_position", std::vector<double>{});

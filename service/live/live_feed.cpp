@@ -18,7 +18,8 @@ Result<capture::ConvertedFrame> convert_live_frame(const LiveFrame& frame) {
   raw.data = frame.bytes.data();
   raw.size = frame.bytes.size();
   raw.meta = frame.meta;
-  return capture::convert_frame(raw, frame.format, frame.sensor_bit_depth, frame.black_level_dn);
+  return capture::convert_frame(raw, frame.format, frame.sensor_bit_depth, frame.black_level_dn,
+                                frame.isp_subtracts_black);
 }
 
 LiveFeed::LiveFeed(std::string camera_id, capture::CameraTraits traits)
@@ -54,6 +55,7 @@ void LiveFeed::offer(const device::Frame& frame, const device::StreamFormat& for
   copy->meta = frame.meta;
   copy->sensor_bit_depth = traits_.sensor_bit_depth;
   copy->black_level_dn = traits_.black_level_dn;
+  copy->isp_subtracts_black = traits_.isp_subtracts_black;
   copy->received_ns = now;
   {
     std::lock_guard lock(mutex_);

@@ -37,6 +37,7 @@ struct LiveFrame {
   device::FrameMetadata meta;
   int sensor_bit_depth = 0;  // the camera's traits, to read the DN (0: unknown)
   int black_level_dn = 0;
+  bool isp_subtracts_black = false;
   int64_t received_ns = 0;  // CLOCK_MONOTONIC when offered
   uint64_t generation = 0;  // 1, 2, ... in the order offered
 };

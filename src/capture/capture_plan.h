@@ -59,7 +59,11 @@ inline constexpr int kMaxFixedControls = 32;
 struct CameraTraits {
   int sensor_bit_depth = 0;  // significant bits of the DN; Y16 carries them MSB-aligned
   int black_level_dn = 0;    // in DN of sensor_bit_depth bits
-  int gain_unity = 0;        // gain control value for a linear gain of 1
+  // The processed formats (YUYV, RGB, NV12) come from an ISP that took the black level off
+  // (a colour sensor's demosaicing does; a mono sensor's YUYV may carry the pedestal): their
+  // black is then the format's own (16 in limited-range YUYV), not the sensor's.
+  bool isp_subtracts_black = false;
+  int gain_unity = 0;  // gain control value for a linear gain of 1
   // f-number at iris_absolute = p is f_number_by_iris_position[p] (V4L2: larger = wider).
   std::vector<double> f_number_by_iris_position;
   double focal_mm = 0;

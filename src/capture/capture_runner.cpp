@@ -234,8 +234,8 @@ Status Runner::process(const device::Frame& frame) {
 
   std::optional<ConvertedFrame> converted;
   if (keep) {
-    auto c =
-        convert_frame(frame, format_, plan_.traits.sensor_bit_depth, plan_.traits.black_level_dn);
+    auto c = convert_frame(frame, format_, plan_.traits.sensor_bit_depth,
+                           plan_.traits.black_level_dn, plan_.traits.isp_subtracts_black);
     if (!c) {  // cannot happen after check_frame; never write a wrong frame
       (void)camera_.requeue(frame);
       drops_.on_requeue(monotonic_ns());

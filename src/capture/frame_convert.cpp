@@ -151,7 +151,8 @@ Status check_frame(const device::Frame& frame, const device::StreamFormat& forma
 }
 
 Result<ConvertedFrame> convert_frame(const device::Frame& frame, const device::StreamFormat& format,
-                                     int sensor_bit_depth, int black_level_dn) {
+                                     int sensor_bit_depth, int black_level_dn,
+                                     bool isp_subtracts_black) {
   if (Status s = check_frame(frame, format); !s) return s.error();
   const PixelFormatInfo info = *image::pixel_format_info(format.fourcc);
   ConvertedFrame out;  // 8 bits, black 0, unless a branch says otherwise
@@ -164,7 +165,8 @@ Result<ConvertedFrame> convert_frame(const device::Frame& frame, const device::S
       // Luma is stored as delivered (nothing rescaled); its range goes in the sidecar. A
       // YUV format is limited range (black 16, white 235) unless the driver says full.
       out = luma_of_yuyv(frame, format, info);
-      const int black8 = black_level_in(8, sensor_bit_depth, black_level_dn);
+      const int black8 =
+          isp_subtracts_black ? 0 : black_level_in(8, sensor_bit_depth, black_level_dn);
       if (format.quantization == device::YcbcrQuantization::kFull) {
         out.black_level_dn = black8;
       } else {

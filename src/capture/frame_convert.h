@@ -50,10 +50,13 @@ bool can_convert(const std::string& fourcc);
 // shorter than the format says, or a JPEG that is not one), "unsupported" (another fourcc).
 Status check_frame(const device::Frame& frame, const device::StreamFormat& format);
 
-// `sensor_bit_depth` / `black_level_dn`: the sensor's, 0 when unknown. Errors
-// "bad_frame" (buffer shorter than the format says), "unsupported" (another fourcc).
+// `sensor_bit_depth` / `black_level_dn`: the sensor's, 0 when unknown;
+// `isp_subtracts_black`: YUYV's black is the format's own, not the sensor's pedestal
+// (capture_plan.h, CameraTraits). Errors "bad_frame" (buffer shorter than the format says),
+// "unsupported" (another fourcc).
 Result<ConvertedFrame> convert_frame(const device::Frame& frame, const device::StreamFormat& format,
-                                     int sensor_bit_depth, int black_level_dn);
+                                     int sensor_bit_depth, int black_level_dn,
+                                     bool isp_subtracts_black = false);
 
 // The mean value of a frame's samples in the units of its format (the Y samples of YUYV,
 // every channel of colour formats, a 1/8-scale decode of JPEG), read without keeping a

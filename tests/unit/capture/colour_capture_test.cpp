@@ -158,9 +158,14 @@ TEST(ColourCapture, IspFramesCarryEachChannelsLinearLevel) {
     }
   }
   // camlab keeps YUYV's Y samples: BT.601 luma at limited range.
+  // Its black is YUYV's own 16: the ISP took the sensor's pedestal off (64 DN of 12 bits,
+  // which the mono camera's YUYV keeps and records as 16 + 4 x 219 / 255 = 19).
   const Stored yuyv = capture("YUYV", kWidth, kHeight);
-  for (const cv::Mat& image : yuyv.images)
-    EXPECT_NEAR(cv::mean(image)[0], 16 + 219 * luma / 255, 1.0);
+  for (size_t i = 0; i < yuyv.images.size(); ++i) {
+    EXPECT_NEAR(cv::mean(yuyv.images[i])[0], 16 + 219 * luma / 255, 1.0);
+    EXPECT_EQ(yuyv.sidecars[i].black_level_dn, 16);
+    EXPECT_EQ(yuyv.sidecars[i].white_level_dn, 235);
+  }
 }
 
 }  // namespace
