@@ -34,9 +34,10 @@ struct CameraProblem {
 
 class StackedRig {
  public:
-  StackedRig(const RigProblem& p, const BoardSpec& board) : p_(p), board_(board) {}
+  explicit StackedRig(const BoardSpec& board) : board_(board) {}
 
-  Status set_up();
+  // Places every camera's problem of `p` in the stacked state.
+  Status set_up(const RigProblem& p);
   int nstate() const { return nstate_; }
   const RigStateLayout& layout() const { return layout_; }
   const std::vector<double>& unpack_scale() const { return unpack_scale_; }
@@ -46,15 +47,15 @@ class StackedRig {
   void write_state(const std::vector<double>& packed, RigProblem* p) const;
 
   // Evaluates `p` at its arrays: the cost (sum of squared measurements), the board
-  // residuals into p->x, and, when asked, J^T x, J^T J and J_obs^T J_obs (packed units).
+  // residuals into p->x, J^T x, J^T J (every row) and J_obs^T J_obs (board rows), in
+  // packed units.
   struct Evaluation {
     double cost = 0;
     cv::Mat jtx, jtj, jobs;
   };
-  Result<Evaluation> evaluate(RigProblem* p, bool jacobian) const;
+  Result<Evaluation> evaluate(RigProblem* p) const;
 
  private:
-  const RigProblem& p_;
   BoardSpec board_;
   std::vector<CameraProblem> cameras_;
   int nstate_ = 0, extrinsics_at_ = 0, frames_at_ = 0, warp_at_ = 0;
@@ -62,9 +63,9 @@ class StackedRig {
   std::vector<double> unpack_scale_;
 };
 
-Status StackedRig::set_up() {
-  const int n = p_.ncameras;
-  const int nframes = static_cast<int>(p_.frames.size());
+Status StackedRig::set_up(const RigProblem& p) {
+  const int n = p.ncameras;
+  const int nframes = static_cast<int>(p.frames.size());
   cameras_.resize(n);
   int at = 0;
   layout_.intrinsics_state_at.assign(n, -1);
@@ -74,23 +75,17 @@ Status StackedRig::set_up() {
     CameraProblem& cp = cameras_[c];
     cp.camera = c;
     cp.has_extrinsics = c > 0;
-    for (size_t o = 0; o < p_.observations.size(); ++o) {
-      if (p_.observations[o].icam.intrinsics != c) continue;
-      mrcal_observation_board_t ob = p_.observations[o];
+    for (size_t o = 0; o < p.observations.size(); ++o) {
+      if (p.observations[o].icam.intrinsics != c) continue;
+      mrcal_observation_board_t ob = p.observations[o];
       ob.icam.intrinsics = 0;
       ob.icam.extrinsics = cp.has_extrinsics ? 0 : -1;
       cp.observations.push_back(ob);
       cp.rig_observation.push_back(static_cast<int>(o));
     }
-    const mrcal_lensmodel_t* model = &p_.lensmodels[c];
-    const bool distortions = p_.nparams[c] > 4;
-    cp.sel.do_optimize_intrinsics_core = true;
-    cp.sel.do_optimize_intrinsics_distortions = distortions;
-    cp.sel.do_optimize_extrinsics = cp.has_extrinsics;
-    cp.sel.do_optimize_frames = true;
-    cp.sel.do_optimize_calobject_warp = p_.board_warp;
-    cp.sel.do_apply_regularization = distortions;
-    cp.sel.do_apply_outlier_rejection = false;
+    const mrcal_lensmodel_t* model = &p.lensmodels[c];
+    // Outliers are this solve's to reject (the callback never does).
+    cp.sel = rig_selections(p.nparams[c], cp.has_extrinsics, p.board_warp, false);
     const int nobs = static_cast<int>(cp.observations.size());
     const int next = cp.has_extrinsics ? 1 : 0;
     cp.nstate = mrcal_num_states(1, next, nframes, 0, 0, nobs, cp.sel, model);
@@ -109,11 +104,11 @@ Status StackedRig::set_up() {
   extrinsics_at_ = at;
   frames_at_ = extrinsics_at_ + 6 * (n - 1);
   warp_at_ = frames_at_ + 6 * nframes;
-  nstate_ = warp_at_ + (p_.board_warp ? 2 : 0);
+  nstate_ = warp_at_ + (p.board_warp ? 2 : 0);
   for (int c = 1; c < n; ++c) layout_.extrinsics_state_at[c] = extrinsics_at_ + 6 * (c - 1);
   unpack_scale_.assign(nstate_, 0.0);
   for (CameraProblem& cp : cameras_) {
-    const mrcal_lensmodel_t* model = &p_.lensmodels[cp.camera];
+    const mrcal_lensmodel_t* model = &p.lensmodels[cp.camera];
     const int nobs = static_cast<int>(cp.observations.size());
     const int next = cp.has_extrinsics ? 1 : 0;
     cp.stacked_index.assign(cp.nstate, -1);
@@ -126,7 +121,7 @@ Status StackedRig::set_up() {
     }
     const int f = mrcal_state_index_frames(0, 1, next, nframes, 0, 0, nobs, cp.sel, model);
     for (int k = 0; k < 6 * nframes; ++k) cp.stacked_index[f + k] = frames_at_ + k;
-    if (p_.board_warp) {
+    if (p.board_warp) {
       const int w = mrcal_state_index_calobject_warp(1, next, nframes, 0, 0, nobs, cp.sel, model);
       for (int k = 0; k < 2; ++k) cp.stacked_index[w + k] = warp_at_ + k;
     }
@@ -195,15 +190,13 @@ void StackedRig::write_state(const std::vector<double>& packed, RigProblem* p) c
   }
 }
 
-Result<StackedRig::Evaluation> StackedRig::evaluate(RigProblem* p, bool jacobian) const {
+Result<StackedRig::Evaluation> StackedRig::evaluate(RigProblem* p) const {
   const int per_view = board_.cols * board_.rows;
   const int nframes = static_cast<int>(p->frames.size());
   Evaluation e;
-  if (jacobian) {
-    e.jtx = cv::Mat::zeros(nstate_, 1, CV_64F);
-    e.jtj = cv::Mat::zeros(nstate_, nstate_, CV_64F);
-    e.jobs = cv::Mat::zeros(nstate_, nstate_, CV_64F);
-  }
+  e.jtx = cv::Mat::zeros(nstate_, 1, CV_64F);
+  e.jtj = cv::Mat::zeros(nstate_, nstate_, CV_64F);
+  e.jobs = cv::Mat::zeros(nstate_, nstate_, CV_64F);
   p->x.assign(2 * p->pool.size(), 0.0);
   const mrcal_problem_constants_t constants = {-1.0, -1.0};
   for (const CameraProblem& cp : cameras_) {
@@ -214,11 +207,11 @@ Result<StackedRig::Evaluation> StackedRig::evaluate(RigProblem* p, bool jacobian
       pool.insert(pool.end(), p->pool.begin() + static_cast<size_t>(o) * per_view,
                   p->pool.begin() + static_cast<size_t>(o + 1) * per_view);
     std::vector<double> b_packed(cp.nstate), x(cp.nmeasurements);
-    SparseJacobian j(cp.nstate, cp.nmeasurements, jacobian ? cp.nonzeros : 0);
+    SparseJacobian j(cp.nstate, cp.nmeasurements, cp.nonzeros);
     const mrcal_pose_t* extrinsics = cp.has_extrinsics ? &p->extrinsics[cp.camera - 1] : nullptr;
     const bool evaluated = mrcal_optimizer_callback(
         b_packed.data(), cp.nstate * static_cast<int>(sizeof(double)), x.data(),
-        cp.nmeasurements * static_cast<int>(sizeof(double)), jacobian ? &j.jt : nullptr,
+        cp.nmeasurements * static_cast<int>(sizeof(double)), &j.jt,
         p->intrinsics.data() + p->intrinsics_at[cp.camera], extrinsics, p->frames.data(), nullptr,
         &p->warp, 1, cp.has_extrinsics ? 1 : 0, nframes, 0, 0, cp.observations.data(), nullptr,
         nobs, 0, pool.data(), &p->lensmodels[cp.camera], &p->imagersizes[2 * cp.camera], cp.sel,
@@ -230,7 +223,6 @@ Result<StackedRig::Evaluation> StackedRig::evaluate(RigProblem* p, bool jacobian
     for (int o = 0; o < nobs; ++o)
       std::copy_n(x.begin() + 2 * static_cast<size_t>(o) * per_view, 2 * per_view,
                   p->x.begin() + 2 * static_cast<size_t>(cp.rig_observation[o]) * per_view);
-    if (!jacobian) continue;
     double* jtx = e.jtx.ptr<double>();
     for (int r = 0; r < cp.nmeasurements; ++r) {
       cv::Mat& information = r < cp.nmeasurements_boards ? e.jobs : e.jtj;
@@ -243,20 +235,22 @@ Result<StackedRig::Evaluation> StackedRig::evaluate(RigProblem* p, bool jacobian
       }
     }
   }
-  if (jacobian) e.jtj += e.jobs;
+  e.jtj += e.jobs;
   if (!std::isfinite(e.cost))
     return make_error("solve_failed", "the rig's residuals are not finite");
   return e;
 }
 
-// Levenberg-Marquardt from p's state; leaves p at the lowest cost found.
-Status levenberg_marquardt(const StackedRig& rig, RigProblem* p, const std::atomic<bool>* cancel) {
+// Levenberg-Marquardt from p's state; leaves p at the lowest cost found and returns the
+// evaluation there.
+Result<StackedRig::Evaluation> levenberg_marquardt(const StackedRig& rig, RigProblem* p,
+                                                   const std::atomic<bool>* cancel) {
   std::vector<double> b = rig.packed_state(*p);
   StackedRig::Evaluation now;
-  CAMLAB_ASSIGN(now, rig.evaluate(p, true));
+  CAMLAB_ASSIGN(now, rig.evaluate(p));
   double lambda = 1e-3;
   for (int iteration = 0; iteration < kMaxIterations; ++iteration) {
-    if (Status go = check_not_cancelled(cancel, "rig calibration"); !go) return go;
+    if (Status go = check_not_cancelled(cancel, "rig calibration"); !go) return go.error();
     // Marquardt's scaling: the damping follows each state's own curvature.
     cv::Mat damped = now.jtj.clone();
     double largest = 0;
@@ -277,7 +271,7 @@ Status levenberg_marquardt(const StackedRig& rig, RigProblem* p, const std::atom
     }
     RigProblem candidate = *p;
     rig.write_state(tried, &candidate);
-    auto next = rig.evaluate(&candidate, true);
+    auto next = rig.evaluate(&candidate);
     if (next.ok() && next->cost < now.cost) {
       const double gain = now.cost - next->cost;
       *p = std::move(candidate);
@@ -290,7 +284,7 @@ Status levenberg_marquardt(const StackedRig& rig, RigProblem* p, const std::atom
       if (lambda > 1e12 || largest_step < 1e-14) break;
     }
   }
-  return {};
+  return now;
 }
 
 // Marks as outliers the inlier corners whose residual exceeds kOutlierSigmas; how many.
@@ -318,11 +312,11 @@ int reject_outliers(const StackedRig& rig, RigProblem* p) {
 
 }  // namespace
 
-Status optimize_rig_per_camera(RigProblem* p, const BoardSpec& board,
-                               const std::atomic<bool>* cancel) {
-  StackedRig rig(*p, board);
-  if (Status ready = rig.set_up(); !ready) return ready;
-  Status solved;
+Result<RigInformation> optimize_rig_per_camera(RigProblem* p, const BoardSpec& board,
+                                               const std::atomic<bool>* cancel) {
+  StackedRig rig(board);
+  if (Status ready = rig.set_up(*p); !ready) return ready.error();
+  Result<StackedRig::Evaluation> solved = make_error("solve_failed", "not solved");
   const Status ran = run_with_stack(p->solver_stack_bytes(), [&] {
     for (int round = 0; round < kMaxRejectionRounds; ++round) {
       solved = levenberg_marquardt(rig, p, cancel);
@@ -330,21 +324,10 @@ Status optimize_rig_per_camera(RigProblem* p, const BoardSpec& board,
     }
     solved = levenberg_marquardt(rig, p, cancel);
   });
-  if (!ran) return ran;
-  if (!solved) return solved;
-  if (!p->finite_state()) return make_error("solve_failed", "the joint rig solve did not converge");
-  return {};
-}
-
-Result<RigInformation> rig_information_per_camera(const RigProblem& p, const BoardSpec& board) {
-  StackedRig rig(p, board);
-  if (Status ready = rig.set_up(); !ready) return ready.error();
-  RigProblem at = p;
-  Result<StackedRig::Evaluation> e = make_error("solve_failed", "not evaluated");
-  const Status ran = run_with_stack(p.solver_stack_bytes(), [&] { e = rig.evaluate(&at, true); });
   if (!ran) return ran.error();
-  if (!e) return e.error();
-  return RigInformation{e->jtj, e->jobs, rig.unpack_scale(), rig.layout()};
+  if (!solved) return solved.error();
+  if (!p->finite_state()) return make_error("solve_failed", "the joint rig solve did not converge");
+  return RigInformation{solved->jtj, solved->jobs, rig.unpack_scale(), rig.layout()};
 }
 
 }  // namespace camlab::calib

@@ -27,12 +27,7 @@
 
 namespace camlab::calib {
 
-// Solves `p` in place: its intrinsics, extrinsics, frames and warp, p->x, and the outliers
-// in p->pool. Errors: "solve_failed" (no convergence, a non-finite state), "cancelled".
-Status optimize_rig_per_camera(RigProblem* p, const BoardSpec& board,
-                               const std::atomic<bool>* cancel);
-
-// The information of the stacked problem at p's state, in mrcal's packed units: J^T J
+// The information of a solved rig problem at its optimum, in mrcal's packed units: J^T J
 // over every row (board and regularisation) and J_obs^T J_obs over the board rows, the
 // scale that unpacks each state (full = packed * scale), and where each camera's
 // parameters sit.
@@ -41,6 +36,11 @@ struct RigInformation {
   std::vector<double> unpack_scale;
   RigStateLayout layout;
 };
-Result<RigInformation> rig_information_per_camera(const RigProblem& p, const BoardSpec& board);
+
+// Solves `p` in place (its intrinsics, extrinsics, frames and warp, p->x, and the outliers
+// in p->pool) and returns the information at the optimum, from the solve's last
+// evaluation. Errors: "solve_failed" (no convergence, a non-finite state), "cancelled".
+Result<RigInformation> optimize_rig_per_camera(RigProblem* p, const BoardSpec& board,
+                                               const std::atomic<bool>* cancel);
 
 }  // namespace camlab::calib

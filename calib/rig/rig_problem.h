@@ -62,6 +62,22 @@ struct RigProblem {
   }
 };
 
+// mrcal's selections for a rig problem whose cameras have `nparams` intrinsics: the core
+// always; distortions, and mrcal's regularisation of them, for models with more than the
+// core's 4 (PINHOLE, STEREOGRAPHIC, LONLAT and LATLON have none).
+inline mrcal_problem_selections_t rig_selections(int nparams, bool extrinsics, bool board_warp,
+                                                 bool outlier_rejection) {
+  mrcal_problem_selections_t sel{};
+  sel.do_optimize_intrinsics_core = true;
+  sel.do_optimize_intrinsics_distortions = nparams > 4;
+  sel.do_optimize_extrinsics = extrinsics;
+  sel.do_optimize_frames = true;
+  sel.do_optimize_calobject_warp = board_warp;
+  sel.do_apply_regularization = nparams > 4;
+  sel.do_apply_outlier_rejection = outlier_rejection;
+  return sel;
+}
+
 // Where the covariance of a solve finds each camera's parameters: the state index of
 // camera c's first intrinsic (-1 when none is solved), how many of its intrinsics are
 // solved (the first ones: PINHOLE-like models hold no distortion), and the index of camera

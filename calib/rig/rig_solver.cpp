@@ -41,15 +41,7 @@ Rt from_pose(const mrcal_pose_t& p) {
 
 // mrcal's selections for the problem of one lens model (every camera's lensmodels[0]).
 mrcal_problem_selections_t one_model_selections(const RigProblem& p) {
-  mrcal_problem_selections_t sel{};
-  sel.do_optimize_intrinsics_core = true;
-  sel.do_optimize_intrinsics_distortions = p.nparams[0] > 4;
-  sel.do_optimize_extrinsics = true;
-  sel.do_optimize_frames = true;
-  sel.do_optimize_calobject_warp = p.board_warp;
-  sel.do_apply_regularization = p.nparams[0] > 4;
-  sel.do_apply_outlier_rejection = p.reject_outliers;
-  return sel;
+  return rig_selections(p.nparams[0], true, p.board_warp, p.reject_outliers);
 }
 
 int measurement_count(const RigProblem& p, const BoardSpec& b) {
@@ -349,11 +341,13 @@ Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& optio
   if (Status go = check_not_cancelled(options.cancel, "rig calibration"); !go) return go.error();
   // One model for all: mrcal_optimize; a model per camera: one mrcal problem a camera,
   // stacked (rig_joint_solve.h).
-  const bool stacked = options.stacked_solve || !p.one_lensmodel();
-  if (Status solved = stacked ? optimize_rig_per_camera(&p, board, options.cancel)
-                              : optimize_rig_one_model(&p, board);
-      !solved)
-    return solved.error();
+  RigInformation information;
+  if (options.stacked_solve || !p.one_lensmodel()) {
+    CAMLAB_ASSIGN(information, optimize_rig_per_camera(&p, board, options.cancel));
+  } else {
+    if (Status solved = optimize_rig_one_model(&p, board); !solved) return solved.error();
+    CAMLAB_ASSIGN(information, rig_information_one_model(p, board));
+  }
 
   // Residuals per camera, the covariance, and the extrinsics' sigmas.
   out.cameras.resize(n);
@@ -375,9 +369,6 @@ Result<RigSolution> solve_rig(const RigData& input, const RigSolveOptions& optio
       ++cam.inliers;
     }
   }
-  RigInformation information;
-  CAMLAB_ASSIGN(information, stacked ? rig_information_per_camera(p, board)
-                                     : rig_information_one_model(p, board));
   cv::Mat covariance;
   CAMLAB_ASSIGN(out.corner_sigma_px, rig_state_covariance(p, information, &covariance));
   // The covariance of every camera's intrinsics and extrinsics (rig_solver.h's layout):
