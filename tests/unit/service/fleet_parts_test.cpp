@@ -255,6 +255,28 @@ TEST(SyncSchedule, RigViewsPairFramesByStartTimeNotByOrder) {
   EXPECT_EQ(loose["rig_views"]["over_bound"], 0);
 }
 
+// Cameras on free clocks, 6 ms apart at a 10 ms interval: each of b's frames is nearer a's
+// next frame than a's own, so the views pair them so (4 ms of skew), and the frames left at
+// either end make views of one camera, whose skew is null, not zero.
+TEST(SyncSchedule, AFrameHalfAnIntervalFromEveryOtherMakesAViewOfItsOwn) {
+  const int64_t start_ms = 1700000000000, t0 = start_ms * 1000;
+  const std::vector<JobRecord> children = {
+      child(31, "a", JobState::kSucceeded, {t0, t0 + 10000, t0 + 20000}, 10000),
+      child(32, "b", JobState::kSucceeded, {t0 + 6000, t0 + 16000, t0 + 26000}, 10000)};
+  const nlohmann::json summary =
+      summarize_sync_capture(start_ms, {"x@a", "y@b"}, children, {}, 1000);
+  EXPECT_EQ(summary["skew_us"]["per_view"], nlohmann::json({nullptr, 4000, 4000, nullptr}));
+  EXPECT_TRUE(summary["skew_us"]["first_view"].is_null());
+  EXPECT_EQ(summary["skew_us"]["max"], 4000);
+  const nlohmann::json& views = summary["rig_views"]["views"];
+  ASSERT_EQ(views.size(), 4u) << views.dump(1);
+  EXPECT_EQ(views[0]["frames"], nlohmann::json({0, nullptr}));
+  EXPECT_EQ(views[1]["frames"], nlohmann::json({1, 0}));
+  EXPECT_EQ(views[3]["frames"], nlohmann::json({nullptr, 2}));
+  EXPECT_EQ(summary["rig_views"]["complete"], 2);
+  EXPECT_EQ(summary["rig_views"]["incomplete"], 2);
+}
+
 TEST(RouterWrap, AWrapperAnswersOrPassesTheRequestOn) {
   Router router(nullptr, nullptr);
   router.add({"GET", "/v1/things/{id}", "a thing",
