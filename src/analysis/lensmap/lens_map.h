@@ -11,9 +11,10 @@
 // width sigma_0 and a defocus blur growing linearly with the distance from best focus), so
 // 1 / MTF50^2, proportional to the blur's variance, is a parabola in the focus position,
 // sigma_0^2 + k^2 (p - p_best)^2: fitted by least squares to the points of the sweep whose
-// MTF50 is at least half the edge's highest, its vertex is the best focus. Exact for a
-// Gaussian blur; for a lens's disk-shaped defocus blur the core of the curve (where the
-// fit looks) is close to it (docs/analysis.md, "Lens map").
+// MTF50 is at least a quarter of the edge's highest, its vertex is the best focus. Exact for a
+// Gaussian blur; a lens's disk-shaped defocus blur departs from it between focus and far
+// defocus (where MTF50 ~ 1 / the disk's diameter is a parabola again), alike on both
+// sides of the peak (docs/analysis.md, "Lens map").
 //
 // The surface: best focus p(u, v) = p0 + t_x u + t_y v + c rho^2, u and v the field
 // coordinates relative to the image centre in units of the half diagonal (rho = 1 at the
