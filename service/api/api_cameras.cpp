@@ -35,7 +35,10 @@ nlohmann::json summary_json(const ServiceContext& context, const CameraSnapshot&
   json["running_job"] = s.running_job ? nlohmann::json(s.running_job) : nlohmann::json(nullptr);
   json["queued_jobs"] = s.queued_jobs;
   json["control_latency"] = latency_json(context, s.identity.id);
-  json["measuring_latency"] = s.measuring_latency;
+  // The worker stores the latency and then clears its flag: between the two a listing
+  // showed both the latency and "measuring" (a test read it so under load). Once it is
+  // known it is no longer being measured; a job posted then waits for the worker anyway.
+  json["measuring_latency"] = s.measuring_latency && json["control_latency"].is_null();
   return json;
 }
 

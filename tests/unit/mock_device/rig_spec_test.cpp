@@ -42,7 +42,7 @@ TEST(RigSpec, EachCameraSeesTheTargetsThroughItsPose) {
   const RtCamTarget& in_ref = rig->scene.targets[0].poses[0];
   const RtCamTarget& in_cam = seen.targets[0].poses[0];
   // A point of the target, through the composed pose and through the two poses in turn.
-  for (const cv::Vec3d p : {cv::Vec3d(0, 0, 0), cv::Vec3d(0.3, -0.2, 0), cv::Vec3d(-1, 2, 0)}) {
+  for (const cv::Vec3d& p : {cv::Vec3d(0, 0, 0), cv::Vec3d(0.3, -0.2, 0), cv::Vec3d(-1, 2, 0)}) {
     const cv::Vec3d direct = transform_point(in_cam, p),
                     in_turn = transform_point(rt_cam_ref, transform_point(in_ref, p));
     EXPECT_LT(cv::norm(direct - in_turn), 1e-12) << p[0] << " " << p[1];
