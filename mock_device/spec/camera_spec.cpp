@@ -264,6 +264,7 @@ Result<CameraSpec> parse_camera_spec(const nlohmann::json& json) {
                       "\"bt709\", not \"" +
                           transfer + "\"");
   spec.isp.transfer = *named;
+  CAMLAB_ASSIGN(spec.isp.declares_colour_space, isp.boolean("declares_colour_space", true));
 
   JsonFields controls = root.child("controls");
   // exposure_time_absolute is in 100 us units and cannot exceed the frame interval.

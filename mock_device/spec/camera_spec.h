@@ -133,6 +133,10 @@ struct IspSpec {
   // The curve the processed formats' values are encoded with, and declare (xfer_func):
   // linear (the default), or sRGB / BT.709 as a webcam's YUYV and MJPEG are.
   TransferFunction transfer = TransferFunction::kLinear;
+  // false: every format leaves its colour fields (colorspace, xfer_func, ycbcr_enc,
+  // quantization) at DEFAULT, as a driver that declares nothing does; the values are
+  // encoded with `transfer` all the same, which a client cannot know.
+  bool declares_colour_space = true;
 };
 
 // A light-field (plenoptic) camera (docs/virtual-camera.md, "Light fields"): its views

@@ -113,7 +113,8 @@ std::optional<FrameSize> frame_size(const OfferedFormat& format, const SensorSpe
 }
 
 void fill_pix_format(const OfferedFormat& format, FrameSize size, v4l2_pix_format* pix,
-                     TransferFunction isp_transfer) {
+                     const IspSpec& isp) {
+  const TransferFunction isp_transfer = isp.transfer;
   pix->pixelformat = format.fourcc;
   pix->width = size.width;
   pix->height = size.height;
@@ -170,6 +171,12 @@ void fill_pix_format(const OfferedFormat& format, FrameSize size, v4l2_pix_forma
       pix->ycbcr_enc = V4L2_YCBCR_ENC_601;
       pix->quantization = V4L2_QUANTIZATION_FULL_RANGE;
       break;
+  }
+  if (!isp.declares_colour_space) {
+    pix->colorspace = V4L2_COLORSPACE_DEFAULT;
+    pix->xfer_func = V4L2_XFER_FUNC_DEFAULT;
+    pix->ycbcr_enc = V4L2_YCBCR_ENC_DEFAULT;
+    pix->quantization = V4L2_QUANTIZATION_DEFAULT;
   }
 }
 

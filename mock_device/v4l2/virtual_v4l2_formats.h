@@ -78,9 +78,10 @@ std::optional<FrameSize> frame_size(const OfferedFormat& format, const SensorSpe
 
 // bytesperline, sizeimage and the colorspace fields of a `size` frame (one of
 // frame_size's) of `format`. MJPG: bytesperline 0, sizeimage an upper bound of any JPEG
-// of that size (each frame's length is its buffer's bytesused). `isp_transfer`: the curve
-// of the processed formats (raw ones are linear whatever it is).
+// of that size (each frame's length is its buffer's bytesused). `isp.transfer`: the curve
+// of the processed formats (raw ones are linear whatever it is), declared unless
+// `isp.declares_colour_space` is false.
 void fill_pix_format(const OfferedFormat& format, FrameSize size, v4l2_pix_format* pix,
-                     TransferFunction isp_transfer = TransferFunction::kLinear);
+                     const IspSpec& isp = IspSpec{});
 
 }  // namespace camlab::mock

@@ -104,7 +104,7 @@ int VirtualV4l2Device::set_format(v4l2_format* format, bool apply) {
   const double asked = static_cast<double>(pix.width) * pix.height;
   const bool binned = asked > 0 && std::abs(asked - full_area / 4.0) < std::abs(asked - full_area);
   fill_pix_format(*offered, *frame_size(*offered, sensor, binned ? 1 : 0), &pix,
-                  renderer_.camera().isp.transfer);
+                  renderer_.camera().isp);
   if (apply) format_ = pix;
   return 0;
 }

@@ -7,6 +7,11 @@
 //   srgb    IEC 61966-2-1: v = 12.92 L below 0.0031308, else 1.055 L^(1/2.4) - 0.055
 //   bt709   ITU-R BT.709's OETF: v = 4.5 L below 0.018, else 1.099 L^0.45 - 0.099
 //   other   declared, but none of these (Adobe RGB, SMPTE 240M, PQ, DCI-P3): not decoded
+//   unknown the camera declares no colour space (V4L2's colorspace and xfer_func left at
+//           DEFAULT, libcamera's StreamConfiguration without one): capture takes a raw
+//           format's samples as linear (a sensor's DN), and any processed format's curve
+//           as not known, so it is not decoded either. Guessing one (taking it as linear,
+//           as camlab once did on libcamera) would give a silently wrong number.
 //
 // Reentrant: pure functions.
 #pragma once
@@ -17,7 +22,7 @@
 
 namespace camlab {
 
-enum class TransferFunction { kLinear, kSrgb, kBt709, kOther };
+enum class TransferFunction { kLinear, kSrgb, kBt709, kOther, kUnknown };
 
 constexpr std::string_view name_of(TransferFunction transfer) {
   switch (transfer) {
@@ -29,20 +34,23 @@ constexpr std::string_view name_of(TransferFunction transfer) {
       return "bt709";
     case TransferFunction::kOther:
       return "other";
+    case TransferFunction::kUnknown:
+      return "unknown";
   }
   return "other";
 }
 
 inline std::optional<TransferFunction> transfer_function_named(std::string_view name) {
-  for (TransferFunction t : {TransferFunction::kLinear, TransferFunction::kSrgb,
-                             TransferFunction::kBt709, TransferFunction::kOther})
+  for (TransferFunction t :
+       {TransferFunction::kLinear, TransferFunction::kSrgb, TransferFunction::kBt709,
+        TransferFunction::kOther, TransferFunction::kUnknown})
     if (name == name_of(t)) return t;
   return std::nullopt;
 }
 
 // Whether decode_to_light inverts `transfer` (linear included).
 constexpr bool is_decodable(TransferFunction transfer) {
-  return transfer != TransferFunction::kOther;
+  return transfer != TransferFunction::kOther && transfer != TransferFunction::kUnknown;
 }
 
 // The light L in 0..1 of an encoded value v in 0..1 (values outside are clamped: a

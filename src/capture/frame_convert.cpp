@@ -150,6 +150,26 @@ Status check_frame(const device::Frame& frame, const device::StreamFormat& forma
   return {};
 }
 
+namespace {
+
+// Whether the format delivers the sensor's own samples (mono or mosaic DN, as convert_frame
+// unpacks them) rather than an image processor's output (YCbCr, RGB, JPEG).
+bool carries_sensor_samples(const PixelFormatInfo& info) {
+  switch (info.packing) {
+    case SamplePacking::kJpeg:
+    case SamplePacking::kYuyv:
+    case SamplePacking::kRgb24:
+    case SamplePacking::kBgr24:
+    case SamplePacking::kNv12:
+    case SamplePacking::kYuv420:
+      return false;
+    default:
+      return true;
+  }
+}
+
+}  // namespace
+
 Result<ConvertedFrame> convert_frame(const device::Frame& frame, const device::StreamFormat& format,
                                      int sensor_bit_depth, int black_level_dn,
                                      bool isp_subtracts_black) {
@@ -185,9 +205,13 @@ Result<ConvertedFrame> convert_frame(const device::Frame& frame, const device::S
       out = unpack_raw(frame, format, info, sensor_bit_depth, black_level_dn);
       break;
   }
-  // A webcam's YUYV declares sRGB or BT.709: its DN are not light until decoded.
-  out.transfer = format.transfer;
-  out.linear = info.linear && format.transfer == TransferFunction::kLinear;
+  // A webcam's YUYV declares sRGB or BT.709: its DN are not light until decoded. A camera
+  // that declares no colour space leaves the curve unknown, but a raw format's samples are
+  // the sensor's DN, linear whatever it declares; a processed format's stay unknown.
+  out.transfer = format.transfer == TransferFunction::kUnknown && carries_sensor_samples(info)
+                     ? TransferFunction::kLinear
+                     : format.transfer;
+  out.linear = info.linear && out.transfer == TransferFunction::kLinear;
   out.pixel_format = stored_format_name(info, out.bit_depth);
   out.delivered_format = fourcc_name(format.fourcc);
   return out;

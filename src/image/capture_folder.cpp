@@ -47,18 +47,24 @@ std::string_view name_of(FrameLayout layout) {
 Status check_mono_linear(const FrameSidecar& sidecar, const std::string& what) {
   if (!sidecar.linear) {
     const bool jpeg = sidecar.pixel_format == "MJPG" || sidecar.pixel_format == "JPEG";
+    const bool undeclared = sidecar.transfer == TransferFunction::kUnknown;
     const std::string curve = sidecar.transfer == TransferFunction::kLinear ? ""
                               : sidecar.transfer == TransferFunction::kOther
                                   ? "a tone curve"
                                   : "the " + std::string(name_of(sidecar.transfer)) + " curve";
-    return make_error("not_linear",
-                      what +
-                          (jpeg ? " is a JPEG (" + sidecar.delivered_format + "): lossy" +
-                                      (curve.empty() ? "" : " and encoded with " + curve)
-                                : " (" + sidecar.delivered_format + ") is encoded with " + curve +
-                                      ", as the camera declared") +
-                          ", so its DN are not proportional to light; capture a raw or "
-                          "linear format instead (GREY, Y16, a Bayer format)");
+    const std::string why =
+        undeclared ? (jpeg ? " is a JPEG (" + sidecar.delivered_format + "): lossy, and"
+                           : " (" + sidecar.delivered_format + "):") +
+                         " the camera declares no colour space for it, so how its DN relate to "
+                         "light is not known"
+                   : (jpeg ? " is a JPEG (" + sidecar.delivered_format + "): lossy" +
+                                 (curve.empty() ? "" : " and encoded with " + curve)
+                           : " (" + sidecar.delivered_format + ") is encoded with " + curve +
+                                 ", as the camera declared") +
+                         ", so its DN are not proportional to light";
+    return make_error("not_linear", what + why +
+                                        "; capture a raw or linear format instead (GREY, Y16, "
+                                        "a Bayer format)");
   }
   if (sidecar.layout != FrameLayout::kMono)
     return make_error("unsupported", what + " is " +
@@ -129,7 +135,7 @@ Result<FrameSidecar> frame_sidecar_from_json(const nlohmann::json& json) {
       const auto named = transfer_function_named(json["transfer"].get<std::string>());
       if (!named)
         return make_error("bad_sidecar", "frame sidecar: transfer " + json["transfer"].dump() +
-                                             " is not linear, srgb, bt709 or other");
+                                             " is not linear, srgb, bt709, other or unknown");
       sidecar.transfer = *named;
     }
     if (sidecar.transfer != TransferFunction::kLinear && sidecar.linear)

@@ -221,6 +221,26 @@ TEST_F(Libcamera, BackendBracketSignalFollowsTheExposuresAsked) {
     EXPECT_TRUE(step["timestamps_increase"].get<bool>()) << step.dump();
   }
 }
+
+// A stream's curve is what the V4L2 format declares, as libcamera reads it: with the
+// colour fields filled, the raw GREY is linear and the ISP's YUYV its sRGB; with them left
+// at DEFAULT (a driver that declares nothing), libcamera gives no colour space, and the
+// curve is unknown for both (capture then takes GREY's samples as linear and refuses to
+// read YUYV as light), where camlab once took it as linear.
+TEST_F(Libcamera, AStreamWithoutAColourSpaceHasAnUnknownCurve) {
+  for (const bool declared : {true, false}) {
+    SCOPED_TRACE(declared ? "declared" : "undeclared");
+    nlohmann::json camera = nlohmann::json::parse(kCamera);
+    camera["isp"] = {{"transfer", "srgb"}, {"declares_colour_space", declared}};
+    std::ofstream(dir / "camera.json") << camera.dump();
+    auto run = run_cli(vcam("uniform.json") + self_executable() + " --libcamera-child transfer");
+    ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
+    const auto report = nlohmann::json::parse(run.out);
+    ASSERT_TRUE(report["errors"].empty()) << report.dump(2);
+    EXPECT_EQ(report["transfer"]["GREY"], declared ? "linear" : "unknown") << report.dump(2);
+    EXPECT_EQ(report["transfer"]["YUYV"], declared ? "srgb" : "unknown") << report.dump(2);
+  }
+}
 #endif
 
 }  // namespace
@@ -229,8 +249,9 @@ TEST_F(Libcamera, BackendBracketSignalFollowsTheExposuresAsked) {
 namespace {
 
 // The child: camlab's libcamera backend against the camera of this `camlab vcam run`.
-// Prints {"cameras", "controls", "bracket", "errors"} as JSON on stdout.
-int run_child() {
+// Prints {"cameras", "controls", "bracket", "errors"} as JSON on stdout; with
+// `transfers_only`, {"cameras", "controls", "transfer": {fourcc: curve}, "errors"}.
+int run_child(bool transfers_only) {
   using namespace camlab;
   nlohmann::json report = {{"cameras", nlohmann::json::array()},
                            {"controls", nlohmann::json::object()},
@@ -254,6 +275,15 @@ int run_child() {
   for (const auto& c : *controls)
     report["controls"][c.name] = {
         {"min", c.minimum}, {"max", c.maximum}, {"default", c.default_value}, {"unit", c.unit}};
+  if (transfers_only) {
+    // The curve libcamera's stream configuration gives each format (camera.h's transfer).
+    for (const char* fourcc : {"GREY", "YUYV"}) {
+      auto configured = camera.configure({fourcc, 160, 120, 0, 0, {}});
+      if (!configured) return finish(configured.error().message);
+      report["transfer"][configured->fourcc] = std::string(name_of(configured->transfer));
+    }
+    return finish("");
+  }
   auto format = camera.configure({"GREY", 160, 120, 0, 0, {}});
   if (!format) return finish(format.error().message);
   if (format->fourcc != "GREY" || format->width != 160)
@@ -297,7 +327,8 @@ int run_child() {
 
 int main(int argc, char** argv) {
 #ifdef CAMLAB_HAVE_LIBCAMERA
-  if (argc > 1 && std::string(argv[1]) == "--libcamera-child") return run_child();
+  if (argc > 1 && std::string(argv[1]) == "--libcamera-child")
+    return run_child(argc > 2 && std::string(argv[2]) == "transfer");
 #endif
   ::testing::InitGoogleTest(&argc, argv);
   return camlab::testing::run_all_tests_and_summarise();

@@ -371,7 +371,10 @@ class LibcameraCamera final : public Camera {
     format.bytes_per_line = cfg.stride;
     format.size_bytes = cfg.frameSize;
     // The curve the pipeline reports for the stream (from the V4L2 format's colour fields
-    // on uvcvideo); no colour space reported leaves it linear, as on a raw stream.
+    // on uvcvideo). No colour space reported (libcamera gives none for a V4L2 colour space
+    // left at DEFAULT or one it does not map) is unknown: capture takes a raw format's
+    // samples as linear and refuses to read a processed one's as light.
+    format.transfer = TransferFunction::kUnknown;
     if (cfg.colorSpace) {
       using Transfer = libcamera::ColorSpace::TransferFunction;
       switch (cfg.colorSpace->transferFunction) {

@@ -36,14 +36,14 @@ constexpr double kDark = 0.02, kLight = 0.8;  // 40:1, a printed chart's
 
 // Mono, 12 bits, black 64, noise-free (the curve is under test); focused at infinity, so
 // the edge 4 m away is blurred by a 2-px disk.
-json edge_camera_json(const char* transfer, bool noise = false) {
+json edge_camera_json(const char* transfer, bool noise = false, bool declares_colour_space = true) {
   json camera = mock::testing::pinhole_camera_json(kEdgeWidth, kEdgeHeight);
   camera["sensor"]["read_noise_e"] = noise ? 5.0 : 0.0;
   camera["sensor"]["shot_noise"] = noise;
   camera["timing"] = {{"frame_interval_us", 10000}, {"control_latency_frames", 0}};
   camera["controls"]["exposure_time_absolute"] = {
       {"min", 1}, {"max", 100}, {"default", kEdgeExposureSteps}};
-  camera["isp"] = {{"transfer", transfer}};
+  camera["isp"] = {{"transfer", transfer}, {"declares_colour_space", declares_colour_space}};
   return camera;
 }
 
@@ -59,16 +59,17 @@ json edge_scene_json() {
              {"pose", {{"position_m", {0.0, 0.0, 4.0}}}}}}}};
 }
 
-// One YUYV frame of the edge into `dir`.
-void capture_yuyv(const char* transfer, const std::filesystem::path& dir, bool noise = false) {
-  testing::VirtualCamera vcam =
-      testing::open_virtual_camera(edge_camera_json(transfer, noise), edge_scene_json(), false);
+// One frame of the edge into `dir`, YUYV unless `fourcc` says otherwise.
+void capture_yuyv(const char* transfer, const std::filesystem::path& dir, bool noise = false,
+                  bool declares_colour_space = true, const char* fourcc = "YUYV") {
+  testing::VirtualCamera vcam = testing::open_virtual_camera(
+      edge_camera_json(transfer, noise, declares_colour_space), edge_scene_json(), false);
   auto controls = vcam.camera->controls();
   auto formats = vcam.camera->formats();
   ASSERT_TRUE(controls.ok() && formats.ok());
   const json request = {
       {"kind", "single"},
-      {"format", {{"fourcc", "YUYV"}, {"width", kEdgeWidth}, {"height", kEdgeHeight}}}};
+      {"format", {{"fourcc", fourcc}, {"width", kEdgeWidth}, {"height", kEdgeHeight}}}};
   auto plan = plan_capture(request, *controls, *formats, vcam.traits);
   ASSERT_TRUE(plan.ok()) << plan.error().message;
   CaptureOptions options;
@@ -147,6 +148,41 @@ TEST(TransferCapture, AnSrgbYuyvFrameSaysSoAndDecodesToTheTruthsLight) {
   EXPECT_EQ(channels.error().code, ErrorCode::kNotLinear);
   EXPECT_NE(channels.error().message.find("srgb curve"), std::string::npos)
       << channels.error().message;
+}
+
+// A driver that leaves the colour fields at DEFAULT declares no curve: the YUYV frame says
+// "unknown", and neither the level measurements nor the decoding read it as light (its
+// values are sRGB-encoded here, which nothing in the stream tells); the raw Y16 of the same
+// camera is the sensor's DN, linear.
+TEST(TransferCapture, AFormatWithoutAColourSpaceIsNotReadAsLightUnlessItIsRaw) {
+  testing::ScratchDir dir("transfer_undeclared");
+  capture_yuyv("srgb", dir / "yuyv", false, /*declares_colour_space=*/false);
+  capture_yuyv("srgb", dir / "y16", false, /*declares_colour_space=*/false, "Y16 ");
+  auto yuyv = image::CaptureFolder::open(dir / "yuyv");
+  auto y16 = image::CaptureFolder::open(dir / "y16");
+  ASSERT_TRUE(yuyv.ok() && y16.ok());
+  auto side = yuyv->load_sidecar(0);
+  auto stored = yuyv->load_stored_image(0);
+  ASSERT_TRUE(side.ok() && stored.ok());
+  EXPECT_EQ(side->transfer, TransferFunction::kUnknown);
+  EXPECT_FALSE(side->linear);
+  auto channels = analysis::measurable_channels(*side);
+  auto light = image::decode_to_light(*stored, *side);
+  ASSERT_FALSE(channels.ok());
+  ASSERT_FALSE(light.ok());
+  for (const auto& refused : {channels.error(), light.error()}) {
+    EXPECT_EQ(refused.code, ErrorCode::kNotLinear);
+    EXPECT_NE(refused.message.find("declares no colour space"), std::string::npos)
+        << refused.message;
+  }
+  // The sidecar says so on disk, and reads back the same.
+  const json on_disk = json::parse(std::ifstream(dir / "yuyv" / "frame_000000.json"));
+  EXPECT_EQ(on_disk["transfer"], "unknown");
+  auto raw = y16->load_sidecar(0);
+  ASSERT_TRUE(raw.ok());
+  EXPECT_EQ(raw->transfer, TransferFunction::kLinear);
+  EXPECT_TRUE(raw->linear);
+  EXPECT_TRUE(analysis::measurable_channels(*raw).ok());
 }
 
 TEST(TransferCapture, TheSfrOfAnSrgbCaptureIsTheLinearCapturesOnceDecoded) {

@@ -278,6 +278,12 @@ TEST(TransferOfV4l2Format, DefaultMapsByColourSpaceAndExplicitValuesAreKept) {
             TransferFunction::kBt709);
   EXPECT_EQ(transfer_function_of(V4L2_COLORSPACE_SRGB, V4L2_XFER_FUNC_SMPTE2084),
             TransferFunction::kOther);
+  // Both left at DEFAULT: nothing declared, not the kernel macro's BT.709 guess; an explicit
+  // curve still says what it is.
+  EXPECT_EQ(transfer_function_of(V4L2_COLORSPACE_DEFAULT, V4L2_XFER_FUNC_DEFAULT),
+            TransferFunction::kUnknown);
+  EXPECT_EQ(transfer_function_of(V4L2_COLORSPACE_DEFAULT, V4L2_XFER_FUNC_SRGB),
+            TransferFunction::kSrgb);
   // The kernel's own macro agrees wherever camlab decodes.
   for (uint32_t cs : {V4L2_COLORSPACE_SRGB, V4L2_COLORSPACE_JPEG, V4L2_COLORSPACE_REC709,
                       V4L2_COLORSPACE_BT2020, V4L2_COLORSPACE_RAW}) {
