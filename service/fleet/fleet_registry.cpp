@@ -33,8 +33,9 @@ std::optional<FleetHost> FleetRegistry::find_host(const std::string& name) const
 }
 
 std::optional<FleetHost> FleetRegistry::host(const std::string& name) {
-  if (auto found = find_host(name)) return found;
-  if (!refresh()) return std::nullopt;
+  std::optional<FleetHost> found = find_host(name);
+  if (found && found->state == "live" && !found->url.empty()) return found;
+  if (!refresh()) return found;
   return find_host(name);
 }
 

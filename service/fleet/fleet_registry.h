@@ -31,7 +31,8 @@ class FleetRegistry {
   // Reads the fleet from the database.
   Status refresh();
   std::vector<FleetHost> hosts() const;
-  // The host named `name` (refreshing once if unknown).
+  // The host named `name`, refreshing once unless the copy at hand is live with a URL
+  // (a starting host holds its name with none yet; a restarted one was expired).
   std::optional<FleetHost> host(const std::string& name);
   // Camera `camera_id` of `host` (refreshing once if unknown).
   std::optional<FleetCamera> camera(const std::string& host, const std::string& camera_id);

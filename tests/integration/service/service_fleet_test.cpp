@@ -402,6 +402,45 @@ TEST_F(ServiceFleet, ARigCaptureCalibratesIntoTheRigsBaseline) {
 // refused at start, before it touches any job of that name, and the live host's capture
 // runs on; a kill -9 and restart of the same host (same data folder, same boot) takes its
 // name back at once and interrupts only its own jobs.
+// A restarting host first holds its name (state live, no URL) and joins with its URL once
+// it serves. In between, a request for its job's frames through another host got a 307
+// to a relative location nobody could follow (CI saw it after a restart); now the fleet
+// lists the host as starting and the request is refused as not served yet.
+TEST_F(ServiceFleet, AHostHoldingItsNameBeforeItServesIsStartingNotARedirect) {
+  for (const char* name : {"host-0", "host-1"})
+    ASSERT_NE(fleet_->start_host(name, 3000), nullptr) << name;
+  ASSERT_TRUE(fleet_->wait_live(*fleet_->host("host-0"), 2).is_object()) << fleet_->logs();
+  Daemon& host1 = *fleet_->host("host-1");
+  auto capture = host1.post("/v1/cameras/" + url_segment(host1.camera_id()) + "/captures",
+                            {{"kind", "single"}});
+  ASSERT_EQ(capture.status, 202) << capture.body;
+  const int64_t id = capture.json()["id"];
+  ASSERT_EQ(host1.wait_job(id, finished, std::chrono::seconds(60))["state"], "succeeded");
+
+  // host-1 stops, and its row is what a new host-1 writes while it starts (take_name with
+  // no URL yet; a lease long enough that nobody expires it meanwhile).
+  EXPECT_EQ(host1.stop(SIGKILL), 128 + SIGKILL);
+  bool ok = false;
+  fleet_->cluster().sql("camlab",
+                        "UPDATE hosts SET url = '', state = 'live', lease_until = "
+                        "clock_timestamp() + interval '60 seconds' WHERE name = 'host-1'",
+                        &ok);
+  ASSERT_TRUE(ok);
+  const Daemon& host0 = *fleet_->host("host-0");
+  std::string state;
+  for (int i = 0; i < 100 && state != "starting"; ++i) {  // host-0 rereads at each renewal
+    const json fleet = host0.get("/v1/fleet").json();
+    for (const json& h : fleet["hosts"])
+      if (h["name"] == "host-1") state = h["state"].get<std::string>();
+    if (state != "starting") std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  EXPECT_EQ(state, "starting");
+  auto frames = host0.get("/v1/jobs/" + std::to_string(id) + "/frames");
+  EXPECT_EQ(frames.status, 503) << frames.body;
+  EXPECT_EQ(frames.json()["error"]["code"], "host_unavailable") << frames.body;
+  EXPECT_NE(frames.body.find("starting"), std::string::npos) << frames.body;
+}
+
 TEST_F(ServiceFleet, ASecondHostWithALiveHostsNameIsRefusedAndARestartRejoins) {
   Daemon* lab = fleet_->start_host("lab", 3000);
   ASSERT_NE(lab, nullptr);
