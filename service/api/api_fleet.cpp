@@ -49,11 +49,9 @@ nlohmann::json fleet_json(Fleet& fleet) {
                          {"running_job", camera.running_job ? nlohmann::json(camera.running_job)
                                                             : nlohmann::json(nullptr)},
                          {"queued_jobs", camera.queued_jobs}});
-    // A live host without a URL holds its name while it starts: it does not serve yet.
-    const bool starting = host.state == "live" && host.url.empty();
     hosts.push_back({{"name", host.name},
                      {"url", host.url},
-                     {"state", starting ? std::string("starting") : host.state},
+                     {"state", host.starting() ? std::string("starting") : host.state},
                      {"started_ms", host.started_ms},
                      {"lease_ms", host.lease_ms},
                      {"lease_remaining_ms", host.lease_remaining_ms},

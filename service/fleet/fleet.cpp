@@ -125,7 +125,7 @@ Result<std::string> Fleet::url_of(const std::string& name) {
     return make_error("host_unavailable",
                       "host " + name + " is not serving (" + host->state +
                           "); what it captured stays on its disk until it is back");
-  if (host->url.empty())
+  if (host->starting())
     return make_error("host_unavailable",
                       "host " + name + " is starting and does not serve yet; ask again shortly");
   return host->url;

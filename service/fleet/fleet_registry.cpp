@@ -34,7 +34,7 @@ std::optional<FleetHost> FleetRegistry::find_host(const std::string& name) const
 
 std::optional<FleetHost> FleetRegistry::host(const std::string& name) {
   std::optional<FleetHost> found = find_host(name);
-  if (found && found->state == "live" && !found->url.empty()) return found;
+  if (found && found->serving()) return found;
   if (!refresh()) return found;
   return find_host(name);
 }

@@ -56,6 +56,9 @@ struct FleetHost {
   // (round trip / 2 as its uncertainty).
   int64_t clock_offset_us = 0, clock_uncertainty_us = 0;
   std::vector<FleetCamera> cameras;
+  // A live host without a URL holds its name while it starts: it does not serve yet.
+  bool starting() const { return state == "live" && url.empty(); }
+  bool serving() const { return state == "live" && !url.empty(); }
 };
 
 struct LeaseRenewal {
