@@ -2,7 +2,8 @@
 // (Frans van den Bergh, BSD licence, built from its own source: docs/analysis.md says how),
 // on the same edges: tests/unit/analysis/sfr_edges.h's analytic Gaussian (sigma 0.45-1.6
 // px) and disk (1.5-5 px) edges, 5 angles from 2.5 to 20 deg off the columns and rows,
-// 8 x 8 samples a pixel, written as 16-bit PNGs (both tools read the same files), without
+// 8 x 8 samples a pixel, then the 40 sharp ones (sigma 0.1-0.35 px, MTF50 0.41-0.59 cycles/px),
+// written as 16-bit PNGs (both tools read the same files), without
 // noise and at contrast-to-noise 50 (SEEDS noise draws of each). MTF Mapper reads each
 // image as one region (--single-roi); camlab measures the segment through the centre the
 // unit tests use (120 px along it) and the whole edge. Prints each tool's MTF50 error against the
@@ -107,47 +108,48 @@ int main(int argc, char** argv) {
   std::printf(
       "| tool | noise | edges | p95, truth 0.2-0.3 cy/px | p95, all | worst | mean (bias) | time "
       "per edge | not measured |\n|---|---|---|---|---|---|---|---|---|\n");
-  for (double cnr : {0.0, 50.0}) {
-    Tally camlab, camlab_whole, mapper;
-    unsigned seed = 1;
-    for (int draw = 0; draw < (cnr > 0 ? seeds : 1); ++draw)
-      for (const auto& [optics, angle, turned] : test_edges()) {
-        const double truth = true_mtf50(optics, angle);
-        cv::Mat drawn = draw_edge(optics, angle, turned, seed++, cnr), image16;
-        drawn.convertTo(image16, CV_16U);
-        const fs::path png = work / "edge.png";
-        cv::imwrite(png.string(), image16);
-        // camlab on the PNG as written (the same quantised values MTF Mapper reads).
-        const cv::Mat read = cv::imread(png.string(), cv::IMREAD_UNCHANGED);
-        auto t0 = std::chrono::steady_clock::now();
-        const auto r = slanted_edge_sfr(read, centre_segment(angle, turned));
-        const double camlab_s =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        if (r.ok() && r->status == "ok" && r->mtf50_cy_px)
-          camlab.add(*r->mtf50_cy_px, truth, camlab_s);
-        else
-          ++camlab.failed;
-        // The whole edge, as MTF Mapper reads it: every row of the image.
-        const auto whole = slanted_edge_sfr(
-            read, centre_segment(angle, turned, 0.5 * kSize / std::cos(angle * kPi / 180)));
-        if (whole.ok() && whole->status == "ok" && whole->mtf50_cy_px)
-          camlab_whole.add(*whole->mtf50_cy_px, truth, camlab_s);
-        else
-          ++camlab_whole.failed;
-        t0 = std::chrono::steady_clock::now();
-        const auto m =
-            binary == "-" ? std::nullopt : mtf_mapper_mtf50(binary, png, work / "mtf_mapper");
-        const double mapper_s =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-        if (m)
-          mapper.add(*m, truth, mapper_s);
-        else
-          ++mapper.failed;
-      }
-    const char* noise = cnr > 0 ? "CNR 50" : "none";
-    print_row("camlab", noise, camlab);
-    print_row("camlab, the whole edge", noise, camlab_whole);
-    print_row("MTF Mapper", noise, mapper);
-  }
+  for (const bool sharp : {false, true})
+    for (double cnr : {0.0, 50.0}) {
+      Tally camlab, camlab_whole, mapper;
+      unsigned seed = 1;
+      for (int draw = 0; draw < (cnr > 0 ? seeds : 1); ++draw)
+        for (const auto& [optics, angle, turned] : sharp ? sharp_edges() : test_edges()) {
+          const double truth = true_mtf50(optics, angle);
+          cv::Mat drawn = draw_edge(optics, angle, turned, seed++, cnr), image16;
+          drawn.convertTo(image16, CV_16U);
+          const fs::path png = work / "edge.png";
+          cv::imwrite(png.string(), image16);
+          // camlab on the PNG as written (the same quantised values MTF Mapper reads).
+          const cv::Mat read = cv::imread(png.string(), cv::IMREAD_UNCHANGED);
+          auto t0 = std::chrono::steady_clock::now();
+          const auto r = slanted_edge_sfr(read, centre_segment(angle, turned));
+          const double camlab_s =
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+          if (r.ok() && r->status == "ok" && r->mtf50_cy_px)
+            camlab.add(*r->mtf50_cy_px, truth, camlab_s);
+          else
+            ++camlab.failed;
+          // The whole edge, as MTF Mapper reads it: every row of the image.
+          const auto whole = slanted_edge_sfr(
+              read, centre_segment(angle, turned, 0.5 * kSize / std::cos(angle * kPi / 180)));
+          if (whole.ok() && whole->status == "ok" && whole->mtf50_cy_px)
+            camlab_whole.add(*whole->mtf50_cy_px, truth, camlab_s);
+          else
+            ++camlab_whole.failed;
+          t0 = std::chrono::steady_clock::now();
+          const auto m =
+              binary == "-" ? std::nullopt : mtf_mapper_mtf50(binary, png, work / "mtf_mapper");
+          const double mapper_s =
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+          if (m)
+            mapper.add(*m, truth, mapper_s);
+          else
+            ++mapper.failed;
+        }
+      const std::string noise = std::string(cnr > 0 ? "CNR 50" : "none") + (sharp ? ", sharp" : "");
+      print_row("camlab, 120 px of the edge", noise.c_str(), camlab);
+      print_row("camlab, the whole edge", noise.c_str(), camlab_whole);
+      print_row("MTF Mapper", noise.c_str(), mapper);
+    }
   return 0;
 }

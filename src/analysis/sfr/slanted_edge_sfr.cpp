@@ -341,7 +341,8 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
   // Step 3: the ESF.
   const int os = options.oversampling;
   const int bins = static_cast<int>(std::lround(2 * hw * os));
-  std::vector<double> sum(static_cast<size_t>(bins), 0.0), where(static_cast<size_t>(bins), 0.0);
+  std::vector<double> sum(static_cast<size_t>(bins), 0.0), where(static_cast<size_t>(bins), 0.0),
+      where_squared(static_cast<size_t>(bins), 0.0);
   std::vector<int> count(static_cast<size_t>(bins), 0);
   int rows = 0;
   bool clipped = false;
@@ -359,8 +360,10 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
       const double v = view.at(y, x);
       if (!std::isfinite(v)) continue;  // a site of another colour
       if (options.saturation_level > 0 && v >= options.saturation_level) clipped = true;
+      const double position = (d + hw) * os - 0.5;  // bins, from bin 0's centre
       sum[static_cast<size_t>(bin)] += v;
-      where[static_cast<size_t>(bin)] += (d + hw) * os - 0.5;
+      where[static_cast<size_t>(bin)] += position;
+      where_squared[static_cast<size_t>(bin)] += position * position;
       ++count[static_cast<size_t>(bin)];
     }
   }
@@ -377,29 +380,38 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
   // slant spreads the samples unevenly within a bin (at 20 deg they cluster), so the bin
   // is no box average of the ESF. The ESF on the bins' centres is interpolated linearly
   // between those points (a box correction instead overstated MTF50 by 1.5% at 20 deg).
-  std::vector<double> at, value;
+  std::vector<double> at, value, spread;
   for (int k = 0; k < bins; ++k)
-    if (count[static_cast<size_t>(k)] > 0) {
-      at.push_back(where[static_cast<size_t>(k)] / count[static_cast<size_t>(k)]);
-      value.push_back(sum[static_cast<size_t>(k)] / count[static_cast<size_t>(k)]);
+    if (const double n = count[static_cast<size_t>(k)]; n > 0) {
+      at.push_back(where[static_cast<size_t>(k)] / n);
+      value.push_back(sum[static_cast<size_t>(k)] / n);
+      spread.push_back(
+          std::max(0.0, where_squared[static_cast<size_t>(k)] / n - at.back() * at.back()));
     }
   if (at.size() < 2) {
     r.status = std::string(kSfrTooFewRows);
     r.message = "the region holds too few pixels for an ESF";
     return r;
   }
-  std::vector<double> esf(static_cast<size_t>(bins), 0.0);
+  // Each bin centre's smear (bins^2): a bin's mean is the ESF at its samples' mean distance
+  // plus half its second derivative times the samples' variance about it, and the linear
+  // interpolation between two such points adds t (1 - t) h^2 of it. Both low-pass the ESF
+  // like a Gaussian of that variance; step 5 divides the SFR by it (uncorrected, MTF50 of
+  // sharp edges, 0.41-0.59 cycles/px, read 0.5% low at 8 bins a pixel, 1.8% at 4).
+  std::vector<double> esf(static_cast<size_t>(bins), 0.0), smear(static_cast<size_t>(bins), 0.0);
   size_t next = 0;
   for (int k = 0; k < bins; ++k) {
     while (next < at.size() && at[next] < k) ++next;
-    if (next == 0)
-      esf[static_cast<size_t>(k)] = value.front();
-    else if (next == at.size())
-      esf[static_cast<size_t>(k)] = value.back();
-    else
-      esf[static_cast<size_t>(k)] = value[next - 1] + (value[next] - value[next - 1]) *
-                                                          (k - at[next - 1]) /
-                                                          (at[next] - at[next - 1]);
+    const auto kk = static_cast<size_t>(k);
+    if (next == 0) {
+      esf[kk] = value.front(), smear[kk] = spread.front();
+    } else if (next == at.size()) {
+      esf[kk] = value.back(), smear[kk] = spread.back();
+    } else {
+      const double h = at[next] - at[next - 1], t = (k - at[next - 1]) / h;
+      esf[kk] = value[next - 1] + (value[next] - value[next - 1]) * t;
+      smear[kk] = (1 - t) * spread[next - 1] + t * spread[next] + t * (1 - t) * h * h;
+    }
   }
   // Levels: the mean of the outer tenth on each side.
   const int tenth = std::max(1, bins / 10);
@@ -477,8 +489,14 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
 
   // Step 5: the SFR.
   const double bin_px = 1.0 / os;
-  double dc = 0;
-  for (int k = 0; k < bins; ++k) dc += lsf[static_cast<size_t>(k)];
+  double dc = 0, smear_weighted = 0, smear_weight = 0;
+  for (int k = 0; k < bins; ++k) {
+    const double v = lsf[static_cast<size_t>(k)];
+    dc += v;
+    smear_weighted += std::fabs(v) * smear[static_cast<size_t>(k)], smear_weight += std::fabs(v);
+  }
+  // The ESF's smear where the spread is (step 3), px^2.
+  const double smear_px2 = smear_weight > 0 ? smear_weighted / smear_weight * bin_px * bin_px : 0.0;
   if (!(std::abs(dc) > 0)) {
     r.status = std::string(kSfrNoEdge);
     r.message = "the edge's line spread sums to nothing";
@@ -502,7 +520,9 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
       const double re = phasor_re * step_re - phasor_im * step_im;
       phasor_im = phasor_re * step_im + phasor_im * step_re, phasor_re = re;
     }
-    const double correction = sinc(2 * std::numbers::pi * fr * bin_px);
+    const double correction =
+        sinc(2 * std::numbers::pi * fr * bin_px) *
+        std::exp(-2 * std::numbers::pi * std::numbers::pi * fr * fr * smear_px2);
     r.frequency_cy_px.push_back(fr);
     r.sfr.push_back(std::hypot(sum_re, sum_im) / std::abs(dc) / correction);
   }

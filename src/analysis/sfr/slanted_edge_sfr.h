@@ -26,7 +26,9 @@
 //      the spread left out);
 //   5. the SFR: the LSF's Fourier transform (evaluated directly, every 0.005 cycles/px),
 //      normalised at zero frequency, divided by the central difference's response
-//      sin(2 pi f d) / (2 pi f d) (d the bin width).
+//      sin(2 pi f d) / (2 pi f d) (d the bin width) and by the ESF's own smear in step 3,
+//      exp(-2 pi^2 f^2 v): v the samples' spread within their bins plus what the
+//      interpolation to the bin centres adds, averaged under the LSF.
 // Frequencies are in cycles per pixel perpendicular to the edge.
 //
 // Flags (never a silent number): an edge within 2 deg of a pixel axis (too few phases),

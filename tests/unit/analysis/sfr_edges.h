@@ -118,6 +118,16 @@ inline std::vector<TestEdge> test_edges() {
   return edges;
 }
 
+// Sharp edges, for the top of the range: Gaussian sigma 0.1-0.35 px, MTF50 0.41-0.59
+// cycles/px (the pixel's own area nearly all of it), at the same 5 angles: 40.
+inline std::vector<TestEdge> sharp_edges() {
+  std::vector<TestEdge> edges;
+  for (double size : {0.1, 0.2, 0.3, 0.35})
+    for (double angle : {2.5, 5.0, 8.0, 12.0, 20.0})
+      for (bool turned : {false, true}) edges.push_back({Optics{false, size}, angle, turned});
+  return edges;
+}
+
 // The segment measured on draw_edge()'s image: 120 px of the edge about the centre (or
 // `half_length_px` each side).
 inline EdgeSegment centre_segment(double angle_deg, bool turned, double half_length_px = 60) {
