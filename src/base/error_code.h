@@ -164,7 +164,8 @@ inline constexpr std::array kErrorCodes = {
                   "this host has lost its lease; retry shortly."},
     ErrorCodeInfo{ErrorCode::kHostUnavailable, "host_unavailable", 503,
                   "The fleet host that owns the camera, or keeps the job's frames, is not "
-                  "serving (its lease expired or it left); its frames stay on its disk."},
+                  "serving (its lease expired, it left, or it is starting and does not "
+                  "listen yet); its frames stay on its disk."},
     ErrorCodeInfo{ErrorCode::kNoDevice, "no_device", 503,
                   "The camera is not there: never found, or unplugged."},
     ErrorCodeInfo{ErrorCode::kDeviceLost, "device_lost", 503,
