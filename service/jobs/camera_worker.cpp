@@ -8,6 +8,15 @@
 #include "service/store/job_store.h"
 
 namespace camlab::service {
+namespace {
+
+int64_t unix_now_ms() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
 
 CameraWorker::CameraWorker(device::DeviceEntry entry, OpenCamera open, CameraWorkerOptions options,
                            JobStore& store, Metrics& metrics)
@@ -68,9 +77,7 @@ void CameraWorker::retire(const std::string& reason) {
     stopping_ = true;
     cancel_ = true;
     snapshot_.gone = true;
-    snapshot_.gone_since_ms = std::chrono::duration_cast<std::chrono::milliseconds>(
-                                  std::chrono::system_clock::now().time_since_epoch())
-                                  .count();
+    snapshot_.gone_since_ms = unix_now_ms();
     snapshot_.available = false;
     snapshot_.unavailable_reason = reason;
   }
@@ -211,6 +218,8 @@ CaptureJobEnv CameraWorker::job_env() {
       options_.traits, nlohmann::json(), options_.frame_timeout, &cancel_,
       &shutting_down_, live_.get()};
   env.source = snapshot().description;
+  env.previous_work = previous_work_;
+  env.previous_work_ended_unix_ms = previous_work_ended_unix_ms_;
   env.source["transport"] = entry_.transport;
   for (const auto& [key, value] : options_.source_extra.items()) env.source[key] = value;
   return env;
@@ -236,6 +245,9 @@ void CameraWorker::probe_latency_at_startup(device::Camera& camera) {
     std::lock_guard lock(mutex_);
     snapshot_.measuring_latency = false;
   }
+  previous_work_ = "measuring its control latency at start-up (" + std::to_string(frames) +
+                   " frames, once per camera)";
+  previous_work_ended_unix_ms_ = unix_now_ms();
   if (!probed && is_device_error(probed.error().code)) drop_camera(probed.error());
   refresh_snapshot();
 }
@@ -431,6 +443,8 @@ void CameraWorker::run_job(int64_t id) {
   } else {
     refresh_snapshot();
   }
+  previous_work_ = "job " + std::to_string(id) + " (" + job.kind + ")";
+  previous_work_ended_unix_ms_ = unix_now_ms();
   auto finished = store_.finish(id, outcome.state, outcome.error, outcome.result);
   if (!finished)
     log_error(log::Category::kJobs, "job %lld: %s", static_cast<long long>(id),

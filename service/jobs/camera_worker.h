@@ -175,6 +175,10 @@ class CameraWorker {
   Metrics& metrics_;
 
   std::unique_ptr<device::Camera> camera_;  // worker thread only
+  // The worker's last piece of work ("measuring its control latency at start-up", "job
+  // 12 (capture)") and when it ended, realtime ms: worker thread only (job_env()).
+  std::string previous_work_;
+  int64_t previous_work_ended_unix_ms_ = 0;
   const std::shared_ptr<LiveFeed> live_;
 
   mutable std::mutex mutex_;

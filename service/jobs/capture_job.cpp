@@ -198,7 +198,9 @@ JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const C
   // Everything that takes time is done: wait for the common start.
   int64_t late_us = 0;
   if (*schedule) {
-    auto waited = wait_for_start(**schedule, env.cancel);
+    auto waited = wait_for_start(
+        **schedule, env.cancel,
+        why_late(**schedule, probe_frames, env.previous_work, env.previous_work_ended_unix_ms));
     if (!waited && waited.error().code == ErrorCode::kCancelled)
       return stopped_early(env, "the wait for the synchronised start");
     if (!waited) return failed(waited.error());

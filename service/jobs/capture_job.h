@@ -46,6 +46,10 @@ struct CaptureJobEnv {
   const std::atomic<bool>* cancel = nullptr;         // user cancel or shutdown
   const std::atomic<bool>* shutting_down = nullptr;  // a cancel from shutdown ends "interrupted"
   capture::FrameTap* frame_tap = nullptr;            // the live view's feed; may be null
+  // What the camera's worker did last before this job and when it ended (realtime, ms
+  // since the epoch; 0: nothing yet), so that a synchronised start missed says why.
+  std::string previous_work;
+  int64_t previous_work_ended_unix_ms = 0;
 };
 
 JobOutcome execute_capture(device::Camera& camera, const JobRecord& job, const CaptureJobEnv& env);

@@ -44,14 +44,26 @@ Result<std::optional<CaptureSchedule>> take_schedule(nlohmann::json* request) {
   return std::optional<CaptureSchedule>(parsed);
 }
 
-Result<int64_t> wait_for_start(const CaptureSchedule& schedule, const std::atomic<bool>* cancel) {
+std::string why_late(const CaptureSchedule& schedule, int probe_frames,
+                     const std::string& previous_work, int64_t previous_work_ended_unix_ms) {
+  if (probe_frames > 0)
+    return "it measured its control latency first (" + std::to_string(probe_frames) +
+           " frames; once per camera, then kept)";
+  if (!previous_work.empty() && previous_work_ended_unix_ms > schedule.start_at_unix_ms)
+    return "it was busy until " +
+           std::to_string(previous_work_ended_unix_ms - schedule.start_at_unix_ms) +
+           " ms after the start with " + previous_work;
+  return "the job reached the camera late (a loaded host or a long queue)";
+}
+
+Result<int64_t> wait_for_start(const CaptureSchedule& schedule, const std::atomic<bool>* cancel,
+                               const std::string& why_late) {
   const int64_t start_ns = schedule.start_at_unix_ms * 1000000;
   const int64_t late_ns = clock_ns(CLOCK_REALTIME) - start_ns;
   if (late_ns > schedule.max_late_ms * 1000000)
     return make_error("busy", "the camera could begin only " + std::to_string(late_ns / 1000000) +
                                   " ms after the synchronised start (allowed: " +
-                                  std::to_string(schedule.max_late_ms) +
-                                  " ms): it was busy with an earlier job");
+                                  std::to_string(schedule.max_late_ms) + " ms): " + why_late);
   // Slices of at most 20 ms, so a cancel is seen; the last one to the start itself, on the
   // realtime clock (absolute, so a slice that begins late does not end late).
   for (;;) {

@@ -44,8 +44,16 @@ Result<std::optional<CaptureSchedule>> take_schedule(nlohmann::json* request);
 
 // Blocks until CLOCK_REALTIME reaches the start, checking `cancel` at least every 20 ms.
 // Returns how late the start was met (us, >= 0); "busy" when it is already later than
-// max_late_ms; "cancelled" when cancelled meanwhile.
-Result<int64_t> wait_for_start(const CaptureSchedule& schedule, const std::atomic<bool>* cancel);
+// max_late_ms, its message ending in `why_late` (what kept the camera, as the caller
+// knows it); "cancelled" when cancelled meanwhile.
+Result<int64_t> wait_for_start(const CaptureSchedule& schedule, const std::atomic<bool>* cancel,
+                               const std::string& why_late);
+
+// Why a capture could begin only after its synchronised start, for wait_for_start: its own
+// latency probe when it ran one (`probe_frames` > 0), else the worker's previous work when
+// that ended after the start, else a late pick-up of the job itself.
+std::string why_late(const CaptureSchedule& schedule, int probe_frames,
+                     const std::string& previous_work, int64_t previous_work_ended_unix_ms);
 
 // The kept frames' start times, as the capture runs. Thread-compatible (the worker).
 class FrameStartLog {

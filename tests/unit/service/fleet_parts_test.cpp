@@ -127,20 +127,40 @@ int64_t now_unix_ms() {
 
 TEST(SyncSchedule, AStartIsWaitedForOrRefusedWhenTooLate) {
   const int64_t start_ms = now_unix_ms() + 60;
-  auto met = wait_for_start({start_ms, 100}, nullptr);
+  auto met = wait_for_start({start_ms, 100}, nullptr, "unused");
   ASSERT_TRUE(met.ok()) << met.error().message;
   EXPECT_GE(*met, 0);
   EXPECT_GE(now_unix_ms(), start_ms);  // never before the start
 
-  auto late = wait_for_start({now_unix_ms() - 5000, 100}, nullptr);
+  auto late = wait_for_start({now_unix_ms() - 5000, 100}, nullptr, "the reason given");
   ASSERT_FALSE(late.ok());
   EXPECT_EQ(late.error().code, ErrorCode::kBusy);
   EXPECT_NE(late.error().message.find("100 ms"), std::string::npos) << late.error().message;
+  EXPECT_NE(late.error().message.find("the reason given"), std::string::npos)
+      << late.error().message;
 
   std::atomic<bool> cancel{true};
-  auto cancelled = wait_for_start({now_unix_ms() + 60000, 100}, &cancel);
+  auto cancelled = wait_for_start({now_unix_ms() + 60000, 100}, &cancel, "unused");
   ASSERT_FALSE(cancelled.ok());
   EXPECT_EQ(cancelled.error().code, ErrorCode::kCancelled);
+}
+
+// A missed start names what kept the camera: its own latency probe first, then the
+// worker's previous work when that ended after the start, else the job's late pick-up.
+TEST(SyncSchedule, AMissedStartSaysWhatKeptTheCamera) {
+  const CaptureSchedule schedule{1'000'000, 100};
+  EXPECT_NE(why_late(schedule, 12, "job 3 (capture)", 1'000'500).find("control latency first (12"),
+            std::string::npos);
+  const std::string probe_at_start_up =
+      why_late(schedule, 0,
+               "measuring its control latency at start-up (40 frames, once per camera)", 1'000'700);
+  EXPECT_NE(probe_at_start_up.find("busy until 700 ms after the start with measuring its control "
+                                   "latency at start-up"),
+            std::string::npos)
+      << probe_at_start_up;
+  EXPECT_NE(why_late(schedule, 0, "job 3 (capture)", 999'000).find("reached the camera late"),
+            std::string::npos);
+  EXPECT_NE(why_late(schedule, 0, "", 0).find("reached the camera late"), std::string::npos);
 }
 
 TEST(SyncSchedule, FrameStartsComeFromTheMonotonicTimestamps) {
