@@ -648,16 +648,17 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
     out.text += colour_text;
     list.push_back(std::move(surface));
   }
-  out.report = {{"capture", dir.string()},
-                {"method",
-                 "best focus per edge: vertex of 1/MTF50^2 against focus (points above half "
-                 "the peak); surface p0 + tx u + ty v + c rho^2 over the field (half diagonal "
-                 "= 1)"},
-                {"extension_mm_per_step", extension_mm > 0 ? json(extension_mm) : json(nullptr)},
-                {"pixel_pitch_um", pitch_um > 0 ? json(pitch_um) : json(nullptr)},
-                {"size_px", {width, height}},
-                {"surfaces", std::move(list)},
-                {"summary", std::move(summary)}};
+  out.report = {
+      {"capture", dir.string()},
+      {"method",
+       "best focus per edge: vertex of 1/MTF50^2 against focus (points at or above a "
+       "quarter of the peak); surface p0 + tx u + ty v + c rho^2 over the field (half diagonal "
+       "= 1)"},
+      {"extension_mm_per_step", extension_mm > 0 ? json(extension_mm) : json(nullptr)},
+      {"pixel_pitch_um", pitch_um > 0 ? json(pitch_um) : json(nullptr)},
+      {"size_px", {width, height}},
+      {"surfaces", std::move(list)},
+      {"summary", std::move(summary)}};
   return out;
 }
 
