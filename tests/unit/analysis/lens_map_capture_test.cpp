@@ -144,6 +144,20 @@ TEST(LensMapCapture, AstigmatismOfTheVirtualLensIsTheSurfacesDistanceAtTheCorner
     EXPECT_NEAR(measured, astigmatism_um, 0.1 * astigmatism_um) << n;
     EXPECT_NEAR(curvature, sag_um, 0.05 * std::fabs(sag_um)) << n;
   }
+  // Both f-numbers together, each weighted by its error: tighter than either, and the two
+  // agree (the renderer's astigmatism, as a lens's third-order one, does not change with
+  // the stop).
+  const auto& pooled = map->report["astigmatism_all_f_numbers"];
+  ASSERT_TRUE(pooled.is_object()) << map->report.dump(1).substr(0, 2000);
+  const double measured = pooled["astigmatism_um"].get<double>();
+  const double sigma = pooled["standard_error_um"].get<double>();
+  std::printf("all f-numbers: astigmatism %.3f +- %.3f um, chi2 %.2f\n", measured, sigma,
+              pooled["chi2"].get<double>());
+  EXPECT_NEAR(measured, astigmatism_um, 4 * sigma);
+  EXPECT_TRUE(pooled["f_numbers_agree"].get<bool>()) << pooled.dump();
+  for (const auto& s : map->report["surfaces"])
+    EXPECT_LT(sigma, s["at_sensor"]["standard_errors"]["astigmatism_um"].get<double>());
+  EXPECT_NE(map->text.find("all f-numbers: astigmatism"), std::string::npos) << map->text;
   std::filesystem::remove_all(dir);
 }
 
