@@ -2,14 +2,14 @@
 // (Frans van den Bergh, BSD licence, built from its own source: docs/analysis.md says how),
 // on the same edges: tests/unit/analysis/sfr_edges.h's analytic Gaussian (sigma 0.45-1.6
 // px) and disk (1.5-5 px) edges, 5 angles from 2.5 to 20 deg off the columns and rows,
-// 8 x 8 samples a pixel, then the 40 sharp ones (sigma 0.1-0.35 px, MTF50 0.41-0.59 cycles/px),
-// written as 16-bit PNGs (both tools read the same files), without
-// noise and at contrast-to-noise 50 (SEEDS noise draws of each). MTF Mapper reads each
-// image as one region (--single-roi); camlab measures the segment through the centre the
-// unit tests use (120 px along it) and the whole edge. Prints each tool's MTF50 error against the
-// closed-form truth: p95 over the edges whose truth lies in 0.2-0.3 cycles/px, p95 and worst over
-// all, the mean (bias), and the time per edge (camlab: the SFR call; MTF Mapper: the whole process,
-// start-up included).
+// 8 x 8 samples a pixel, then its 40 sharp ones (sigma 0.1-0.35 px, MTF50 0.41-0.59
+// cycles/px), written as 16-bit PNGs (both tools read the same files), without noise and
+// at contrast-to-noise 50 (SEEDS noise draws of each). MTF Mapper reads each image as one
+// region (--single-roi); camlab measures the segment through the centre the unit tests use
+// (120 px along it) and the whole edge. Prints each tool's MTF50 error against the
+// closed-form truth: p95 over the edges whose truth lies in 0.2-0.3 cycles/px, p95 and
+// worst over all, the mean (bias), and the time per edge (camlab: the SFR call; MTF
+// Mapper: the whole process, start-up included).
 //
 //   sfr_compare_bench MTF_MAPPER [SEEDS=4] [WORKDIR=/tmp/camlab_sfr_compare]
 //
