@@ -8,15 +8,6 @@
 #include "service/store/job_store.h"
 
 namespace camlab::service {
-namespace {
-
-int64_t unix_now_ms() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
-}  // namespace
 
 CameraWorker::CameraWorker(device::DeviceEntry entry, OpenCamera open, CameraWorkerOptions options,
                            JobStore& store, Metrics& metrics)
@@ -77,7 +68,7 @@ void CameraWorker::retire(const std::string& reason) {
     stopping_ = true;
     cancel_ = true;
     snapshot_.gone = true;
-    snapshot_.gone_since_ms = unix_now_ms();
+    snapshot_.gone_since_ms = unix_time_ms();
     snapshot_.available = false;
     snapshot_.unavailable_reason = reason;
   }
@@ -247,7 +238,7 @@ void CameraWorker::probe_latency_at_startup(device::Camera& camera) {
   }
   previous_work_ = "measuring its control latency at start-up (" + std::to_string(frames) +
                    " frames, once per camera)";
-  previous_work_ended_unix_ms_ = unix_now_ms();
+  previous_work_ended_unix_ms_ = unix_time_ms();
   if (!probed && is_device_error(probed.error().code)) drop_camera(probed.error());
   refresh_snapshot();
 }
@@ -444,7 +435,7 @@ void CameraWorker::run_job(int64_t id) {
     refresh_snapshot();
   }
   previous_work_ = "job " + std::to_string(id) + " (" + job.kind + ")";
-  previous_work_ended_unix_ms_ = unix_now_ms();
+  previous_work_ended_unix_ms_ = unix_time_ms();
   auto finished = store_.finish(id, outcome.state, outcome.error, outcome.result);
   if (!finished)
     log_error(log::Category::kJobs, "job %lld: %s", static_cast<long long>(id),

@@ -509,8 +509,8 @@ json pooled_astigmatism(const std::vector<FocusSurface>& surfaces, std::string* 
   const bool agree = chi2 <= dof + 3 * std::sqrt(2 * dof);
   *text = format_printf(
       "all f-numbers: astigmatism %.3f +- %.3f at the corner (focus units, 1 sigma of the edges' "
-      "scatter; %zu "
-      "f-numbers weighted by their errors, chi^2 %.1f for %.0f degrees of freedom%s)\n",
+      "scatter; %zu f-numbers weighted by their errors, chi^2 %.1f for %.0f degrees of "
+      "freedom%s)\n",
       mean, sigma, each.size(), chi2, dof,
       agree ? "" : ": they disagree, read each f-number's own");
   return {{"at_corner", mean}, {"standard_error", sigma},   {"f_numbers", std::move(f_numbers)},
