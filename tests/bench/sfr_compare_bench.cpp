@@ -11,9 +11,9 @@
 // worst over all, the mean (bias), and the time per edge (camlab: the SFR call; MTF
 // Mapper: the whole process, start-up included).
 //
-//   sfr_compare_bench MTF_MAPPER [SEEDS=4] [WORKDIR=/tmp/camlab_sfr_compare]
+//   sfr_compare_bench MTF_MAPPER [SEEDS=4] [WORKDIR=/tmp/camlab_sfr_compare] [steep]
 //
-// MTF_MAPPER "-": camlab alone.
+// MTF_MAPPER "-": camlab alone. "steep": the 90 edges at 24-30 deg instead (sfr_edges.h).
 //
 // Not run by ctest: MTF Mapper is not a Debian package.
 #include <algorithm>
@@ -96,13 +96,17 @@ void print_row(const char* tool, const char* noise, const Tally& t) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: %s MTF_MAPPER [SEEDS=4] [WORKDIR=/tmp/camlab_sfr_compare]\n",
+    std::fprintf(stderr,
+                 "usage: %s MTF_MAPPER [SEEDS=4] [WORKDIR=/tmp/camlab_sfr_compare] [steep]\n",
                  argv[0]);
     return 2;
   }
   const std::string binary = argv[1];
   const int seeds = argc > 2 ? std::clamp(std::atoi(argv[2]), 1, 100) : 4;
   const fs::path work = argc > 3 ? fs::path(argv[3]) : fs::path("/tmp/camlab_sfr_compare");
+  const bool steep = argc > 4 && std::string(argv[4]) == "steep";
+  const std::vector<TestEdge> standard =
+      steep ? test_edges({24.0, 26.0, 26.5, 27.0, 30.0}) : test_edges();
   fs::create_directories(work);
   cv::setNumThreads(1);
   std::printf(
@@ -113,7 +117,7 @@ int main(int argc, char** argv) {
       Tally camlab, camlab_whole, mapper;
       unsigned seed = 1;
       for (int draw = 0; draw < (cnr > 0 ? seeds : 1); ++draw)
-        for (const auto& [optics, angle, turned] : sharp ? sharp_edges() : test_edges()) {
+        for (const auto& [optics, angle, turned] : sharp ? sharp_edges() : standard) {
           const double truth = true_mtf50(optics, angle);
           cv::Mat drawn = draw_edge(optics, angle, turned, seed++, cnr), image16;
           drawn.convertTo(image16, CV_16U);
