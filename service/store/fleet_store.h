@@ -136,8 +136,10 @@ class FleetStore {
   virtual Result<std::vector<std::string>> waiting_cameras() = 0;
   // How many jobs wait (unclaimed) for `camera_id` of `host`.
   virtual Result<int> waiting(const std::string& host, const std::string& camera_id) = 0;
-  // This host's claimed jobs still queued: each must be in a worker's queue (a claim whose
-  // commit was in doubt when the connection broke is found here and queued after all).
+  // This host's claimed camera jobs (captures, latency probes) still queued: each must be
+  // in a camera worker's queue (a claim whose commit was in doubt when the connection broke
+  // is found here and queued after all). Compute jobs are not: they wait in the compute
+  // queue.
   virtual Result<std::vector<int64_t>> claimed_waiting() = 0;
 
   // Asks the host running job `id` to cancel it; false when it is not running.

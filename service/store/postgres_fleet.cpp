@@ -362,9 +362,13 @@ Result<std::vector<int64_t>> PostgresFleet::claimed_waiting() {
   std::lock_guard lock(mutex_);
   return conn_.transact("find claimed jobs", [&](pqxx::work& tx) {
     std::vector<int64_t> ids;
-    for (const pqxx::row& row : tx.exec_params("SELECT id FROM jobs WHERE host = $1 AND "
-                                               "state = 'queued' AND claimed ORDER BY id",
-                                               host_))
+    // Only the kinds a camera worker runs: a compute job (calibration, analysis) waits
+    // queued and claimed behind the one computing, and a synchronised capture's parent or a
+    // calibration session is queued for the moment before it starts; none is a camera's.
+    for (const pqxx::row& row :
+         tx.exec_params("SELECT id FROM jobs WHERE host = $1 AND state = 'queued' AND claimed "
+                        "AND kind IN ('capture', 'latency_probe') ORDER BY id",
+                        host_))
       ids.push_back(row[0].as<int64_t>());
     return ids;
   });

@@ -384,8 +384,17 @@ TEST_F(ServiceFleet, ARigCaptureCalibratesIntoTheRigsBaseline) {
                       {"model", "LENSMODEL_OPENCV8"}};
   auto calibration = api.post("/v1/calibrations", board);
   ASSERT_EQ(calibration.status, 202) << calibration.body;
+  // A second one waits in the compute queue, queued in the fleet's database, through the
+  // dispatcher's polls (every 500 ms) while the first computes: it is no camera's job and
+  // must not be ended as one ("camera  is not on host": device_lost, before the fix).
+  auto repeated = api.post("/v1/calibrations", board);
+  ASSERT_EQ(repeated.status, 202) << repeated.body;
   const json job = api.wait_job(calibration.json()["id"], finished, std::chrono::seconds(300));
   ASSERT_EQ(job["state"], "succeeded") << job.dump(1).substr(0, 3000);
+  const json repeat = api.wait_job(repeated.json()["id"], finished, std::chrono::seconds(300));
+  ASSERT_EQ(repeat["state"], "succeeded") << repeat.dump(1).substr(0, 3000);
+  EXPECT_NEAR(repeat["result"]["report"]["cameras"][1]["baseline_m"].get<double>(),
+              job["result"]["report"]["cameras"][1]["baseline_m"].get<double>(), 1e-9);
   EXPECT_EQ(job["result"]["rig_views_left_out"]["over_bound"], 0);
   const json& report = job["result"]["report"];
   const json baseline_m = report["cameras"][1]["baseline_m"];
