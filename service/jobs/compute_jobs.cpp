@@ -162,6 +162,14 @@ void ComputeWorker::stop() {
   if (thread_.joinable()) thread_.join();
 }
 
+void ComputeWorker::wait_for_store(int64_t id, const Error& why) {
+  log_warning(log::Category::kJobs, "job %lld: %s; trying again in 1 s", static_cast<long long>(id),
+              why.message.c_str());
+  std::unique_lock lock(mutex_);
+  wake_.wait_for(lock, std::chrono::seconds(1), [this] { return stopping_; });
+  jobs_.push_back(id);  // a stop ends it interrupted with the rest
+}
+
 bool ComputeWorker::cancel_running(int64_t id) {
   if (id == 0 || running_job_.load() != id) return false;
   cancel_ = true;
@@ -198,7 +206,13 @@ void ComputeWorker::run() {
       jobs_.pop_front();
     }
     auto record = store_.get(id);
-    if (!record || !record->has_value()) continue;
+    if (!record) {
+      // The database away (a fleet's PostgreSQL restarting): the job is still queued in
+      // it and would wait there for ever once dropped here, so it waits in this queue.
+      wait_for_store(id, record.error());
+      continue;
+    }
+    if (!record->has_value()) continue;
     {
       std::lock_guard lock(mutex_);
       if (!stopping_) cancel_ = false;
@@ -210,6 +224,7 @@ void ComputeWorker::run() {
     auto started = store_.start(id);
     if (!started || !*started) {
       running_job_ = 0;
+      if (!started) wait_for_store(id, started.error());  // false: cancelled while queued
       continue;
     }
     const JobRecord& job = **record;

@@ -55,6 +55,9 @@ class ComputeWorker {
 
  private:
   void run();
+  // Puts job `id` back at the end of the queue after a second (at once on stop): the store
+  // could not read or start it (`why`).
+  void wait_for_store(int64_t id, const Error& why);
 
   const std::filesystem::path data_dir_;
   JobStore& store_;
