@@ -24,6 +24,7 @@ constexpr const char* kChannelNames[3] = {"R", "G", "B"};
 struct ThroughFocusPoint {
   double focus = 0;
   double mtf50 = 0;
+  double centre_x_px = NAN, centre_y_px = NAN;  // the edge's centre in this frame
 };
 
 struct EdgeSeries {
@@ -37,8 +38,8 @@ struct EdgeSeries {
 // the curve still place the vertex; each one added lowers the noise. Against half the peak,
 // over 12 noise draws of the virtual lens-map capture (lens_map_bench), the astigmatism's
 // rms error at f/1.4-2.8 went from 0.16-0.31 to 0.16-0.22 focus units and longitudinal
-// colour's from 0.07-0.14 to 0.04-0.10; without noise the astigmatism reads 0.06-0.15
-// (0.05-0.12 before) and R and B stay within 0.074 of the truth (docs/analysis.md).
+// colour's from 0.07-0.14 to 0.04-0.10, and without noise R and B stay within 0.074 of
+// the truth (docs/analysis.md).
 constexpr double kFittedFractionOfPeak = 0.25;
 
 // The vertex of the parabola 1 / MTF50^2 = a + b p + c p^2 fitted to the points around the
@@ -95,6 +96,31 @@ void fit_best_focus(EdgeSeries* series) {
     e.status = kBestFocusNotAPeak;
     e.best_focus = p0;
   }
+}
+
+// Places a measured edge where it is at its best focus: a lens breathes (its image scale
+// follows the lens-to-sensor distance), so an edge 275 px out moves 3.4 px along the
+// radius over a 0.1 mm sweep of an 8 mm lens, and its first frame's centre put it 0.6%
+// nearer the axis than where its best focus is, which read the field curvature 1% steep.
+// The centres against focus are a straight line (the scale is linear in the extension):
+// least squares over the edge's frames, at its best focus.
+void place_at_best_focus(EdgeSeries* series) {
+  EdgeBestFocus& e = series->edge;
+  if (e.status != kBestFocusOk) return;
+  double n = 0, sf = 0, sff = 0, sx = 0, sy = 0, sfx = 0, sfy = 0;
+  for (const ThroughFocusPoint& p : series->points) {
+    if (!std::isfinite(p.centre_x_px) || !std::isfinite(p.centre_y_px)) continue;
+    n += 1, sf += p.focus, sff += p.focus * p.focus;
+    sx += p.centre_x_px, sy += p.centre_y_px;
+    sfx += p.focus * p.centre_x_px, sfy += p.focus * p.centre_y_px;
+  }
+  if (n < 2) return;
+  const double mean_f = sf / n, var_f = sff / n - mean_f * mean_f;
+  if (!(var_f > 0)) return;
+  const double slope_x = (sfx / n - mean_f * sx / n) / var_f;
+  const double slope_y = (sfy / n - mean_f * sy / n) / var_f;
+  e.centre_x_px = sx / n + slope_x * (e.best_focus - mean_f);
+  e.centre_y_px = sy / n + slope_y * (e.best_focus - mean_f);
 }
 
 // Coefficients of a linear least-squares fit and their covariance, s^2 (A^T A)^-1 with s^2
@@ -414,7 +440,7 @@ Result<std::vector<FocusSurface>> focus_surfaces(const json& sfr_report) {
                             e.contains("mtf50_cy_px") && e["mtf50_cy_px"].is_number() &&
                             e["mtf50_cy_px"].get<double>() > 0;
       // Where the edge is: its first measured fit's centre, until then any fit's (a flagged
-      // fit still places it).
+      // fit still places it); once its best focus is known, its centre there.
       const json centre = e.value("centre_px", json::array());
       if (centre.size() == 2 && centre[0].is_number() && centre[1].is_number() &&
           (series.edge.field.empty() || (measured && series.points.empty()))) {
@@ -440,7 +466,12 @@ Result<std::vector<FocusSurface>> focus_surfaces(const json& sfr_report) {
         }
       if (!measured) continue;
       const double mtf50 = e["mtf50_cy_px"].get<double>();
-      series.points.push_back({focus, mtf50});
+      ThroughFocusPoint point{focus, mtf50};
+      if (centre.size() == 2 && centre[0].is_number() && centre[1].is_number()) {
+        point.centre_x_px = centre[0].get<double>();
+        point.centre_y_px = centre[1].get<double>();
+      }
+      series.points.push_back(point);
     }
   }
   std::vector<FocusSurface> out;
@@ -458,6 +489,7 @@ Result<std::vector<FocusSurface>> focus_surfaces(const json& sfr_report) {
     surface.f_number = n;
     for (auto& [name, series] : edges) {
       fit_best_focus(&series);
+      place_at_best_focus(&series);
       surface.edges.push_back(series.edge);
     }
     auto fitted = fit_surface(std::move(surface), size[0].get<double>(), size[1].get<double>(),
@@ -568,6 +600,7 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
     for (const EdgeBestFocus& e : s.edges) {
       json j = {{"name", e.name},
                 {"centre_px", {e.centre_x_px, e.centre_y_px}},
+                {"angle_deg", std::isfinite(e.angle_deg) ? json(e.angle_deg) : json(nullptr)},
                 {"field", e.field},
                 {"status", e.status},
                 {"peak_mtf50_cy_px", e.peak_mtf50_cy_px}};

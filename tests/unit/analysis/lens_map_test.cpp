@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <numbers>
 #include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -221,6 +222,69 @@ TEST(LensMap, TooFewFocusPositionsOrPeaksAtTheSweepsEndAreRefusedWithTheReason) 
   EXPECT_EQ(ends.error().code, ErrorCode::kTooFewSamples);
   EXPECT_NE(ends.error().message.find("0 edge(s) have a best focus"), std::string::npos)
       << ends.error().message;
+}
+
+// A lens breathes: its image scale follows the lens-to-sensor distance, so an edge moves
+// along the radius through the sweep. Its best focus belongs to where it is at that focus,
+// not to where its first frame found it. An SFR report drawn here: edges on a 5 x 4 grid
+// whose centres scale by 1 + 0.002 per step about the image centre (2.8% over the sweep;
+// an 8 mm lens moved 0.1 mm breathes 1.2%), best focus on the surface at each edge's
+// place at that focus, MTF50 exactly 1 / sqrt(a + b (p - p*)^2).
+TEST(LensMap, AnEdgeIsPlacedWhereItIsAtItsBestFocus) {
+  using nlohmann::json;
+  const double cx = 0.5 * (kWidth - 1), cy = 0.5 * (kHeight - 1);
+  const double half_diagonal = 0.5 * std::hypot(kWidth, kHeight);
+  const double centre = 7, tilt_x = 0.6, tilt_y = -0.4, curvature = 1.8;
+  auto scale = [](double p) { return 1 + 0.002 * (p - 7); };
+  struct Edge {
+    double x0, y0, best;  // place at scale 1; best focus
+  };
+  std::vector<Edge> edges;
+  for (double ox : {-500.0, -250.0, 0.0, 250.0, 500.0})
+    for (double oy : {-400.0, -130.0, 130.0, 400.0}) {
+      Edge e{ox, oy, centre};
+      for (int i = 0; i < 50; ++i) {  // p* = surface(place at p*): a contraction
+        const double u = e.x0 * scale(e.best) / half_diagonal;
+        const double v = e.y0 * scale(e.best) / half_diagonal;
+        e.best = centre + tilt_x * u + tilt_y * v + curvature * (u * u + v * v);
+      }
+      edges.push_back(e);
+    }
+  json report;
+  report["size_px"] = {kWidth, kHeight};
+  report["frames"] = json::array();
+  for (int step = 0; step <= 14; ++step) {
+    json frame;
+    frame["settings"] = {{"focus_position", step}, {"f_number", 2.8}};
+    frame["edges"] = json::array();
+    for (size_t k = 0; k < edges.size(); ++k) {
+      const Edge& e = edges[k];
+      const double d = step - e.best;
+      frame["edges"].push_back({{"name", "e" + std::to_string(k)},
+                                {"status", "ok"},
+                                {"mtf50_cy_px", 1 / std::sqrt(11.0 + 10.0 * d * d)},
+                                {"centre_px", {cx + e.x0 * scale(step), cy + e.y0 * scale(step)}},
+                                {"field", "oblique"}});
+    }
+    report["frames"].push_back(frame);
+  }
+  auto surfaces = focus_surfaces(report);
+  ASSERT_TRUE(surfaces.ok()) << surfaces.error().message;
+  ASSERT_EQ(surfaces->size(), 1u);
+  const FocusSurface& s = surfaces->front();
+  EXPECT_EQ(s.edges_used, 20);
+  for (const EdgeBestFocus& placed : s.edges) {
+    const Edge& e = edges[static_cast<size_t>(std::stoi(placed.name.substr(1)))];
+    EXPECT_NEAR(placed.best_focus, e.best, 1e-9) << placed.name;
+    EXPECT_NEAR(placed.centre_x_px, cx + e.x0 * scale(e.best), 1e-6) << placed.name;
+    EXPECT_NEAR(placed.centre_y_px, cy + e.y0 * scale(e.best), 1e-6) << placed.name;
+  }
+  // Placed at their first frame's centres (1.4% nearer the axis) the curvature read 3.5%
+  // steep (1.862) and the tilt 2% high.
+  EXPECT_NEAR(s.curvature, curvature, 1e-6);
+  EXPECT_NEAR(s.tilt_x, tilt_x, 1e-6);
+  EXPECT_NEAR(s.tilt_y, tilt_y, 1e-6);
+  EXPECT_NEAR(s.centre_focus, centre, 1e-6);
 }
 
 }  // namespace lens_map_test
