@@ -30,6 +30,7 @@ struct ThroughFocusPoint {
 struct EdgeSeries {
   EdgeBestFocus edge;
   std::vector<ThroughFocusPoint> points;
+  double fitted_from = 0, fitted_to = 0;  // the focus span the best focus was fitted over
 };
 
 // The through-focus points a best focus is fitted to: those around the peak whose MTF50 is
@@ -84,6 +85,8 @@ void fit_best_focus(EdgeSeries* series) {
   }
   cv::Mat coef;
   e.points = a.rows;
+  series->fitted_from = pts[lo].focus;
+  series->fitted_to = pts[hi].focus;
   if (!cv::solve(a, y, coef, cv::DECOMP_SVD) || !(coef.at<double>(2) > 0)) {
     e.status = kBestFocusNotAPeak;
     e.best_focus = p0;
@@ -102,14 +105,17 @@ void fit_best_focus(EdgeSeries* series) {
 // follows the lens-to-sensor distance), so an edge 275 px out moves 3.4 px along the
 // radius over a 0.1 mm sweep of an 8 mm lens, and its first frame's centre put it 0.6%
 // nearer the axis than where its best focus is, which read the field curvature 1% steep.
-// The centres against focus are a straight line (the scale is linear in the extension):
-// least squares over the edge's frames, at its best focus.
+// The centres against focus: a straight line where the focus scale is linear in the
+// extension, nearly one over the few frames about the peak where it is not (a voice-coil
+// lens), so least squares over the frames the best focus was fitted to, at the best focus.
 void place_at_best_focus(EdgeSeries* series) {
   EdgeBestFocus& e = series->edge;
   if (e.status != kBestFocusOk) return;
   double n = 0, sf = 0, sff = 0, sx = 0, sy = 0, sfx = 0, sfy = 0;
   for (const ThroughFocusPoint& p : series->points) {
-    if (!std::isfinite(p.centre_x_px) || !std::isfinite(p.centre_y_px)) continue;
+    if (!std::isfinite(p.centre_x_px) || !std::isfinite(p.centre_y_px) ||
+        p.focus < series->fitted_from || p.focus > series->fitted_to)
+      continue;
     n += 1, sf += p.focus, sff += p.focus * p.focus;
     sx += p.centre_x_px, sy += p.centre_y_px;
     sfx += p.focus * p.centre_x_px, sfy += p.focus * p.centre_y_px;
