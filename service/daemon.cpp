@@ -186,7 +186,7 @@ int run_daemon(const DaemonConfig& config) {
   // A fleet host (PostgreSQL): joins once it serves, below.
   std::unique_ptr<Fleet> fleet;
   if (FleetStore* shared = (*store)->fleet())
-    fleet = std::make_unique<Fleet>(*shared, **store, **cameras,
+    fleet = std::make_unique<Fleet>(*shared, **store, **cameras, compute,
                                     FleetOptions{config.host_name, "", config.lease},
                                     config.cameras.worker.max_queued_jobs);
   ServiceContext context{*data_dir, store->get(),       cameras->get(), &compute,

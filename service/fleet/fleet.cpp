@@ -29,8 +29,8 @@ std::string camera_list(const std::vector<FleetHost>& hosts) {
 
 }  // namespace
 
-Fleet::Fleet(FleetStore& fleet, JobStore& store, CameraSet& cameras, FleetOptions options,
-             int max_queued_jobs)
+Fleet::Fleet(FleetStore& fleet, JobStore& store, CameraSet& cameras, ComputeWorker& compute,
+             FleetOptions options, int max_queued_jobs)
     : fleet_(fleet),
       store_(store),
       cameras_(cameras),
@@ -38,7 +38,7 @@ Fleet::Fleet(FleetStore& fleet, JobStore& store, CameraSet& cameras, FleetOption
       max_queued_jobs_(max_queued_jobs),
       registry_(fleet),
       member_(fleet, store, cameras, registry_, options_),
-      dispatcher_(fleet, store, cameras, registry_, options_.poll),
+      dispatcher_(fleet, store, cameras, compute, registry_, options_.poll),
       sync_(std::make_unique<SyncCaptures>(*this)) {}
 
 Fleet::~Fleet() = default;

@@ -25,13 +25,16 @@ namespace camlab::service {
 
 class CameraSet;
 class CameraWorker;
+class ComputeWorker;
 class JobStore;
 class SyncCaptures;
 
 class Fleet : public SyncCaptureSite {
  public:
-  Fleet(FleetStore& fleet, JobStore& store, CameraSet& cameras, FleetOptions options,
-        int max_queued_jobs);
+  // `compute` runs this host's calibrations and analyses (a cancel request for one reaches
+  // it through the fleet).
+  Fleet(FleetStore& fleet, JobStore& store, CameraSet& cameras, ComputeWorker& compute,
+        FleetOptions options, int max_queued_jobs);
   ~Fleet();
   Fleet(const Fleet&) = delete;
   Fleet& operator=(const Fleet&) = delete;

@@ -6,6 +6,7 @@
 #include "base/log.h"
 #include "service/fleet/fleet_registry.h"
 #include "service/jobs/camera_set.h"
+#include "service/jobs/compute_jobs.h"
 #include "service/store/job_store.h"
 
 namespace camlab::service {
@@ -20,8 +21,14 @@ constexpr int kStraysPerPass = 64;
 }  // namespace
 
 FleetDispatcher::FleetDispatcher(FleetStore& fleet, JobStore& store, CameraSet& cameras,
-                                 FleetRegistry& registry, std::chrono::milliseconds poll)
-    : fleet_(fleet), store_(store), cameras_(cameras), registry_(registry), poll_(poll) {}
+                                 ComputeWorker& compute, FleetRegistry& registry,
+                                 std::chrono::milliseconds poll)
+    : fleet_(fleet),
+      store_(store),
+      cameras_(cameras),
+      compute_(compute),
+      registry_(registry),
+      poll_(poll) {}
 
 FleetDispatcher::~FleetDispatcher() { stop(); }
 
@@ -85,9 +92,17 @@ bool FleetDispatcher::handle(const FleetNotice& notice) {
                          p.value("frames_total", 0), p.value("frames_discarded", 0)});
   if (p.value("host", "") != fleet_.host()) return false;
   if (*state == JobState::kRunning && p.value("cancel", false))
-    if (auto worker = cameras_.find(p.value("camera_id", "")))
-      worker->cancel_running(p.value("id", int64_t{0}));
+    cancel_running(p.value("id", int64_t{0}), p.value("camera_id", ""));
   return true;
+}
+
+void FleetDispatcher::cancel_running(int64_t id, const std::string& camera_id) {
+  // A calibration or analysis has no camera: the compute worker runs it.
+  if (camera_id.empty()) {
+    compute_.cancel_running(id);
+    return;
+  }
+  if (auto worker = cameras_.find(camera_id)) worker->cancel_running(id);
 }
 
 void FleetDispatcher::hand_over(int64_t id, const std::shared_ptr<CameraWorker>& worker,
@@ -158,8 +173,7 @@ void FleetDispatcher::reconcile() {
     }
   }
   if (auto requests = fleet_.cancel_requests())
-    for (const auto& [id, camera] : *requests)
-      if (auto worker = cameras_.find(camera)) worker->cancel_running(id);
+    for (const auto& [id, camera] : *requests) cancel_running(id, camera);
 }
 
 }  // namespace camlab::service

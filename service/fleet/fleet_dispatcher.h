@@ -11,7 +11,7 @@
 //   when it began it);
 // - ends device_lost the jobs that wait for a camera this host no longer has;
 // - passes cancel requests (DELETE /v1/jobs/{id} on another host) to the worker running
-//   the job;
+//   the job: a camera's, or the compute worker for a calibration or analysis;
 // - hands other hosts' job changes to the job store's change observer, so that this
 //   host's live job list shows the whole fleet's.
 //
@@ -32,13 +32,14 @@ namespace camlab::service {
 
 class CameraSet;
 class CameraWorker;
+class ComputeWorker;
 class JobStore;
 class FleetRegistry;
 
 class FleetDispatcher {
  public:
-  FleetDispatcher(FleetStore& fleet, JobStore& store, CameraSet& cameras, FleetRegistry& registry,
-                  std::chrono::milliseconds poll);
+  FleetDispatcher(FleetStore& fleet, JobStore& store, CameraSet& cameras, ComputeWorker& compute,
+                  FleetRegistry& registry, std::chrono::milliseconds poll);
   ~FleetDispatcher();
   FleetDispatcher(const FleetDispatcher&) = delete;
   FleetDispatcher& operator=(const FleetDispatcher&) = delete;
@@ -52,6 +53,9 @@ class FleetDispatcher {
   bool handle(const FleetNotice& notice);
   void claim_for_idle_cameras();
   void reconcile();
+  // Asks whichever worker runs job `id` (camera `camera_id`'s; the compute worker's when
+  // none) to stop it.
+  void cancel_running(int64_t id, const std::string& camera_id);
   // Queues claimed job `id` on `worker`, or ends it with the reason it cannot be queued.
   void hand_over(int64_t id, const std::shared_ptr<CameraWorker>& worker,
                  const std::string& camera_id);
@@ -59,6 +63,7 @@ class FleetDispatcher {
   FleetStore& fleet_;
   JobStore& store_;
   CameraSet& cameras_;
+  ComputeWorker& compute_;
   FleetRegistry& registry_;
   const std::chrono::milliseconds poll_;
   std::set<int64_t> handed_;  // claimed jobs given to a worker, not yet seen started

@@ -103,8 +103,11 @@ void fit_best_focus(EdgeSeries* series) {
 
 // Places a measured edge where it is at its best focus: a lens breathes (its image scale
 // follows the lens-to-sensor distance), so an edge 275 px out moves 3.4 px along the
-// radius over a 0.1 mm sweep of an 8 mm lens, and its first frame's centre put it 0.6%
-// nearer the axis than where its best focus is, which read the field curvature 1% steep.
+// radius over a 0.1 mm sweep of an 8 mm lens. The SFR refits each frame's line across the
+// edge but keeps the segment's place along it, so an edge across the radius (meridional)
+// moves and one along it does not: placed at their first frame's centres, the meridional
+// edges sat 0.6% nearer the axis than at their best focus, and the map read about 1% of
+// the field curvature as astigmatism (docs/analysis.md, "Where an edge is").
 // The centres against focus: a straight line where the focus scale is linear in the
 // extension, nearly one over the few frames about the peak where it is not (a voice-coil
 // lens), so least squares over the frames the best focus was fitted to, at the best focus.

@@ -360,10 +360,14 @@ TEST_F(ServiceFleet, ARigCaptureCalibratesIntoTheRigsBaseline) {
                                {{"camera", camera}, {"rt_cam_ref", {0, 0, 0, -0.1, 0, 0}}}}}}
                             .dump();
   ASSERT_NE(fleet_->start_host("host-0", 3000, "", {"--rig", rig.string()}), nullptr);
+  // A second host, to cancel host-0's calibration from.
+  ASSERT_NE(fleet_->start_host("host-1", 3000), nullptr);
   const json ready =
-      fleet_->wait_live(*fleet_->host("host-0"), 1, std::chrono::seconds(90), /*cameras_each=*/2);
+      fleet_->wait_live(*fleet_->host("host-0"), 2, std::chrono::seconds(90), /*cameras_each=*/2);
   ASSERT_TRUE(ready.is_object());
-  const std::vector<std::string> cameras = FleetHarness::camera_ids(ready);
+  std::vector<std::string> cameras;
+  for (const std::string& id : FleetHarness::camera_ids(ready))
+    if (id.ends_with("@host-0")) cameras.push_back(id);
   ASSERT_EQ(cameras.size(), 2u);
   const Daemon& api = *fleet_->host("host-0");
   auto posted = api.post("/v1/sync-captures", {{"cameras", cameras},
@@ -404,6 +408,18 @@ TEST_F(ServiceFleet, ARigCaptureCalibratesIntoTheRigsBaseline) {
   std::printf("rig capture -> calibration: %d rig views, baseline %.3f +- %.3f mm (truth 100)\n",
               views["complete"].get<int>(), baseline_mm, sigma_mm);
   EXPECT_NEAR(baseline_mm, 100.0, std::max(0.5, 4 * sigma_mm));
+  // Cancelled from another host while it runs: the cancel request reaches host-0's compute
+  // worker through the database (it reached only camera workers, and the job ran on).
+  auto third = api.post("/v1/calibrations", board);
+  ASSERT_EQ(third.status, 202) << third.body;
+  const int64_t third_id = third.json()["id"];
+  const json running = api.wait_job(third_id, [](const json& j) { return j["state"] != "queued"; });
+  ASSERT_EQ(running["state"], "running") << running.dump(1).substr(0, 2000);
+  auto cancel = fleet_->host("host-1")->del("/v1/jobs/" + std::to_string(third_id));
+  ASSERT_EQ(cancel.status, 202) << cancel.body;
+  EXPECT_TRUE(cancel.json()["cancel_requested"].get<bool>());
+  const json cancelled = api.wait_job(third_id, finished, std::chrono::seconds(60));
+  EXPECT_EQ(cancelled["state"], "cancelled") << cancelled.dump(1).substr(0, 2000);
 }
 
 // Cloned hosts (the review's finding 2): two camlabd with one --host-name fenced and
