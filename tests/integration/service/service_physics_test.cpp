@@ -131,10 +131,11 @@ TEST(ServiceLensMap, ALensMapCaptureAndItsAnalysisFindTheCamerasFocusSurface) {
   EXPECT_NE(plots.body.find("lensmap_through_focus_f2_8.png"), std::string::npos) << plots.body;
   for (const json& s : surfaces) {
     const json& at_sensor = s["at_sensor"];
-    std::printf("f/%g: tilt %.4f %.4f deg, curvature %.2f um, astigmatism %.2f um\n",
+    std::printf("f/%g: tilt %.4f %.4f deg, curvature %.2f um, astigmatism %.2f +- %.2f um\n",
                 s["f_number"].get<double>(), at_sensor["tilt_x_deg"].get<double>(),
                 at_sensor["tilt_y_deg"].get<double>(), at_sensor["curvature_um"].get<double>(),
-                at_sensor["astigmatism_um"].get<double>());
+                at_sensor["astigmatism_um"].get<double>(),
+                at_sensor["standard_errors"]["astigmatism_um"].get<double>());
     EXPECT_NEAR(at_sensor["tilt_x_deg"].get<double>(), 0.4, 0.05);
     EXPECT_NEAR(at_sensor["tilt_y_deg"].get<double>(), -0.25, 0.05);
     EXPECT_NEAR(at_sensor["curvature_um"].get<double>(), -15, 1.5);
