@@ -128,9 +128,21 @@ bool SyncCaptures::cancel(int64_t id) {
   std::vector<int64_t> jobs;
   {
     std::lock_guard lock(mutex_);
-    auto it = parents_.find(id);
-    if (it == parents_.end()) return false;
-    jobs = it->second.jobs;
+    if (auto it = parents_.find(id); it != parents_.end()) jobs = it->second.jobs;
+  }
+  // Another host's: its record lists the captures (the host that took it ends it once
+  // they have ended).
+  if (jobs.empty()) {
+    auto record = site_.jobs().get(id);
+    if (!record || !record->has_value()) return false;
+    const JobRecord& parent = **record;
+    if (parent.kind != "sync_capture" || parent.state != JobState::kRunning ||
+        !parent.request.is_object() || !parent.request.contains("jobs") ||
+        !parent.request["jobs"].is_array())
+      return false;
+    for (const nlohmann::json& job : parent.request["jobs"])
+      if (job.is_number_integer()) jobs.push_back(job.get<int64_t>());
+    if (jobs.empty()) return false;
   }
   for (int64_t job : jobs) {
     auto cancelled = site_.jobs().cancel_queued(job);

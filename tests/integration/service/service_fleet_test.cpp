@@ -276,6 +276,25 @@ TEST_F(ServiceFleet, ASynchronisedCaptureReportsEachFramesStartOnEveryHost) {
       "%lld us at most (frame interval %lld us)\n",
       views.size(), views.size() - views_with_skew, static_cast<long long>(worst),
       static_cast<long long>(result["frame_interval_us"].get<int64_t>()));
+  // Cancelled through a host other than the one that took it: that host knew only its own
+  // synchronised captures, answered 202 and cancelled nothing; it reads the captures from
+  // the record now, and the host that took it ends it once they have ended.
+  auto longer = api.post("/v1/sync-captures", {{"cameras", cameras},
+                                               {"capture", {{"kind", "single"}, {"repeats", 2000}}},
+                                               {"start_in_ms", 500}});
+  ASSERT_EQ(longer.status, 202) << longer.body;
+  const int64_t longer_id = longer.json()["id"];
+  const json capturing = api.wait_job(longer_id, [](const json& j) {
+    return finished(j) || j["progress"]["frames_done"].get<int>() > 0;
+  });
+  ASSERT_EQ(capturing["state"], "running") << capturing.dump(1).substr(0, 2000);
+  auto cancel = fleet_->host("host-2")->del("/v1/jobs/" + std::to_string(longer_id));
+  ASSERT_EQ(cancel.status, 202) << cancel.body;
+  const json ended = api.wait_job(longer_id, finished, std::chrono::seconds(60));
+  EXPECT_EQ(ended["state"], "failed") << ended.dump(1).substr(0, 2000);
+  for (const json& child : ended["request"]["jobs"])
+    EXPECT_EQ(api.get("/v1/jobs/" + std::to_string(child.get<int64_t>())).json()["state"],
+              "cancelled");
 }
 
 // A rig of three cameras on one host, on one frame clock, the third triggered 2.5 ms after
