@@ -145,29 +145,33 @@ void wrap_for_the_fleet(Router& router, const ServiceContext& context) {
                 json["available"] = target->available;
                 reply(json_response(200, json));
               });
-  router.wrap(
-      "DELETE", "/v1/jobs/{id}",
-      [&fleet, context](const ApiRequest& request, const PathParams& params, Reply reply,
-                        const Handler& next) {
-        auto job = find_job(context, params, reply);
-        if (!job) return;
-        if (job->kind == "sync_capture" && !is_finished(job->state) &&
-            fleet.sync().cancel(job->id)) {
-          nlohmann::json json = to_json(*job);
-          json["cancel_requested"] = true;
-          return reply(json_response(202, json));
-        }
-        if (!job->host.empty() && job->host != fleet.host() && job->state == JobState::kRunning) {
-          auto asked = fleet.store().request_cancel(job->id);
-          if (!asked) return reply(error_response(asked.error()));
-          if (*asked) {
-            nlohmann::json json = to_json(*job);
-            json["cancel_requested"] = true;
-            return reply(json_response(202, json));
-          }
-        }
-        next(request, params, std::move(reply));
-      });
+  router.wrap("DELETE", "/v1/jobs/{id}",
+              [&fleet, context](const ApiRequest& request, const PathParams& params, Reply reply,
+                                const Handler& next) {
+                auto job = find_job(context, params, reply);
+                if (!job) return;
+                if (job->kind == "sync_capture" && !is_finished(job->state) &&
+                    fleet.sync().cancel(job->id)) {
+                  nlohmann::json json = to_json(*job);
+                  json["cancel_requested"] = true;
+                  return reply(json_response(202, json));
+                }
+                // What a worker stops between its steps; anything else running (a calibration
+                // session: its own endpoints end it) is answered as on its host.
+                const bool stoppable = job->kind == "capture" || job->kind == "latency_probe" ||
+                                       job->kind == "calibration" || job->kind == "analysis";
+                if (stoppable && !job->host.empty() && job->host != fleet.host() &&
+                    job->state == JobState::kRunning) {
+                  auto asked = fleet.store().request_cancel(job->id);
+                  if (!asked) return reply(error_response(asked.error()));
+                  if (*asked) {
+                    nlohmann::json json = to_json(*job);
+                    json["cancel_requested"] = true;
+                    return reply(json_response(202, json));
+                  }
+                }
+                next(request, params, std::move(reply));
+              });
   // A job's files (frames, thumbnails, plots) are on the host that ran it.
   for (const char* pattern :
        {"/v1/jobs/{id}/frames", "/v1/jobs/{id}/frames/{n}", "/v1/jobs/{id}/frames/{n}/meta",

@@ -439,6 +439,24 @@ TEST_F(ServiceFleet, ARigCaptureCalibratesIntoTheRigsBaseline) {
   EXPECT_TRUE(cancel.json()["cancel_requested"].get<bool>());
   const json cancelled = api.wait_job(third_id, finished, std::chrono::seconds(60));
   EXPECT_EQ(cancelled["state"], "cancelled") << cancelled.dump(1).substr(0, 2000);
+  // A calibration session's job is no worker's to stop (its own endpoints end it): through
+  // either host the DELETE says so, where another host answered 202 and nothing acted.
+  const std::string local_camera = cameras[0].substr(0, cameras[0].rfind('@'));
+  auto session = api.post("/v1/calibration-sessions", {{"camera", local_camera},
+                                                       {"inner_corners", {14, 10}},
+                                                       {"spacing_m", 0.04},
+                                                       {"model", "LENSMODEL_OPENCV8"}});
+  ASSERT_EQ(session.status, 201) << session.body;
+  const std::string session_job = "/v1/jobs/" + std::to_string(session.json()["id"].get<int64_t>());
+  auto here = api.del(session_job);
+  auto there = fleet_->host("host-1")->del(session_job);
+  EXPECT_EQ(here.status, 409) << here.body;
+  EXPECT_EQ(there.status, 409) << there.body;
+  EXPECT_EQ(there.json()["error"]["code"], here.json()["error"]["code"]) << there.body;
+  EXPECT_EQ(
+      api.del("/v1/calibration-sessions/" + std::to_string(session.json()["id"].get<int64_t>()))
+          .status,
+      200);
 }
 
 // Cloned hosts (the review's finding 2): two camlabd with one --host-name fenced and
