@@ -155,8 +155,9 @@ void register_analyze_command(CLI::App& app) {
   CLI::App* sfr = analyze->add_subcommand(
       "sfr",
       "ISO 12233 slanted-edge SFR of every straight edge in an image or in each frame of a "
-      "capture folder: MTF50, MTF30, MTF10 in "
-      "cycles/px across the edge (and lp/mm with --pixel-um), each edge's orientation in the "
+      "capture folder: MTF50 with its standard error (from the edge's own noise), MTF30, "
+      "MTF10 in cycles/px across the edge (and lp/mm with --pixel-um), each edge's orientation "
+      "in the "
       "field (meridional, sagittal) relative to the image centre; edges within 2 deg of a "
       "pixel axis, clipped, or wider than the window are flagged, not measured");
   sfr->add_option("IMAGE", args->dir,

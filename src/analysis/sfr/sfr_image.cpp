@@ -118,8 +118,11 @@ Result<json> measure_edges(const cv::Mat& f, const std::vector<EdgeSegment>& edg
       j["mtf50_cy_px"] = optional_number(r->mtf50_cy_px);
       j["mtf30_cy_px"] = optional_number(r->mtf30_cy_px);
       j["mtf10_cy_px"] = optional_number(r->mtf10_cy_px);
+      j["mtf50_standard_error_cy_px"] = optional_number(r->mtf50_standard_error_cy_px);
       if (lp_per_mm_per_cy_px > 0 && r->mtf50_cy_px)
         j["mtf50_lp_mm"] = *r->mtf50_cy_px * lp_per_mm_per_cy_px;
+      if (lp_per_mm_per_cy_px > 0 && r->mtf50_standard_error_cy_px)
+        j["mtf50_standard_error_lp_mm"] = *r->mtf50_standard_error_cy_px * lp_per_mm_per_cy_px;
       j["sfr"] = {{"frequency_cy_px", r->frequency_cy_px}, {"sfr", r->sfr}};
     } else {
       ++tally->left_out[r->status];
@@ -131,7 +134,8 @@ Result<json> measure_edges(const cv::Mat& f, const std::vector<EdgeSegment>& edg
     *text += line;
     if (ok) {
       *text += " " + cell(r->mtf50_cy_px, "%6.3f") + " " + cell(r->mtf30_cy_px, "%6.3f") + " " +
-               cell(r->mtf10_cy_px, "%6.3f") + "        ";
+               cell(r->mtf10_cy_px, "%6.3f") + "              " +
+               cell(r->mtf50_standard_error_cy_px, "%6.4f");
       if (lp_per_mm_per_cy_px > 0) {
         std::optional<double> lp;
         if (r->mtf50_cy_px) lp = *r->mtf50_cy_px * lp_per_mm_per_cy_px;
@@ -149,7 +153,8 @@ std::string table_header(double lp_per_mm_per_cy_px) {
   // Appended in place: GCC 12 warned (-Warray-bounds, a false positive) on the chain of
   // temporaries the one-expression form made.
   std::string header =
-      "  edge       centre (px)    angle  slant  field        MTF50  MTF30  MTF10 [cy/px]";
+      "  edge       centre (px)    angle  slant  field        MTF50  MTF30  MTF10 [cy/px]  "
+      "MTF50 s.e.";
   if (lp_per_mm_per_cy_px > 0) header += "  MTF50 [lp/mm]";
   header += "  status\n";
   return header;

@@ -4,22 +4,21 @@
 #include <cmath>
 #include <numbers>
 
+#include "analysis/sfr/esf_to_sfr.h"
 #include "base/format.h"
 
 namespace camlab::analysis {
 namespace {
 
 constexpr double kNearAxisDeg = 2.0;
-constexpr double kFrequencyStep = 0.005, kMaxFrequency = 1.0;  // cycles/px
 constexpr int kMinRows = 16;
 // How far inside the place where the edge leaves its line (straight_extent) the region
 // stops, px: the blur carries the bend that far.
 constexpr double kBendMarginPx = 2.0;
 // The half width of the windows that look for the bend (px across the edge).
 constexpr double kBendWindowPx = 6.0;
-// Where the ESF's tails begin (rises of 10-90% plus a margin from the edge's centre), and
-// the widest box that smooths them (half width).
-constexpr double kTailCoreRises = 0.75, kTailCoreMarginPx = 1.0, kTailMaxHalfPx = 4.0;
+// The blocks of rows the MTF50's jackknife leaves out one at a time.
+constexpr int kJackknifeBlocks = 10;
 
 // The region read in working coordinates: rows cross the edge (the image transposed when
 // the edge is nearer horizontal), so the edge runs x = a + b y with |b| <= 1.
@@ -111,14 +110,21 @@ std::optional<RowLine> fit_edge_line(const WorkingView& view, const RowLine& gue
     // Only rows whose whole window lies in the region: a window reaching past a corner
     // holds the next side's step, which would pull the centroid.
     if (!along.inside(lo, y) || !along.inside(hi, y)) continue;
+    // The Hamming window's cos(pi u) by a rotating phasor, one step a pixel: a cos call
+    // per pixel was a quarter of the SFR's time.
+    const double step = std::numbers::pi / half_x;
+    const double step_cos = std::cos(step), step_sin = std::sin(step);
+    double phase_cos = std::cos(step * (lo - c)), phase_sin = std::sin(step * (lo - c));
     double num = 0, den = 0;
     for (int x = lo; x <= hi; ++x) {
-      const double u = (x - c) / half_x;
-      if (std::fabs(u) > 1) continue;
-      const double w = 0.54 + 0.46 * std::cos(std::numbers::pi * u);
-      const double d = 0.5 * (view.at(y, x + 1) - view.at(y, x - 1));
-      num += x * d * w;
-      den += d * w;
+      if (std::fabs(x - c) <= half_x) {
+        const double w = 0.54 + 0.46 * phase_cos;
+        const double d = 0.5 * (view.at(y, x + 1) - view.at(y, x - 1));
+        num += x * d * w;
+        den += d * w;
+      }
+      const double next_cos = phase_cos * step_cos - phase_sin * step_sin;
+      phase_sin = phase_sin * step_cos + phase_cos * step_sin, phase_cos = next_cos;
     }
     if (!(std::fabs(den) > 1e-12)) continue;
     const double centroid = num / den;
@@ -135,35 +141,6 @@ std::optional<RowLine> fit_edge_line(const WorkingView& view, const RowLine& gue
   line.a = (sx - line.b * sy) / n;
   return line;
 }
-
-// The ESF's tails smoothed: past `core_bins` from the edge's centre each bin becomes the
-// mean of a box centred on it, half as wide as its distance past the core (up to
-// `max_half_bins`), kept inside the array so that it stays centred (a linear trend passes
-// unchanged). Past the spread the ESF is flat and only noise moves it; the LSF's noise at
-// the frequencies MTF50 lies at comes mostly from there (the core holds the signal), and a
-// box a few pixels wide removes those frequencies while the level, the zero frequency the
-// SFR is normalised by, passes.
-void smooth_tails(std::vector<double>* esf, double centre_bin, double core_bins,
-                  int max_half_bins) {
-  const int n = static_cast<int>(esf->size());
-  std::vector<double> prefix(static_cast<size_t>(n) + 1, 0.0);
-  for (int k = 0; k < n; ++k)
-    prefix[static_cast<size_t>(k) + 1] =
-        prefix[static_cast<size_t>(k)] + (*esf)[static_cast<size_t>(k)];
-  std::vector<double> out(*esf);
-  for (int k = 0; k < n; ++k) {
-    const double past = std::fabs(k - centre_bin) - core_bins;
-    if (past <= 0) continue;
-    const int half = std::min({static_cast<int>(past), max_half_bins, k, n - 1 - k});
-    if (half < 1) continue;
-    out[static_cast<size_t>(k)] =
-        (prefix[static_cast<size_t>(k + half) + 1] - prefix[static_cast<size_t>(k - half)]) /
-        (2 * half + 1);
-  }
-  *esf = std::move(out);
-}
-
-double sinc(double x) { return std::fabs(x) < 1e-12 ? 1.0 : std::sin(x) / x; }
 
 // The region's half length along a segment `length_px` long: the option's, or the
 // segment's half less 4 px (its ends are where the finder placed the corners).
@@ -341,18 +318,23 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
   // Step 3: the ESF.
   const int os = options.oversampling;
   const int bins = static_cast<int>(std::lround(2 * hw * os));
-  std::vector<double> sum(static_cast<size_t>(bins), 0.0), where(static_cast<size_t>(bins), 0.0),
-      where_squared(static_cast<size_t>(bins), 0.0);
-  std::vector<int> count(static_cast<size_t>(bins), 0);
-  int rows = 0;
+  // The rows read: those whose whole width lies in the image.
+  auto row_window = [&](int y) {
+    const double c = line.x_at(y);
+    return std::pair{static_cast<int>(std::floor(c - hw * norm)),
+                     static_cast<int>(std::ceil(c + hw * norm))};
+  };
+  std::vector<int> rows_read;
+  for (int y = row_lo; y <= row_hi; ++y)
+    if (const auto [lo, hi] = row_window(y); lo >= 0 && hi <= view.cols() - 1)
+      rows_read.push_back(y);
+  const int rows = static_cast<int>(rows_read.size());
   bool clipped = false;
   const AlongEdge along = along_edge(line);
-  for (int y = row_lo; y <= row_hi; ++y) {
+  // Row y's pixels into `into`, each with `weight` (-1 takes them out again).
+  auto bin_row = [&](int y, EsfBins& into, double weight) {
     const double c = line.x_at(y);
-    const int lo = static_cast<int>(std::floor(c - hw * norm)),
-              hi = static_cast<int>(std::ceil(c + hw * norm));
-    if (lo < 0 || hi > view.cols() - 1) continue;
-    ++rows;
+    const auto [lo, hi] = row_window(y);
     for (int x = lo; x <= hi; ++x) {
       const double d = (x - c) / norm;
       const int bin = static_cast<int>(std::floor((d + hw) * os));
@@ -360,13 +342,11 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
       const double v = view.at(y, x);
       if (!std::isfinite(v)) continue;  // a site of another colour
       if (options.saturation_level > 0 && v >= options.saturation_level) clipped = true;
-      const double position = (d + hw) * os - 0.5;  // bins, from bin 0's centre
-      sum[static_cast<size_t>(bin)] += v;
-      where[static_cast<size_t>(bin)] += position;
-      where_squared[static_cast<size_t>(bin)] += position * position;
-      ++count[static_cast<size_t>(bin)];
+      into.add(bin, v, (d + hw) * os - 0.5, weight);  // place: bins, from bin 0's centre
     }
-  }
+  };
+  EsfBins binned(bins);
+  for (int y : rows_read) bin_row(y, binned, 1);
   if (rows < kMinRows || rows * std::tan(slant) < 1.0) {
     r.status = std::string(kSfrTooFewRows);
     r.message = std::to_string(rows) + " rows at a slant of " + format_significant(r.slant_deg, 3) +
@@ -376,159 +356,52 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
                 ")";
     return r;
   }
-  // Each filled bin is the ESF at its samples' mean distance, not at its centre: the
-  // slant spreads the samples unevenly within a bin (at 20 deg they cluster), so the bin
-  // is no box average of the ESF. The ESF on the bins' centres is interpolated linearly
-  // between those points (a box correction instead overstated MTF50 by 1.5% at 20 deg).
-  std::vector<double> at, value, spread;
-  for (int k = 0; k < bins; ++k)
-    if (const double n = count[static_cast<size_t>(k)]; n > 0) {
-      at.push_back(where[static_cast<size_t>(k)] / n);
-      value.push_back(sum[static_cast<size_t>(k)] / n);
-      spread.push_back(
-          std::max(0.0, where_squared[static_cast<size_t>(k)] / n - at.back() * at.back()));
-    }
-  if (at.size() < 2) {
-    r.status = std::string(kSfrTooFewRows);
-    r.message = "the region holds too few pixels for an ESF";
+  EsfSfr curve = esf_to_sfr(binned, os, hw);
+  if (!curve.status.empty()) {
+    r.status = curve.status;
+    r.message = curve.message;
     return r;
   }
-  // Each bin centre's smear (bins^2): a bin's mean is the ESF at its samples' mean distance
-  // plus half its second derivative times the samples' variance about it, and the linear
-  // interpolation between two such points adds t (1 - t) h^2 of it. Both low-pass the ESF
-  // like a Gaussian of that variance; step 5 divides the SFR by it (uncorrected, MTF50 of
-  // sharp edges, 0.41-0.59 cycles/px, read 0.5% low at 8 bins a pixel, 1.8% at 4).
-  std::vector<double> esf(static_cast<size_t>(bins), 0.0), smear(static_cast<size_t>(bins), 0.0);
-  size_t next = 0;
-  for (int k = 0; k < bins; ++k) {
-    while (next < at.size() && at[next] < k) ++next;
-    const auto kk = static_cast<size_t>(k);
-    if (next == 0) {
-      esf[kk] = value.front(), smear[kk] = spread.front();
-    } else if (next == at.size()) {
-      esf[kk] = value.back(), smear[kk] = spread.back();
-    } else {
-      const double h = at[next] - at[next - 1], t = (k - at[next - 1]) / h;
-      esf[kk] = value[next - 1] + (value[next] - value[next - 1]) * t;
-      smear[kk] = (1 - t) * spread[next - 1] + t * spread[next] + t * (1 - t) * h * h;
+  r.contrast = curve.contrast;
+  r.rise_10_90_px = curve.rise_10_90_px;
+  if (curve.has_centroid) {
+    // Back to a distance from the line: bin k holds d = (k + 0.5) / os - hw. d grows along
+    // the working view's +x, so along (1, -b) / norm there, (-b, 1) / norm in a transposed
+    // view.
+    const double d = (curve.windowed_centroid_bins + 0.5) / os - hw;
+    r.offset_x_px = d * (transposed ? -line.b : 1.0) / norm;
+    r.offset_y_px = d * (transposed ? 1.0 : -line.b) / norm;
+  }
+  r.frequency_cy_px = std::move(curve.frequency_cy_px);
+  r.sfr = std::move(curve.sfr);
+  r.mtf50_cy_px = curve.mtf50_cy_px;
+  r.mtf30_cy_px = curve.mtf30_cy_px;
+  r.mtf10_cy_px = curve.mtf10_cy_px;
+  const std::vector<double>& lsf = curve.windowed_lsf;
+  // The MTF50's standard error: the delete-a-block jackknife over blocks of adjacent rows
+  // (each block's noise apart from the others' even where the pixels' noise is not white),
+  // steps 3-5 run again on the bins less each block. A block is taken out by binning its
+  // rows again with weight -1: ten blocks' bins kept side by side were 250 KB a call at
+  // 48 px each side, which the allocator mapped and the kernel zeroed on every call.
+  if (r.mtf50_cy_px && rows >= kJackknifeBlocks) {
+    std::vector<double> replicates;
+    EsfBins rest(bins);
+    for (int block = 0; block < kJackknifeBlocks; ++block) {
+      rest = binned;
+      for (int k = block * rows / kJackknifeBlocks; k < (block + 1) * rows / kJackknifeBlocks; ++k)
+        bin_row(rows_read[static_cast<size_t>(k)], rest, -1);
+      const EsfSfr replicate = esf_to_sfr(rest, os, hw, r.mtf50_cy_px);
+      if (!replicate.status.empty() || !replicate.mtf50_cy_px) break;
+      replicates.push_back(*replicate.mtf50_cy_px);
+    }
+    if (replicates.size() == static_cast<size_t>(kJackknifeBlocks)) {
+      double mean = 0, squares = 0;
+      for (double m : replicates) mean += m / replicates.size();
+      for (double m : replicates) squares += (m - mean) * (m - mean);
+      r.mtf50_standard_error_cy_px =
+          std::sqrt((kJackknifeBlocks - 1.0) / kJackknifeBlocks * squares);
     }
   }
-  // Levels: the mean of the outer tenth on each side.
-  const int tenth = std::max(1, bins / 10);
-  double low = 0, high = 0;
-  for (int k = 0; k < tenth; ++k) {
-    low += esf[static_cast<size_t>(k)] / tenth;
-    high += esf[static_cast<size_t>(bins - 1 - k)] / tenth;
-  }
-  r.contrast = high - low;
-  if (!(std::fabs(r.contrast) > 0)) {
-    r.status = std::string(kSfrNoEdge);
-    r.message = "the region shows no step across the edge";
-    return r;
-  }
-  // The 10-90% rise on the ESF smoothed over a pixel (the noise's crossings are not the
-  // edge's).
-  {
-    std::vector<double> smooth(static_cast<size_t>(bins), 0.0);
-    for (int k = 0; k < bins; ++k) {
-      double s = 0;
-      int n = 0;
-      for (int j = std::max(0, k - os / 2); j <= std::min(bins - 1, k + os / 2); ++j, ++n)
-        s += esf[static_cast<size_t>(j)];
-      smooth[static_cast<size_t>(k)] = (s / n - low) / r.contrast;
-    }
-    int k10 = 0, k90 = bins - 1;
-    while (k10 < bins - 1 && smooth[static_cast<size_t>(k10)] < 0.1) ++k10;
-    while (k90 > 0 && smooth[static_cast<size_t>(k90)] > 0.9) --k90;
-    r.rise_10_90_px = std::max(0, k90 - k10) / static_cast<double>(os);
-    // The tails past the spread (a disk's reaches 0.63 rises from its centre, a Gaussian's
-    // 3 sigma 1.2 rises), smoothed by boxes up to 4 px wide each side.
-    smooth_tails(&esf, 0.5 * (k10 + k90),
-                 (kTailCoreRises * r.rise_10_90_px + kTailCoreMarginPx) * os,
-                 static_cast<int>(kTailMaxHalfPx * os));
-  }
-
-  // Step 4: the LSF, windowed about its centroid.
-  std::vector<double> lsf(static_cast<size_t>(bins), 0.0);
-  for (int k = 1; k + 1 < bins; ++k)
-    lsf[static_cast<size_t>(k)] =
-        0.5 * (esf[static_cast<size_t>(k + 1)] - esf[static_cast<size_t>(k - 1)]) *
-        (r.contrast > 0 ? 1 : -1);
-  lsf[0] = lsf[1];
-  lsf[static_cast<size_t>(bins - 1)] = lsf[static_cast<size_t>(bins - 2)];
-  double moment = 0, mass = 0;
-  for (int k = 0; k < bins; ++k)
-    moment += k * lsf[static_cast<size_t>(k)], mass += lsf[static_cast<size_t>(k)];
-  const double centroid = mass > 0 ? moment / mass : 0.5 * (bins - 1);
-  // The window: flat over the line spread (1.25 rises + 1.5 px each side, which holds a
-  // disk's or a Gaussian's whole spread), a cosine taper to twice that (at least 6 px, at
-  // most the region's), zero past it, where the LSF is only noise.
-  const double window_px = std::clamp(2.5 * r.rise_10_90_px + 3, 6.0, hw);
-  const double flat_bins = 0.5 * window_px * os, taper_bins = 0.5 * window_px * os;
-  for (int k = 0; k < bins; ++k) {
-    const double u = std::fabs(k - centroid);
-    const double w = u <= flat_bins ? 1.0
-                     : u >= flat_bins + taper_bins
-                         ? 0.0
-                         : 0.5 * (1 + std::cos(std::numbers::pi * (u - flat_bins) / taper_bins));
-    lsf[static_cast<size_t>(k)] *= w;
-  }
-  {
-    // The windowed spread's centroid (the noise past the spread left out), back to a
-    // distance from the line: bin k holds d = (k + 0.5) / os - hw. d grows along the
-    // working view's +x, so along (1, -b) / norm there, (-b, 1) / norm in a transposed view.
-    double m = 0, w = 0;
-    for (int k = 0; k < bins; ++k)
-      m += k * lsf[static_cast<size_t>(k)], w += lsf[static_cast<size_t>(k)];
-    if (w > 0) {
-      const double d = (m / w + 0.5) / os - hw;
-      r.offset_x_px = d * (transposed ? -line.b : 1.0) / norm;
-      r.offset_y_px = d * (transposed ? 1.0 : -line.b) / norm;
-    }
-  }
-
-  // Step 5: the SFR.
-  const double bin_px = 1.0 / os;
-  double dc = 0, smear_weighted = 0, smear_weight = 0;
-  for (int k = 0; k < bins; ++k) {
-    const double v = lsf[static_cast<size_t>(k)];
-    dc += v;
-    smear_weighted += std::fabs(v) * smear[static_cast<size_t>(k)], smear_weight += std::fabs(v);
-  }
-  // The ESF's smear where the spread is (step 3), px^2.
-  const double smear_px2 = smear_weight > 0 ? smear_weighted / smear_weight * bin_px * bin_px : 0.0;
-  if (!(std::abs(dc) > 0)) {
-    r.status = std::string(kSfrNoEdge);
-    r.message = "the edge's line spread sums to nothing";
-    return r;
-  }
-  // Only the window's bins carry weight; each frequency's terms by a rotating phasor.
-  int first = 0, last = bins - 1;
-  while (first < last && lsf[static_cast<size_t>(first)] == 0) ++first;
-  while (last > first && lsf[static_cast<size_t>(last)] == 0) --last;
-  // In real arithmetic: std::complex's product goes through libgcc's __muldc3 (its NaN
-  // and infinity cases), a tenth of a 12 MP chart's time.
-  for (double fr = 0; fr <= kMaxFrequency + 1e-9; fr += kFrequencyStep) {
-    const double w = -2 * std::numbers::pi * fr * bin_px;
-    const double step_re = std::cos(w), step_im = std::sin(w);
-    double phasor_re = std::cos(w * (first - centroid)),
-           phasor_im = std::sin(w * (first - centroid));
-    double sum_re = 0, sum_im = 0;
-    for (int k = first; k <= last; ++k) {
-      const double v = lsf[static_cast<size_t>(k)];
-      sum_re += v * phasor_re, sum_im += v * phasor_im;
-      const double re = phasor_re * step_re - phasor_im * step_im;
-      phasor_im = phasor_re * step_im + phasor_im * step_re, phasor_re = re;
-    }
-    const double correction =
-        sinc(2 * std::numbers::pi * fr * bin_px) *
-        std::exp(-2 * std::numbers::pi * std::numbers::pi * fr * fr * smear_px2);
-    r.frequency_cy_px.push_back(fr);
-    r.sfr.push_back(std::hypot(sum_re, sum_im) / std::abs(dc) / correction);
-  }
-  r.mtf50_cy_px = frequency_at(r.frequency_cy_px, r.sfr, 0.5);
-  r.mtf30_cy_px = frequency_at(r.frequency_cy_px, r.sfr, 0.3);
-  r.mtf10_cy_px = frequency_at(r.frequency_cy_px, r.sfr, 0.1);
 
   // Flags, most basic first.
   double rise_area = 0, dip_area = 0;

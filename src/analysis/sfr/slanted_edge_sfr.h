@@ -29,6 +29,9 @@
 //      sin(2 pi f d) / (2 pi f d) (d the bin width) and by the ESF's own smear in step 3,
 //      exp(-2 pi^2 f^2 v): v the samples' spread within their bins plus what the
 //      interpolation to the bin centres adds, averaged under the LSF.
+//   6. the MTF50's standard error: steps 3-5 again on the region less each of 10 blocks
+//      of adjacent rows in turn, the spread of those 10 MTF50s (the delete-a-block
+//      jackknife): what the edge's own noise, white or not, moves the MTF50 by.
 // Frequencies are in cycles per pixel perpendicular to the edge.
 //
 // Flags (never a silent number): an edge within 2 deg of a pixel axis (too few phases),
@@ -88,6 +91,9 @@ struct SfrResult {
   double contrast = 0;                                          // light - dark level of the ESF
   std::vector<double> frequency_cy_px, sfr;                     // the curve, 0 to 1 cycle/px
   std::optional<double> mtf50_cy_px, mtf30_cy_px, mtf10_cy_px;  // none: not reached below 1
+  // The MTF50's 1-sigma standard error from the region's own scatter: a jackknife over 10
+  // blocks of adjacent rows. None where the MTF50 is, or a block holds no pixels.
+  std::optional<double> mtf50_standard_error_cy_px;
 };
 
 // The SFR of `edge` in a single-channel image (any depth; read as float). Errors:
