@@ -212,6 +212,7 @@ Status channel_sfr(const cv::Mat& stored, const image::FrameSidecar& side, const
       json c = {{"status", r->status}};
       if (r->status == kSfrOk) {
         c["mtf50_cy_px"] = optional_number(r->mtf50_cy_px);
+        c["mtf50_standard_error_cy_px"] = optional_number(r->mtf50_standard_error_cy_px);
         c["mtf30_cy_px"] = optional_number(r->mtf30_cy_px);
         c["mtf10_cy_px"] = optional_number(r->mtf10_cy_px);
         // The channel's edge off the luminance's line (lateral colour): image px.
