@@ -46,8 +46,7 @@ struct EsfSfr {
 
 // `oversampling` bins a pixel, `half_width_px` each side of the line. Given
 // `mtf50_near_cy_px` only the MTF50 is read, the SFR evaluated from a little below that
-// frequency until it falls through 0.5 (a jackknife replicate needs no more; the whole
-// curve costs six times as much).
+// frequency until it falls through 0.5 (a jackknife replicate needs no more).
 EsfSfr esf_to_sfr(const EsfBins& bins, int oversampling, double half_width_px,
                   std::optional<double> mtf50_near_cy_px = std::nullopt);
 
