@@ -81,8 +81,17 @@ function sfrLines(report) {
   const edges = report.frames ? report.frames.flatMap((f) => f.edges || []) : report.edges || [];
   const mtf50 = edges.map((e) => e.mtf50_cy_px).filter((v) => Number.isFinite(v));
   if (!mtf50.length) return [];
-  return [`MTF50 over ${mtf50.length} edge fits: median ${fixed(median(mtf50), 3)} cycles/px, ` +
+  const lines = [`MTF50 over ${mtf50.length} edge fits: median ${fixed(median(mtf50), 3)} cycles/px, ` +
     `range ${fixed(Math.min(...mtf50), 3)} to ${fixed(Math.max(...mtf50), 3)}`];
+  // Each fit's standard error from its own noise, as a share of its MTF50: what one reading
+  // is worth (docs/analysis.md, "SFR", step 6).
+  const relative = edges.filter((e) => Number.isFinite(e.mtf50_cy_px) && e.mtf50_cy_px > 0 &&
+    Number.isFinite(e.mtf50_standard_error_cy_px))
+    .map((e) => 100 * e.mtf50_standard_error_cy_px / e.mtf50_cy_px);
+  if (relative.length)
+    lines.push(`MTF50 standard error: median ${fixed(median(relative), 2)} % of the MTF50 ` +
+      `(${relative.length} fits), largest ${fixed(Math.max(...relative), 2)} %`);
+  return lines;
 }
 
 function lensMapLines(report) {

@@ -38,8 +38,14 @@ function headlines(kind, report) {
     return out;
   }
   if (kind === 'sfr') {
-    const mtf50 = report.frames.flatMap((f) => f.edges).map((e) => e.mtf50_cy_px).filter(Number.isFinite);
-    return [['the median MTF50', `MTF50 over ${mtf50.length} edge fits: median ${median(mtf50).toFixed(3)} cycles/px`]];
+    const edges = report.frames.flatMap((f) => f.edges);
+    const mtf50 = edges.map((e) => e.mtf50_cy_px).filter(Number.isFinite);
+    const relative = edges.filter((e) => Number.isFinite(e.mtf50_cy_px) && e.mtf50_cy_px > 0 &&
+      Number.isFinite(e.mtf50_standard_error_cy_px))
+      .map((e) => 100 * e.mtf50_standard_error_cy_px / e.mtf50_cy_px);
+    return [['the median MTF50', `MTF50 over ${mtf50.length} edge fits: median ${median(mtf50).toFixed(3)} cycles/px`],
+      ['the median MTF50 standard error', `MTF50 standard error: median ${median(relative).toFixed(2)} % of the MTF50 ` +
+        `(${relative.length} fits)`]];
   }
   if (kind === 'lensmap')
     return report.surfaces.map((s) => [`f/${s.f_number}'s surface`,
