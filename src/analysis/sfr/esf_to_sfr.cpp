@@ -183,8 +183,6 @@ EsfSfr esf_to_sfr(const EsfBins& binned, int oversampling, double half_width_px,
   int first = 0, last = bins - 1;
   while (first < last && lsf[static_cast<size_t>(first)] == 0) ++first;
   while (last > first && lsf[static_cast<size_t>(last)] == 0) --last;
-  // In real arithmetic: std::complex's product goes through libgcc's __muldc3 (its NaN
-  // and infinity cases), a tenth of a 12 MP chart's time.
   // What the central difference and the ESF's smear (step 3) took from frequency fr.
   auto response = [&](double fr) {
     return sinc(2 * std::numbers::pi * fr * bin_px) *
@@ -192,7 +190,9 @@ EsfSfr esf_to_sfr(const EsfBins& binned, int oversampling, double half_width_px,
   };
   // The SFR at `lanes` frequencies at once, out[j] at fr[j]: each frequency's phasor is a
   // chain of dependent products, and side by side the processor runs them together (one
-  // at a time, the whole curve was half the SFR's time).
+  // at a time, the whole curve was half the SFR's time). In real arithmetic: std::complex's
+  // product goes through libgcc's __muldc3 (its NaN and infinity cases), a tenth of a 12 MP
+  // chart's time.
   auto sfr_at = [&]<int lanes>(const double* fr, double* out) {
     double step_re[lanes], step_im[lanes], phasor_re[lanes], phasor_im[lanes];
     double sum_re[lanes] = {}, sum_im[lanes] = {};
