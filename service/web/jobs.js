@@ -125,9 +125,26 @@ export class JobsPanel {
       `${job.request && job.request.kind ? ` (${job.request.kind})` : ''} · ${job.state}`;
     this.e.panel.dataset.state = job.state;
     const lines = [{ text: progressText(job) }, ...(FINAL.has(job.state) ? resultLines(job) : [])];
-    this.e.summary.innerHTML = lines.filter((l) => l.text)
+    // The text is rewritten on every progress event (a capture's every frame); the cancel
+    // button is kept while its job runs. Rebuilt with the text, a click whose press and
+    // release fell either side of a rebuild was lost: the capture ran on to its end.
+    let text = this.e.summary.querySelector(':scope > .summary-text');
+    if (!text) {
+      text = document.createElement('div');
+      text.className = 'summary-text';
+      this.e.summary.replaceChildren(text);
+    }
+    text.innerHTML = lines.filter((l) => l.text)
       .map((l) => `<p${l.warn ? ' class="warn"' : ''}>${esc(l.text)}</p>`).join('');
-    if (!FINAL.has(job.state)) this.e.summary.append(this.cancelButton(job));
+    const button = this.e.summary.querySelector(':scope > #job-cancel');
+    if (FINAL.has(job.state)) {
+      if (button) button.remove();
+    } else if (!button || button.dataset.jobId !== String(job.id)) {
+      if (button) button.remove();
+      this.e.summary.append(this.cancelButton(job));
+    } else if (!button.disabled) {
+      button.textContent = job.state === 'queued' ? 'Cancel (queued)' : 'Cancel';
+    }
   }
 
   // DELETE /v1/jobs/{id}: a queued job ends at once, a running capture between frames (the
@@ -136,6 +153,7 @@ export class JobsPanel {
     const button = document.createElement('button');
     button.type = 'button';
     button.id = 'job-cancel';
+    button.dataset.jobId = String(job.id);
     button.textContent = job.state === 'queued' ? 'Cancel (queued)' : 'Cancel';
     button.addEventListener('click', async () => {
       button.disabled = true;

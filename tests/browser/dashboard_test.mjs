@@ -323,6 +323,16 @@ async function main() {
     return id && id !== openBefore ? id : null;
   }, 10000);
   await page.waitForSelector(`#jobs tr[data-job-id="${longId}"][data-state="running"]`, { timeout: 60000 });
+  // The cancel button stays the same element while progress rewrites the summary on every
+  // frame: rebuilt each time, a click whose press and release fell either side of a rebuild
+  // was lost (this capture once ran on to its end in CI).
+  await page.waitForSelector('#job-cancel');
+  await page.evaluate(() => { window.cancelButtonSeen = document.querySelector('#job-cancel'); });
+  const framesThen = await page.evaluate(() => document.querySelector('#job-summary').textContent);
+  await page.waitForFunction((before) => document.querySelector('#job-summary').textContent !== before,
+    framesThen, { timeout: 10000 });
+  check(await page.evaluate(() => document.querySelector('#job-cancel') === window.cancelButtonSeen),
+    'the running capture\'s cancel button outlives its progress updates');
   await page.click('#job-cancel');
   await page.waitForSelector(`#jobs tr[data-job-id="${longId}"][data-state="cancelled"]`, { timeout: 30000 });
   const cancelled = await (await fetch(`${base}/v1/jobs/${longId}`, { headers: auth })).json();
