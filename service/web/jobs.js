@@ -101,22 +101,41 @@ export class JobsPanel {
     this.render();
   }
 
+  // The table keeps each job's row and rewrites its cells' text: it is rendered on every
+  // progress event (a capture's every frame), and a row rebuilt between a click's press and
+  // release never received the click.
   render() {
     const rows = [...this.jobs.values()].sort((a, b) => b.id - a.id).slice(0, 50);
-    this.e.tbody.replaceChildren(...rows.map((job) => {
-      const tr = document.createElement('tr');
-      tr.dataset.jobId = job.id;
+    const kept = new Map([...this.e.tbody.children].map((tr) => [tr.dataset.jobId, tr]));
+    const setText = (element, text) => {
+      if (element.textContent !== text) element.textContent = text;
+    };
+    const trs = rows.map((job) => {
+      let tr = kept.get(String(job.id));
+      if (!tr) {
+        tr = document.createElement('tr');
+        tr.dataset.jobId = job.id;
+        tr.innerHTML = '<td></td><td></td><td></td><td></td>' +
+          '<td><progress max="1"></progress> <span></span></td><td></td>';
+        tr.addEventListener('click', () => this.show(job.id));
+      }
       tr.dataset.state = job.state;
       tr.className = `state-${job.state}${job.id === this.openJob ? ' open' : ''}`;
       const kind = job.kind === 'capture' ? `capture: ${(job.request || {}).kind}`
         : job.kind === 'analysis' ? `analysis: ${(job.request || {}).analysis}` : job.kind;
-      const fraction = Math.min(1, (job.progress || {}).fraction || 0);
-      tr.innerHTML = `<td>${job.id}</td><td>${esc(kind)}</td><td>${esc(source(job))}</td>` +
-        `<td>${esc(job.state)}</td><td><progress max="1" value="${fraction}"></progress> ` +
-        `${esc(progressText(job))}</td><td>${esc((job.created_at || '').replace('T', ' ').slice(0, 19))}</td>`;
-      tr.addEventListener('click', () => this.show(job.id));
+      const cells = tr.children;
+      setText(cells[0], String(job.id));
+      setText(cells[1], kind);
+      setText(cells[2], source(job));
+      setText(cells[3], job.state);
+      cells[4].querySelector('progress').value = Math.min(1, (job.progress || {}).fraction || 0);
+      setText(cells[4].querySelector('span'), progressText(job));
+      setText(cells[5], (job.created_at || '').replace('T', ' ').slice(0, 19));
       return tr;
-    }));
+    });
+    const children = this.e.tbody.children;
+    if (trs.length !== children.length || trs.some((tr, k) => children[k] !== tr))
+      this.e.tbody.replaceChildren(...trs);
   }
 
   renderSummary(job) {

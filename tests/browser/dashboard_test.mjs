@@ -327,12 +327,19 @@ async function main() {
   // frame: rebuilt each time, a click whose press and release fell either side of a rebuild
   // was lost (this capture once ran on to its end in CI).
   await page.waitForSelector('#job-cancel');
-  await page.evaluate(() => { window.cancelButtonSeen = document.querySelector('#job-cancel'); });
+  await page.evaluate((id) => {
+    window.cancelButtonSeen = document.querySelector('#job-cancel');
+    window.jobRowSeen = document.querySelector(`#jobs tr[data-job-id="${id}"]`);
+  }, longId);
   const framesThen = await page.evaluate(() => document.querySelector('#job-summary').textContent);
   await page.waitForFunction((before) => document.querySelector('#job-summary').textContent !== before,
     framesThen, { timeout: 10000 });
   check(await page.evaluate(() => document.querySelector('#job-cancel') === window.cancelButtonSeen),
     'the running capture\'s cancel button outlives its progress updates');
+  check(await page.evaluate((id) => {
+    const row = document.querySelector(`#jobs tr[data-job-id="${id}"]`);
+    return row === window.jobRowSeen && /frames/.test(row.textContent);
+  }, longId), 'and so does its row in the jobs table, its progress rewritten in place');
   await page.click('#job-cancel');
   await page.waitForSelector(`#jobs tr[data-job-id="${longId}"][data-state="cancelled"]`, { timeout: 30000 });
   const cancelled = await (await fetch(`${base}/v1/jobs/${longId}`, { headers: auth })).json();
