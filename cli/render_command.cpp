@@ -1,9 +1,11 @@
 // `camlab render`: frames from the virtual camera into a capture folder.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -31,6 +33,7 @@ struct RenderArgs {
   int pixel_samples = -1;
   int threads = 0;
   bool no_noise = false;
+  bool hold_exposure = false;
   bool json = false;
   bool quiet = false;
 };
@@ -54,6 +57,21 @@ void run_render(const RenderArgs& args) {
                                " times; at most two (a grid: the second varies inside the first)"));
   if (!args.sweeps.empty()) request.sweep = errors.take(mock::parse_sweep(args.sweeps[0]));
   if (args.sweeps.size() == 2) request.inner_sweep = errors.take(mock::parse_sweep(args.sweeps[1]));
+  if (args.hold_exposure) {
+    const mock::Sweep* f_sweep = nullptr;
+    for (const std::optional<mock::Sweep>* sweep : {&request.sweep, &request.inner_sweep})
+      if (*sweep && (*sweep)->parameter == "f_number") f_sweep = &**sweep;
+    if (!f_sweep)
+      errors.fail(make_error("invalid_argument",
+                             "--hold-exposure holds the exposure across f-numbers: it needs "
+                             "--sweep f_number=..."));
+    // The --set exposure_us is that of the --set f_number, or else of the first stop swept.
+    const bool f_number_set = std::any_of(args.sets.begin(), args.sets.end(), [](const auto& s) {
+      return s.rfind("f_number=", 0) == 0;
+    });
+    if (!f_number_set) request.base.f_number = f_sweep->values.front();
+    request.hold_exposure = true;
+  }
   request.repeats = args.repeats;
   request.views = args.views;
   request.options.seed = args.seed;
@@ -113,7 +131,8 @@ void register_render_command(CLI::App& app) {
          "5.66, 8, 11.3: start:stop:stops, half-stops, third-stops or xRATIO multiply)\n"
          "| exposure_us=1000:16000:stops (x2) | focus_position=0:200:20 (start:stop:step adds)\n"
          "| focus_m=0.5,1,2 | gain=1,2,4 (linear). Twice for a grid, the second inside the first:\n"
-         "--sweep f_number=1.4:5.6:stops --sweep focus_position=10:120:5 (a lens map's capture)")
+         "--sweep f_number=1.4:5.6:stops --sweep focus_position=10:120:5 --hold-exposure\n"
+         "(a lens map's capture)")
       ->allow_extra_args(false);
   cmd->add_option("--set", args->sets,
                   "fix a setting for every frame, e.g. --set exposure_us=5000 --set f_number=2.8;\n"
@@ -132,6 +151,11 @@ void register_render_command(CLI::App& app) {
   cmd->add_option("--threads", args->threads, "render threads (default: all cores)")
       ->check(CLI::Range(1, 256));
   cmd->add_flag("--no-noise", args->no_noise, "render the expected signal without noise");
+  cmd->add_flag("--hold-exposure", args->hold_exposure,
+                "with an f_number sweep: each stop's exposure time is exposure_us x (N / N0)^2,\n"
+                "N0 the --set f_number or else the first stop swept, so that every stop gets\n"
+                "the same exposure H (a lens map's capture; at one time f/5.6 is 4 stops under\n"
+                "f/1.4)");
   cmd->add_flag("--json", args->json, "print the summary as JSON");
   cmd->add_flag("--quiet", args->quiet, "no progress on stderr");
   cmd->callback([args] { run_render(*args); });

@@ -5,6 +5,7 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "base/format.h"
 #include "image/capture_folder.h"
 #include "image/pixel_format.h"
 #include "mock_device/render/frame_truth.h"
@@ -136,6 +137,27 @@ Status apply_setting(const Renderer& renderer, const std::string& name, double v
   return renderer.validate(*settings);
 }
 
+namespace {
+
+// One swept value; with hold_exposure an f-number brings its exposure time along.
+Status apply_swept(const Renderer& renderer, const RenderCaptureRequest& request,
+                   const std::string& name, double value, RenderSettings* settings) {
+  if (request.hold_exposure && name == "f_number" && request.base.f_number > 0) {
+    const double ratio = value / request.base.f_number;
+    settings->exposure_us = request.base.exposure_us * ratio * ratio;
+  }
+  if (Status ok = apply_setting(renderer, name, value, settings); !ok) {
+    if (request.hold_exposure && name == "f_number")
+      return make_error(ok.error().code,
+                        ok.error().message + format_printf(" (exposure %.0f us held for f/%g)",
+                                                           settings->exposure_us, value));
+    return ok;
+  }
+  return {};
+}
+
+}  // namespace
+
 Result<RenderCaptureSummary> render_capture(Renderer& renderer,
                                             const RenderCaptureRequest& request) {
   const auto start = std::chrono::steady_clock::now();
@@ -160,7 +182,7 @@ Result<RenderCaptureSummary> render_capture(Renderer& renderer,
     std::vector<RenderSettings> outer;
     for (double value : request.sweep->values) {
       RenderSettings s = request.base;
-      if (Status ok = apply_setting(renderer, request.sweep->parameter, value, &s); !ok)
+      if (Status ok = apply_swept(renderer, request, request.sweep->parameter, value, &s); !ok)
         return make_error(ok.error().code,
                           "sweep " + request.sweep->parameter + ": " + ok.error().message);
       outer.push_back(s);
@@ -172,7 +194,8 @@ Result<RenderCaptureSummary> render_capture(Renderer& renderer,
       }
       for (double value : request.inner_sweep->values) {
         RenderSettings s = o;
-        if (Status ok = apply_setting(renderer, request.inner_sweep->parameter, value, &s); !ok)
+        if (Status ok = apply_swept(renderer, request, request.inner_sweep->parameter, value, &s);
+            !ok)
           return make_error(ok.error().code,
                             "sweep " + request.inner_sweep->parameter + ": " + ok.error().message);
         settings_list.push_back(s);
@@ -195,7 +218,8 @@ Result<RenderCaptureSummary> render_capture(Renderer& renderer,
   nlohmann::json parameters = {{"repeats", request.repeats},
                                {"views", views},
                                {"seed", request.options.seed},
-                               {"noise", request.options.noise}};
+                               {"noise", request.options.noise},
+                               {"hold_exposure", request.hold_exposure}};
   if (request.sweep)
     parameters["sweep"] = {{"parameter", request.sweep->parameter},
                            {"values", request.sweep->values}};

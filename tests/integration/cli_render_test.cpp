@@ -91,6 +91,31 @@ TEST_F(CliRender, FocusSweepChangesTheFocusDistanceInEffect) {
   EXPECT_FALSE(fs::exists(out / "truth.cameramodel")) << "the model breathes with focus";
 }
 
+// --hold-exposure: each stop's time grows as N^2 from the first stop's, so the image's
+// signal (H = T x E, E ~ 1 / N^2) is the same at every stop.
+TEST_F(CliRender, HoldExposureGivesEveryStopTheSameSignal) {
+  const auto out = dir / "held";
+  auto run =
+      run_cli(common() + " --out " + out.string() +
+              " --set exposure_us=1000 --hold-exposure --sweep f_number=2:4:stops --no-noise");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  auto folder = camlab::image::CaptureFolder::open(out);
+  ASSERT_TRUE(folder.ok());
+  ASSERT_EQ(folder->frames().size(), 3u);
+  double first_signal = 0;
+  for (int i = 0; i < 3; ++i) {
+    auto meta = folder->load_sidecar(i);
+    ASSERT_TRUE(meta.ok());
+    const double n = meta->settings["f_number"].get<double>();
+    EXPECT_NEAR(meta->settings["exposure_us"].get<double>(), 1000 * (n / 2) * (n / 2), 1e-6) << n;
+    auto image = folder->load_image(i);
+    ASSERT_TRUE(image.ok());
+    const double signal = cv::mean(*image)[0] - meta->black_level_dn;
+    if (i == 0) first_signal = signal;
+    EXPECT_NEAR(signal / first_signal, 1.0, 0.02) << "f/" << n;
+  }
+}
+
 TEST_F(CliRender, BadInputFailsWithASpecificMessageAndWritesNothing) {
   struct Case {
     std::string args;
@@ -102,6 +127,8 @@ TEST_F(CliRender, BadInputFailsWithASpecificMessageAndWritesNothing) {
       {"--sweep shutter=5", "unknown setting 'shutter'"},
       {"--set exposure_us=99999999", "exposure_us"},
       {"--view 7", "view 7 is not in 0..0"},
+      {"--hold-exposure --sweep exposure_us=1000,2000", "it needs --sweep f_number"},
+      {"--set exposure_us=20000 --hold-exposure --sweep f_number=1.4,5.6", "held for f/5.6"},
   };
   for (const auto& c : cases) {
     const auto out = dir / "never";
