@@ -142,7 +142,8 @@ json schemas() {
          "focus_stack: positions[] "
          "or start/stop/step; aperture_series: f_numbers[] or iris_positions[]; lens_map: an "
          "aperture series' fields and a focus stack's (every stop x every position, the focus "
-         "stepped inside each stop). Common: repeats, "
+         "stepped inside each stop; base_exposure_us: the first stop's time, the others' "
+         "grown as N^2 so that every stop is exposed alike). Common: repeats, "
          "format "
          "{fourcc, width, height}, controls {name: value}."},
         {"properties",

@@ -33,6 +33,9 @@ export function captureRequest(form) {
     request.start = Number(form.querySelector('#lens-map-start').value);
     request.stop = Number(form.querySelector('#lens-map-stop').value);
     request.step = Number(form.querySelector('#lens-map-step').value);
+    // Held across the stops (time x N^2), or every stop would be exposed differently.
+    const base = form.querySelector('#lens-map-base-exposure').value.trim();
+    if (base) request.base_exposure_us = Number(base);
   }
   return request;
 }

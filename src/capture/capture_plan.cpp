@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -532,9 +533,13 @@ Status PlanBuilder::build_aperture_series() {
 
 // A lens map's grid: every iris stop x every focus position, the focus stepped inside each
 // stop (one iris move per stop; the lens map reads one focus sweep per f-number).
+// base_exposure_us is the first stop's exposure time, each other's grown as (N / first N)^2
+// so that every stop is exposed alike (the image-side irradiance goes as 1 / N^2): at one
+// time for all, f/5.6 lies four stops under f/1.4, its edges' noise four times as large
+// against their contrast, and its best foci that much looser (docs/analysis.md, "Lens map").
 Status PlanBuilder::build_lens_map() {
-  if (Status s =
-          check_fields({"f_numbers", "iris_positions", "positions", "start", "stop", "step"});
+  if (Status s = check_fields({"f_numbers", "iris_positions", "positions", "start", "stop", "step",
+                               "base_exposure_us"});
       !s)
     return s;
   const device::ControlInfo *focus_control = nullptr, *iris_control = nullptr;
@@ -547,11 +552,42 @@ Status PlanBuilder::build_lens_map() {
     return invalid(std::to_string(iris.size()) + " stops x " + std::to_string(focus.size()) +
                    " focus positions = " + std::to_string(iris.size() * focus.size()) +
                    " steps; at most " + std::to_string(kMaxStepsPerPlan));
-  for (const auto& [stop, stop_requested] : iris)
+  // Each stop's exposure-time units when the exposure is held, else none.
+  std::vector<std::optional<int64_t>> exposure(iris.size());
+  if (request_.contains("base_exposure_us")) {
+    if (request_.contains("exposure_us"))
+      return invalid(
+          "give exposure_us (one time for every stop) or base_exposure_us (the first stop's, "
+          "the others' grown to the same exposure), not both");
+    const device::ControlInfo* c = nullptr;
+    CAMLAB_ASSIGN(c, require_control(kExposure, "base_exposure_us"));
+    double base_us = 0;
+    CAMLAB_ASSIGN(base_us, number(request_["base_exposure_us"], "base_exposure_us"));
+    if (!(base_us > 0)) return invalid("base_exposure_us must be positive");
+    for (const auto& [stop, requested] : iris)
+      if (!requested.contains("f_number"))
+        return make_error("unsupported",
+                          "base_exposure_us needs each stop's f-number, and iris position " +
+                              std::to_string(stop) + " has none known; give exposure_us");
+    const double first_n = iris.front().second["f_number"].get<double>();
+    for (size_t i = 0; i < iris.size(); ++i) {
+      const double n = iris[i].second["f_number"].get<double>();
+      const double us = base_us * (n / first_n) * (n / first_n);
+      int64_t units = 0;
+      CAMLAB_ASSIGN(units, exposure_units(*c, us, true,
+                                          "base_exposure_us x (f/" + number_text(n) + " / f/" +
+                                              number_text(first_n) + ")^2"));
+      exposure[i] = units;
+      iris[i].second["exposure_us"] = us;
+    }
+  }
+  for (size_t i = 0; i < iris.size(); ++i)
     for (const auto& [position, focus_requested] : focus) {
-      json requested = stop_requested;
+      json requested = iris[i].second;
       requested.update(focus_requested);
-      add_step({{kIris, stop}, {kFocus, position}}, std::move(requested));
+      std::map<std::string, int64_t> controls = {{kIris, iris[i].first}, {kFocus, position}};
+      if (exposure[i]) controls[kExposure] = *exposure[i];
+      add_step(std::move(controls), std::move(requested));
     }
   if (find_control(kFocusAuto))
     if (Status s = add_fixed(kFocusAuto, 0, "a lens map"); !s) return s;

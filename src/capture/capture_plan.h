@@ -13,7 +13,9 @@
 //                    {"kind": "aperture_series", "iris_positions": [...]}
 //   lens_map         an aperture series' stops x a focus stack's positions, the focus
 //                    stepped inside each stop: {"kind": "lens_map", "f_numbers": [2, 4],
-//                    "start": 15, "stop": 113, "step": 7}
+//                    "start": 15, "stop": 113, "step": 7, "base_exposure_us": 2000}
+//                    (the first stop's time, each other's grown as N^2: every stop
+//                    exposed alike)
 // Common optional fields: "repeats" (>= 1, pairs for noise statistics), "format"
 // ({"fourcc": "Y16 ", "width": 640, "height": 480, "frame_interval_us": 33333}),
 // "exposure_us" and "gain" (fixed, for the kinds that do not step them), "controls"

@@ -72,7 +72,7 @@ async function main() {
   for (const [name, request] of Object.entries({
     focus_stack: { kind: 'focus_stack', start: 15, stop: 113, step: 14, repeats: 1, exposure_us: 1000 },
     aperture_series: { kind: 'aperture_series', f_numbers: [1.4, 2.8, 5.6, 8], repeats: 1, exposure_us: 1000 },
-    lens_map: { kind: 'lens_map', f_numbers: [1.4, 2.8], start: 15, stop: 113, step: 14, repeats: 1, exposure_us: 1000 },
+    lens_map: { kind: 'lens_map', f_numbers: [1.4, 2.8], start: 15, stop: 113, step: 14, repeats: 1, base_exposure_us: 2000 },
   })) {
     const job = await call(capturesUrl, request);
     const done = await call(`/v1/jobs/${job.id}?wait=60`);

@@ -105,7 +105,7 @@ TEST(ServiceLensMap, ALensMapCaptureAndItsAnalysisFindTheCamerasFocusSurface) {
                                               {"start", 15},
                                               {"stop", 113},
                                               {"step", 7},
-                                              {"exposure_us", 1000}});
+                                              {"base_exposure_us", 2000}});
   ASSERT_EQ(r.status, 202) << r.body;
   const int64_t capture_id = r.json()["id"];
   const json capture = daemon.wait_finished(capture_id, std::chrono::seconds(120));
@@ -117,6 +117,12 @@ TEST(ServiceLensMap, ALensMapCaptureAndItsAnalysisFindTheCamerasFocusSurface) {
   EXPECT_EQ(second.sidecar["settings"]["focus_position"], 22);
   EXPECT_NEAR(first.sidecar["settings"]["f_number"].get<double>(), 1.4, 1e-9);
   EXPECT_NEAR(second.sidecar["settings"]["f_number"].get<double>(), 1.4, 1e-9);
+  // The exposure held across the stops: f/2.8's time four times f/1.4's (the first frame
+  // of the second stop is the 16th: 15 focus positions a stop).
+  const DownloadedFrame stopped_down = download_frame(daemon, capture_id, 15);
+  EXPECT_NEAR(stopped_down.sidecar["settings"]["f_number"].get<double>(), 2.8, 1e-9);
+  EXPECT_DOUBLE_EQ(first.sidecar["settings"]["exposure_us"].get<double>(), 2000);
+  EXPECT_DOUBLE_EQ(stopped_down.sidecar["settings"]["exposure_us"].get<double>(), 8000);
 
   auto analysis = daemon.post("/v1/analyses", {{"kind", "lensmap"}, {"job", capture_id}});
   ASSERT_EQ(analysis.status, 202) << analysis.body;

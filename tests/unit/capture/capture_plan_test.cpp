@@ -177,6 +177,51 @@ TEST_F(CapturePlanTest, LensMapIsEveryStopTimesEveryFocusPositionFocusInside) {
                "invalid_request", "at most 1000");
 }
 
+// base_exposure_us holds the exposure H = T x E across the stops: each stop's time is the
+// first's x (N / first N)^2, on the exposure grid, the time asked in `requested`.
+TEST_F(CapturePlanTest, LensMapHoldsTheExposureAcrossStopsWithABaseTime) {
+  auto p = plan({{"kind", "lens_map"},
+                 {"f_numbers", {2, 4, 5.6}},
+                 {"positions", {0, 50}},
+                 {"base_exposure_us", 1000}});
+  ASSERT_TRUE(p.ok()) << p.error().message;
+  ASSERT_EQ(p->steps.size(), 6u);
+  const int64_t units[6] = {10, 10, 40, 40, 78, 78};  // 1000, 4000 and 7840 us
+  for (size_t i = 0; i < 6; ++i) {
+    const CaptureStep& step = p->steps[i];
+    EXPECT_EQ(step.controls.at("exposure_time_absolute"), units[i]) << i;
+    const double n = step.requested["f_number"].get<double>();
+    // T / N^2 is the same at every stop: the exposure is held.
+    EXPECT_NEAR(step.requested["exposure_us"].get<double>() / (n * n), 1000.0 / 4, 1e-9) << i;
+  }
+  EXPECT_FALSE(p->fixed_controls.count("exposure_time_absolute"));
+  EXPECT_EQ(p->fixed_controls.at("auto_exposure"), 1);
+  // Every stop's time must fit the camera's range (1-100 units here): 1 ms at f/1.4 is
+  // 16 ms at f/5.6, refused naming that stop, before anything moves.
+  expect_error({{"kind", "lens_map"},
+                {"f_numbers", {1.4, 5.6}},
+                {"positions", {0}},
+                {"base_exposure_us", 1000}},
+               "out_of_range", "f/5.6");
+  expect_error({{"kind", "lens_map"},
+                {"f_numbers", {2}},
+                {"positions", {0}},
+                {"base_exposure_us", 1000},
+                {"exposure_us", 1000}},
+               "invalid_request", "not both");
+  expect_error(
+      {{"kind", "lens_map"}, {"f_numbers", {2}}, {"positions", {0}}, {"base_exposure_us", -5}},
+      "invalid_request", "positive");
+  // Stops of unknown f-number cannot be held.
+  auto untabled = plan({{"kind", "lens_map"},
+                        {"iris_positions", {3, 6}},
+                        {"positions", {0}},
+                        {"base_exposure_us", 1000}},
+                       false);
+  ASSERT_FALSE(untabled.ok());
+  EXPECT_EQ(untabled.error().code, "unsupported") << untabled.error().message;
+}
+
 TEST_F(CapturePlanTest, MalformedRequestsAreInvalid) {
   expect_error(json::array(), "invalid_request");
   expect_error({{"repeats", 1}}, "invalid_request", "kind is required");
