@@ -8,6 +8,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "analysis/lensmap/stop_exposure.h"
 #include "base/format.h"
 #include "image/capture_folder.h"
 
@@ -737,6 +738,12 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
     pooled["standard_error_um"] = pooled["standard_error"].get<double>() * extension_mm * 1e3;
   }
   out.text += pooled_text;
+  json relative_exposure = relative_exposure_by_f_number(sfr.report);
+  json warnings = json::array();
+  if (auto warning = unequal_exposure_warning(relative_exposure)) {
+    out.text += "warning: " + *warning + "\n";
+    warnings.push_back(*warning);
+  }
   out.report = {
       {"capture", dir.string()},
       {"astigmatism_all_f_numbers", std::move(pooled)},
@@ -748,6 +755,9 @@ Result<LensMapReport> analyze_lens_map(const std::filesystem::path& dir,
       {"pixel_pitch_um", pitch_um > 0 ? json(pitch_um) : json(nullptr)},
       {"size_px", {width, height}},
       {"surfaces", std::move(list)},
+      // Each f-number's exposure H (time x gain / N^2) over the best-exposed one's.
+      {"relative_exposure", std::move(relative_exposure)},
+      {"warnings", std::move(warnings)},
       {"summary", std::move(summary)}};
   return out;
 }

@@ -5,6 +5,7 @@
 // sagittal and meridional surfaces apart), evaluated in closed form (a Gaussian-blurred
 // square is a product of two error-function steps in the square's own axes) at 2 x 2
 // points a pixel, with noise.
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <numbers>
@@ -14,6 +15,7 @@
 #include <gtest/gtest.h>
 
 #include "analysis/lensmap/lens_map.h"
+#include "analysis/lensmap/stop_exposure.h"
 #include "fresh_dir.h"
 #include "image/capture_folder.h"
 
@@ -285,6 +287,35 @@ TEST(LensMap, AnEdgeIsPlacedWhereItIsAtItsBestFocus) {
   EXPECT_NEAR(s.tilt_x, tilt_x, 1e-6);
   EXPECT_NEAR(s.tilt_y, tilt_y, 1e-6);
   EXPECT_NEAR(s.centre_focus, centre, 1e-6);
+}
+
+// The stops' exposure H ~ T x gain / N^2 against the best-exposed one's: one time for
+// f/1.4 and f/5.6 is 4 stops apart and said; the time grown as N^2, or the gain raised in
+// its place, is the same exposure and says nothing.
+TEST(LensMap, StopsExposedUnequallyAreSaid) {
+  auto report = [](std::vector<std::array<double, 3>> frames) {  // f-number, time, gain
+    nlohmann::json out = {{"frames", nlohmann::json::array()}};
+    for (const auto& [n, t, gain] : frames)
+      out["frames"].push_back(
+          {{"settings", {{"f_number", n}, {"exposure_us", t}, {"gain", gain}}}});
+    return out;
+  };
+  const auto fixed = relative_exposure_by_f_number(report({{1.4, 1000, 1}, {5.6, 1000, 1}}));
+  EXPECT_NEAR(fixed["f/1.4"].get<double>(), 1, 1e-12);
+  EXPECT_NEAR(fixed["f/5.6"].get<double>(), 1.0 / 16, 1e-12);
+  const auto warning = unequal_exposure_warning(fixed);
+  ASSERT_TRUE(warning);
+  EXPECT_NE(warning->find("f/5.6"), std::string::npos) << *warning;
+  EXPECT_NE(warning->find("4.0 stops under"), std::string::npos) << *warning;
+  const auto held = relative_exposure_by_f_number(report({{1.4, 1000, 1}, {5.6, 16000, 1}}));
+  EXPECT_NEAR(held["f/5.6"].get<double>(), 1, 1e-12);
+  EXPECT_FALSE(unequal_exposure_warning(held));
+  EXPECT_FALSE(unequal_exposure_warning(
+      relative_exposure_by_f_number(report({{1.4, 1000, 1}, {5.6, 8000, 2}}))));
+  // Within half a stop is alike; frames that give no settings give no verdict.
+  EXPECT_FALSE(unequal_exposure_warning(
+      relative_exposure_by_f_number(report({{1.4, 1000, 1}, {2, 1500, 1}}))));
+  EXPECT_TRUE(relative_exposure_by_f_number(report({})).empty());
 }
 
 }  // namespace lens_map_test

@@ -1,0 +1,51 @@
+#include "analysis/lensmap/stop_exposure.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <vector>
+
+#include "base/format.h"
+
+namespace camlab::analysis {
+
+using nlohmann::json;
+
+json relative_exposure_by_f_number(const json& sfr_report) {
+  std::map<double, std::vector<double>> exposure;  // f-number -> each frame's T x gain / N^2
+  for (const json& frame : sfr_report.value("frames", json::array())) {
+    const json settings = frame.value("settings", json::object());
+    const double n = settings.value("f_number", 0.0), t = settings.value("exposure_us", 0.0);
+    const double gain = settings.value("gain", 1.0);
+    if (!(n > 0 && t > 0 && gain > 0)) continue;
+    exposure[std::round(n * 1000) / 1000].push_back(t * gain / (n * n));
+  }
+  if (exposure.empty()) return json::object();
+  std::map<double, double> median;
+  double highest = 0;
+  for (auto& [n, values] : exposure) {
+    std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+    median[n] = values[values.size() / 2];
+    highest = std::max(highest, median[n]);
+  }
+  json out = json::object();
+  for (const auto& [n, h] : median) out[format_printf("f/%g", n)] = h / highest;
+  return out;
+}
+
+std::optional<std::string> unequal_exposure_warning(const json& relative_exposure) {
+  if (relative_exposure.size() < 2) return std::nullopt;
+  std::string lowest_name;
+  double lowest = 1;
+  for (const auto& [name, value] : relative_exposure.items())
+    if (value.get<double>() < lowest) lowest = value.get<double>(), lowest_name = name;
+  if (lowest >= 1 / std::sqrt(2.0)) return std::nullopt;
+  return format_printf(
+      "the f-numbers were not exposed alike: %s got %.2g of the best-exposed one's exposure "
+      "(%.1f stops under), so its edges are noisier and its surface the looser for it; hold "
+      "the exposure across the stops (a capture's base_exposure_us, camlab render "
+      "--hold-exposure: the time grows as N^2)",
+      lowest_name.c_str(), lowest, -std::log2(lowest));
+}
+
+}  // namespace camlab::analysis
