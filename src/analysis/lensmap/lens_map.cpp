@@ -56,7 +56,7 @@ void fit_best_focus(EdgeSeries* series) {
   e.through_focus.clear();
   for (const ThroughFocusPoint& p : pts) e.through_focus.emplace_back(p.focus, p.mtf50);
   if (pts.size() < 3) {
-    e.status = kBestFocusTooFewPoints;
+    e.status = pts.empty() ? kBestFocusNotMeasured : kBestFocusTooFewPoints;
     return;
   }
   const size_t peak = static_cast<size_t>(

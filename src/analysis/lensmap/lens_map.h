@@ -46,6 +46,9 @@ namespace camlab::analysis {
 
 // Why an edge has no best focus.
 inline constexpr std::string_view kBestFocusOk = "ok";
+// A segment the edge finder took on the frame it searched that the SFR measured on no frame
+// (a corner's short side, a shadow): no edge, rather than one that failed.
+inline constexpr std::string_view kBestFocusNotMeasured = "not_measured";
 inline constexpr std::string_view kBestFocusTooFewPoints = "too_few_points";
 inline constexpr std::string_view kBestFocusAtSweepEnd = "peak_at_sweep_end";
 inline constexpr std::string_view kBestFocusNotAPeak = "not_a_peak";
