@@ -42,6 +42,9 @@ export class JobsPanel {
     this.openJob = null;
     this.urls = [];  // object URLs of the open job's images
     this.controller = null;
+    // The job and state whose plots and frames the panel holds, and the rebuild under way.
+    this.shownKey = null;
+    this.showGeneration = 0;
   }
 
   async start() {
@@ -193,6 +196,10 @@ export class JobsPanel {
     this.urls = [];
   }
 
+  // Events can ask for the same job twice at once (its end reported by the event stream
+  // and again by a reload): a finished job already on the panel, or being put there, keeps
+  // its plots and frames (rebuilding them would make them flicker, and two rebuilds at once
+  // would show each twice); a newer rebuild stops an older one at its next step.
   async show(id) {
     this.openJob = id;
     this.render();
@@ -203,6 +210,11 @@ export class JobsPanel {
     this.e.panel.dataset.jobId = id;
     this.e.error.textContent = '';
     this.renderSummary(job);
+    const key = `${id}:${job.state}`;
+    if (FINAL.has(job.state) && this.shownKey === key) return;
+    this.shownKey = key;
+    const generation = ++this.showGeneration;
+    const current = () => generation === this.showGeneration && this.openJob === id;
     this.clearImages();
     this.e.actions.replaceChildren();
     this.e.plots.replaceChildren();
@@ -211,9 +223,15 @@ export class JobsPanel {
       this.offerAnalyses(job);
       this.offerCalibration(job);
     }
-    if (job.kind !== 'capture' && FINAL.has(job.state)) await this.showPlots(job);
-    if (job.kind === 'capture' && job.state !== 'queued') await this.showFrames(job);
-    await this.showFiles(job);
+    try {
+      if (job.kind !== 'capture' && FINAL.has(job.state)) await this.showPlots(job, current);
+      if (job.kind === 'capture' && job.state !== 'queued' && current())
+        await this.showFrames(job, current);
+      if (current()) await this.showFiles(job);
+    } catch (error) {
+      if (current()) this.shownKey = null;  // half shown: the next show builds it again
+      throw error;
+    }
   }
 
   // Every file the job wrote, each a download of the file as stored (GET /v1/jobs/{id}/files;
@@ -305,8 +323,9 @@ export class JobsPanel {
 
   // Each plot as an interactive chart (uPlot, from the plot's data) where it is one of
   // points and lines, else gnuplot's PNG; the PNG of a chart is a click away.
-  async showPlots(job) {
+  async showPlots(job, current) {
     const { plots: all } = await api(`/v1/jobs/${job.id}/plots`);
+    if (!current()) return;
     // Raw-DN images are data, not pictures (their display-mapped twin is shown); they are
     // among the job's files to download.
     const plots = all.filter((plot) => !plot.name.endsWith('_raw.png'));
@@ -315,6 +334,7 @@ export class JobsPanel {
       figure.dataset.name = plot.name;
       this.e.plots.append(figure);
       const chart = plot.data ? await api(plot.data).catch(() => null) : null;
+      if (!current()) return;
       const holder = document.createElement('div');
       holder.className = 'chart';
       figure.append(holder);
@@ -332,7 +352,9 @@ export class JobsPanel {
       } else {
         holder.remove();
         figure.dataset.drawn = 'image';
-        figure.append(await this.plotImage(job, plot));
+        const image = await this.plotImage(job, plot);
+        if (!current()) return;
+        figure.append(image);
       }
       const caption = document.createElement('figcaption');
       caption.textContent = plot.name.replace(/\.png$/, '').replaceAll('_', ' ');
@@ -353,8 +375,9 @@ export class JobsPanel {
     return img;
   }
 
-  async showFrames(job) {
+  async showFrames(job, current) {
     const { frames } = await api(`/v1/jobs/${job.id}/frames`);
+    if (!current()) return;
     const shown = frames.slice(0, MAX_THUMBNAILS);
     for (const frame of shown) {
       const figure = document.createElement('figure');
@@ -371,6 +394,7 @@ export class JobsPanel {
         imageUrl(`/v1/jobs/${job.id}/frames/${frame.index}/thumbnail?width=160&clipping=1`),
         api(frame.meta)]);
       this.urls.push(url);
+      if (!current()) return;
       img.src = url;
       const s = meta.settings || {};
       const parts = [`#${frame.index}`];
