@@ -11,12 +11,27 @@ namespace camlab::analysis {
 
 using nlohmann::json;
 
+namespace {
+
+// A setting's number, or `otherwise` where it is missing or not a number (a sidecar from
+// elsewhere may carry anything).
+double number_or(const json& settings, const char* key, double otherwise) {
+  const auto it = settings.find(key);
+  return it != settings.end() && it->is_number() ? it->get<double>() : otherwise;
+}
+
+}  // namespace
+
 json relative_exposure_by_f_number(const json& sfr_report) {
   std::map<double, std::vector<double>> exposure;  // f-number -> each frame's T x gain / N^2
-  for (const json& frame : sfr_report.value("frames", json::array())) {
+  const json frames = sfr_report.value("frames", json::array());
+  if (!frames.is_array()) return json::object();
+  for (const json& frame : frames) {
+    if (!frame.is_object()) continue;
     const json settings = frame.value("settings", json::object());
-    const double n = settings.value("f_number", 0.0), t = settings.value("exposure_us", 0.0);
-    const double gain = settings.value("gain", 1.0);
+    if (!settings.is_object()) continue;
+    const double n = number_or(settings, "f_number", 0), t = number_or(settings, "exposure_us", 0);
+    const double gain = number_or(settings, "gain", 1);
     if (!(n > 0 && t > 0 && gain > 0)) continue;
     exposure[std::round(n * 1000) / 1000].push_back(t * gain / (n * n));
   }

@@ -333,6 +333,12 @@ TEST(LensMap, StopsExposedUnequallyAreSaid) {
   EXPECT_FALSE(unequal_exposure_warning(
       relative_exposure_by_f_number(report({{1.4, 1000, 1}, {2, 1500, 1}}))));
   EXPECT_TRUE(relative_exposure_by_f_number(report({})).empty());
+  // Settings that are not numbers (a sidecar from elsewhere) are passed over, not thrown on.
+  nlohmann::json odd = report({{1.4, 1000, 1}, {5.6, 16000, 1}});
+  odd["frames"].push_back({{"settings", {{"f_number", "f/8"}, {"exposure_us", 1000}}}});
+  odd["frames"].push_back({{"settings", "none"}});
+  odd["frames"].push_back(7);
+  EXPECT_EQ(relative_exposure_by_f_number(odd).size(), 2u);
 }
 
 }  // namespace lens_map_test
