@@ -140,7 +140,8 @@ json schemas() {
         {"description",
          "single: {}; bracket: exposures_us[] (+ gain) or base_exposure_us + ev_steps[]; "
          "focus_stack: positions[] "
-         "or start/stop/step; aperture_series: f_numbers[] or iris_positions[]; lens_map: an "
+         "or start/stop/step; aperture_series: f_numbers[] or iris_positions[] (+ "
+         "base_exposure_us); lens_map: an "
          "aperture series' fields and a focus stack's (every stop x every position, the focus "
          "stepped inside each stop; base_exposure_us: the first stop's time, the others' "
          "grown as N^2 so that every stop is exposed alike). Common: repeats, "

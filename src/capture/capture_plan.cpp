@@ -72,6 +72,9 @@ class PlanBuilder {
   using ControlSteps = std::vector<std::pair<int64_t, json>>;
   Result<ControlSteps> focus_steps(const device::ControlInfo& c) const;
   Result<ControlSteps> iris_steps(const device::ControlInfo& c) const;
+  // base_exposure_us, when asked: each stop's exposure-time units, the time asked added to
+  // its `requested`; none (nullopt each) when not asked.
+  Result<std::vector<std::optional<int64_t>>> held_exposure(ControlSteps* iris) const;
 
   Result<const device::ControlInfo*> require_control(const std::string& name,
                                                      const std::string& kind) const;
@@ -507,6 +510,43 @@ Result<PlanBuilder::ControlSteps> PlanBuilder::iris_steps(const device::ControlI
   return out;
 }
 
+// base_exposure_us is the first stop's exposure time, each other's grown as (N / first N)^2
+// so that every stop is exposed alike (the image-side irradiance goes as 1 / N^2): at one
+// time for all, f/5.6 lies four stops under f/1.4, its edges' noise four times as large
+// against their contrast, and a lens map's best foci that much looser (docs/analysis.md,
+// "Lens map").
+Result<std::vector<std::optional<int64_t>>> PlanBuilder::held_exposure(ControlSteps* iris) const {
+  std::vector<std::optional<int64_t>> exposure(iris->size());
+  if (!request_.contains("base_exposure_us")) return exposure;
+  if (request_.contains("exposure_us"))
+    return invalid(
+        "give exposure_us (one time for every stop) or base_exposure_us (the first stop's, "
+        "the others' grown to the same exposure), not both");
+  const device::ControlInfo* c = nullptr;
+  CAMLAB_ASSIGN(c, require_control(kExposure, "base_exposure_us"));
+  double base_us = 0;
+  CAMLAB_ASSIGN(base_us, number(request_["base_exposure_us"], "base_exposure_us"));
+  if (!(base_us > 0)) return invalid("base_exposure_us must be positive");
+  for (const auto& [stop, requested] : *iris)
+    if (!requested.contains("f_number"))
+      return make_error("unsupported",
+                        "base_exposure_us needs each stop's f-number; iris position " +
+                            std::to_string(stop) + " has none known");
+  const double first_n = iris->front().second["f_number"].get<double>();
+  for (size_t i = 0; i < iris->size(); ++i) {
+    json& requested = (*iris)[i].second;
+    const double n = requested["f_number"].get<double>();
+    const double us = base_us * (n / first_n) * (n / first_n);
+    int64_t units = 0;
+    CAMLAB_ASSIGN(units, exposure_units(*c, us, true,
+                                        "base_exposure_us x (f/" + number_text(n) + " / f/" +
+                                            number_text(first_n) + ")^2"));
+    exposure[i] = units;
+    requested["exposure_us"] = us;
+  }
+  return exposure;
+}
+
 Status PlanBuilder::build_focus_stack() {
   if (Status s = check_fields({"positions", "start", "stop", "step"}); !s) return s;
   const device::ControlInfo* c = nullptr;
@@ -519,12 +559,18 @@ Status PlanBuilder::build_focus_stack() {
 }
 
 Status PlanBuilder::build_aperture_series() {
-  if (Status s = check_fields({"f_numbers", "iris_positions"}); !s) return s;
+  if (Status s = check_fields({"f_numbers", "iris_positions", "base_exposure_us"}); !s) return s;
   const device::ControlInfo* c = nullptr;
   CAMLAB_ASSIGN(c, require_control(kIris, "an aperture series"));
   ControlSteps iris;
   CAMLAB_ASSIGN(iris, iris_steps(*c));
-  for (auto& [p, requested] : iris) add_step({{kIris, p}}, std::move(requested));
+  std::vector<std::optional<int64_t>> exposure;
+  CAMLAB_ASSIGN(exposure, held_exposure(&iris));
+  for (size_t i = 0; i < iris.size(); ++i) {
+    std::map<std::string, int64_t> controls = {{kIris, iris[i].first}};
+    if (exposure[i]) controls[kExposure] = *exposure[i];
+    add_step(std::move(controls), std::move(iris[i].second));
+  }
   // Aperture priority would undo the series by changing the exposure time.
   if (find_control(kExposureAuto))
     return add_fixed(kExposureAuto, V4L2_EXPOSURE_MANUAL, "an aperture series");
@@ -532,11 +578,8 @@ Status PlanBuilder::build_aperture_series() {
 }
 
 // A lens map's grid: every iris stop x every focus position, the focus stepped inside each
-// stop (one iris move per stop; the lens map reads one focus sweep per f-number).
-// base_exposure_us is the first stop's exposure time, each other's grown as (N / first N)^2
-// so that every stop is exposed alike (the image-side irradiance goes as 1 / N^2): at one
-// time for all, f/5.6 lies four stops under f/1.4, its edges' noise four times as large
-// against their contrast, and its best foci that much looser (docs/analysis.md, "Lens map").
+// stop (one iris move per stop; the lens map reads one focus sweep per f-number), the
+// exposure held across the stops when base_exposure_us asks (held_exposure).
 Status PlanBuilder::build_lens_map() {
   if (Status s = check_fields({"f_numbers", "iris_positions", "positions", "start", "stop", "step",
                                "base_exposure_us"});
@@ -552,35 +595,8 @@ Status PlanBuilder::build_lens_map() {
     return invalid(std::to_string(iris.size()) + " stops x " + std::to_string(focus.size()) +
                    " focus positions = " + std::to_string(iris.size() * focus.size()) +
                    " steps; at most " + std::to_string(kMaxStepsPerPlan));
-  // Each stop's exposure-time units when the exposure is held, else none.
-  std::vector<std::optional<int64_t>> exposure(iris.size());
-  if (request_.contains("base_exposure_us")) {
-    if (request_.contains("exposure_us"))
-      return invalid(
-          "give exposure_us (one time for every stop) or base_exposure_us (the first stop's, "
-          "the others' grown to the same exposure), not both");
-    const device::ControlInfo* c = nullptr;
-    CAMLAB_ASSIGN(c, require_control(kExposure, "base_exposure_us"));
-    double base_us = 0;
-    CAMLAB_ASSIGN(base_us, number(request_["base_exposure_us"], "base_exposure_us"));
-    if (!(base_us > 0)) return invalid("base_exposure_us must be positive");
-    for (const auto& [stop, requested] : iris)
-      if (!requested.contains("f_number"))
-        return make_error("unsupported",
-                          "base_exposure_us needs each stop's f-number, and iris position " +
-                              std::to_string(stop) + " has none known; give exposure_us");
-    const double first_n = iris.front().second["f_number"].get<double>();
-    for (size_t i = 0; i < iris.size(); ++i) {
-      const double n = iris[i].second["f_number"].get<double>();
-      const double us = base_us * (n / first_n) * (n / first_n);
-      int64_t units = 0;
-      CAMLAB_ASSIGN(units, exposure_units(*c, us, true,
-                                          "base_exposure_us x (f/" + number_text(n) + " / f/" +
-                                              number_text(first_n) + ")^2"));
-      exposure[i] = units;
-      iris[i].second["exposure_us"] = us;
-    }
-  }
+  std::vector<std::optional<int64_t>> exposure;
+  CAMLAB_ASSIGN(exposure, held_exposure(&iris));
   for (size_t i = 0; i < iris.size(); ++i)
     for (const auto& [position, focus_requested] : focus) {
       json requested = iris[i].second;

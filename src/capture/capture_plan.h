@@ -10,7 +10,8 @@
 //   focus_stack      {"kind": "focus_stack", "positions": [...]} or
 //                    {"kind": "focus_stack", "start": 0, "stop": 100, "step": 10}
 //   aperture_series  {"kind": "aperture_series", "f_numbers": [2, 2.8, 4]} or
-//                    {"kind": "aperture_series", "iris_positions": [...]}
+//                    {"kind": "aperture_series", "iris_positions": [...]}; with
+//                    "base_exposure_us" each stop exposed alike (as a lens map)
 //   lens_map         an aperture series' stops x a focus stack's positions, the focus
 //                    stepped inside each stop: {"kind": "lens_map", "f_numbers": [2, 4],
 //                    "start": 15, "stop": 113, "step": 7, "base_exposure_us": 2000}

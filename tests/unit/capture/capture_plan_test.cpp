@@ -222,6 +222,28 @@ TEST_F(CapturePlanTest, LensMapHoldsTheExposureAcrossStopsWithABaseTime) {
   EXPECT_EQ(untabled.error().code, "unsupported") << untabled.error().message;
 }
 
+// An aperture series takes the same hold: each stop exposed alike, where one time would
+// leave f/8 four stops under f/2 (a CoC measurement then reads its stopped-down edges
+// through four times the noise).
+TEST_F(CapturePlanTest, ApertureSeriesHoldsTheExposureWithABaseTime) {
+  auto p = plan({{"kind", "aperture_series"}, {"f_numbers", {2, 4, 8}}, {"base_exposure_us", 500}});
+  ASSERT_TRUE(p.ok()) << p.error().message;
+  ASSERT_EQ(p->steps.size(), 3u);
+  const int64_t units[3] = {5, 20, 80};
+  for (size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(p->steps[i].controls.at("exposure_time_absolute"), units[i]) << i;
+    EXPECT_EQ(p->steps[i].controls.at("iris_absolute"), p->steps[i].requested["iris_position"]);
+  }
+  EXPECT_EQ(p->fixed_controls.at("auto_exposure"), 1);
+  // Without it the series keeps one time (the 1/N^2 law's own check needs that).
+  auto fixed = plan({{"kind", "aperture_series"}, {"f_numbers", {2, 8}}, {"exposure_us", 500}});
+  ASSERT_TRUE(fixed.ok()) << fixed.error().message;
+  EXPECT_FALSE(fixed->steps[1].controls.count("exposure_time_absolute"));
+  EXPECT_EQ(fixed->fixed_controls.at("exposure_time_absolute"), 5);
+  expect_error({{"kind", "aperture_series"}, {"f_numbers", {2, 8}}, {"base_exposure_us", 1000}},
+               "out_of_range", "f/8");
+}
+
 TEST_F(CapturePlanTest, MalformedRequestsAreInvalid) {
   expect_error(json::array(), "invalid_request");
   expect_error({{"repeats", 1}}, "invalid_request", "kind is required");
