@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "base/format.h"
+#include "optics/optics.h"
 
 namespace camlab::analysis {
 
@@ -32,8 +33,9 @@ json relative_exposure_by_f_number(const json& sfr_report) {
     if (!settings.is_object()) continue;
     const double n = number_or(settings, "f_number", 0), t = number_or(settings, "exposure_us", 0);
     const double gain = number_or(settings, "gain", 1);
-    if (!(n > 0 && t > 0 && gain > 0)) continue;
-    exposure[std::round(n * 1000) / 1000].push_back(t * gain / (n * n));
+    const auto relative = optics::relative_exposure(n, t * 1e-6);  // T / N^2
+    if (!relative || !(gain > 0)) continue;
+    exposure[std::round(n * 1000) / 1000].push_back(*relative * gain);
   }
   if (exposure.empty()) return json::object();
   std::map<double, double> median;
