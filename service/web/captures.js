@@ -28,6 +28,9 @@ export function captureRequest(form) {
     request.step = Number(form.querySelector('#focus-step').value);
   } else if (kind === 'aperture_series') {
     request.f_numbers = numbers(form.querySelector('#aperture-f-numbers').value, 'f-numbers');
+    // Optional: held across the stops for blur measurements; one time for the 1/N^2 law.
+    const base = form.querySelector('#aperture-base-exposure').value.trim();
+    if (base) request.base_exposure_us = Number(base);
   } else if (kind === 'lens_map') {
     request.f_numbers = numbers(form.querySelector('#lens-map-f-numbers').value, 'f-numbers');
     request.start = Number(form.querySelector('#lens-map-start').value);

@@ -184,6 +184,21 @@ async function main() {
   const chosenFormat = linear[linear.length - 1] || formatOptions[0];
   await page.selectOption('#capture-format', JSON.stringify(chosenFormat));
 
+  // The aperture series and the lens map hold the exposure across the stops when given a
+  // time at the first (base_exposure_us); the aperture series leaves it out when empty.
+  const formRequest = (kind, fill) => page.evaluate(async ([k, f]) => {
+    const form = document.querySelector('#capture-form');
+    form.querySelector('#capture-kind').value = k;
+    for (const [id, value] of Object.entries(f)) form.querySelector(id).value = value;
+    return (await import('/ui/captures.js')).captureRequest(form);
+  }, [kind, fill]);
+  const heldSeries = await formRequest('aperture_series', { '#aperture-base-exposure': '1500' });
+  const plainSeries = await formRequest('aperture_series', { '#aperture-base-exposure': '' });
+  const heldMap = await formRequest('lens_map', { '#lens-map-base-exposure': '2500' });
+  check(heldSeries.base_exposure_us === 1500 && !('base_exposure_us' in plainSeries) &&
+    !('exposure_us' in heldSeries) && heldSeries.f_numbers.length === 5 && heldMap.base_exposure_us === 2500,
+  'the aperture-series and lens-map forms send base_exposure_us when given (1500, 2500 us) and the series none when empty');
+
   // A bracket from the page, then its exposure analysis and the linearity plot.
   await page.selectOption('#capture-kind', 'bracket');
   await page.fill('#bracket-exposures', '1000, 2000, 4000, 8000');
