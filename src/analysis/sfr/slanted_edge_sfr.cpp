@@ -60,21 +60,39 @@ struct RowCentroid {
 };
 
 // Where the edge stays on its line: from the row nearest `mid_y` outward, the rows whose
-// centroid lies within the tolerance of `line` (6 robust standard deviations of all the
-// rows', at least 0.5 px), until three in a row do not. Returns the along-edge positions
+// centroid lies within the tolerance of the line through the middle half's centroids (6
+// robust standard deviations of the middle half's, at least 0.5 px), until three in a row
+// do not (a row that showed no step counts as one that did not). Returns the along-edge positions
 // (px from the middle, as AlongEdge's) of the last row kept each way, or the region's own
 // bound where the rows ran out first. A segment the finder ran past a corner, or past the
 // vertex where a star's side meets the next, ends where the edge bends, not where it
 // was drawn.
-std::pair<double, double> straight_extent(const std::vector<RowCentroid>& rows, const RowLine& line,
-                                          double mid_y, double norm, double lo, double hi) {
+std::pair<double, double> straight_extent(const std::vector<RowCentroid>& rows, double mid_y,
+                                          double norm, double lo, double hi) {
   if (rows.size() < 8) return {lo, hi};
-  std::vector<double> deviation;
-  for (const RowCentroid& c : rows) deviation.push_back(std::fabs(c.x - line.x_at(c.row)));
-  std::vector<double> sorted = deviation;
-  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
-                   sorted.end());
-  const double tolerance = std::max(0.5, 6 * 1.4826 * sorted[sorted.size() / 2]);
+  // The line the rows are held to: through the middle half of the rows alone, which lie on
+  // the edge even where the segment runs past a corner. A line through every row leaned
+  // towards the centroids of the plain ground past the corner (a pixel off the edge there,
+  // on a segment drawn 30 px past it), and the tolerance, from the rows' deviations, grew
+  // to 4 px: the ground's rows passed.
+  const double quarter = 0.25 * (rows.back().row - rows.front().row);
+  double sy = 0, sx = 0, syy = 0, sxy = 0, n = 0;
+  for (const RowCentroid& c : rows)
+    if (std::fabs(c.row - mid_y) <= quarter)
+      sy += c.row, sx += c.x, syy += double(c.row) * c.row, sxy += double(c.row) * c.x, ++n;
+  const double det = n * syy - sy * sy;
+  if (n < 4 || !(det > 0)) return {lo, hi};
+  RowLine line;
+  line.b = (n * sxy - sy * sx) / det;
+  line.a = (sx - line.b * sy) / n;
+  std::vector<double> deviation, central;
+  for (const RowCentroid& c : rows) {
+    deviation.push_back(std::fabs(c.x - line.x_at(c.row)));
+    if (std::fabs(c.row - mid_y) <= quarter) central.push_back(deviation.back());
+  }
+  std::nth_element(central.begin(), central.begin() + static_cast<long>(central.size() / 2),
+                   central.end());
+  const double tolerance = std::max(0.5, 6 * 1.4826 * central[central.size() / 2]);
   size_t middle = 0;
   for (size_t k = 1; k < rows.size(); ++k)
     if (std::fabs(rows[k].row - mid_y) < std::fabs(rows[middle].row - mid_y)) middle = k;
@@ -83,6 +101,12 @@ std::pair<double, double> straight_extent(const std::vector<RowCentroid>& rows, 
     int misses = 0;
     for (long k = static_cast<long>(middle) + direction;
          k >= 0 && k < static_cast<long>(rows.size()); k += direction) {
+      // Rows between this centroid and the last showed no step (fit_edge_line skips them):
+      // past a corner the line runs on over plain ground. Each is a miss.
+      misses += std::abs(rows[static_cast<size_t>(k)].row -
+                         rows[static_cast<size_t>(k - direction)].row) -
+                1;
+      if (misses >= 3) return (rows[kept].row - mid_y) * norm;
       if (deviation[static_cast<size_t>(k)] > tolerance) {
         if (++misses == 3) return (rows[kept].row - mid_y) * norm;
       } else {
@@ -285,7 +309,7 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
       int whole_used = 0;
       fit_edge_line(line_view, line, full_lo, full_hi, std::min(hw, kBendWindowPx) * norm_now,
                     anywhere, &whole_used, &centroids);
-      const auto [lo, hi] = straight_extent(centroids, line, mid_y, norm_now, -full - 1, full + 1);
+      const auto [lo, hi] = straight_extent(centroids, mid_y, norm_now, -full - 1, full + 1);
       // The region stops kBendMarginPx inside where the edge leaves its line (the blur
       // carries the bend that far), and never beyond its own ends.
       const double new_lo = std::max(along_lo, lo + kBendMarginPx),
@@ -311,9 +335,6 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
   r.angle_deg = std::atan2(ey, ex) * 180 / std::numbers::pi;
   if (r.angle_deg <= -90) r.angle_deg += 180;
   if (r.angle_deg > 90) r.angle_deg -= 180;
-  const double cy_w = mid_y, cx_w = line.x_at(mid_y);
-  r.centre_x_px = transposed ? cy_w : cx_w;
-  r.centre_y_px = transposed ? cx_w : cy_w;
 
   // Step 3: the ESF.
   const int os = options.oversampling;
@@ -329,6 +350,22 @@ Result<SfrResult> slanted_edge_sfr(const cv::Mat& signal, const cv::Mat& geometr
     if (const auto [lo, hi] = row_window(y); lo >= 0 && hi <= view.cols() - 1)
       rows_read.push_back(y);
   const int rows = static_cast<int>(rows_read.size());
+  {
+    // The edge's place: the middle of the region read, not of the segment. The bend check
+    // above trims the region where the edge leaves its line, often at one end only, and the
+    // image's border takes rows; a lens map places each edge in the field by it (a
+    // field-curvature sag of 15 focus units at the corner moves best focus 0.2 units for
+    // 3 px along the radius there).
+    double read_lo = along_lo, read_hi = along_hi;
+    if (!rows_read.empty()) {
+      read_lo = std::max(read_lo, (rows_read.front() - mid_y) * norm);
+      read_hi = std::min(read_hi, (rows_read.back() - mid_y) * norm);
+    }
+    const double cy_w = mid_y + (read_hi >= read_lo ? 0.5 * (read_lo + read_hi) / norm : 0.0);
+    const double cx_w = line.x_at(cy_w);
+    r.centre_x_px = transposed ? cy_w : cx_w;
+    r.centre_y_px = transposed ? cx_w : cy_w;
+  }
   bool clipped = false;
   const AlongEdge along = along_edge(line);
   // Row y's pixels into `into`, each with `weight` (-1 takes them out again).
