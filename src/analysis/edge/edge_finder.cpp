@@ -10,6 +10,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "analysis/edge/segment_extent.h"
+
 namespace camlab::analysis {
 namespace {
 
@@ -318,17 +320,8 @@ std::vector<EdgeSegment> find_edges(const cv::Mat& image, const EdgeFinderOption
   // apart): an edge parallel to one kept, whose middle lies within 3 px of it and within
   // its extent, is that edge again.
   for (const EdgeSegment& e : found) {
-    const bool again = std::any_of(out.begin(), out.end(), [&](const EdgeSegment& k) {
-      const double len = std::hypot(k.end_x_px - k.start_x_px, k.end_y_px - k.start_y_px);
-      const double ux = (k.end_x_px - k.start_x_px) / len, uy = (k.end_y_px - k.start_y_px) / len;
-      const double ex = e.end_x_px - e.start_x_px, ey = e.end_y_px - e.start_y_px;
-      const double sine = std::fabs(ex * uy - ey * ux) / std::hypot(ex, ey);
-      const double mx = 0.5 * (e.start_x_px + e.end_x_px) - k.start_x_px,
-                   my = 0.5 * (e.start_y_px + e.end_y_px) - k.start_y_px;
-      const double along = mx * ux + my * uy, across = std::fabs(mx * uy - my * ux);
-      return sine < std::sin(3.0 * std::numbers::pi / 180.0) && across < 3.0 && along >= 0 &&
-             along <= len;
-    });
+    const bool again = std::any_of(out.begin(), out.end(),
+                                   [&](const EdgeSegment& k) { return piece_of_edge(e, k); });
     if (again) continue;
     if (static_cast<int>(out.size()) >= options.max_edges) break;
     out.push_back(e);

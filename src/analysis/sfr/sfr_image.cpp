@@ -11,6 +11,7 @@
 
 #include "analysis/channel_signal.h"
 #include "analysis/edge/edge_finder.h"
+#include "analysis/edge/segment_extent.h"
 #include "base/format.h"
 #include "base/transfer_function.h"
 #include "image/capture_folder.h"
@@ -180,7 +181,9 @@ std::vector<EdgeSegment> edges_in(const cv::Mat& f, const SfrImageOptions& optio
   // A chart's every side: a 9 x 7 grid of squares is 252 edges (the finder's default of
   // 64 kept only the longest quarter of them).
   finder.max_edges = kSfrMaxEdges;
-  return find_edges(f, finder);
+  // The finder's reduced-scale segments often cover part of a side; the SFR reads only
+  // rows whose windows lie inside the segment (segment_extent.h).
+  return extend_along_edges(f, find_edges(f, finder));
 }
 
 Error no_edges(const SfrImageOptions& options, const std::string& name) {
