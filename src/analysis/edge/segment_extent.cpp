@@ -6,6 +6,7 @@
 #include <optional>
 
 #include <opencv2/core.hpp>
+#include <opencv2/core/utility.hpp>
 
 namespace camlab::analysis {
 namespace {
@@ -89,7 +90,9 @@ EdgeSegment extend(const cv::Mat& image, const EdgeSegment& s, const SegmentExte
   // The segment's own profiles: its step's contrast and the line its centres lie on
   // (t = a + b s; the finder's reduced-scale line can lean a few degrees off the edge).
   std::vector<double> along, centre, contrast;
-  for (double a = -half; a <= half; a += 1)
+  // Every other pixel: the median and the line need no more, and on a 12 MP chart these
+  // profiles were most of the growth's time.
+  for (double a = -half; a <= half; a += 2)
     if (const auto p = profile_at(image, g, a, hw)) {
       along.push_back(a), centre.push_back(p->centre), contrast.push_back(p->contrast);
     }
@@ -176,8 +179,12 @@ std::vector<EdgeSegment> extend_along_edges(const cv::Mat& image,
                                             const std::vector<EdgeSegment>& segments,
                                             const SegmentExtentOptions& options) {
   if (image.empty() || image.type() != CV_32FC1) return segments;
-  std::vector<EdgeSegment> grown;
-  for (const EdgeSegment& s : segments) grown.push_back(extend(image, s, options));
+  // Side by side on OpenCV's threads, as the SFR measures them (extend is reentrant).
+  std::vector<EdgeSegment> grown(segments.size());
+  cv::parallel_for_(cv::Range(0, static_cast<int>(segments.size())), [&](const cv::Range& range) {
+    for (int k = range.start; k < range.end; ++k)
+      grown[static_cast<size_t>(k)] = extend(image, segments[static_cast<size_t>(k)], options);
+  });
   // The longest first claims its side; the output keeps the input's order.
   std::vector<size_t> by_length(grown.size());
   for (size_t k = 0; k < grown.size(); ++k) by_length[k] = k;
