@@ -5,11 +5,11 @@
 //  - the 640 x 480 example camera with its best-focus surface tilted 0.4 deg right, -0.25 deg
 //    down and sagging 15 um at the corner, no astigmatism (--astigmatism-um: the sagittal
 //    surface that far beyond the meridional at the corner), f/1.4 to f/5.6: per f-number the
-//    astigmatism's rms error (focus units and fraction of the sweep's step), how many
+//    astigmatism's rms and mean error (focus units and fraction of the sweep's step), how many
 //    seeds have it within 0.05 of the step, the worst sag and tilt errors, the axis' rms;
 //  - the colour example camera (R's focal length 0.02 mm longer, B's 0.015 mm shorter),
 //    with lateral colour (R's image 0.8 px outward of G's at the corner, B's 0.5 px inward),
-//    f/2 and f/2.8: R's and B's best focus minus G's, rms error, how many within 0.02 of
+//    f/2 and f/2.8: R's and B's best focus minus G's, rms and mean error, how many within 0.02 of
 //    the step, and |error| / stated standard error rms; the lateral colour's rms error.
 // Time: the median analysis (analyze_lens_map, the SFR of every frame included) on the
 // OpenCV threads there are.
@@ -106,12 +106,13 @@ double median(std::vector<double> v) {
 }
 
 struct SurfaceErrors {
-  double astigmatism_ss = 0, astigmatism_z_ss = 0, axis_ss = 0, sag_worst = 0, tilt_worst_deg = 0;
+  double astigmatism_sum = 0, astigmatism_ss = 0, astigmatism_z_ss = 0, axis_ss = 0;
+  double sag_worst = 0, tilt_worst_deg = 0;
   int astigmatism_within = 0, runs = 0, agree = 0;
 };
 
 struct ColourErrors {
-  double ss = 0, z_ss = 0, lateral_ss = 0;
+  double sum = 0, ss = 0, z_ss = 0, lateral_ss = 0;
   int within = 0, runs = 0;
 };
 
@@ -172,7 +173,7 @@ int main(int argc, char** argv) {
     for (const json& s : surface_report["surfaces"]) {
       SurfaceErrors& e = surface_errors[s["f_number"].get<double>()];
       const double astigmatism = s["astigmatism_at_corner"].get<double>() - truth_astigmatism;
-      e.astigmatism_ss += astigmatism * astigmatism;
+      e.astigmatism_sum += astigmatism, e.astigmatism_ss += astigmatism * astigmatism;
       e.astigmatism_within += std::fabs(astigmatism) <= 0.05 * kSweepStep;
       e.astigmatism_z_ss +=
           std::pow(astigmatism / s["standard_errors"]["astigmatism_at_corner"].get<double>(), 2);
@@ -188,7 +189,7 @@ int main(int argc, char** argv) {
     if (const json& pooled = surface_report["astigmatism_all_f_numbers"]; pooled.is_object()) {
       SurfaceErrors& e = surface_errors[0];
       const double astigmatism = pooled["at_corner"].get<double>() - truth_astigmatism;
-      e.astigmatism_ss += astigmatism * astigmatism;
+      e.astigmatism_sum += astigmatism, e.astigmatism_ss += astigmatism * astigmatism;
       e.astigmatism_within += std::fabs(astigmatism) <= 0.05 * kSweepStep;
       e.astigmatism_z_ss += std::pow(astigmatism / pooled["standard_error"].get<double>(), 2);
       e.agree += pooled["f_numbers_agree"].get<bool>();
@@ -206,7 +207,7 @@ int main(int argc, char** argv) {
         const double error =
             c["focus_minus_green"].get<double>() - (name == "R" ? truth_r : truth_b);
         const double sigma = c["focus_minus_green_standard_error"].get<double>();
-        e.ss += error * error;
+        e.sum += error, e.ss += error * error;
         e.z_ss += sigma > 0 ? std::pow(error / sigma, 2) : 0;
         e.within += std::fabs(error) <= 0.02 * kSweepStep;
         e.lateral_ss += std::pow(c["lateral_colour_px_at_corner"].get<double>() -
@@ -223,12 +224,13 @@ int main(int argc, char** argv) {
       "sag %.3f, astigmatism %.3f focus units; step %.0f):\n",
       seeds, noise ? "" : ", no noise", axis, truth_sag, truth_astigmatism, kSweepStep);
   std::printf(
-      "| f-number | astigmatism rms error | of the step | within 0.05 step | |error|/sigma rms | "
-      "sag worst | tilt worst (deg) | axis rms error |\n|---|---|---|---|---|---|---|---|\n");
+      "| f-number | astigmatism rms error | mean error | of the step | within 0.05 step | "
+      "|error|/sigma rms | sag worst | tilt worst (deg) | axis rms error |\n"
+      "|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& [n, e] : surface_errors) {
     if (n == 0) continue;
-    std::printf("| %.1f | %.3f | %.4f | %d of %d | %.2f | %.1f%% | %.4f | %.3f |\n", n,
-                std::sqrt(e.astigmatism_ss / e.runs),
+    std::printf("| %.1f | %.3f | %+.3f | %.4f | %d of %d | %.2f | %.1f%% | %.4f | %.3f |\n", n,
+                std::sqrt(e.astigmatism_ss / e.runs), e.astigmatism_sum / e.runs,
                 std::sqrt(e.astigmatism_ss / e.runs) / kSweepStep, e.astigmatism_within, e.runs,
                 std::sqrt(e.astigmatism_z_ss / e.runs), 100 * e.sag_worst, e.tilt_worst_deg,
                 std::sqrt(e.axis_ss / e.runs));
@@ -236,9 +238,12 @@ int main(int argc, char** argv) {
   if (auto all = surface_errors.find(0); all != surface_errors.end()) {
     const SurfaceErrors& e = all->second;
     std::printf(
-        "| all (weighted) | %.3f | %.4f | %d of %d | %.2f | f-numbers agree in %d of %d | | |\n",
-        std::sqrt(e.astigmatism_ss / e.runs), std::sqrt(e.astigmatism_ss / e.runs) / kSweepStep,
-        e.astigmatism_within, e.runs, std::sqrt(e.astigmatism_z_ss / e.runs), e.agree, e.runs);
+        "| all (weighted) | %.3f | %+.3f | %.4f | %d of %d | %.2f | f-numbers agree in %d of %d | "
+        "| "
+        "|\n",
+        std::sqrt(e.astigmatism_ss / e.runs), e.astigmatism_sum / e.runs,
+        std::sqrt(e.astigmatism_ss / e.runs) / kSweepStep, e.astigmatism_within, e.runs,
+        std::sqrt(e.astigmatism_z_ss / e.runs), e.agree, e.runs);
   }
   std::printf("analysis: %.2f s median (75 frames)\n\n", median(surface_seconds));
   std::printf(
@@ -246,12 +251,13 @@ int main(int argc, char** argv) {
       "%.1f and %.1f px):\n",
       truth_r, truth_b, lateral_r_px, lateral_b_px);
   std::printf(
-      "| f-number | channel | rms error | of the step | within 0.02 step | |error|/sigma rms | "
-      "lateral rms error (px) |\n|---|---|---|---|---|---|---|\n");
+      "| f-number | channel | rms error | mean error | of the step | within 0.02 step | "
+      "|error|/sigma rms | lateral rms error (px) |\n|---|---|---|---|---|---|---|---|\n");
   for (const auto& [key, e] : colour_errors)
-    std::printf("| %.1f | %s - G | %.3f | %.4f | %d of %d | %.2f | %.4f |\n", key.first,
-                key.second.c_str(), std::sqrt(e.ss / e.runs), std::sqrt(e.ss / e.runs) / kSweepStep,
-                e.within, e.runs, std::sqrt(e.z_ss / e.runs), std::sqrt(e.lateral_ss / e.runs));
+    std::printf("| %.1f | %s - G | %.3f | %+.3f | %.4f | %d of %d | %.2f | %.4f |\n", key.first,
+                key.second.c_str(), std::sqrt(e.ss / e.runs), e.sum / e.runs,
+                std::sqrt(e.ss / e.runs) / kSweepStep, e.within, e.runs, std::sqrt(e.z_ss / e.runs),
+                std::sqrt(e.lateral_ss / e.runs));
   std::printf("analysis: %.2f s median (30 frames)\n", median(colour_seconds));
   return 0;
 }

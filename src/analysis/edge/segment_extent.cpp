@@ -33,12 +33,13 @@ struct Profile {
   double centre = 0;    // px along the normal from the line: the derivative's centroid
 };
 
-// The profile across the line at `along` px from the middle: nullopt where it leaves the
-// image or shows no step.
+// The segment's middle, its unit direction and its unit normal.
 struct Geometry {
   double mid_x, mid_y, ux, uy, nx, ny;
 };
 
+// The profile across the line at `along` px from the middle: nullopt where it leaves the
+// image or shows no step.
 std::optional<Profile> profile_at(const cv::Mat& image, const Geometry& g, double along,
                                   double half_width_px) {
   const int n = static_cast<int>(std::lround(2 * half_width_px / kProfileStepPx)) + 1;
